@@ -1,0 +1,72 @@
+"""``pito-app``: the desktop application (PySide6 + pyvistaqt), a thin shell over ``pito_core``.
+
+Usage::
+
+    pito-app                       # real devices (choose them in the wizard's Devices step)
+    pito-app --demo                # simulated cube and reference, a looping grasp
+    pito-app --calibration CAL.h5  # live view with a calibration file
+    pito-app --demo --screenshot live.png --page live   # render one screen to a PNG and exit
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+__all__ = ["main", "build_parser"]
+
+PAGES = ("live", "mount", "load", "results")
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="pito-app",
+        description="PITO desktop application: guided calibration wizard and live contact view. "
+        "Units are SI (N, N·m, m, s); faces are numbered 1..6.",
+    )
+    p.add_argument("--demo", action="store_true",
+                   help="run on the simulated devices (virtual cube on a pty, virtual Net F/T on loopback UDP)")
+    p.add_argument("--calibration", metavar="FILE", help="calibration file for the live view")
+    p.add_argument("--seed", type=int, default=0, help="seed of the simulators (default 0)")
+    p.add_argument("--rate", type=float, default=60.0, help="display ticks per second, Hz (default 60)")
+    p.add_argument("--demo-k", type=int, default=1500,
+                   help="samples per face for the startup calibration of the virtual cube (default 1500)")
+    p.add_argument("--screenshot", metavar="FILE.png", help="render --page to this PNG and exit")
+    p.add_argument("--page", choices=PAGES, default="live", help="screen for --screenshot (default live)")
+    p.add_argument("--size", default="1440x900", help="window size for --screenshot, WxH pixels (at least 1280x800)")
+    return p
+
+
+def main(argv=None) -> int:
+    args = build_parser().parse_args(argv)
+    if args.screenshot and not args.demo:
+        print("pito-app: --screenshot needs --demo (screens are rendered on the simulated devices)", file=sys.stderr)
+        return 2
+    from PySide6.QtWidgets import QApplication
+
+    app = QApplication.instance() or QApplication(sys.argv[:1])
+    app.setApplicationName("pito-app")
+    from .theme import STYLE
+    from .window import MainWindow
+
+    app.setStyleSheet(STYLE)
+    window = MainWindow(demo=args.demo, calibration_path=args.calibration, rate=args.rate, seed=args.seed,
+                        demo_k=args.demo_k)
+    if args.screenshot:
+        from .screenshot import take_screenshot
+
+        w, h = (int(x) for x in args.size.lower().split("x"))
+        if w < 1280 or h < 800:
+            print("pito-app: --size must be at least 1280x800", file=sys.stderr)
+            return 2
+        ok = take_screenshot(window, args.page, args.screenshot, (w, h))
+        window.shutdown()
+        return 0 if ok else 1
+    window.show()
+    code = app.exec()
+    window.shutdown()
+    return code
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

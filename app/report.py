@@ -1,0 +1,224 @@
+"""Calibration report: the results figures (matplotlib) and an exported folder (figures + numbers).
+
+The same figure functions feed the wizard's results page and the exported report, so what
+the operator accepted is what the report shows.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from .scene import FACE_COLORS
+
+__all__ = ["rmse_figure", "identification_figure", "comparison_figure", "export_report", "style_figure"]
+
+AXES = ("fx", "fy", "fz", "tx", "ty", "tz")
+UNITS = ("N", "N", "N", "N·m", "N·m", "N·m")
+DARK = {"bg": "#252b32", "fg": "#d5dde5", "grid": "#3d4650"}
+
+
+def style_figure(fig: Figure, dark: bool = True) -> None:
+    """Dark colours for the app, default (white) for the exported report."""
+    if not dark:
+        return
+    fig.patch.set_facecolor(DARK["bg"])
+    for ax in fig.axes:
+        ax.set_facecolor(DARK["bg"])
+        for s in ax.spines.values():
+            s.set_color(DARK["grid"])
+        ax.tick_params(colors=DARK["fg"], labelsize=8)
+        ax.xaxis.label.set_color(DARK["fg"])
+        ax.yaxis.label.set_color(DARK["fg"])
+        ax.title.set_color(DARK["fg"])
+
+
+def rmse_figure(evaluation, fig: Figure | None = None, dark: bool = True) -> Figure:
+    """Held-out RMSE per face: force (N) and torque (mN·m), each bar one face's loads."""
+    fig = fig or Figure(figsize=(6.4, 2.8), dpi=100)
+    fig.clear()
+    axf, axt = fig.subplots(1, 2)
+    faces = np.arange(1, 7)
+    f = evaluation.rmse_force()
+    t = evaluation.rmse_torque() * 1000
+    colors = [FACE_COLORS[i] for i in faces]
+    for ax, v, title, unit in ((axf, f, "force RMSE", "N"), (axt, t, "torque RMSE", "mN·m")):
+        ok = np.isfinite(v)
+        ax.bar(faces[ok], v[ok], color=np.array(colors)[ok], width=0.7)
+        for x, y in zip(faces[ok], v[ok]):
+            ax.annotate(f"{y:.3g}", (x, y), ha="center", va="bottom", fontsize=7,
+                        color=DARK["fg"] if dark else "black")
+        for x in faces[~ok]:
+            ax.annotate("n/a", (x, 0), ha="center", va="bottom", fontsize=7, color="#888888")
+        ax.set_xticks(faces)
+        ax.set_xlabel("loaded face")
+        ax.set_ylabel(f"{title} ({unit})")
+        ax.set_title(f"held-out {title} ({unit})", fontsize=9)
+        top = np.nanmax(v) if ok.any() else 1.0
+        ax.set_ylim(0, top * 1.25 if top > 0 else 1.0)
+        ax.grid(axis="y", alpha=0.25)
+    fig.tight_layout()
+    style_figure(fig, dark)
+    return fig
+
+
+def identification_figure(evaluation, fig: Figure | None = None, dark: bool = True) -> Figure:
+    """Face identification: mean ‖F‖ on every face (rows) when one face is loaded (columns)."""
+    fig = fig or Figure(figsize=(3.6, 3.0), dpi=100)
+    fig.clear()
+    ax = fig.subplots()
+    fn = np.asarray(evaluation.identified.get("force_norm", np.zeros((0, 6))), dtype=float)
+    face = np.asarray(evaluation.comparison.get("face", np.zeros(0)), dtype=int)
+    M = np.full((6, 6), np.nan)
+    for j in range(1, 7):
+        rows = face == j
+        if rows.any():
+            M[:, j - 1] = np.nanmean(fn[rows], axis=0)
+    im = ax.imshow(M, cmap="magma", origin="upper", vmin=0)
+    ax.set_xticks(range(6), [str(i) for i in range(1, 7)])
+    ax.set_yticks(range(6), [str(i) for i in range(1, 7)])
+    ax.set_xlabel("loaded face")
+    ax.set_ylabel("face reading a force")
+    for i in range(6):
+        for j in range(6):
+            if np.isfinite(M[i, j]):
+                ax.text(j, i, f"{M[i, j]:.1f}", ha="center", va="center", fontsize=6.5,
+                        color="black" if M[i, j] > 0.6 * np.nanmax(M) else "white")
+    acc = (evaluation.identification.get("single") or {}).get("either")
+    ax.set_title("face identification: mean ‖F‖ (N)" + (f"\n{100 * acc:.1f} % of samples right" if acc is not None else ""),
+                 fontsize=9)
+    cb = fig.colorbar(im, ax=ax, fraction=0.046, pad=0.04)
+    cb.set_label("N", color=DARK["fg"] if dark else "black")
+    if dark:
+        cb.ax.tick_params(colors=DARK["fg"], labelsize=7)
+    fig.tight_layout()
+    style_figure(fig, dark)
+    return fig
+
+
+def comparison_figure(evaluation, fig: Figure | None = None, dark: bool = True) -> Figure:
+    """Calibrated total load against the reference, per axis (reference frame), held-out samples."""
+    fig = fig or Figure(figsize=(6.4, 3.4), dpi=100)
+    fig.clear()
+    axes = fig.subplots(2, 3)
+    pred = np.asarray(evaluation.comparison.get("predicted", np.zeros((0, 6))), dtype=float)
+    ref = np.asarray(evaluation.comparison.get("reference", np.zeros((0, 6))), dtype=float)
+    face = np.asarray(evaluation.comparison.get("face", np.zeros(0)), dtype=int)
+    cols = np.array([FACE_COLORS.get(int(f), "#aaaaaa") for f in face]) if face.size else np.zeros(0)
+    for k, ax in enumerate(axes.ravel()):
+        scale = 1000.0 if k >= 3 else 1.0
+        unit = "mN·m" if k >= 3 else "N"
+        ok = np.isfinite(pred[:, k]) & np.isfinite(ref[:, k]) if pred.size else np.zeros(0, bool)
+        if ok.any():
+            ax.scatter(ref[ok, k] * scale, pred[ok, k] * scale, s=2, c=cols[ok], alpha=0.6, linewidths=0)
+            lo = min(np.min(ref[ok, k]), np.min(pred[ok, k])) * scale
+            hi = max(np.max(ref[ok, k]), np.max(pred[ok, k])) * scale
+            ax.plot([lo, hi], [lo, hi], color="#888888", lw=0.8)
+            rmse = np.sqrt(np.mean((pred[ok, k] - ref[ok, k]) ** 2)) * scale
+            ax.set_title(f"{AXES[k]}: RMSE {rmse:.3g} {unit}", fontsize=8)
+        else:
+            ax.set_title(f"{AXES[k]}", fontsize=8)
+        ax.set_xlabel(f"reference ({unit})", fontsize=7)
+        if k % 3 == 0:
+            ax.set_ylabel(f"calibrated ({unit})", fontsize=7)
+        ax.grid(alpha=0.2)
+    fig.suptitle("comparison with the reference (held-out, total load in the reference frame)", fontsize=9,
+                 color=DARK["fg"] if dark else "black")
+    fig.tight_layout()
+    style_figure(fig, dark)
+    return fig
+
+
+def export_report(folder, calibration, evaluation, info: dict | None = None) -> Path:
+    """Write ``folder/``: ``report.md``, ``numbers.json`` and the three figures as PNG.
+
+    Parameters
+    ----------
+    folder : path
+        Created if missing.
+    calibration : Calibration
+    evaluation : Evaluation
+    info : dict, optional
+        Extra facts for the report (mount, devices, samples, simulated).
+
+    Returns
+    -------
+    Path of ``report.md``.
+    """
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    info = dict(info or {})
+    figs = {
+        "rmse.png": rmse_figure(evaluation, dark=False),
+        "identification.png": identification_figure(evaluation, dark=False),
+        "comparison.png": comparison_figure(evaluation, dark=False),
+    }
+    for name, fig in figs.items():
+        fig.savefig(folder / name, dpi=150)
+    numbers = {
+        "generated": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "info": info,
+        "calibration": {
+            "method": calibration.method,
+            "output_faces": list(calibration.output_faces),
+            "output_frame": calibration.output_frame,
+            "inverse_condition_number": calibration.inverse_condition_number,
+            "meta": calibration.meta,
+        },
+        "evaluation": evaluation.to_dict(),
+    }
+    (folder / "numbers.json").write_text(json.dumps(numbers, indent=2, default=_json_default))
+    f = evaluation.rmse_force()
+    t = evaluation.rmse_torque()
+    lines = [
+        f"# PITO calibration report — {calibration.method}",
+        "",
+        f"Generated {numbers['generated']}." + (" **SIMULATED DEVICES** — not a real instrument." if info.get("simulated") else ""),
+        "",
+        "| item | value |",
+        "| --- | --- |",
+    ]
+    for k, v in info.items():
+        lines.append(f"| {k} | {v} |")
+    lines += [
+        f"| inverse condition number σmin/σmax | {calibration.inverse_condition_number:.3e} |",
+        f"| held-out single-face samples | {evaluation.n_single} |",
+        "",
+        "## Held-out RMSE per loaded face",
+        "",
+        "| face | force RMSE (N) | torque RMSE (mN·m) |",
+        "| --- | --- | --- |",
+    ]
+    for i in range(6):
+        fs = f"{f[i]:.4f}" if np.isfinite(f[i]) else "n/a"
+        ts = f"{t[i] * 1000:.4f}" if np.isfinite(t[i]) else "n/a"
+        lines.append(f"| {i + 1} | {fs} | {ts} |")
+    acc = (evaluation.identification.get("single") or {}).get("either")
+    lines += [
+        "",
+        f"Face identification (single-face loads): {100 * acc:.1f} % of samples." if acc is not None else "",
+        "",
+        "![RMSE per face](rmse.png)",
+        "",
+        "![Face identification](identification.png)",
+        "",
+        "![Comparison with the reference](comparison.png)",
+        "",
+    ]
+    path = folder / "report.md"
+    path.write_text("\n".join(lines))
+    return path
+
+
+def _json_default(x):
+    if isinstance(x, np.ndarray):
+        return x.tolist()
+    if isinstance(x, np.generic):
+        return x.item()
+    if isinstance(x, float) and not np.isfinite(x):
+        return None
+    return str(x)

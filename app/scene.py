@@ -1,0 +1,322 @@
+"""The 3D scene: the cube (or a patched object), the calibration mount, contact glyphs.
+
+Everything is built once; per-frame updates only move actors (``user_matrix``) and toggle
+their visibility, then ask the GL widget for a repaint (``QWidget.update``), which Qt
+coalesces to the display rate. No mesh is rebuilt per frame (STYLE.md item 10).
+
+All geometry is in the core frame, metres.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pyvista as pv
+from pyvistaqt import QtInteractor
+from PySide6.QtCore import Qt
+from PySide6.QtWidgets import QVBoxLayout, QWidget
+
+from pito_core.frames import FACES, CubeCore
+
+__all__ = ["CubeScene", "ContactGlyphs", "FACE_COLORS", "arrow_matrix", "ellipsoid_matrix"]
+
+#: One colour per face, shared by the scene and every plot (Okabe–Ito, colour-blind safe).
+FACE_COLORS = {
+    1: "#0072B2",
+    2: "#E69F00",
+    3: "#009E73",
+    4: "#CC79A7",
+    5: "#56B4E9",
+    6: "#D55E00",
+}
+PLATE_COLOR = "#b8c2cc"
+CORE_COLOR = "#5b6570"
+CONNECTED_COLOR = "#f0a030"
+ACTIVE_COLOR = "#2ecc71"
+FLANGE_COLOR = "#8a8f96"
+ATI_COLOR = "#3a3f45"
+BACKGROUND = "#1e2329"
+
+pv.global_theme.multi_samples = 0  # MSAA halves the frame rate in software GL
+
+
+def _rotation_from_x(direction: np.ndarray) -> np.ndarray:
+    """``(3, 3)`` rotation taking +x onto the unit vector ``direction``."""
+    x = direction / np.linalg.norm(direction)
+    helper = np.array([0.0, 0.0, 1.0]) if abs(x[2]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    y = np.cross(helper, x)
+    y /= np.linalg.norm(y)
+    z = np.cross(x, y)
+    return np.column_stack([x, y, z])
+
+
+def arrow_matrix(tip, force, scale: float, width: float) -> np.ndarray:
+    """``(4, 4)`` pose of a unit +x arrow drawn as ``force`` pushing at ``tip``.
+
+    Parameters
+    ----------
+    tip : array-like, shape (3,)
+        Where the arrow ends (the contact point), m.
+    force : array-like, shape (3,)
+        The force, N (non-zero).
+    scale : float
+        Arrow length per newton, m/N.
+    width : float
+        Shaft scale, m (the unit arrow's radii are multiplied by this).
+    """
+    force = np.asarray(force, dtype=float)
+    length = float(np.linalg.norm(force)) * scale
+    R = _rotation_from_x(force)
+    M = np.eye(4)
+    M[:3, :3] = R @ np.diag([length, width, width])
+    M[:3, 3] = np.asarray(tip, dtype=float) - R[:, 0] * length
+    return M
+
+
+def ellipsoid_matrix(center, covariance, n_sigma: float = 2.0) -> np.ndarray:
+    """``(4, 4)`` pose of a unit sphere drawn as the ``n_sigma`` ellipsoid of ``covariance`` (m²)."""
+    cov = np.asarray(covariance, dtype=float)
+    w, V = np.linalg.eigh(0.5 * (cov + cov.T))
+    M = np.eye(4)
+    M[:3, :3] = V @ np.diag(n_sigma * np.sqrt(np.clip(w, 0.0, None)))
+    M[:3, 3] = center
+    return M
+
+
+def _normal_frame_matrix(center, normal, radius: float) -> np.ndarray:
+    """Pose of a unit disc (in its xy plane, normal +z) centred at ``center`` facing ``normal``."""
+    R = _rotation_from_x(np.asarray(normal, dtype=float))
+    R = R[:, [1, 2, 0]]  # z := normal
+    M = np.eye(4)
+    M[:3, :3] = R * radius
+    M[:3, 3] = center
+    return M
+
+
+class ContactGlyphs:
+    """One contact sphere, force arrow, torsion ring and uncertainty ellipsoid per face.
+
+    Created once; :meth:`update` moves them in place and hides the faces whose force is
+    under ``threshold`` (N) or whose estimate is not valid.
+
+    Parameters
+    ----------
+    plotter : pyvista plotter
+    edge : float
+        Cube edge, m (sets glyph sizes).
+    """
+
+    def __init__(self, plotter, edge: float):
+        self.plotter = plotter
+        self.force_scale = 0.006  # m per N: 15 N -> 9 cm
+        self.torque_scale = 0.25  # m per N·m: 0.1 N·m -> 2.5 cm ring radius
+        self.threshold = 0.3  # N
+        self.show_torsion = True
+        self.show_uncertainty = False
+        r = 0.06 * edge
+        unit_arrow = pv.Arrow(start=(0, 0, 0), direction=(1, 0, 0), tip_length=0.25, tip_radius=2.2, shaft_radius=1.0, scale=1.0)
+        # pv.Arrow scales radii by `scale` (=1): radii are in "width" units, length is 1
+        unit_sphere = pv.Sphere(radius=1.0, theta_resolution=20, phi_resolution=12)
+        ring = pv.Disc(inner=0.82, outer=1.0, r_res=1, c_res=48)
+        self._width = 0.0022 * edge / 0.05
+        self.spheres, self.arrows, self.rings, self.ellipsoids = {}, {}, {}, {}
+        for i in FACES:
+            c = FACE_COLORS[i]
+            self.spheres[i] = plotter.add_mesh(pv.Sphere(radius=r), color=c, smooth_shading=True, name=f"contact_sphere_{i}", reset_camera=False)
+            self.arrows[i] = plotter.add_mesh(unit_arrow.copy(), color=c, name=f"force_arrow_{i}", reset_camera=False)
+            self.rings[i] = plotter.add_mesh(ring.copy(), color=c, opacity=0.8, name=f"torsion_ring_{i}", reset_camera=False)
+            self.ellipsoids[i] = plotter.add_mesh(unit_sphere.copy(), color=c, opacity=0.25, name=f"uncertainty_{i}", reset_camera=False)
+        self.shown = np.zeros(6, dtype=bool)
+        self.updates = 0
+        self.actors = [a for d in (self.spheres, self.arrows, self.rings, self.ellipsoids) for a in d.values()]
+        self.hide()
+
+    def hide(self) -> None:
+        for a in self.actors:
+            a.SetVisibility(False)
+        self.shown = np.zeros(6, dtype=bool)
+
+    def shown_count(self) -> int:
+        """Contacts on screen after the last update."""
+        return int(self.shown.sum())
+
+    def update(self, points, normals, forces, torsions, valid, covariances=None) -> np.ndarray:
+        """Move the glyphs to the latest contacts (core frame) and return the shown mask (6,).
+
+        Parameters
+        ----------
+        points, normals, forces : array-like, shape (6, 3)
+            Contact point (m), outward normal, force on the object (N), face i at row i-1.
+        torsions : array-like, shape (6,)
+            Moment about the normal, N·m.
+        valid : array-like of bool, shape (6,)
+        covariances : array-like, shape (6, 3, 3), optional
+            Covariance of the contact point, m².
+        """
+        points = np.asarray(points, dtype=float)
+        forces = np.asarray(forces, dtype=float)
+        fnorm = np.linalg.norm(forces, axis=1)
+        shown = np.asarray(valid, dtype=bool) & np.isfinite(fnorm) & (fnorm >= self.threshold) & np.isfinite(points).all(axis=1)
+        for k, i in enumerate(FACES):
+            on = bool(shown[k])
+            self.spheres[i].SetVisibility(on)
+            self.arrows[i].SetVisibility(on)
+            tor = float(torsions[k]) if on else np.nan
+            ring_on = on and self.show_torsion and np.isfinite(tor) and abs(tor) * self.torque_scale > 1e-4
+            self.rings[i].SetVisibility(ring_on)
+            cov_on = on and self.show_uncertainty and covariances is not None and np.isfinite(covariances[k]).all()
+            self.ellipsoids[i].SetVisibility(cov_on)
+            if not on:
+                continue
+            self.spheres[i].position = points[k]
+            self.arrows[i].user_matrix = arrow_matrix(points[k], forces[k], self.force_scale, self._width)
+            if ring_on:
+                self.rings[i].user_matrix = _normal_frame_matrix(points[k], normals[k], abs(tor) * self.torque_scale)
+                self.rings[i].prop.opacity = 0.85 if tor > 0 else 0.45
+            if cov_on:
+                self.ellipsoids[i].user_matrix = ellipsoid_matrix(points[k], covariances[k])
+        self.shown = shown
+        self.updates += 1
+        return shown
+
+
+class CubeScene(QWidget):
+    """A pyvistaqt view of the PITO cube: face plates, mount, patches and contact glyphs.
+
+    Parameters
+    ----------
+    core : CubeCore, optional
+    parent : QWidget, optional
+    """
+
+    def __init__(self, core: CubeCore | None = None, parent=None):
+        super().__init__(parent)
+        self.core = core or CubeCore()
+        self.plotter = QtInteractor(self, auto_update=False, multi_samples=0)
+        self.plotter.set_background(BACKGROUND, top="#39424d")
+        layout = QVBoxLayout(self)
+        layout.setContentsMargins(0, 0, 0, 0)
+        layout.addWidget(self.plotter.interactor)
+        self.frames_rendered = 0
+        self.plotter.ren_win.AddObserver("EndEvent", self._count_frame)
+        e = self.core.edge
+        self._plates: dict[int, pv.Actor] = {}
+        self._patches: dict[int, pv.Actor] = {}
+        self.plotter.add_mesh(pv.Cube(x_length=0.9 * e, y_length=0.9 * e, z_length=0.9 * e), color=CORE_COLOR, name="core", reset_camera=False)
+        for i in FACES:
+            T = self.core.face_pose(i)
+            plate = pv.Box(bounds=(-0.42 * e, 0.42 * e, -0.42 * e, 0.42 * e, -0.04 * e, 0.0)).transform(T, inplace=False)
+            self._plates[i] = self.plotter.add_mesh(plate, color=PLATE_COLOR, name=f"plate_{i}", smooth_shading=False, reset_camera=False)
+        pts = np.array([self.core.face_pose(i)[:3, 3] * 1.45 for i in FACES])
+        self.plotter.add_point_labels(
+            pts, [str(i) for i in FACES], font_size=22, bold=True, text_color="white", shape_color="#000000",
+            shape_opacity=0.35, show_points=False, always_visible=False, name="face_labels",
+        )
+        self._mount_actors: list = []
+        self.glyphs = ContactGlyphs(self.plotter, e)
+        self.plotter.add_axes(line_width=2, labels_off=False)
+        self.reset_camera()
+
+    # ------------------------------------------------------------------ state
+    def _count_frame(self, *_):
+        self.frames_rendered += 1
+
+    def reset_camera(self, distance: float = 6.0) -> None:
+        e = self.core.edge
+        self.plotter.camera_position = [(distance * e * 0.75, -distance * e, distance * e * 0.6), (0, 0, 0), (0, 0, 1)]
+        self.plotter.camera.view_angle = 30.0
+
+    def look_at_mount(self, connected_face: int | None, active_face: int | None = None, distance: float = 4.8) -> None:
+        """Camera with the flange's face down (as on the bench), the active face towards the viewer."""
+        from pito_core.frames import FACE_NORMALS
+
+        e = self.core.edge
+        if connected_face is None:
+            self.reset_camera(distance)
+            return
+        up = -np.array(FACE_NORMALS[connected_face])
+        if active_face is not None and active_face != connected_face and abs(np.dot(FACE_NORMALS[active_face], up)) < 0.5:
+            front = np.array(FACE_NORMALS[active_face])
+        else:
+            front = np.array(next(FACE_NORMALS[i] for i in FACES if abs(np.dot(FACE_NORMALS[i], up)) < 0.5))
+        side = np.cross(up, front)
+        if active_face is not None and np.allclose(FACE_NORMALS[active_face], up):
+            elevation = 0.9  # the top face: look from higher up
+        else:
+            elevation = 0.55
+        direction = front + 0.55 * side + elevation * up
+        direction /= np.linalg.norm(direction)
+        centre = -up * 0.25 * e
+        self.plotter.camera_position = [tuple(centre + distance * e * direction), tuple(centre), tuple(up)]
+        self.plotter.camera.view_angle = 30.0
+        self.redraw()
+
+    def redraw(self) -> None:
+        """Ask for a repaint; Qt coalesces repaints to the display rate."""
+        self.plotter.interactor.update()
+
+    def set_face_colors(self, colors: dict[int, str]) -> None:
+        """Colour the face plates (face -> colour); faces not given get the neutral colour."""
+        for i in FACES:
+            self._plates[i].prop.color = colors.get(i, PLATE_COLOR)
+        self.redraw()
+
+    def highlight(self, connected_face: int | None = None, active_face: int | None = None) -> None:
+        """The flange's face in orange, the face to load in green."""
+        colors = {}
+        if connected_face is not None:
+            colors[connected_face] = CONNECTED_COLOR
+        if active_face is not None:
+            colors[active_face] = ACTIVE_COLOR
+        self.set_face_colors(colors)
+
+    def set_mount(self, flange: str | None, connected_face: int | None) -> None:
+        """Draw the calibration flange and the reference sensor on ``connected_face`` (or none)."""
+        for name in list(self._mount_actors):
+            self.plotter.remove_actor(name, render=False)
+        self._mount_actors = []
+        if flange is None or connected_face is None:
+            self.redraw()
+            return
+        e = self.core.edge
+        T = self.core.face_pose(connected_face)
+        meshes = []
+        if flange == "face":
+            meshes.append(("flange", pv.Cylinder(center=(0, 0, 0.08 * e), direction=(0, 0, 1), radius=0.38 * e, height=0.16 * e, resolution=48), FLANGE_COLOR))
+            z0 = 0.16 * e
+        else:
+            z0 = 0.25 * e
+            if flange == "frame_hole":
+                plate = pv.Disc(inner=0.22 * e, outer=0.75 * e, r_res=1, c_res=48).extrude((0, 0, 0.08 * e), capping=True)
+                plate = plate.translate((0, 0, z0 - 0.04 * e), inplace=False)
+            else:
+                plate = pv.Box(bounds=(-0.7 * e, 0.7 * e, -0.7 * e, 0.7 * e, z0 - 0.04 * e, z0 + 0.04 * e))
+            meshes.append(("flange", plate, FLANGE_COLOR))
+            # posts from the plate to the core frame's corners (the frame holds the core, not the face)
+            for sx in (-1, 1):
+                for sy in (-1, 1):
+                    meshes.append((f"post{sx}{sy}", pv.Box(bounds=(sx * 0.6 * e - 0.05 * e, sx * 0.6 * e + 0.05 * e, sy * 0.6 * e - 0.05 * e, sy * 0.6 * e + 0.05 * e, -0.55 * e, z0)), FLANGE_COLOR))
+            z0 += 0.04 * e
+        meshes.append(("ati", pv.Cylinder(center=(0, 0, z0 + 0.2 * e), direction=(0, 0, 1), radius=0.3 * e, height=0.4 * e, resolution=48), ATI_COLOR))
+        meshes.append(("stand", pv.Box(bounds=(-1.0 * e, 1.0 * e, -1.0 * e, 1.0 * e, z0 + 0.4 * e, z0 + 0.5 * e)), "#4a5560"))
+        for name, mesh, color in meshes:
+            actor_name = f"mount_{name}"
+            self.plotter.add_mesh(mesh.transform(T, inplace=False), color=color, name=actor_name, reset_camera=False, smooth_shading=name == "ati")
+            self._mount_actors.append(actor_name)
+        self.redraw()
+
+    def set_patches(self, meshes: dict[int, pv.PolyData] | None, opacity: float = 0.55) -> None:
+        """Show patch display meshes (core frame, m) on the faces; ``None`` shows the bare cube."""
+        for i in list(self._patches):
+            self.plotter.remove_actor(f"patch_{i}", render=False)
+        self._patches = {}
+        for i, mesh in (meshes or {}).items():
+            if mesh is None:
+                continue
+            self._patches[i] = self.plotter.add_mesh(
+                mesh, color=FACE_COLORS[i], opacity=opacity, name=f"patch_{i}", smooth_shading=True, reset_camera=False
+            )
+        self.redraw()
+
+    def set_view_extent(self, radius: float) -> None:
+        """Frame the camera on a sphere of ``radius`` m about the core centre."""
+        self.reset_camera(distance=6.0 * max(radius, self.core.edge) / self.core.edge)

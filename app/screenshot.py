@@ -1,0 +1,70 @@
+"""``--screenshot``: bring one screen to a telling state on the simulators, grab it, write a PNG."""
+
+from __future__ import annotations
+
+import time
+
+from PySide6.QtCore import QEventLoop, QTimer
+from PySide6.QtWidgets import QApplication
+
+__all__ = ["take_screenshot", "wait_until", "process_for"]
+
+
+def process_for(seconds: float) -> None:
+    """Run the event loop for ``seconds`` (s)."""
+    loop = QEventLoop()
+    QTimer.singleShot(int(seconds * 1000), loop.quit)
+    loop.exec()
+
+
+def wait_until(predicate, timeout: float = 30.0, step: float = 0.05) -> bool:
+    """Run the event loop until ``predicate()`` is true or ``timeout`` s pass; return the predicate."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        if predicate():
+            return True
+        process_for(step)
+    return bool(predicate())
+
+
+def _prepare_live(window) -> None:
+    window.tabs.setCurrentWidget(window.live)
+    # a moment of the grasp where the hand holds the object in the air
+    wait_until(lambda: window.live.bundles_shown > 60 and window.live.scene.glyphs.shown_count() >= 2, timeout=40)
+    process_for(0.5)
+
+
+def _prepare_mount(window) -> None:
+    window.tabs.setCurrentWidget(window.wizard)
+    window.model.set_mount(method="loaded_frame", flange="frame_hole", connected_face=6)
+    window.wizard.go("mount")
+    process_for(1.0)
+
+
+def _prepare_load(window) -> None:
+    from .wizard.driver import run_to_page
+
+    window.tabs.setCurrentWidget(window.wizard)
+    run_to_page(window, "load", partial_face=True)
+
+
+def _prepare_results(window) -> None:
+    from .wizard.driver import run_to_page
+
+    window.tabs.setCurrentWidget(window.wizard)
+    run_to_page(window, "results")
+
+
+PREPARE = {"live": _prepare_live, "mount": _prepare_mount, "load": _prepare_load, "results": _prepare_results}
+
+
+def take_screenshot(window, page: str, path, size=(1440, 900)) -> bool:
+    """Show ``window`` at ``size`` (px), bring ``page`` up, grab the whole window to ``path``."""
+    window.resize(*size)
+    window.show()
+    process_for(0.5)
+    PREPARE[page](window)
+    process_for(0.3)
+    QApplication.processEvents()
+    img = window.grab()
+    return bool(img.save(str(path)))

@@ -1,0 +1,246 @@
+"""The main window: the calibration wizard and the live view as tabs, over one acquisition worker."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+from PySide6.QtCore import Qt, QTimer
+from PySide6.QtWidgets import QFileDialog, QLabel, QMainWindow, QMessageBox, QTabWidget, QWidget, QHBoxLayout
+
+from pito_core.frames import CubeCore
+
+from . import backend
+from .live import LiveView
+from .wizard.model import WizardModel
+from .wizard.wizard import CalibrationWizard
+from .workers import DeviceWorker, WorkerThread
+
+__all__ = ["MainWindow"]
+
+
+class MainWindow(QMainWindow):
+    """pito-app's window.
+
+    Parameters
+    ----------
+    demo : bool
+        Run on the simulated devices (labelled SIMULATED DEVICE everywhere).
+    calibration_path : path, optional
+        Calibration file for the live view; in demo mode without one, the virtual cube is
+        calibrated at startup.
+    rate : float
+        Display ticks per second (Hz).
+    """
+
+    def __init__(self, demo: bool = False, calibration_path=None, rate: float = 60.0, seed: int = 0,
+                 demo_k: int = 1500, wizard_k: int = 1000):
+        super().__init__()
+        self.demo = demo
+        self.seed = seed
+        self.core = CubeCore()
+        self.setWindowTitle("pito — Patched Intrinsic Tactile Object" + ("  [SIMULATED DEVICE]" if demo else ""))
+        self.model = WizardModel(self.core)
+        self.model.set_k(wizard_k if demo else 10000)
+        self.wizard = CalibrationWizard(self.model)
+        self.live = LiveView(self.core, backend.list_assemblies())
+        self.tabs = QTabWidget()
+        self.tabs.addTab(self.live, "Live view")
+        self.tabs.addTab(self.wizard, "Calibration wizard")
+        self.setCentralWidget(self.tabs)
+        corner = QWidget()
+        cl = QHBoxLayout(corner)
+        cl.setContentsMargins(0, 0, 8, 0)
+        self.badge = QLabel("SIMULATED DEVICE")
+        self.badge.setObjectName("badge")
+        self.badge.setVisible(demo)
+        self.cal_label = QLabel("no calibration")
+        self.cal_label.setObjectName("hint")
+        cl.addWidget(self.cal_label)
+        cl.addWidget(self.badge)
+        self.tabs.setCornerWidget(corner, Qt.Corner.TopRightCorner)
+        self.resize(1440, 900)
+
+        self.worker = DeviceWorker(rate=rate, core=self.core)
+        self.worker_thread = WorkerThread(self.worker)
+        self.worker.bundle.connect(self.on_bundle)
+        self.worker.error.connect(lambda msg: self.statusBar().showMessage(f"acquisition: {msg}", 8000))
+        self.rig = None  # demo: the simulated devices and their scenarios
+        self.calibration = None
+        self.assembly = None
+
+        self.tabs.currentChanged.connect(self._tab_changed)
+        self.wizard.pages["devices"].connect_requested.connect(self.connect_devices)
+        self.live.tare_requested.connect(lambda: self.worker.post(self.worker.tare))
+        self.live.record_toggled.connect(self.toggle_recording)
+        self.live.replay_requested.connect(self.open_replay)
+        self.live.live_requested.connect(self.back_to_live)
+        self.live.seek_requested.connect(self.seek)
+        self.live.calibration_requested.connect(self.ask_calibration)
+        self.live.assembly_requested.connect(self.set_assembly)
+        self.model.result_changed.connect(self._wizard_result)
+
+        if demo:
+            self.model.simulated = True
+            dev = self.wizard.pages["devices"]
+            dev.simulated.setChecked(True)
+            self.wizard.pages["tare"].operator = lambda face: self.rig and self.rig.set_operator_face(face)
+            self.wizard.pages["load"].operator = lambda face: self.rig and self.rig.set_operator_face(face)
+        self.model.mount_changed.connect(self._mount_changed)
+        self._mount_changed()
+        self.set_assembly(self.live.assembly.currentText())
+        if calibration_path is not None:
+            self.load_calibration(calibration_path)
+        self.worker_thread.start()
+        if demo:
+            self.start_demo(demo_k)
+
+    # ------------------------------------------------------------ demo
+    def start_demo(self, k: int) -> None:
+        """Open the simulated devices (pty + UDP) and, without a calibration, calibrate the virtual cube."""
+        self.rig = backend.DemoRig(seed=self.seed, core=self.core)
+        self.rig.set_scenario("grasp")
+        source = self.rig.open_source()
+        self.worker.post(lambda: self.worker.set_source(source))
+        self.statusBar().showMessage(f"SIMULATED DEVICE: {self.rig.describe()}")
+        if self.calibration is None:
+            self.statusBar().showMessage(f"Calibrating the virtual cube (method 'total', k = {k} per face)…")
+            cal = backend.demo_calibration(self.rig, k=k, seed=self.seed)
+            self.set_calibration(cal, f"virtual cube calibrated at startup (total, k = {k})")
+            self.statusBar().showMessage(
+                f"SIMULATED DEVICE — virtual cube calibrated at startup with the simulator "
+                f"(method 'total', k = {k} samples per face, 1/cond = {cal.inverse_condition_number:.2e}). "
+                f"{self.rig.describe()}"
+            )
+
+    def _tab_changed(self, index: int) -> None:
+        if self.rig is None:
+            return
+        if self.tabs.widget(index) is self.wizard:
+            self.rig.set_scenario("calibration")
+            self._mount_changed()
+        else:
+            self.rig.set_scenario("grasp")
+
+    def _mount_changed(self) -> None:
+        self.model.T_core_ati = backend.mount_pose(self.model.flange, self.model.connected_face, self.core)
+        if self.rig is not None:
+            self.rig.set_mount(self.model.flange, self.model.connected_face)
+
+    # ------------------------------------------------------------ devices
+    def connect_devices(self, port: str, host: str, simulated: bool) -> None:
+        page = self.wizard.pages["devices"]
+        try:
+            if simulated:
+                if self.rig is None:
+                    self.rig = backend.DemoRig(seed=self.seed, core=self.core)
+                self.rig.set_scenario("calibration")
+                self._mount_changed()
+                source = self.rig.open_source()
+                self.model.simulated = True
+                self.badge.setVisible(True)
+                text = f"✔ SIMULATED: {self.rig.describe()}"
+            else:
+                source = backend.open_hardware(port, host)
+                self.model.simulated = False
+                text = f"✔ cube on {port}, reference at {host}"
+        except Exception as exc:  # noqa: BLE001 - shown to the operator
+            page.set_connected(f"✘ {exc}", False)
+            return
+        self.worker.post(lambda: self.worker.set_source(source))
+        page.set_connected(text, True)
+
+    # ------------------------------------------------------------ calibration and object
+    def set_calibration(self, calibration, label: str = "") -> None:
+        self.calibration = calibration
+        self.worker.post(lambda: self.worker.set_calibration(calibration))
+        self.cal_label.setText(f"calibration: {label or calibration.method}")
+
+    def load_calibration(self, path) -> None:
+        from pito_core.calibration import load_calibration
+
+        cal = load_calibration(path)
+        self.set_calibration(cal, Path(path).name)
+        self.statusBar().showMessage(f"Loaded calibration {path} ({cal.method})", 8000)
+
+    def ask_calibration(self) -> None:
+        path, _ = QFileDialog.getOpenFileName(self, "Load a calibration", "", "PITO calibration (*.h5 *.hdf5);;All files (*)")
+        if path:
+            try:
+                self.load_calibration(path)
+            except Exception as exc:  # noqa: BLE001
+                QMessageBox.warning(self, "Calibration", f"Could not load {path}:\n{exc}")
+
+    def _wizard_result(self) -> None:
+        if self.model.calibration is not None and self.model.accepted:
+            self.set_calibration(self.model.calibration, "from the wizard")
+
+    def set_assembly(self, name: str) -> None:
+        try:
+            self.assembly = backend.load_assembly(name, self.core)
+        except Exception as exc:  # noqa: BLE001
+            self.statusBar().showMessage(f"assembly {name}: {exc}", 8000)
+            self.assembly = None
+        self.live.scene.set_patches(backend.display_meshes(self.assembly))
+        self.live.equilibrium.set_weight(backend.weight(self.assembly))
+        solver = backend.make_solver(self.assembly, self.core)
+        self.worker.post(lambda: setattr(self.worker, "solver", solver))
+        if self.rig is not None:
+            self.rig.set_assembly(self.assembly)
+
+    # ------------------------------------------------------------ record / replay
+    def toggle_recording(self, on: bool) -> None:
+        if on:
+            self.worker.post(self.worker.start_recording)
+            return
+        result = {}
+
+        def stop():
+            result["data"] = self.worker.stop_recording()
+            QTimer.singleShot(0, self, lambda: self._save_recording(result["data"]))
+
+        self.worker.post(stop)
+
+    def _save_recording(self, data, path=None) -> None:
+        t, counts, ref = data
+        if path is None:
+            path, _ = QFileDialog.getSaveFileName(self, "Save the recording", "pito-recording.h5", "PITO recording (*.h5)")
+        if path:
+            backend.save_recording(path, t, counts, ref, simulated=self.model.simulated or self.demo)
+            self.statusBar().showMessage(f"Recorded {t.size} samples to {path}", 8000)
+
+    def open_replay(self, path=None) -> None:
+        if path is None:
+            path, _ = QFileDialog.getOpenFileName(self, "Replay a recording", "", "PITO recording (*.h5);;All files (*)")
+        if not path:
+            return
+        source = backend.ReplaySource(path)
+        self._live_source_saved = True
+        self.worker.post(lambda: self.worker.set_source(source))
+        self.live.set_replay_mode(True, source.duration)
+
+    def seek(self, t: float) -> None:
+        self.worker.post(lambda: getattr(self.worker.source, "seek", lambda _t: None)(t))
+
+    def back_to_live(self) -> None:
+        self.live.set_replay_mode(False)
+        if self.rig is not None:
+            source = self.rig.open_source()
+            self.worker.post(lambda: self.worker.set_source(source))
+
+    # ------------------------------------------------------------ data
+    def on_bundle(self, bundle) -> None:
+        if self.tabs.currentWidget() is self.live:
+            self.live.on_bundle(bundle)
+        else:
+            self.wizard.on_bundle(bundle)
+
+    def closeEvent(self, event):  # noqa: N802
+        self.shutdown()
+        super().closeEvent(event)
+
+    def shutdown(self) -> None:
+        self.worker_thread.stop()
+        if self.rig is not None:
+            self.rig.close()
+            self.rig = None

@@ -1,0 +1,186 @@
+"""Capture rules of the loading step (pure numpy, no Qt): still, new, covered, conditioned.
+
+The loading step watches the stream of samples of one face. A window of samples is
+kept (a *capture*) only when the load on the face is still (small spread over the
+window) and new (far, in full-scale units, from every capture kept so far). Coverage
+is the largest fraction of full scale reached on each axis and sign; the condition
+number is that of the kept loads scaled by full scale.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..widgets.coverage import FULL_SCALE
+
+__all__ = ["CaptureRules", "Capture", "FaceCaptures", "is_still", "scaled"]
+
+#: What :meth:`FaceCaptures.feed` reports.
+EVENTS = ("waiting", "moving", "no load", "not new", "kept", "growing")
+
+
+@dataclass
+class CaptureRules:
+    """Thresholds of the loading step, in fractions of full scale (±15 N, ±0.1 N·m).
+
+    Attributes
+    ----------
+    window : float
+        Length of a capture window, s.
+    still : float
+        Largest standard deviation over the window, fraction of full scale per axis.
+    min_load : float
+        Smallest load (scaled norm) that counts as loaded.
+    novelty : float
+        Smallest distance (scaled norm) of a new capture's mean load to every kept one.
+    required : float
+        Coverage each axis and sign must reach for the face to be done.
+    k : int
+        Samples to collect on each face.
+    """
+
+    window: float = 0.06
+    still: float = 0.01
+    min_load: float = 0.08
+    novelty: float = 0.10
+    required: float = 0.3
+    k: int = 2000
+
+
+def scaled(wrench) -> np.ndarray:
+    """``wrench (..., 6)`` in N, N·m divided by full scale (dimensionless)."""
+    return np.asarray(wrench, dtype=float) / FULL_SCALE
+
+
+def is_still(wrench_face, rules: CaptureRules) -> bool:
+    """Whether the window of loads ``(n, 6)`` (N, N·m) is still: per-axis std under ``rules.still``."""
+    w = scaled(wrench_face)
+    if w.shape[0] < 3:
+        return False
+    return bool(np.all(w.std(axis=0) < rules.still))
+
+
+@dataclass
+class Capture:
+    """One kept window: raw arrays and its load on the face."""
+
+    counts: np.ndarray  # (n, 36) counts
+    reference: np.ndarray  # (n, 6) N, N·m in the reference frame
+    time: np.ndarray  # (n,) s
+    wrench_face: np.ndarray  # (n, 6) N, N·m on the loaded face, face frame
+
+    @property
+    def mean_scaled(self) -> np.ndarray:
+        return scaled(self.wrench_face).mean(axis=0)
+
+
+@dataclass
+class FaceCaptures:
+    """The captures of one face, in order, with coverage and conditioning."""
+
+    face: int
+    rules: CaptureRules = field(default_factory=CaptureRules)
+    captures: list = field(default_factory=list)
+    _buffer: list = field(default_factory=list)
+    _open: bool = False
+
+    @property
+    def n_samples(self) -> int:
+        return int(sum(c.counts.shape[0] for c in self.captures))
+
+    def is_new(self, wrench_face) -> bool:
+        """Whether a window's mean load is far from every kept capture (and is a load at all)."""
+        m = scaled(wrench_face).mean(axis=0)
+        if np.linalg.norm(m) < self.rules.min_load:
+            return False
+        return all(np.linalg.norm(m - c.mean_scaled) >= self.rules.novelty for c in self.captures)
+
+    def offer(self, counts, reference, time, wrench_face) -> bool:
+        """Keep the window if still and new; return whether it was kept."""
+        if not (is_still(wrench_face, self.rules) and self.is_new(wrench_face)):
+            return False
+        self.captures.append(Capture(np.array(counts, float), np.array(reference, float), np.array(time, float),
+                                     np.array(wrench_face, float)))
+        return True
+
+    def feed(self, time, counts, reference, wrench_face) -> str:
+        """Consume new samples; open a capture when the last ``window`` s are still and new, grow it
+        while the load stays still where it is. Returns one of :data:`EVENTS`."""
+        time = np.asarray(time, dtype=float)
+        if time.size == 0:
+            return "waiting"
+        chunk = (time, np.asarray(counts, float), np.asarray(reference, float), np.asarray(wrench_face, float))
+        if self._open and self.captures:
+            cap = self.captures[-1]
+            dev = np.abs(scaled(chunk[3]) - cap.mean_scaled)
+            if np.all(dev < 3 * self.rules.still) and is_still(np.concatenate([cap.wrench_face[-20:], chunk[3]]), self.rules):
+                cap.counts = np.concatenate([cap.counts, chunk[1]])
+                cap.reference = np.concatenate([cap.reference, chunk[2]])
+                cap.time = np.concatenate([cap.time, chunk[0]])
+                cap.wrench_face = np.concatenate([cap.wrench_face, chunk[3]])
+                return "growing"
+            self._open = False
+            self._buffer = []
+        self._buffer.append(chunk)
+        t_last = time[-1]
+        while len(self._buffer) > 1 and self._buffer[1][0][0] <= t_last - self.rules.window:
+            self._buffer.pop(0)
+        t, c, r, w = (np.concatenate([b[i] for b in self._buffer]) for i in range(4))
+        keep = t > t_last - self.rules.window
+        if t[-1] - t[0] < 0.8 * self.rules.window:
+            return "waiting"
+        t, c, r, w = t[keep], c[keep], r[keep], w[keep]
+        if not is_still(w, self.rules):
+            return "moving"
+        if np.linalg.norm(scaled(w).mean(axis=0)) < self.rules.min_load:
+            return "no load"
+        if not self.is_new(w):
+            return "not new"
+        self.captures.append(Capture(c, r, t, w))
+        self._open = True
+        self._buffer = []
+        return "kept"
+
+    def close(self) -> None:
+        """End the open capture (e.g. when the operator switches face)."""
+        self._open = False
+        self._buffer = []
+
+    def undo(self) -> bool:
+        """Drop the last capture; False if there was none."""
+        if not self.captures:
+            return False
+        self.captures.pop()
+        self._open = False
+        return True
+
+    def clear(self) -> None:
+        self.captures.clear()
+        self.close()
+
+    def coverage(self) -> np.ndarray:
+        """``(6, 2)`` largest fraction of full scale reached per axis, ``[:, 0]`` negative, ``[:, 1]`` positive."""
+        out = np.zeros((6, 2))
+        if not self.captures:
+            return out
+        w = scaled(np.concatenate([c.wrench_face for c in self.captures]))
+        out[:, 0] = np.clip(-w.min(axis=0), 0, 1)
+        out[:, 1] = np.clip(w.max(axis=0), 0, 1)
+        return out
+
+    def condition_number(self) -> float:
+        """σmax/σmin of the kept loads scaled by full scale, ``(n, 6)``; inf until 6 directions are excited."""
+        if not self.captures:
+            return float("inf")
+        w = scaled(np.concatenate([c.wrench_face for c in self.captures]))
+        if w.shape[0] < 6:
+            return float("inf")
+        s = np.linalg.svd(w, compute_uv=False)
+        return float(s[0] / s[-1]) if s[-1] > 1e-12 * s[0] else float("inf")
+
+    @property
+    def sufficient(self) -> bool:
+        """Enough samples and every axis covered on both signs."""
+        return self.n_samples >= self.rules.k and bool(np.all(self.coverage() >= self.rules.required))

@@ -1,0 +1,102 @@
+"""Step 1: choose the calibration method (and its flange and connected face)."""
+
+from __future__ import annotations
+
+from PySide6.QtWidgets import (
+    QButtonGroup, QComboBox, QFormLayout, QFrame, QGroupBox, QLabel, QRadioButton, QSpinBox, QVBoxLayout,
+)
+
+from pito_core.calibration import METHODS
+
+from .model import faces_to_load
+from .page import WizardPage
+
+__all__ = ["MethodPage", "FLANGE_TEXT"]
+
+#: Operator names of the flanges (SPEC "Calibration mounts").
+FLANGE_TEXT = {
+    "frame": "type 1 — on the core frame (connected face not loadable)",
+    "frame_hole": "type 2 — on the core frame, with an access hole",
+    "face": "type 3 — on the connected face itself (it carries the reaction)",
+}
+
+
+class MethodPage(WizardPage):
+    title = "1 · Method"
+    help = ("Choose how the cube will be calibrated. Each method fixes the flange that holds the cube on the "
+            "reference sensor, the faces you load one at a time, and what the calibration outputs.")
+
+    def __init__(self, model, parent=None):
+        super().__init__(model, parent)
+        box = QGroupBox("Calibration method")
+        lay = QVBoxLayout(box)
+        self.group = QButtonGroup(self)
+        self.buttons = {}
+        for name, spec in METHODS.items():
+            rb = QRadioButton(f"{name}   ({spec.paper})")
+            rb.setObjectName("methodRadio")
+            text = QLabel(spec.summary)
+            text.setWordWrap(True)
+            text.setObjectName("methodText")
+            text.setIndent(26)
+            self.group.addButton(rb)
+            self.buttons[name] = rb
+            lay.addWidget(rb)
+            lay.addWidget(text)
+            rb.toggled.connect(lambda on, n=name: on and self._set_method(n))
+        self.body.addWidget(box)
+
+        form_box = QGroupBox("Mount and amount of data")
+        form = QFormLayout(form_box)
+        self.flange = QComboBox()
+        self.face = QSpinBox()
+        self.face.setRange(1, 6)
+        self.face.setPrefix("face ")
+        self.k = QSpinBox()
+        self.k.setRange(100, 100000)
+        self.k.setSingleStep(500)
+        self.k.setSuffix(" samples / face")
+        self.summary = QLabel()
+        self.summary.setObjectName("emphasis")
+        self.summary.setWordWrap(True)
+        form.addRow("Flange", self.flange)
+        form.addRow("Connected face (on the flange)", self.face)
+        form.addRow("Samples per face (k)", self.k)
+        form.addRow(self.summary)
+        self.body.addWidget(form_box)
+        self.body.addStretch(1)
+        self.flange.currentIndexChanged.connect(self._ui_flange)
+        self.face.valueChanged.connect(lambda v: self.model.set_mount(connected_face=v))
+        self.k.valueChanged.connect(lambda v: self.model.set_k(v))
+        model.mount_changed.connect(self.sync)
+        self.sync()
+        self.set_ready(True)
+
+    def _set_method(self, name: str) -> None:
+        if name != self.model.method:
+            self.model.set_mount(method=name)
+
+    def _ui_flange(self, index: int) -> None:
+        flange = self.flange.itemData(index)
+        if flange and flange != self.model.flange:
+            self.model.set_mount(flange=flange)
+
+    def sync(self) -> None:
+        """Model → widgets, with signals blocked (no loops)."""
+        m = self.model
+        for w in (self.flange, self.face, self.k, *self.buttons.values()):
+            w.blockSignals(True)
+        self.buttons[m.method].setChecked(True)
+        self.flange.clear()
+        for f in m.spec.flanges:
+            self.flange.addItem(f"{f}: {FLANGE_TEXT[f]}", f)
+        self.flange.setCurrentIndex(list(m.spec.flanges).index(m.flange))
+        self.face.setValue(m.connected_face)
+        self.k.setValue(m.rules.k)
+        for w in (self.flange, self.face, self.k, *self.buttons.values()):
+            w.blockSignals(False)
+        faces = faces_to_load(m.method, m.flange, m.connected_face)
+        self.summary.setText(
+            f"You will load faces {', '.join(map(str, faces))} one at a time "
+            f"({len(faces)} × {m.rules.k} samples), with the flange on face {m.connected_face}."
+        )

@@ -1,0 +1,21 @@
+"""pito: calibration, intrinsic contact sensing and recording for the PITO cube (headless core).
+
+The public names of SPEC.md are re-exported here: ``transform_wrench``, ``CubeCore``,
+``CalibrationSession``, ``calibrate``, ``Calibration``, ``load_calibration``.
+"""
+
+from .calibration import Calibration, CalibrationSession, Calibrator, calibrate, load_calibration
+from .frames import CubeCore, transform_wrench
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "Calibration",
+    "CalibrationSession",
+    "Calibrator",
+    "CubeCore",
+    "calibrate",
+    "load_calibration",
+    "transform_wrench",
+    "__version__",
+]

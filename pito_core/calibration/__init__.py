@@ -1,0 +1,40 @@
+"""Calibration: sessions, the method table, the least-squares core, Calibration, evaluation."""
+
+from ._calibration import Calibration, load_calibration
+from ._evaluate import (
+    DEFAULT_FORCE_THRESHOLD,
+    DEFAULT_TORQUE_THRESHOLD,
+    Equilibrium,
+    Evaluation,
+    equilibrium,
+    evaluate,
+    identify_loaded_faces,
+)
+from ._fit import AXES, Calibrator, RankDeficientWarning, calibrate, session_offsets
+from ._methods import METHODS, MethodSpec, get_method
+from ._session import DEFAULT_COUNTS_RANGE, FLANGES, N_GAUGES, CalibrationSession, SessionBlock
+
+__all__ = [
+    "DEFAULT_FORCE_THRESHOLD",
+    "DEFAULT_TORQUE_THRESHOLD",
+    "Equilibrium",
+    "Evaluation",
+    "equilibrium",
+    "evaluate",
+    "identify_loaded_faces",
+    "AXES",
+    "Calibration",
+    "CalibrationSession",
+    "Calibrator",
+    "DEFAULT_COUNTS_RANGE",
+    "FLANGES",
+    "METHODS",
+    "MethodSpec",
+    "N_GAUGES",
+    "RankDeficientWarning",
+    "SessionBlock",
+    "calibrate",
+    "get_method",
+    "load_calibration",
+    "session_offsets",
+]

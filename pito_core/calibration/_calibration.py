@@ -1,0 +1,158 @@
+"""``Calibration``: a fitted matrix that turns counts into the wrench on each face."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..frames import FACES, CubeCore, check_pose, invert_pose, wrench_adjoint
+
+__all__ = ["Calibration", "load_calibration"]
+
+
+class Calibration:
+    """A fitted calibration: counts → wrench on each face, in face frames.
+
+    Parameters
+    ----------
+    method : str
+        The method that fitted it.
+    matrix : array-like, shape (6·F, 36)
+        The matrix as fitted: rows ``6k .. 6k+5`` give ``[fx, fy, fz, tx, ty, tz]``
+        (N, N·m) of face ``output_faces[k]`` from offset-free counts, in the frame
+        ``output_frame``.
+    output_faces : sequence of int
+        Faces (1..6) the matrix outputs, in row order.
+    output_frame : {"face", "reference"}
+        ``face``: each face's rows are in its own frame. ``reference``: in the
+        reference frame S_A given by ``T_core_ati`` (the ``loaded_frame`` method).
+    offset : array-like, shape (36,)
+        Unloaded counts subtracted before the matrix (the tare), counts.
+    core : CubeCore
+    T_core_ati : array-like, shape (4, 4)
+        Pose of the reference frame S_A in the core frame at calibration.
+    meta : dict
+        Method, mount, date, samples, validation figures (JSON-serialisable).
+    """
+
+    def __init__(self, method, matrix, output_faces, output_frame, offset, core, T_core_ati, meta=None):
+        self.method = str(method)
+        output_faces = tuple(int(f) for f in output_faces)
+        if not output_faces or any(f not in FACES for f in output_faces) or len(set(output_faces)) != len(output_faces):
+            raise ValueError(f"output_faces: expected distinct faces 1..6, got {output_faces}")
+        matrix = np.asarray(matrix, dtype=float)
+        if matrix.shape != (6 * len(output_faces), 36):
+            raise ValueError(f"matrix: expected shape ({6 * len(output_faces)}, 36), got {matrix.shape}")
+        if not np.all(np.isfinite(matrix)):
+            raise ValueError("matrix: expected finite values")
+        if output_frame not in ("face", "reference"):
+            raise ValueError(f"output_frame: expected 'face' or 'reference', got {output_frame!r}")
+        offset = np.asarray(offset, dtype=float)
+        if offset.shape != (36,):
+            raise ValueError(f"offset: expected shape (36,), got {offset.shape}")
+        if not isinstance(core, CubeCore):
+            raise ValueError(f"core: expected a CubeCore, got {type(core).__name__}")
+        self.matrix = matrix
+        self.output_faces = output_faces
+        self.output_frame = output_frame
+        self.offset = offset
+        self.core = core
+        self.T_core_ati = check_pose(T_core_ati, "T_core_ati")
+        self.meta = {} if meta is None else dict(meta)
+        self._apply = self._build_apply()
+
+    def _build_apply(self) -> np.ndarray:
+        """(6, 6, 36) maps: counts → wrench on face i in face i's frame (zeros where no output)."""
+        A = np.zeros((6, 6, 36))
+        T_ati_core = invert_pose(self.T_core_ati)
+        for k, f in enumerate(self.output_faces):
+            rows = self.matrix[6 * k : 6 * k + 6]
+            if self.output_frame == "reference":
+                rows = wrench_adjoint(T_ati_core @ self.core.face_pose(f)) @ rows
+            A[f - 1] = rows
+        return A
+
+    # ------------------------------------------------------------------ use
+    @property
+    def has_output(self) -> np.ndarray:
+        """(6,) bool: faces the calibration outputs."""
+        m = np.zeros(6, dtype=bool)
+        m[[f - 1 for f in self.output_faces]] = True
+        return m
+
+    def wrenches(self, counts, offset=None) -> np.ndarray:
+        """Wrench on each face in that face's frame.
+
+        Parameters
+        ----------
+        counts : array-like, shape (N, 36) or (36,)
+            Raw gauge counts.
+        offset : array-like, shape (36,), optional
+            Unloaded counts to subtract; default the calibration's own tare.
+
+        Returns
+        -------
+        wrenches : ndarray, shape (N, 6, 6) (or (6, 6))
+            ``[:, i-1, :]`` = ``[fx, fy, fz, tx, ty, tz]`` on face i in N and N·m,
+            moment about face i's origin; NaN for faces the method does not output.
+        """
+        c = np.asarray(counts, dtype=float)
+        single = c.ndim == 1
+        c2 = np.atleast_2d(c)
+        if c2.ndim != 2 or c2.shape[1] != 36:
+            raise ValueError(f"counts: expected shape (N, 36), got {c.shape}")
+        off = self.offset if offset is None else np.asarray(offset, dtype=float)
+        if off.shape != (36,):
+            raise ValueError(f"offset: expected shape (36,), got {off.shape}")
+        W = np.einsum("fij,nj->nfi", self._apply, c2 - off)
+        W[:, ~self.has_output] = np.nan
+        return W[0] if single else W
+
+    def tare(self, counts_unloaded) -> "Calibration":
+        """A copy whose offset is the mean of ``counts_unloaded (N, 36)`` (N ≥ 1)."""
+        c = np.asarray(counts_unloaded, dtype=float)
+        if c.ndim != 2 or c.shape[1] != 36 or c.shape[0] == 0:
+            raise ValueError(f"counts_unloaded: expected shape (N, 36) with N ≥ 1, got {c.shape}")
+        return Calibration(
+            self.method, self.matrix, self.output_faces, self.output_frame, c.mean(axis=0),
+            self.core, self.T_core_ati, self.meta,
+        )
+
+    @property
+    def inverse_condition_number(self) -> float:
+        """σmin/σmax of :attr:`matrix` as fitted (the PITO paper's Table I figure)."""
+        s = np.linalg.svd(self.matrix, compute_uv=False)
+        return float(s[-1] / s[0]) if s[0] > 0 else 0.0
+
+    def face_inverse_condition_numbers(self) -> np.ndarray:
+        """(6,) σmin/σmax of each face's 6 output rows (NaN where no output)."""
+        out = np.full(6, np.nan)
+        for k, f in enumerate(self.output_faces):
+            s = np.linalg.svd(self.matrix[6 * k : 6 * k + 6], compute_uv=False)
+            out[f - 1] = s[-1] / s[0] if s[0] > 0 else 0.0
+        return out
+
+    def __repr__(self) -> str:
+        return (
+            f"Calibration(method={self.method!r}, matrix={self.matrix.shape[0]}×36, "
+            f"faces={list(self.output_faces)}, frame={self.output_frame!r}, "
+            f"1/cond={self.inverse_condition_number:.2e})"
+        )
+
+    # ------------------------------------------------------------------ files
+    def save(self, path) -> None:
+        """Write exactly ``path`` (HDF5, format ``pito-calibration`` v1; docs/file-formats.md)."""
+        from ..io import write_calibration
+
+        write_calibration(path, self)
+
+    @classmethod
+    def load(cls, path) -> "Calibration":
+        """Read a calibration written by :meth:`save`."""
+        return load_calibration(path)
+
+
+def load_calibration(path) -> Calibration:
+    """Read a calibration file written by :meth:`Calibration.save`."""
+    from ..io import read_calibration
+
+    return read_calibration(path)

@@ -1,0 +1,78 @@
+"""Target wrenches from the reference, following the load paths of docs/conventions.md."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..frames import invert_pose, wrench_adjoint
+
+__all__ = ["MountGeometry", "block_targets"]
+
+
+class MountGeometry:
+    """Cached adjoints of one mount: reference frame S_A to each face frame.
+
+    ``X_face_ati[i-1]`` maps a wrench in S_A (moment about S_A's origin) to face i's
+    frame; ``X_ati_face[i-1]`` is its inverse.
+    """
+
+    def __init__(self, session):
+        T_ati_core = invert_pose(session.T_core_ati)
+        poses = session.core.face_poses()
+        self.X_face_ati = np.stack([wrench_adjoint(T_ati_core @ T) for T in poses])  # (6,6,6)
+        self.X_ati_face = np.stack([np.linalg.inv(X) for X in self.X_face_ati])
+        self.flange = session.flange
+        self.connected_face = session.connected_face
+
+
+def block_targets(reference: np.ndarray, loaded: np.ndarray, mount: MountGeometry, output_frame: str):
+    """Per-sample target wrench on every face, and which faces carry load.
+
+    Parameters
+    ----------
+    reference : ndarray, shape (n, 6)
+        Total applied load in S_A, N and N·m.
+    loaded : ndarray of bool, shape (n, 6)
+        Faces under direct load per sample.
+    mount : MountGeometry
+    output_frame : {"face", "reference"}
+        Express face i's target in face i's frame or in S_A.
+
+    Returns
+    -------
+    targets : ndarray, shape (n, 6, 6)
+        ``targets[n, i-1]`` = wrench on face i, N and N·m. Zero for faces carrying
+        nothing; undefined (NaN) on rows that are not usable.
+    carries : ndarray of bool, shape (n, 6)
+        Face i carries a (nonzero) load in sample n: the directly loaded face, or the
+        connected face under a ``face`` flange (the reaction).
+    usable : ndarray of bool, shape (n,)
+        Samples whose every face wrench is known: unloaded or exactly one loaded face.
+    bad_connected : ndarray of bool, shape (n,)
+        Samples that load the connected face under a ``frame`` flange (impossible).
+    """
+    n = reference.shape[0]
+    n_loaded = loaded.sum(axis=1)
+    usable = n_loaded <= 1
+    c = mount.connected_face - 1
+    direct = loaded & usable[:, None]
+    bad_connected = np.zeros(n, dtype=bool)
+    if mount.flange == "frame":
+        bad_connected = loaded[:, c].copy()
+    carries = direct.copy()
+    sign = np.where(direct, 1.0, 0.0)
+    if mount.flange == "face":
+        # a direct load on the connected face goes into the flange: no face carries it
+        on_connected = direct[:, c]
+        carries[on_connected, c] = False
+        sign[on_connected, c] = 0.0
+        elsewhere = direct.any(axis=1) & ~on_connected
+        carries[elsewhere, c] = True
+        sign[elsewhere, c] = -1.0
+    if output_frame == "face":
+        per_face = np.einsum("fij,nj->nfi", mount.X_face_ati, reference)  # (n, 6, 6)
+    else:
+        per_face = np.broadcast_to(reference[:, None, :], (n, 6, 6))
+    targets = per_face * sign[:, :, None]
+    targets[~usable] = np.nan
+    return targets, carries, usable, bad_connected

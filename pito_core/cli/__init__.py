@@ -1,0 +1,60 @@
+"""The ``pito`` command: one module per subcommand, each with ``register(subparsers)``.
+
+A subcommand module defines ``register(subparsers)`` that adds its parser (with a help
+line and ``--help`` text that explains units and defaults) and sets ``func=run`` where
+``run(args) -> int`` is the exit status.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+#: Subcommand modules, in the order ``pito --help`` lists them.
+COMMANDS = (
+    "calibrate",
+    "evaluate",
+    "simulate",
+    "reproduce",
+)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="pito",
+        description=(
+            "pito: calibrate the PITO cube against a reference sensor, evaluate calibrations, "
+            "simulate, record and replay. Units are SI everywhere (N, N·m, m, s); faces are 1..6."
+        ),
+    )
+    from .. import __version__
+
+    parser.add_argument("--version", action="version", version=f"pito {__version__}")
+    sub = parser.add_subparsers(title="commands", metavar="COMMAND")
+    for name in COMMANDS:
+        importlib.import_module(f"{__name__}._{name}").register(sub)
+    return parser
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not hasattr(args, "func"):
+        parser.print_help()
+        return 2
+    try:
+        return int(args.func(args) or 0)
+    except (ValueError, FileNotFoundError) as exc:  # user errors: one clear line, no traceback
+        print(f"pito: error: {exc}", file=sys.stderr)
+        return 1
+    except BrokenPipeError:  # output piped into `head` and the like
+        sys.stderr.close()
+        return 0
+    except KeyboardInterrupt:
+        print("pito: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,91 @@
+"""``pito calibrate SESSION... --method M -o CAL``."""
+
+from __future__ import annotations
+
+import sys
+import time
+
+HELP = """\
+Fit a calibration matrix (counts → wrench on each face) from calibration sessions.
+
+Sessions are pito session files (HDF5, written by `pito simulate`, `pito record` or
+CalibrationSession.save) or CSV files (then give --flange and --connected-face).
+By default a random 20 % of the samples (in blocks of 200) is held out and the
+calibration's validation figures (RMSE per face and axis, N and N·m; face
+identification) are computed on it and stored in the file. Use --holdout 0 to fit on
+everything and evaluate later on separate sessions with `pito evaluate`.
+
+Methods (flange, faces loaded → result):
+  face_to_face    any flange, each face            → six 6×6, each face from its own gauges
+  quasi_total     frame (type 1), 5 free faces     → 30×36, free faces from all gauges
+  total           face (type 3), all 6 faces       → 36×36, connected face from the reaction
+  loaded_frame    frame_hole (type 2), all 6 faces → 36×36 fitted in the reference frame S_A
+  unloaded_frame  face (type 3), 5 free faces      → 36×36 in face frames, connected face = −ΣW
+"""
+
+
+def register(sub) -> None:
+    from ..calibration import METHODS
+
+    p = sub.add_parser("calibrate", help="fit a calibration from sessions", description=HELP,
+                       formatter_class=__import__("argparse").RawDescriptionHelpFormatter)
+    p.add_argument("sessions", nargs="+", metavar="SESSION", help="session files (.h5 or .csv)")
+    p.add_argument("--method", "-m", required=True, choices=sorted(METHODS), help="calibration method")
+    p.add_argument("-o", "--output", required=True, metavar="CAL", help="calibration file to write (HDF5)")
+    p.add_argument("--holdout", type=float, default=0.2,
+                   help="fraction of samples held out for validation, 0 to use all (default 0.2)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the hold-out split (default 0)")
+    p.add_argument("--allow-rank-deficient", action="store_true",
+                   help="fit a minimum-norm matrix (with a warning) when a face's loads miss some directions")
+    p.add_argument("--flange", choices=("frame", "frame_hole", "face"), help="mount of CSV sessions")
+    p.add_argument("--connected-face", type=int, choices=range(1, 7), metavar="1..6", help="connected face of CSV sessions")
+    p.set_defaults(func=run)
+
+
+def load_sessions(paths, flange=None, connected_face=None):
+    """Sessions from .h5 files, or .csv files with the mount given."""
+    from ..calibration import CalibrationSession
+
+    out = []
+    for path in paths:
+        if str(path).lower().endswith(".csv"):
+            if flange is None or connected_face is None:
+                raise ValueError(f"{path}: CSV sessions need --flange and --connected-face")
+            out.append(CalibrationSession.from_csv(path, flange=flange, connected_face=connected_face))
+        else:
+            out.append(CalibrationSession.load(path))
+    return out
+
+
+def run(args) -> int:
+    from ..calibration import calibrate, evaluate
+    from ._evaluate import print_evaluation
+
+    sessions = load_sessions(args.sessions, args.flange, args.connected_face)
+    if args.holdout:
+        pairs = [s.split(args.holdout, seed=args.seed) for s in sessions]
+        train, test = [p[0] for p in pairs], [p[1] for p in pairs]
+    else:
+        train, test = sessions, []
+    n = sum(len(s) for s in train)
+    t0 = time.perf_counter()
+
+    def progress(done, total):
+        if sys.stderr.isatty():
+            print(f"\rfitting: {done}/{total} samples ({100 * done / max(total, 1):.0f} %)", end="", file=sys.stderr)
+
+    cal = calibrate(train, args.method, allow_rank_deficient=args.allow_rank_deficient, progress=progress)
+    if sys.stderr.isatty():
+        print(file=sys.stderr)
+    dt = time.perf_counter() - t0
+    print(f"{cal.method}: {cal.matrix.shape[0]}×36 matrix from {n} samples in {dt:.2f} s; "
+          f"inverse condition number {cal.inverse_condition_number:.3e}")
+    if test:
+        ev = evaluate(cal, test)
+        cal.meta["validation"] = ev.to_dict()
+        cal.meta["validation"]["holdout"] = args.holdout
+        print(f"validation on the held-out {100 * args.holdout:.0f} % ({sum(len(s) for s in test)} samples):")
+        print_evaluation(ev)
+    cal.save(args.output)
+    print(f"wrote {args.output}")
+    return 0

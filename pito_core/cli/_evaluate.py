@@ -1,0 +1,84 @@
+"""``pito evaluate CAL SESSION... [--json]``."""
+
+from __future__ import annotations
+
+import json
+
+from ._tables import fmt, table
+
+HELP = """\
+Evaluate a calibration on held-out sessions with the papers' figures of merit:
+RMSE per face and axis for single-face loads (forces in N, torques in N·m), RMSE of
+the resultant for squeeze loads (two or more faces), face identification accuracy
+(from force norms, torque norms, or either, against the sessions' loaded mask), and
+the inverse condition number of the matrix. Each session is tared on its own unloaded
+samples unless --no-tare is given.
+"""
+
+
+def register(sub) -> None:
+    import argparse
+
+    p = sub.add_parser("evaluate", help="evaluate a calibration on held-out sessions", description=HELP,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("calibration", metavar="CAL", help="calibration file (from `pito calibrate`)")
+    p.add_argument("sessions", nargs="+", metavar="SESSION", help="held-out session files (.h5 or .csv)")
+    p.add_argument("--json", action="store_true", help="print the figures as JSON instead of tables")
+    p.add_argument("--series", action="store_true", help="with --json, include the comparison series")
+    p.add_argument("--no-tare", action="store_true", help="use the calibration's offsets, not each session's")
+    p.add_argument("--force-threshold", type=float, default=None, metavar="N",
+                   help="face identification force threshold, N (default 0.5)")
+    p.add_argument("--torque-threshold", type=float, default=None, metavar="NM",
+                   help="face identification torque threshold, N·m (default 0.01)")
+    p.add_argument("--flange", choices=("frame", "frame_hole", "face"), help="mount of CSV sessions")
+    p.add_argument("--connected-face", type=int, choices=range(1, 7), metavar="1..6", help="connected face of CSV sessions")
+    p.set_defaults(func=run)
+
+
+def print_evaluation(ev) -> None:
+    """Tables of an :class:`~pito_core.calibration.Evaluation`, with units."""
+    from ..calibration import AXES
+
+    if ev.simulated:
+        print("(SIMULATED data)")
+    rows = []
+    for i in range(6):
+        r = ev.rmse_single[i]
+        rows.append([f"face {i + 1}"] + [fmt(v) for v in r] + [fmt(ev.rmse_force()[i]), fmt(ev.rmse_torque()[i])])
+    hdr = ["RMSE, single-face loads"] + [f"{a} [{'N' if a[0] == 'f' else 'N·m'}]" for a in AXES] + ["|F| [N]", "|T| [N·m]"]
+    print(table(hdr, rows))
+    print(f"({ev.n_single} samples)")
+    if ev.n_squeeze:
+        print(table(["RMSE, squeeze resultant"] + [f"{a} [{'N' if a[0] == 'f' else 'N·m'}]" for a in AXES],
+                    [["all pairs"] + [fmt(v) for v in ev.rmse_squeeze]]))
+        print(f"({ev.n_squeeze} samples)")
+    idn = ev.identification
+    rows = []
+    for kind in ("single", "squeeze"):
+        if idn[kind]["n"]:
+            rows.append([kind] + [fmt(None if idn[kind][m] is None else 100 * idn[kind][m], 4) for m in ("force", "torque", "either")]
+                        + [str(idn[kind]["n"])])
+    if rows:
+        print(table(["face identification", "by force [%]", "by torque [%]", "either [%]", "samples"], rows))
+        print(f"(thresholds {idn['force_threshold_N']} N, {idn['torque_threshold_Nm']} N·m)")
+    print(f"inverse condition number: {ev.inverse_condition_number:.3e}  "
+          f"(per face: {', '.join(fmt(v, 3) for v in ev.face_inverse_condition_numbers)})")
+
+
+def run(args) -> int:
+    from ..calibration import DEFAULT_FORCE_THRESHOLD, DEFAULT_TORQUE_THRESHOLD, evaluate, load_calibration
+    from ._calibrate import load_sessions
+
+    cal = load_calibration(args.calibration)
+    sessions = load_sessions(args.sessions, args.flange, args.connected_face)
+    ev = evaluate(
+        cal, sessions, tare=not args.no_tare,
+        force_threshold=DEFAULT_FORCE_THRESHOLD if args.force_threshold is None else args.force_threshold,
+        torque_threshold=DEFAULT_TORQUE_THRESHOLD if args.torque_threshold is None else args.torque_threshold,
+    )
+    if args.json:
+        print(json.dumps(ev.to_dict(series=args.series), indent=2))
+    else:
+        print(f"calibration: {args.calibration} ({cal.method}, {cal.matrix.shape[0]}×36)")
+        print_evaluation(ev)
+    return 0

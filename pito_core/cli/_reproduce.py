@@ -1,0 +1,1 @@
+"""``pito reproduce``: re-run both papers' experiments on the simulator (placeholder)."""

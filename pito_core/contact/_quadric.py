@@ -1,0 +1,151 @@
+"""Closed-form soft-finger solutions for the plane, the sphere and the ellipsoid.
+
+Model (Bicchi, Salisbury & Brock 1993): a finger pushing on the surface at ``c`` with
+force ``f`` and torsion ``τ`` about the outward normal ``n(c)`` produces the moment
+``m = c × f + τ n(c)`` about the frame origin, with ``f · n < 0``.
+
+Every function here is pure numpy over batches ``f, m (N, 3)`` (N, N·m) and returns
+``c (N, 3)`` m, ``n (N, 3)``, ``tau (N,)`` N·m and ``ok (N,) bool``; rows where no
+pushing contact exists get ``ok = False`` (their other values are unspecified and the
+caller overwrites them with NaN). No Python loop over samples, no exception.
+
+Plane ``n · x = d``: ``c = (n × m + d f) / (n · f)``, ``τ = f · m / (f · n)`` — exact,
+linear, no cancellation.
+
+Ellipsoid ``c = c0 + R diag(a) q`` with ``|q| = 1``: with ``p = c − c0`` and the moment
+about the centre ``m' = m − c0 × f``, the model is ``m' = p × f + K A p`` (``A`` the
+quadric matrix, ``K = τ / |A p|``). In principal axes, the substitution ``p = a ⊙ q``
+turns it exactly into a unit-sphere problem ``μ = q × g + κ q`` with
+``g = a ⊙ f``, ``μ = a ⊙ m' / (a1 a2 a3)``, ``κ = K / (a1 a2 a3)``. Its solutions are
+
+    q = [ v (g × μ) + σ r (α μ + v g) ] / (α² + v |g|²),   r = √v,   σ = ±1,
+
+where ``α = g · μ`` and ``v ≥ 0`` is the non-negative root of ``v² − B v − α² = 0``,
+``B = |g|² − |μ|²`` (one root is ≥ 0, the other ≤ 0). ``v`` is taken from the stable
+form of the quadratic formula (no subtraction of nearly equal numbers, exact ``τ = 0``
+gives ``v = B`` and the two ends of the line of action). The two signs ``σ`` give
+solutions with opposite ``K``; since ``f · m' = K fᵀ A p``, exactly one of them pushes
+in (``f · n < 0``) whenever ``f · m ≠ 0``, and for ``f · m = 0`` the pushing one is the
+entry point of the line of action. We evaluate ``(f / a) · q`` (∝ ``f · n``) for both
+and keep the smaller, so the side of the surface is never guessed.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["solve_plane", "solve_ellipsoid", "solve_sphere"]
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise cross product of two ``(N, 3)`` arrays (faster than ``np.cross``)."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    np.multiply(a1, b2, out=out[..., 0])
+    out[..., 0] -= a2 * b1
+    np.multiply(a2, b0, out=out[..., 1])
+    out[..., 1] -= a0 * b2
+    np.multiply(a0, b1, out=out[..., 2])
+    out[..., 2] -= a1 * b0
+    return out
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.einsum("ij,ij->i", a, b)
+
+
+def solve_plane(f, m, point, normal):
+    """Soft-finger contact on the plane through ``point (3,)`` with unit ``normal (3,)``.
+
+    Returns ``c, n, tau, ok`` (see module docstring); ``ok`` is ``f · n < 0``.
+    """
+    fn = f @ normal
+    d = float(point @ normal)
+    ok = fn < 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / fn
+        c = _cross(normal, m)
+        c += d * f
+        c *= inv[:, None]
+        tau = _dot(f, m) * inv
+    n = np.broadcast_to(normal, f.shape)
+    return c, n, tau, ok
+
+
+def _unit_sphere_terms(g, mu):
+    """``P = v (g × μ)``, ``Q = r (α μ + v g)`` and ``den = α² + v |g|²`` (see module doc)."""
+    gg = _dot(g, g)
+    alpha = _dot(g, mu)
+    B = gg - _dot(mu, mu)
+    a2 = alpha * alpha
+    D = np.sqrt(B * B + 4.0 * a2)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        # Stable root: never subtract nearly equal numbers.
+        v = np.where(B >= 0, 0.5 * (B + D), 2.0 * a2 / (D - B))
+    v = np.where(np.isfinite(v), v, 0.0)
+    r = np.sqrt(v)
+    P = _cross(g, mu)
+    P *= v[:, None]
+    Q = alpha[:, None] * mu
+    Q += v[:, None] * g
+    Q *= r[:, None]
+    den = a2 + v * gg
+    return P, Q, den
+
+
+def solve_sphere(f, m, center, radius):
+    """Soft-finger contact on the sphere ``|c − center| = radius``.
+
+    On a sphere ``f · n`` is proportional to ``g · q``, so the pushing root is always
+    ``σ = −1`` (one candidate only).
+    """
+    radius = float(radius)
+    if np.any(center):
+        mp = m - _cross(center, f)
+    else:
+        mp = m
+    g = f * radius
+    mu = mp * (1.0 / radius**2)
+    P, Q, den = _unit_sphere_terms(g, mu)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        q = (P - Q) * (1.0 / den)[:, None]
+        gq = _dot(g, q)
+    ok = (den > 0) & (gq < 0)
+    n = q  # unit vector (|q| = 1 exactly in exact arithmetic)
+    n = n / np.linalg.norm(n, axis=1, keepdims=True)
+    c = n * radius
+    c += center
+    tau = _dot(n, m - _cross(c, f))
+    return c, n, tau, ok
+
+
+def solve_ellipsoid(f, m, center, semi_axes, rotation):
+    """Soft-finger contact on the ellipsoid ``c0 + R diag(a) q``, ``|q| = 1``."""
+    a = np.asarray(semi_axes, dtype=float)
+    R = np.asarray(rotation, dtype=float)
+    mp = m - _cross(center, f) if np.any(center) else m
+    f_e = f @ R  # components in the principal frame
+    m_e = mp @ R
+    g = f_e * a
+    mu = m_e * (a / (a[0] * a[1] * a[2]))
+    P, Q, den = _unit_sphere_terms(g, mu)
+    h = f_e / a  # f · n ∝ h · q
+    hP = _dot(h, P)
+    hQ = _dot(h, Q)
+    sigma = np.where(hQ > 0, -1.0, 1.0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / den
+        q = P + sigma[:, None] * Q
+        q *= inv[:, None]
+        hq = (hP - np.abs(hQ)) * inv
+    ok = (den > 0) & (hq < 0)
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    p_e = q * a
+    c = p_e @ R.T
+    c += center
+    n_e = q / a
+    n_e /= np.linalg.norm(n_e, axis=1, keepdims=True)
+    n = n_e @ R.T
+    tau = _dot(n, m - _cross(c, f))
+    return c, n, tau, ok

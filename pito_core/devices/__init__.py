@@ -1,0 +1,73 @@
+"""Devices: the cube's serial frames, the ATI Net F/T, ATI .cal files, simulated transports, acquisition."""
+
+from ._atical import DIST_UNITS, AtiCalibration, load_ati_calibration
+from ._frame import (
+    FRAME_DTYPE,
+    FRAME_SIZE,
+    FRAME_SYNC,
+    DecodedFrames,
+    FrameDecoder,
+    crc16_ccitt_false,
+    crc16_ccitt_false_rows,
+    pack_frames,
+    unpack_frames,
+)
+from ._netft import (
+    FORCE_UNITS,
+    RDT_PORT,
+    RDT_RECORD_DTYPE,
+    STATUS_ERROR,
+    STATUS_SATURATION,
+    TORQUE_UNITS,
+    NetFT,
+    NetFTBatch,
+    NetFTConfig,
+    decode_status,
+    read_netft_config,
+)
+from ._serial import DEFAULT_BAUDRATE, DeviceError, PitoBatch, PitoSerial, list_serial_ports
+from ._sim_transport import (
+    SimulatedNetFT,
+    SimulatedPitoPort,
+    Source,
+    TestSignalSource,
+    default_simulated_source,
+    open_simulated_devices,
+)
+
+__all__ = [
+    "AtiCalibration",
+    "load_ati_calibration",
+    "DIST_UNITS",
+    "FRAME_DTYPE",
+    "FRAME_SIZE",
+    "FRAME_SYNC",
+    "DecodedFrames",
+    "FrameDecoder",
+    "crc16_ccitt_false",
+    "crc16_ccitt_false_rows",
+    "pack_frames",
+    "unpack_frames",
+    "FORCE_UNITS",
+    "TORQUE_UNITS",
+    "RDT_PORT",
+    "RDT_RECORD_DTYPE",
+    "STATUS_ERROR",
+    "STATUS_SATURATION",
+    "NetFT",
+    "NetFTBatch",
+    "NetFTConfig",
+    "decode_status",
+    "read_netft_config",
+    "DEFAULT_BAUDRATE",
+    "DeviceError",
+    "PitoBatch",
+    "PitoSerial",
+    "list_serial_ports",
+    "SimulatedNetFT",
+    "SimulatedPitoPort",
+    "Source",
+    "TestSignalSource",
+    "default_simulated_source",
+    "open_simulated_devices",
+]

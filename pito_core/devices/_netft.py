@@ -1,0 +1,399 @@
+"""ATI Net F/T over its Raw Data Transfer (RDT) UDP protocol.
+
+Request (8 bytes, big-endian): ``u16 header = 0x1234``, ``u16 command``, ``u32 sample count``
+(0 = stream until stopped). Commands: 0x0000 stop, 0x0002 start real-time streaming
+(one record per packet), 0x0003 start buffered streaming (several records per packet),
+0x0042 set software bias.
+
+Record (36 bytes, big-endian): ``u32 rdt_sequence``, ``u32 ft_sequence``, ``u32 status``,
+``6 × i32`` Fx, Fy, Fz, Tx, Ty, Tz in counts. Force = counts / counts-per-force in the box's
+force unit, torque = counts / counts-per-torque in its torque unit; both factors and units
+are read from the box's configuration page ``/netftapi2.xml`` (``cfgcpf``, ``cfgcpt``,
+``scfgfu``, ``scfgtu``) unless given.
+"""
+
+from __future__ import annotations
+
+import socket
+import struct
+import threading
+import time
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass
+from urllib.request import urlopen
+
+import numpy as np
+
+from ._serial import DeviceError, SequenceTracker
+
+__all__ = [
+    "NetFT",
+    "NetFTBatch",
+    "NetFTConfig",
+    "read_netft_config",
+    "decode_status",
+    "RDT_PORT",
+    "RDT_RECORD_DTYPE",
+    "STATUS_ERROR",
+    "STATUS_SATURATION",
+    "FORCE_UNITS",
+    "TORQUE_UNITS",
+]
+
+RDT_PORT = 49152
+RDT_HEADER = 0x1234
+CMD_STOP, CMD_START_REALTIME, CMD_START_BUFFERED, CMD_BIAS = 0x0000, 0x0002, 0x0003, 0x0042
+_REQUEST = struct.Struct(">HHI")
+
+#: One RDT record (36 bytes, big-endian).
+RDT_RECORD_DTYPE = np.dtype([("rdt_seq", ">u4"), ("ft_seq", ">u4"), ("status", ">u4"), ("counts", ">i4", (6,))])
+
+#: Status bit the box sets whenever it reports any fault (summary bit).
+STATUS_ERROR = 0x8000_0000
+#: Status bit taken as "transducer saturated" by default. The Net F/T manual's
+#: "system status code" table is the authority: check it for your box's firmware and pass
+#: ``saturation_mask=`` to :class:`NetFT` if it differs (see docs/devices.md).
+STATUS_SATURATION = 0x0002_0000
+
+#: SI value of one unit of force, for the units a Net F/T or a .cal file can report.
+FORCE_UNITS = {"N": 1.0, "kN": 1e3, "lbf": 4.4482216152605, "lb": 4.4482216152605, "klbf": 4448.2216152605,
+               "klb": 4448.2216152605, "kgf": 9.80665, "kg": 9.80665, "gf": 9.80665e-3, "g": 9.80665e-3}
+#: SI value (N·m) of one unit of torque.
+TORQUE_UNITS = {"N-m": 1.0, "Nm": 1.0, "N-mm": 1e-3, "Nmm": 1e-3, "kN-m": 1e3, "kNm": 1e3,
+                "lbf-in": 0.1129848290276167, "lb-in": 0.1129848290276167, "in-lb": 0.1129848290276167,
+                "in-lbf": 0.1129848290276167, "lbf-ft": 1.3558179483314, "lb-ft": 1.3558179483314,
+                "ft-lb": 1.3558179483314, "ft-lbf": 1.3558179483314, "kgf-cm": 0.0980665, "kg-cm": 0.0980665}
+
+
+def decode_status(status, saturation_mask: int = STATUS_SATURATION) -> dict:
+    """Decode RDT status words.
+
+    Parameters
+    ----------
+    status : int or array-like of int, shape (n,)
+
+    Returns
+    -------
+    dict
+        ``ok`` (status == 0), ``error`` (summary bit 31), ``saturated`` (any bit of
+        ``saturation_mask``), ``bits`` (list of set bit numbers, for a scalar input).
+    """
+    s = np.asarray(status, dtype=np.uint64)
+    out = {
+        "ok": s == 0,
+        "error": (s & STATUS_ERROR) != 0,
+        "saturated": (s & np.uint64(saturation_mask)) != 0,
+    }
+    if s.ndim == 0:
+        out = {k: bool(v) for k, v in out.items()}
+        out["bits"] = [b for b in range(32) if int(s) >> b & 1]
+    return out
+
+
+@dataclass(frozen=True)
+class NetFTConfig:
+    """Scaling of a Net F/T: counts per force and torque unit, and those units.
+
+    Attributes
+    ----------
+    counts_per_force, counts_per_torque : float
+        As configured on the box (counts per ``force_unit`` / ``torque_unit``).
+    force_unit, torque_unit : str
+        e.g. ``"N"``, ``"N-m"`` (keys of :data:`FORCE_UNITS` / :data:`TORQUE_UNITS`).
+    """
+
+    counts_per_force: float
+    counts_per_torque: float
+    force_unit: str = "N"
+    torque_unit: str = "N-m"
+
+    def scale(self) -> np.ndarray:
+        """``(6,)`` factors from counts to N and N·m."""
+        if self.force_unit not in FORCE_UNITS:
+            raise ValueError(f"force_unit: unknown unit {self.force_unit!r} (known: {sorted(FORCE_UNITS)})")
+        if self.torque_unit not in TORQUE_UNITS:
+            raise ValueError(f"torque_unit: unknown unit {self.torque_unit!r} (known: {sorted(TORQUE_UNITS)})")
+        f = FORCE_UNITS[self.force_unit] / self.counts_per_force
+        t = TORQUE_UNITS[self.torque_unit] / self.counts_per_torque
+        return np.array([f, f, f, t, t, t])
+
+
+def read_netft_config(host: str, http_port: int = 80, timeout: float = 2.0) -> NetFTConfig:
+    """Read counts per force/torque and units from ``http://host:http_port/netftapi2.xml``.
+
+    Raises
+    ------
+    DeviceError
+        If the page cannot be fetched or lacks ``cfgcpf``, ``cfgcpt``, ``scfgfu`` or ``scfgtu``.
+    """
+    url = f"http://{host}:{int(http_port)}/netftapi2.xml"
+    try:
+        with urlopen(url, timeout=timeout) as resp:
+            text = resp.read()
+        root = ET.fromstring(text)
+    except Exception as exc:
+        raise DeviceError(f"host: cannot read the Net F/T configuration at {url}: {exc}") from None
+    values = {el.tag.rsplit("}", 1)[-1].lower(): (el.text or "").strip() for el in root.iter()}
+    missing = [k for k in ("cfgcpf", "cfgcpt", "scfgfu", "scfgtu") if not values.get(k)]
+    if missing:
+        raise DeviceError(f"host: {url} lacks {missing}; pass counts_per_force and counts_per_torque explicitly")
+    try:
+        cfg = NetFTConfig(float(values["cfgcpf"]), float(values["cfgcpt"]), values["scfgfu"], values["scfgtu"])
+        if not (cfg.counts_per_force > 0 and cfg.counts_per_torque > 0):
+            raise ValueError("counts per unit must be positive")
+        cfg.scale()
+    except ValueError as exc:
+        raise DeviceError(f"host: unusable Net F/T configuration at {url}: {exc}") from None
+    return cfg
+
+
+@dataclass(frozen=True)
+class NetFTBatch:
+    """Consecutive RDT records.
+
+    Attributes
+    ----------
+    rdt_seq : ndarray of uint32, shape (n,)
+        RDT sequence number (one per record sent).
+    ft_seq : ndarray of uint32, shape (n,)
+        The box's internal sample counter.
+    status : ndarray of uint32, shape (n,)
+        Status word (0 = healthy), see :func:`decode_status`.
+    wrench : ndarray of float64, shape (n, 6)
+        ``[fx, fy, fz, tx, ty, tz]`` in N and N·m, sensor frame, as the box reports it
+        (including the box's own bias if one was set).
+    host_time : ndarray of float64, shape (n,)
+        Host clock (``time.monotonic()``, s) when the packet arrived.
+    saturated : ndarray of bool, shape (n,)
+        Status flags transducer saturation.
+    """
+
+    rdt_seq: np.ndarray
+    ft_seq: np.ndarray
+    status: np.ndarray
+    wrench: np.ndarray
+    host_time: np.ndarray
+    saturated: np.ndarray
+
+    def __len__(self) -> int:
+        return int(self.rdt_seq.shape[0])
+
+    @staticmethod
+    def concatenate(batches) -> "NetFTBatch":
+        batches = list(batches)
+        if not batches:
+            z = np.zeros(0, np.uint32)
+            return NetFTBatch(z, z, z, np.zeros((0, 6)), np.zeros(0), np.zeros(0, bool))
+        fields = ("rdt_seq", "ft_seq", "status", "wrench", "host_time", "saturated")
+        return NetFTBatch(*(np.concatenate([getattr(b, f) for b in batches]) for f in fields))
+
+
+class NetFT:
+    """ATI Net F/T client (RDT over UDP) with a receiver thread.
+
+    Parameters
+    ----------
+    host : str
+        The box's address.
+    port : int, optional
+        RDT UDP port, default 49152.
+    counts_per_force, counts_per_torque : float, optional
+        Counts per N and per N·m. Give both or neither; when omitted they are read,
+        with their units, from the box's configuration page (never assumed).
+    http_port : int, optional
+        Port of the configuration page, default 80.
+    buffered : bool, optional
+        Use buffered streaming (several records per packet, fewer packets); default False.
+    saturation_mask : int, optional
+        Status bits meaning "saturated", default :data:`STATUS_SATURATION`.
+    restart_after : float, optional
+        Re-send the start request when no packet came for this many seconds (the box
+        was power-cycled or the request was lost), default 1.0.
+    max_pending : int, optional
+        Records kept for :meth:`read` if nobody reads; older ones are counted as ``overflow``.
+    """
+
+    def __init__(
+        self,
+        host: str,
+        port: int = RDT_PORT,
+        counts_per_force: float | None = None,
+        counts_per_torque: float | None = None,
+        *,
+        http_port: int = 80,
+        buffered: bool = False,
+        saturation_mask: int = STATUS_SATURATION,
+        restart_after: float = 1.0,
+        max_pending: int = 600_000,
+    ):
+        if not isinstance(host, str) or not host:
+            raise ValueError(f"host: expected a host name or address, got {host!r}")
+        if not 0 < int(port) < 65536:
+            raise ValueError(f"port: expected 1..65535, got {port!r}")
+        if (counts_per_force is None) != (counts_per_torque is None):
+            raise ValueError("counts_per_force, counts_per_torque: give both or neither")
+        self.config: NetFTConfig | None = None
+        if counts_per_force is not None:
+            if not (counts_per_force > 0 and counts_per_torque > 0):
+                raise ValueError("counts_per_force, counts_per_torque: expected positive numbers")
+            self.config = NetFTConfig(float(counts_per_force), float(counts_per_torque), "N", "N-m")
+        self.host = host
+        self.port = int(port)
+        self.http_port = int(http_port)
+        self.buffered = bool(buffered)
+        self.saturation_mask = int(saturation_mask)
+        self.restart_after = float(restart_after)
+        self.max_pending = int(max_pending)
+        self._sock: socket.socket | None = None
+        self._thread: threading.Thread | None = None
+        self._stop = threading.Event()
+        self._cond = threading.Condition()
+        self._pending: list[NetFTBatch] = []
+        self._n_pending = 0
+        self._seq = SequenceTracker()
+        self._counts = dict(records=0, packets=0, saturated=0, status_errors=0, bad_packets=0, restarts=0, overflow=0)
+        self._last_status = 0
+        self._scale = None
+
+    # ------------------------------------------------------------------ lifecycle
+    def start(self) -> "NetFT":
+        """Read the configuration (if needed), send the start request, start receiving."""
+        if self._thread is not None:
+            return self
+        if self.config is None:
+            self.config = read_netft_config(self.host, self.http_port)
+        self._scale = self.config.scale()
+        try:
+            addr = socket.getaddrinfo(self.host, self.port, socket.AF_INET, socket.SOCK_DGRAM)[0][4]
+        except OSError as exc:
+            raise DeviceError(f"host: cannot resolve {self.host!r}: {exc}") from None
+        self._addr = addr
+        sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+        try:
+            sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 8 * 1024 * 1024)
+        except OSError:
+            pass
+        sock.bind(("", 0))
+        sock.settimeout(0.1)
+        self._sock = sock
+        self._send(CMD_START_BUFFERED if self.buffered else CMD_START_REALTIME)
+        self._stop.clear()
+        self._thread = threading.Thread(target=self._run, name=f"NetFT({self.host})", daemon=True)
+        self._thread.start()
+        return self
+
+    def _send(self, command: int, count: int = 0) -> None:
+        try:
+            self._sock.sendto(_REQUEST.pack(RDT_HEADER, command, count), self._addr)
+        except OSError as exc:
+            raise DeviceError(f"host: cannot send to {self._addr}: {exc}") from None
+
+    def bias(self) -> None:
+        """Ask the box to bias (zero) its output at the current load (RDT command 0x42)."""
+        if self._sock is None:
+            raise DeviceError("NetFT: not started")
+        self._send(CMD_BIAS)
+
+    def close(self) -> None:
+        """Send the stop request, stop the thread, close the socket (idempotent)."""
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5.0)
+            self._thread = None
+        if self._sock is not None:
+            try:
+                self._send(CMD_STOP)
+            except DeviceError:
+                pass
+            self._sock.close()
+            self._sock = None
+        with self._cond:
+            self._cond.notify_all()
+
+    def __enter__(self) -> "NetFT":
+        return self.start()
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    # ------------------------------------------------------------------ receiver
+    def _run(self) -> None:
+        sock = self._sock
+        last_rx = time.monotonic()
+        size = RDT_RECORD_DTYPE.itemsize
+        while not self._stop.is_set():
+            try:
+                data = sock.recv(65536)
+            except socket.timeout:
+                if time.monotonic() - last_rx > self.restart_after:
+                    try:
+                        self._send(CMD_START_BUFFERED if self.buffered else CMD_START_REALTIME)
+                        self._counts["restarts"] += 1
+                    except DeviceError:
+                        pass
+                    last_rx = time.monotonic()
+                continue
+            except OSError:
+                break
+            now = time.monotonic()
+            last_rx = now
+            if not data or len(data) % size:
+                self._counts["bad_packets"] += 1
+                continue
+            rec = np.frombuffer(data, dtype=RDT_RECORD_DTYPE)
+            batch = self._batch(rec, now)
+            with self._cond:
+                self._pending.append(batch)
+                self._n_pending += len(batch)
+                while self._n_pending > self.max_pending and len(self._pending) > 1:
+                    old = self._pending.pop(0)
+                    self._n_pending -= len(old)
+                    self._counts["overflow"] += len(old)
+                self._cond.notify_all()
+
+    def _batch(self, rec: np.ndarray, now: float) -> NetFTBatch:
+        status = rec["status"].astype(np.uint32)
+        saturated = (status & np.uint32(self.saturation_mask)) != 0
+        c = self._counts
+        c["packets"] += 1
+        c["records"] += rec.size
+        c["saturated"] += int(saturated.sum())
+        c["status_errors"] += int((status != 0).sum())
+        self._last_status = int(status[-1])
+        rdt_seq = rec["rdt_seq"].astype(np.uint32)
+        self._seq.update(rdt_seq)
+        wrench = rec["counts"].astype(np.float64) * self._scale
+        return NetFTBatch(rdt_seq, rec["ft_seq"].astype(np.uint32), status, wrench, np.full(rec.size, now), saturated)
+
+    # ------------------------------------------------------------------ consumer API
+    def read(self, timeout: float | None = None) -> NetFTBatch | None:
+        """All records received since the last call, or None if none came within ``timeout`` s."""
+        with self._cond:
+            if not self._pending and (timeout is None or timeout > 0):
+                deadline = None if timeout is None else time.monotonic() + timeout
+                while not self._pending and not self._stop.is_set():
+                    remaining = None if deadline is None else deadline - time.monotonic()
+                    if remaining is not None and remaining <= 0:
+                        break
+                    self._cond.wait(remaining if remaining is not None else 0.5)
+            if not self._pending:
+                return None
+            batches, self._pending, self._n_pending = self._pending, [], 0
+        return NetFTBatch.concatenate(batches)
+
+    def stats(self) -> dict:
+        """Counters since :meth:`start`.
+
+        Keys: ``records``, ``packets``, ``lost`` (records missing from the RDT sequence),
+        ``saturated`` (records whose status flags saturation), ``status_errors`` (records
+        with a non-zero status), ``bad_packets`` (wrong size), ``restarts`` (start request
+        re-sent after silence), ``seq_restarts``, ``overflow``, ``last_status``.
+        """
+        out = dict(self._counts)
+        out["lost"] = self._seq.dropped
+        out["seq_restarts"] = self._seq.restarts
+        out["last_status"] = self._last_status
+        return out
+
+    def __repr__(self) -> str:
+        return f"NetFT({self.host!r}, port={self.port})"

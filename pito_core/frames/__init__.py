@@ -1,0 +1,32 @@
+"""Poses, wrench transforms and the cube's geometry (imports nothing of ours)."""
+
+from ._checks import ROTATION_TOL, check_face, check_pose, check_vectors
+from ._cube import DEFAULT_EDGE, FACE_NORMALS, FACES, OPPOSITE_FACE, CubeCore
+from ._transforms import (
+    invert_pose,
+    pose_from_rotation_translation,
+    transform_directions,
+    transform_points,
+    transform_twist,
+    transform_wrench,
+    wrench_adjoint,
+)
+
+__all__ = [
+    "CubeCore",
+    "DEFAULT_EDGE",
+    "FACES",
+    "FACE_NORMALS",
+    "OPPOSITE_FACE",
+    "ROTATION_TOL",
+    "check_face",
+    "check_pose",
+    "check_vectors",
+    "invert_pose",
+    "pose_from_rotation_translation",
+    "transform_directions",
+    "transform_points",
+    "transform_twist",
+    "transform_wrench",
+    "wrench_adjoint",
+]

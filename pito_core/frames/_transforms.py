@@ -1,0 +1,137 @@
+"""Rigid transforms and wrench / twist changes of frame.
+
+Conventions (see SPEC.md): a pose ``T_a_b`` is the 4x4 homogeneous matrix of
+frame b expressed in frame a, so ``p_a = T_a_b @ p_b``. A wrench is
+``[fx, fy, fz, tx, ty, tz]`` in N and N·m with the moment taken about the origin
+of the frame it is expressed in. A twist is ``[vx, vy, vz, wx, wy, wz]`` in m/s
+and rad/s, the velocity of the point at the frame's origin and the angular
+velocity.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._checks import check_pose, check_vectors
+
+__all__ = [
+    "pose_from_rotation_translation",
+    "invert_pose",
+    "wrench_adjoint",
+    "transform_wrench",
+    "transform_twist",
+    "transform_points",
+    "transform_directions",
+]
+
+
+def pose_from_rotation_translation(R, p) -> np.ndarray:
+    """Pose ``T`` from a rotation ``R (3, 3)`` and a translation ``p (3,)`` in m."""
+    R = np.asarray(R, dtype=float)
+    p = np.asarray(p, dtype=float)
+    T = np.eye(4)
+    T[:3, :3] = R
+    T[:3, 3] = p
+    return check_pose(T, "T")
+
+
+def invert_pose(T_a_b) -> np.ndarray:
+    """``T_b_a`` from ``T_a_b``, using the rotation's transpose (exact, no general inverse)."""
+    T_a_b = check_pose(T_a_b, "T_a_b")
+    R = T_a_b[:3, :3]
+    p = T_a_b[:3, 3]
+    T_b_a = np.eye(4)
+    T_b_a[:3, :3] = R.T
+    T_b_a[:3, 3] = -R.T @ p
+    return T_b_a
+
+
+def _skew(p: np.ndarray) -> np.ndarray:
+    x, y, z = p
+    return np.array([[0.0, -z, y], [z, 0.0, -x], [-y, x, 0.0]])
+
+
+def wrench_adjoint(T_a_b) -> np.ndarray:
+    """6x6 matrix ``X`` with ``wrench_b = X @ wrench_a`` for the same load.
+
+    Parameters
+    ----------
+    T_a_b : array-like, shape (4, 4)
+        Pose of frame b in frame a.
+
+    Returns
+    -------
+    X : ndarray, shape (6, 6)
+        Maps ``[f_a, m_a]`` (moment about a's origin) to ``[f_b, m_b]``
+        (moment about b's origin, components in b):
+        ``f_b = Rᵀ f_a``, ``m_b = Rᵀ (m_a − p × f_a)``.
+    """
+    T_a_b = check_pose(T_a_b, "T_a_b")
+    R = T_a_b[:3, :3]
+    p = T_a_b[:3, 3]
+    X = np.zeros((6, 6))
+    X[:3, :3] = R.T
+    X[3:, 3:] = R.T
+    X[3:, :3] = -R.T @ _skew(p)
+    return X
+
+
+def transform_wrench(wrench, T_a_b) -> np.ndarray:
+    """The same load, from frame a to frame b.
+
+    Parameters
+    ----------
+    wrench : array-like, shape (..., 6)
+        ``[fx, fy, fz, tx, ty, tz]`` in N and N·m, expressed in frame a,
+        moment about a's origin.
+    T_a_b : array-like, shape (4, 4)
+        Pose of frame b in frame a.
+
+    Returns
+    -------
+    wrench_b : ndarray, shape (..., 6)
+        The same load expressed in frame b, moment about b's origin.
+    """
+    w = check_vectors(wrench, 6, "wrench")
+    return w @ wrench_adjoint(T_a_b).T
+
+
+def transform_twist(twist, T_a_b) -> np.ndarray:
+    """The same rigid motion, from frame a to frame b.
+
+    Parameters
+    ----------
+    twist : array-like, shape (..., 6)
+        ``[vx, vy, vz, wx, wy, wz]`` (m/s, rad/s) in frame a: velocity of the
+        body point at a's origin and angular velocity.
+    T_a_b : array-like, shape (4, 4)
+        Pose of frame b in frame a.
+
+    Returns
+    -------
+    twist_b : ndarray, shape (..., 6)
+        Velocity of the body point at b's origin and angular velocity, in b.
+        Power is frame independent: ``twist_b · wrench_b == twist_a · wrench_a``.
+    """
+    t = check_vectors(twist, 6, "twist")
+    T_a_b = check_pose(T_a_b, "T_a_b")
+    R = T_a_b[:3, :3]
+    p = T_a_b[:3, 3]
+    v, w = t[..., :3], t[..., 3:]
+    v_b = (v + np.cross(w, p)) @ R
+    w_b = w @ R
+    return np.concatenate([v_b, w_b], axis=-1)
+
+
+def transform_points(points, T_a_b) -> np.ndarray:
+    """Points ``(..., 3)`` in m given in frame b, expressed in frame a."""
+    p = check_vectors(points, 3, "points")
+    T_a_b = check_pose(T_a_b, "T_a_b")
+    return p @ T_a_b[:3, :3].T + T_a_b[:3, 3]
+
+
+def transform_directions(directions, T_a_b) -> np.ndarray:
+    """Free vectors ``(..., 3)`` given in frame b, expressed in frame a (rotation only)."""
+    d = check_vectors(directions, 3, "directions")
+    T_a_b = check_pose(T_a_b, "T_a_b")
+    return d @ T_a_b[:3, :3].T

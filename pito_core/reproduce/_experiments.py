@@ -1,0 +1,261 @@
+"""The papers' experiments on the simulator: sessions → calibrations → figures of merit.
+
+Every figure of merit comes from the calibration core (``calibrate``, ``evaluate``,
+``equilibrium``); this module only decides which simulated sessions feed which method.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..calibration import calibrate, equilibrium, evaluate
+from ..frames import FACES
+from ..sim import (
+    SimParams,
+    VirtualCube,
+    simulate_calibration,
+    simulate_free_grasp,
+    simulate_squeeze,
+    simulate_touches,
+)
+
+__all__ = ["ReproductionConfig", "Results", "run_experiments", "METHOD_MOUNTS", "METHOD_ORDER"]
+
+#: Order of the methods in tables and figures.
+METHOD_ORDER = ("face_to_face", "quasi_total", "total", "loaded_frame", "unloaded_frame")
+
+#: Calibration mounts of each method: (flange, connected faces of its calibration sessions).
+#: ``total`` combines two face-flange sessions so that the connected face's rows are fitted
+#: from direct loads too (a single face-flange session only tells them through the reaction).
+METHOD_MOUNTS = {
+    "face_to_face": ("face", (6,)),
+    "quasi_total": ("frame", (6,)),
+    "total": ("face", (6, 5)),
+    "loaded_frame": ("frame_hole", (6,)),
+    "unloaded_frame": ("face", (6,)),
+}
+
+
+@dataclass(frozen=True)
+class ReproductionConfig:
+    """Sizes and seeds of a reproduction run.
+
+    Attributes
+    ----------
+    k : int
+        Samples per loaded face in calibration sessions.
+    k_test : int
+        Samples per loaded face in held-out single-face sessions.
+    k_squeeze : int
+        Samples per squeeze pair.
+    k_grasp : int
+        Samples of the free grasp (1 kHz).
+    k_touch : int
+        Samples per fingertip touch.
+    seed : int
+        Seed of the runs; the cube is ``VirtualCube(seed=cube_seed)``.
+    cube_seed : int
+    connected_face : int
+        Connected face of the main experiments (the papers' squeeze pairs avoid face 6).
+    """
+
+    k: int = 10_000
+    k_test: int = 3_000
+    k_squeeze: int = 3_000
+    k_grasp: int = 24_000
+    k_touch: int = 1_500
+    seed: int = 0
+    cube_seed: int = 0
+    connected_face: int = 6
+
+    @classmethod
+    def quick(cls, seed: int = 0, cube_seed: int = 0) -> "ReproductionConfig":
+        """Small sizes for CI smoke tests (well under two minutes on two cores)."""
+        return cls(k=2_000, k_test=800, k_squeeze=800, k_grasp=12_000, k_touch=600, seed=seed, cube_seed=cube_seed)
+
+
+@dataclass
+class Results:
+    """Everything the figures and the summary need (SI units)."""
+
+    config: ReproductionConfig
+    params: SimParams
+    calibrations: dict = field(default_factory=dict)  # method -> Calibration
+    evaluations: dict = field(default_factory=dict)  # method -> Evaluation
+    per_connected: dict = field(default_factory=dict)  # (method, c) -> (Calibration, Evaluation)
+    identification_series: dict = field(default_factory=dict)
+    grasp: dict = field(default_factory=dict)
+    touches: dict = field(default_factory=dict)
+    timings: list = field(default_factory=list)
+    notes: list = field(default_factory=list)
+    generation_rate: float = float("nan")  # samples / s of the simulator
+
+
+class _Steps:
+    def __init__(self, progress):
+        self.progress = progress
+        self.t0 = time.perf_counter()
+        self.log = []
+
+    def __call__(self, text):
+        dt = time.perf_counter() - self.t0
+        self.log.append((round(dt, 2), text))
+        if self.progress is not None:
+            self.progress(f"[{dt:6.1f} s] {text}")
+
+
+def _calibrate_quiet(sessions, method):
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        cal = calibrate(sessions, method, allow_rank_deficient=True)
+    return cal, [str(x.message) for x in w]
+
+
+def run_experiments(config: ReproductionConfig | None = None, progress=print) -> Results:
+    """Run every experiment of both papers on the default simulator.
+
+    Parameters
+    ----------
+    config : ReproductionConfig, optional
+        Sizes and seeds (default full size).
+    progress : callable, optional
+        Called with one line per step (elapsed time first); None for silence.
+
+    Returns
+    -------
+    Results
+    """
+    cfg = ReproductionConfig() if config is None else config
+    step = _Steps(progress)
+    cube = VirtualCube(seed=cfg.cube_seed)
+    res = Results(cfg, cube.params)
+    c_main = cfg.connected_face
+    t_clock = [0.0]
+
+    def t0(n):  # sessions follow each other in time (drift continues)
+        start = t_clock[0]
+        t_clock[0] += n / cube.params.rate + 5.0
+        return start
+
+    cache = {}
+
+    def cal_session(flange, c, seed_off=0):
+        key = ("cal", flange, c, seed_off)
+        if key not in cache:
+            tt = time.perf_counter()
+            s = simulate_calibration(flange, c, k=cfg.k, seed=cfg.seed + seed_off, model=cube, t0=t0(6.3 * cfg.k))
+            dt = time.perf_counter() - tt
+            if dt > 0:
+                res.generation_rate = max(res.generation_rate if np.isfinite(res.generation_rate) else 0, len(s) / dt)
+            cache[key] = s
+        return cache[key]
+
+    def test_sessions(flange, c):
+        key = ("test", flange, c)
+        if key not in cache:
+            single = simulate_calibration(flange, c, k=cfg.k_test, seed=cfg.seed + 101, model=cube, t0=t0(6.3 * cfg.k_test))
+            sq = simulate_squeeze(flange, c, k=cfg.k_squeeze, seed=cfg.seed + 202, model=cube, t0=t0(8.5 * cfg.k_squeeze))
+            cache[key] = (single, sq)
+        return cache[key]
+
+    # ---------------------------------------------------------------- main comparison
+    step(f"simulating calibration sessions (k = {cfg.k} samples per face, connected face {c_main})")
+    for method in METHOD_ORDER:
+        flange, faces = METHOD_MOUNTS[method]
+        faces = tuple(c_main if f == 6 else (5 if c_main != 5 else 4) for f in faces) if c_main != 6 else faces
+        sessions = [cal_session(flange, c) for c in faces]
+        cal, warns = _calibrate_quiet(sessions, method)
+        res.notes += [f"{method}: {w}" for w in warns]
+        single, sq = test_sessions(flange, c_main)
+        ev = evaluate(cal, [single, sq])
+        res.calibrations[method] = cal
+        res.evaluations[method] = ev
+        step(f"{method}: fitted on {len(sessions)} session(s) ({flange}); force RMSE "
+             f"{np.nanmean(ev.rmse_force()):.3f} N, torque RMSE {np.nanmean(ev.rmse_torque()):.4f} N·m, "
+             f"squeeze {np.sqrt(np.nanmean(ev.rmse_squeeze[:3] ** 2)):.3f} N")
+
+    # ---------------------------------------------------------------- identification series
+    cal = res.calibrations["unloaded_frame"]
+    single, sq = test_sessions("face", c_main)
+    for kind, s in (("single", single), ("squeeze", sq)):
+        counts = np.asarray(s.counts, dtype=float)
+        free = ~np.asarray(s.loaded).any(axis=1)
+        W = cal.wrenches(counts, offset=counts[free].mean(axis=0))
+        res.identification_series[kind] = {
+            "time": np.asarray(s.time) - s.time[0],
+            "force_norm": np.linalg.norm(W[..., :3], axis=-1),
+            "torque_norm": np.linalg.norm(W[..., 3:], axis=-1),
+            "loaded": np.asarray(s.loaded),
+            "connected_face": s.connected_face,
+        }
+    step("face identification series (unloaded_frame, single face and squeeze)")
+
+    # ---------------------------------------------------------------- per connected face
+    for c in FACES:
+        for method, flange in (("loaded_frame", "frame_hole"), ("unloaded_frame", "face")):
+            if c == c_main and method in res.calibrations:
+                res.per_connected[(method, c)] = (res.calibrations[method], res.evaluations[method])
+                continue
+            s = cal_session(flange, c)
+            cal, warns = _calibrate_quiet(s, method)
+            single = simulate_calibration(flange, c, k=cfg.k_test, seed=cfg.seed + 303, model=cube, t0=t0(6.3 * cfg.k_test))
+            ev = evaluate(cal, single)
+            res.per_connected[(method, c)] = (cal, ev)
+        step(f"connected face {c}: loaded vs unloaded frame fitted and evaluated")
+
+    # ---------------------------------------------------------------- free grasp
+    run = simulate_free_grasp(k=cfg.k_grasp, seed=cfg.seed, model=cube, t0=t0(cfg.k_grasp))
+    grasp_methods = {}
+    for method in ("total", "face_to_face"):
+        W = res.calibrations[method].wrenches(run.counts)
+        eq = equilibrium(W, cube.core, run.mass, run.cog)
+        grasp_methods[method] = eq
+    eq_true = equilibrium(run.face_wrenches, cube.core, run.mass, run.cog)
+    m_ag = run.mass * np.linalg.norm(run.state.accel - run.state.gravity, axis=1)
+    res.grasp = {"run": run, "methods": grasp_methods, "truth": eq_true, "m_a_minus_g": m_ag}
+    step(f"free grasp: {cfg.k_grasp} samples, mass {run.mass} kg, {len(run.scenario.names)} fingers")
+
+    # ---------------------------------------------------------------- contact-point test
+    res.touches = _touch_test(res, cube, cfg, t0)
+    step("contact-point test: " + ("done" if res.touches.get("available") else res.touches.get("reason", "skipped")))
+    res.timings = step.log
+    return res
+
+
+def _touch_test(res: Results, cube, cfg, t0) -> dict:
+    """Fingertip touches on face 5's flat patch; contact points from the calibrated wrench."""
+    face = 5 if cfg.connected_face != 5 else 1
+    session, truth = simulate_touches(face, "face", cfg.connected_face, k=cfg.k_touch, seed=cfg.seed, model=cube,
+                                      t0=t0(10 * cfg.k_touch))
+    out = {"face": face, "points": truth.points, "available": False}
+    try:
+        from ..contact import Plane, solve
+    except ImportError:
+        out["reason"] = "skipped: pito_core.contact (Plane, solve) not available yet"
+        return out
+    cal = res.calibrations["unloaded_frame"]
+    counts = np.asarray(session.counts, dtype=float)
+    free = ~np.asarray(session.loaded).any(axis=1)
+    W = cal.wrenches(counts, offset=counts[free].mean(axis=0))[:, face - 1]
+    h = truth.points[0, 2]
+    est = solve(Plane((0.0, 0.0, h), (0.0, 0.0, 1.0)), W, force_threshold=1.0)
+    fn = -truth.force[:, 2]
+    rows = []
+    est_pts = np.asarray(est.point)
+    valid = np.asarray(est.valid)
+    for p in range(len(truth.points)):
+        sel = (truth.point_index == p) & (fn > 1.5) & valid
+        if not sel.any():
+            rows.append((p, np.nan, np.nan, np.nan, 0))
+            continue
+        e = est_pts[sel, :2]
+        mean = e.mean(axis=0)
+        err = np.linalg.norm(e - truth.points[p, :2], axis=1)
+        rows.append((p, mean[0], mean[1], float(np.sqrt(np.mean(err**2))), int(sel.sum())))
+    out.update(available=True, rows=np.array(rows, dtype=float),
+               samples={"true": truth.points, "est": est_pts, "index": truth.point_index, "valid": valid & (fn > 1.5)})
+    return out

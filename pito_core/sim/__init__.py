@@ -1,0 +1,63 @@
+"""The simulated cube and reference: stands in for the hardware in tests, demo mode and benchmarks.
+
+Nothing here is measured: every array comes from a seeded physical model
+(docs/simulator.md). ``pito_core.sim`` imports the session *format* only, never the
+calibration code.
+"""
+
+from ._grasp import FINGER_LAYOUTS, GRAVITY, GraspRun, GraspScenario, GraspState, simulate_free_grasp
+from ._live import CalibrationLiveSource, GraspLiveSource, LiveSource, default_live_source
+from ._model import VirtualCube, hub_sensitivity
+from ._mount import MOUNTS, face_wrenches_from_applied
+from ._params import FULL_SCALE_FACE, FULL_SCALE_FRAME, SimParams
+from ._protocols import (
+    PATCH_HEIGHT,
+    PATCH_SIZE,
+    SQUEEZE_PAIRS,
+    TOUCH_POINTS,
+    SimTruth,
+    TouchTruth,
+    default_faces,
+    simulate_calibration,
+    simulate_squeeze,
+    simulate_touches,
+)
+from ._reference import FLANGE_HEIGHT, REFERENCE_PRESETS, ReferenceSensor, ReferenceSpec, reference_pose
+from ._signals import KeypointTrajectory, play_operator
+
+__all__ = [
+    "CalibrationLiveSource",
+    "FINGER_LAYOUTS",
+    "GraspLiveSource",
+    "LiveSource",
+    "default_live_source",
+    "FLANGE_HEIGHT",
+    "FULL_SCALE_FACE",
+    "FULL_SCALE_FRAME",
+    "GRAVITY",
+    "GraspRun",
+    "GraspScenario",
+    "GraspState",
+    "KeypointTrajectory",
+    "MOUNTS",
+    "PATCH_HEIGHT",
+    "PATCH_SIZE",
+    "REFERENCE_PRESETS",
+    "ReferenceSensor",
+    "ReferenceSpec",
+    "SQUEEZE_PAIRS",
+    "SimParams",
+    "SimTruth",
+    "TOUCH_POINTS",
+    "TouchTruth",
+    "VirtualCube",
+    "default_faces",
+    "face_wrenches_from_applied",
+    "hub_sensitivity",
+    "play_operator",
+    "reference_pose",
+    "simulate_calibration",
+    "simulate_free_grasp",
+    "simulate_squeeze",
+    "simulate_touches",
+]

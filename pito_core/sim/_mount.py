@@ -1,0 +1,85 @@
+"""Load paths (docs/conventions.md): which face carries what under each mount."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..frames import FACES, CubeCore, check_face, invert_pose, wrench_adjoint
+
+__all__ = ["MOUNTS", "check_mount", "face_wrenches_from_applied", "core_from_face_adjoints", "face_from_core_adjoints"]
+
+#: Flanges (SPEC "Calibration mounts") plus ``None`` for a free grasp.
+MOUNTS = ("frame", "frame_hole", "face", None)
+
+
+def check_mount(flange, connected_face):
+    """Validated ``(flange, connected_face)``; ``connected_face`` is None for a free grasp."""
+    if flange not in MOUNTS:
+        raise ValueError(f"flange: expected one of {MOUNTS}, got {flange!r}")
+    if flange is None:
+        return None, None
+    return flange, check_face(connected_face, "connected_face")
+
+
+def face_from_core_adjoints(core: CubeCore) -> np.ndarray:
+    """``(6, 6, 6)``: ``X[i-1] @ W_core`` is a core-frame wrench expressed in face i's frame."""
+    return np.stack([wrench_adjoint(core.face_pose(i)) for i in FACES])
+
+
+def core_from_face_adjoints(core: CubeCore) -> np.ndarray:
+    """``(6, 6, 6)``: ``X[i-1] @ F_i`` is face i's wrench expressed in the core frame."""
+    return np.stack([wrench_adjoint(invert_pose(core.face_pose(i))) for i in FACES])
+
+
+def face_wrenches_from_applied(applied_core, flange, connected_face, core: CubeCore):
+    """Wrench on each face from the loads applied on each face, for a mount.
+
+    Parameters
+    ----------
+    applied_core : array-like, shape (N, 6, 6)
+        ``W_j``: load applied on face j at ``[:, j-1, :]``, core frame, ``[fx, fy, fz, tx,
+        ty, tz]`` in N and N·m, moment about the core centre.
+    flange : {"frame", "frame_hole", "face", None}
+        The mount; None is a free grasp (no flange).
+    connected_face : int or None
+        Face the flange is on, 1..6 (ignored for a free grasp).
+    core : CubeCore
+        Geometry.
+
+    Returns
+    -------
+    face_wrenches : ndarray, shape (N, 6, 6)
+        ``F_i`` in face i's frame (moment about the face centre).
+    W_total : ndarray, shape (N, 6)
+        ``W = Σ_j W_j``, core frame: what the reference measures.
+    W_frame : ndarray, shape (N, 6) or None
+        Load through the outer frame's screw joints (flange on the frame), core frame; None
+        when no load passes through them (face flange, free grasp).
+
+    Raises
+    ------
+    ValueError
+        If a load is applied on the connected face under the ``frame`` flange (it cannot
+        be loaded).
+    """
+    W = np.asarray(applied_core, dtype=float)
+    if W.ndim != 3 or W.shape[1:] != (6, 6):
+        raise ValueError(f"applied_core: expected shape (N, 6, 6), got {W.shape}")
+    flange, c = check_mount(flange, connected_face)
+    F_core = W.copy()
+    W_total = W.sum(axis=1)
+    W_frame = None
+    if flange == "frame":
+        if np.any(W[:, c - 1] != 0):
+            raise ValueError(f"applied_core: face {c} is connected to a 'frame' flange and cannot be loaded")
+        W_frame = W_total
+    elif flange == "frame_hole":
+        W_frame = W_total
+    elif flange == "face":
+        # a direct load on the connected face goes straight into the flange; the face
+        # carries the reaction of every load applied elsewhere
+        others = W_total - W[:, c - 1]
+        F_core[:, c - 1] = -others
+    X = face_from_core_adjoints(core)
+    F = np.einsum("fab,nfb->nfa", X, F_core)
+    return F, W_total, W_frame
