@@ -9,6 +9,7 @@ from ._evaluate import (
     equilibrium,
     evaluate,
     identify_loaded_faces,
+    inverse_condition_table,
 )
 from ._fit import AXES, Calibrator, RankDeficientWarning, calibrate, session_offsets
 from ._methods import METHODS, MethodSpec, get_method
@@ -22,6 +23,7 @@ __all__ = [
     "equilibrium",
     "evaluate",
     "identify_loaded_faces",
+    "inverse_condition_table",
     "AXES",
     "Calibration",
     "CalibrationSession",

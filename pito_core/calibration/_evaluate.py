@@ -12,7 +12,7 @@ from ._calibration import Calibration
 from ._fit import AXES, _as_sessions
 from ._targets import MountGeometry, block_targets
 
-__all__ = ["Evaluation", "evaluate", "identify_loaded_faces", "equilibrium", "Equilibrium",
+__all__ = ["Evaluation", "evaluate", "inverse_condition_table", "identify_loaded_faces", "equilibrium", "Equilibrium",
            "DEFAULT_FORCE_THRESHOLD", "DEFAULT_TORQUE_THRESHOLD"]
 
 #: A face counts as loaded when the norm of its force exceeds this, N.
@@ -292,6 +292,33 @@ def evaluate(calibration: Calibration, sessions, *, tare: bool = True,
         simulated=bool(calibration.meta.get("simulated")) or any(bool(s.meta.get("simulated")) for s in sessions),
         sessions=[repr(s) for s in sessions],
     )
+
+
+def inverse_condition_table(calibrations) -> list[dict]:
+    """The PITO paper's Table I as rows: inverse condition number per method and mount.
+
+    Parameters
+    ----------
+    calibrations : iterable of Calibration
+
+    Returns
+    -------
+    rows : list of dict
+        ``method``, ``connected_faces`` (list), ``flanges`` (list),
+        ``inverse_condition_number`` (σmin/σmax of the whole matrix) and
+        ``face_inverse_condition_numbers`` (six values, None where no output).
+    """
+    rows = []
+    for cal in calibrations:
+        per_face = cal.face_inverse_condition_numbers()
+        rows.append({
+            "method": cal.method,
+            "connected_faces": list(cal.meta.get("connected_faces", [])),
+            "flanges": list(cal.meta.get("flanges", [])),
+            "inverse_condition_number": cal.inverse_condition_number,
+            "face_inverse_condition_numbers": [None if not np.isfinite(v) else float(v) for v in per_face],
+        })
+    return rows
 
 
 @dataclass

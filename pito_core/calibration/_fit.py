@@ -207,7 +207,13 @@ class Calibrator:
                     else:
                         rows = usable
                     idx = [f - 1 for f in faces]
-                    acc.add(S[rows][:, cols], targets[rows][:, idx, :].reshape(-1, 6 * len(faces)))
+                    if rows.all():  # the common case: no copies of the whole block
+                        A = S if len(cols) == 36 else S[:, cols]
+                        B = targets[:, idx, :].reshape(-1, 6 * len(faces))
+                    else:
+                        A = S[np.ix_(rows, cols)]
+                        B = targets[rows][:, idx, :].reshape(-1, 6 * len(faces))
+                    acc.add(A, B)
                 done += b.counts.shape[0]
                 if self.progress is not None:
                     self.progress(done, total_samples)

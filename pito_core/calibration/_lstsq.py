@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.linalg
+import scipy.linalg.lapack
 
 __all__ = ["StreamedQR", "LstsqResult"]
 
@@ -56,7 +57,7 @@ class StreamedQR:
         """Append rows ``A (n, p)`` and ``B (n, q)``."""
         if A.shape[0] == 0:
             return
-        self._pending.append(np.hstack([A, B]))
+        self._pending.append(np.concatenate([A, B], axis=1))
         self._pending_rows += A.shape[0]
         self.n_rows += A.shape[0]
         if self._pending_rows >= self.flush_rows:
@@ -65,11 +66,20 @@ class StreamedQR:
     def _flush(self) -> None:
         if not self._pending:
             return
-        M = np.vstack([self.R] + self._pending)
+        width = self.p + self.q
+        rows = self.R.shape[0] + self._pending_rows
+        M = np.empty((rows, width), order="F")  # LAPACK's layout: no hidden copy
+        M[: self.R.shape[0]] = self.R
+        at = self.R.shape[0]
+        for block in self._pending:
+            M[at : at + block.shape[0]] = block
+            at += block.shape[0]
         self._pending, self._pending_rows = [], 0
-        m = M.shape[1]
-        R = scipy.linalg.qr(M, mode="r", overwrite_a=True, check_finite=False)[0]
-        self.R = R[: min(R.shape[0], m)]
+        qr, _, _, info = scipy.linalg.lapack.dgeqrf(M, overwrite_a=1)
+        if info != 0:  # pragma: no cover - LAPACK argument error
+            raise RuntimeError(f"dgeqrf failed with info={info}")
+        k = min(rows, width)
+        self.R = np.triu(qr[:k])
 
     def solve(self, rank: int | None = None) -> LstsqResult:
         """Least-squares solution from the accumulated factor, of rank at most ``rank``.
