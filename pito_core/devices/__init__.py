@@ -1,5 +1,6 @@
 """Devices: the cube's serial frames, the ATI Net F/T, ATI .cal files, simulated transports, acquisition."""
 
+from ._acquisition import Acquisition, ClockFit, fit_clock
 from ._atical import DIST_UNITS, AtiCalibration, load_ati_calibration
 from ._frame import (
     FRAME_DTYPE,
@@ -25,6 +26,7 @@ from ._netft import (
     decode_status,
     read_netft_config,
 )
+from ._open import SIM, open_devices
 from ._serial import DEFAULT_BAUDRATE, DeviceError, PitoBatch, PitoSerial, list_serial_ports
 from ._sim_transport import (
     SimulatedNetFT,
@@ -36,6 +38,11 @@ from ._sim_transport import (
 )
 
 __all__ = [
+    "Acquisition",
+    "SIM",
+    "open_devices",
+    "ClockFit",
+    "fit_clock",
     "AtiCalibration",
     "load_ati_calibration",
     "DIST_UNITS",

@@ -285,5 +285,8 @@ class PitoSerial:
             "last_error": self._error,
         }
 
+    #: The serial ports on this machine (see :func:`list_serial_ports`).
+    list_ports = staticmethod(list_serial_ports)
+
     def __repr__(self) -> str:
         return f"PitoSerial({self.port!r}, baudrate={self.baudrate})"

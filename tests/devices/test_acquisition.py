@@ -1,0 +1,142 @@
+"""Acquisition: both simulated devices through the real drivers, tare, time alignment, sessions."""
+
+import numpy as np
+import pytest
+
+from pito_core.devices import (
+    Acquisition,
+    NetFT,
+    PitoSerial,
+    SimulatedNetFT,
+    SimulatedPitoPort,
+    TestSignalSource,
+    fit_clock,
+)
+
+
+AMPLITUDE = np.array([2.0, 1.0, 3.0, 0.02, 0.01, 0.03])
+
+
+@pytest.fixture
+def running():
+    """Both simulated devices on one simulated clock; the cube starts 0.5 s after the reference."""
+    import time
+
+    src = TestSignalSource(seed=11, amplitude=AMPLITUDE)
+    src.freq = np.full(6, 0.25)  # slow loads: a transport lag under CPU starvation stays small
+    epoch = time.monotonic()
+    pito_sim = SimulatedPitoPort(src, 1000, epoch=epoch, start=False)
+    netft_sim = SimulatedNetFT(src, 1000, epoch=epoch)
+    acq = Acquisition(PitoSerial(pito_sim.port), NetFT(netft_sim.host, netft_sim.port, http_port=netft_sim.http_port),
+                      buffer_seconds=30, meta={"simulated": True})
+    acq.start()
+    time.sleep(0.5)
+    pito_sim.start()
+    yield src, acq
+    acq.close()
+    pito_sim.close()
+    netft_sim.close()
+
+
+def _wait(acq, n, timeout=30.0):
+    import time
+
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        p, f = acq.latest()
+        if len(p) >= n and len(f) >= n:
+            return
+        time.sleep(0.05)
+
+
+def _seq_of(session, p):
+    """Sequence numbers of a session's samples, found by their (unique) raw counts."""
+    start = int(np.flatnonzero(np.all(p.counts == session.counts[0], axis=1))[0])
+    assert np.array_equal(session.counts, p.counts[start : start + len(session)])
+    return p.seq[start : start + len(session)]
+
+
+def test_session_aligns_reference_onto_cube_samples(running):
+    src, acq = running
+    _wait(acq, 1500)
+    t0 = acq.now() - 1.2
+    t1 = acq.now() - 0.1
+    s = acq.to_session(t0, t1, loaded=3, flange="frame", connected_face=6, T_core_ati=np.eye(4))
+    p, _ = acq.latest()
+    assert 700 < len(s) <= 1300  # ~1.1 s of samples at 1 kHz (arrivals bunch under load)
+    # the session holds the raw counts of the cube samples it kept, unchanged and in order
+    seq = _seq_of(s, p)
+    # the reference at the cube's sample instants: both devices watch one simulated world
+    truth = src.reference_at(seq / 1000.0)
+    err = np.abs(s.reference - truth).max(axis=0) / AMPLITUDE
+    assert np.all(err < 0.15), err  # < ~0.1 s of residual latency at 0.25 Hz
+    # the check is sensitive: a 0.5 s misalignment (the devices' start difference) fails it
+    off = acq.to_session(t0, t1, loaded=3, flange="frame", connected_face=6, T_core_ati=np.eye(4),
+                         reference_delay=0.5)
+    off_truth = src.reference_at(_seq_of(off, p) / 1000.0)
+    assert np.max(np.abs(off.reference - off_truth).max(axis=0) / AMPLITUDE) > 0.15
+    assert s.loaded[:, 2].all() and not s.loaded[:, [0, 1, 3, 4, 5]].any()
+    assert np.all(np.diff(s.time) > 0)
+    assert s.meta["simulated"] is True and "clock_cube" in s.meta["acquisition"]
+
+
+def test_tare_removes_offsets(running):
+    src, acq = running
+    _wait(acq, 800)
+    out = acq.tare(duration=0.5)
+    assert len(out["counts_offset"]) == 36 and len(out["reference_bias"]) == 6
+    p, f = acq.latest(300, tared=True)
+    p_raw, f_raw = acq.latest(300)
+    np.testing.assert_allclose(p.counts, p_raw.counts - acq.counts_offset)
+    np.testing.assert_allclose(f.wrench, f_raw.wrench - acq.reference_bias)
+    assert np.all(np.abs(acq.counts_offset - src.offset) < np.abs(src.gain).sum(axis=1) * 3.1)
+    s = acq.to_session(loaded=None, flange="face", connected_face=1, T_core_ati=np.eye(4))
+    assert not s.loaded.any()
+    s2 = acq.to_session(loaded=[True, False, False, False, False, False], flange="face", connected_face=1,
+                        T_core_ati=np.eye(4))
+    assert s2.loaded[:, 0].all()
+    s3 = acq.to_session(loaded=lambda t: np.tile([False, True, False, False, False, False], (t.size, 1)),
+                        flange="face", connected_face=1, T_core_ati=np.eye(4))
+    assert s3.loaded[:, 1].all()
+    # the session reference is tared: bias subtracted
+    assert abs(s.meta["acquisition"]["reference_bias"][2] - acq.reference_bias[2]) == 0
+
+
+def test_session_errors(running):
+    _, acq = running
+    _wait(acq, 200)
+    with pytest.raises(ValueError, match="loaded"):
+        acq.to_session(loaded=7, flange="face", connected_face=1, T_core_ati=np.eye(4))
+    with pytest.raises(ValueError, match="loaded: expected"):
+        acq.to_session(loaded=np.zeros((3, 6)), flange="face", connected_face=1, T_core_ati=np.eye(4))
+    with pytest.raises(ValueError, match="t0, t1"):
+        acq.to_session(0.0, 1.0, flange="face", connected_face=1, T_core_ati=np.eye(4))
+    with pytest.raises(ValueError, match="duration"):
+        acq.tare(duration=0)
+
+
+def test_acquisition_validation_and_cube_only():
+    src = TestSignalSource()
+    sim = SimulatedPitoPort(src, 1000, start=False)
+    with sim:
+        acq = Acquisition(PitoSerial(sim.port))
+        with acq:
+            sim.start()
+            _wait_cube = [acq.latest()[0] for _ in range(1)]
+            assert _wait_cube[0] is not None
+            with pytest.raises(ValueError, match="netft"):
+                acq.to_session(flange="face", connected_face=1, T_core_ati=np.eye(4))
+            assert acq.latest()[1] is None
+    with pytest.raises(ValueError, match="buffer_seconds"):
+        Acquisition(None, buffer_seconds=0)
+
+
+def test_fit_clock_lower_envelope():
+    rng = np.random.default_rng(0)
+    k = np.arange(2000) * 1e-3
+    latency = 0.002 + rng.exponential(0.003, k.size)
+    fit = fit_clock(k, 50.0 + 1.00001 * k + latency)
+    assert fit.slope == pytest.approx(1.00001, abs=1e-4)
+    assert fit(0.0) == pytest.approx(50.002, abs=5e-4)
+    with pytest.raises(ValueError, match="tick, host_time"):
+        fit_clock([1, 2], [1.0])
