@@ -55,12 +55,17 @@ def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.einsum("ij,ij->i", a, b)
 
 
+def _mat(x: np.ndarray, M: np.ndarray) -> np.ndarray:
+    """``x @ M`` for ``x (N, 3)`` and a small matrix ``M`` (einsum: BLAS is slow here)."""
+    return np.einsum("ij,jk->ik", x, M)
+
+
 def solve_plane(f, m, point, normal):
     """Soft-finger contact on the plane through ``point (3,)`` with unit ``normal (3,)``.
 
     Returns ``c, n, tau, ok`` (see module docstring); ``ok`` is ``f · n < 0``.
     """
-    fn = f @ normal
+    fn = np.einsum("ij,j->i", f, normal)
     d = float(point @ normal)
     ok = fn < 0
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -69,7 +74,8 @@ def solve_plane(f, m, point, normal):
         c += d * f
         c *= inv[:, None]
         tau = _dot(f, m) * inv
-    n = np.broadcast_to(normal, f.shape)
+    n = np.empty_like(f)
+    n[:] = normal
     return c, n, tau, ok
 
 
@@ -105,15 +111,14 @@ def solve_sphere(f, m, center, radius):
         mp = m - _cross(center, f)
     else:
         mp = m
-    g = f * radius
+    g = f * (1.0 / radius)
     mu = mp * (1.0 / radius**2)
     P, Q, den = _unit_sphere_terms(g, mu)
     with np.errstate(divide="ignore", invalid="ignore"):
-        q = (P - Q) * (1.0 / den)[:, None]
-        gq = _dot(g, q)
-    ok = (den > 0) & (gq < 0)
-    n = q  # unit vector (|q| = 1 exactly in exact arithmetic)
-    n = n / np.linalg.norm(n, axis=1, keepdims=True)
+        n = P - Q
+        n *= (1.0 / den)[:, None]
+        ok = (den > 0) & (_dot(g, n) < 0)
+        n /= np.linalg.norm(n, axis=1, keepdims=True)  # |q| = 1 up to rounding
     c = n * radius
     c += center
     tau = _dot(n, m - _cross(c, f))
@@ -125,27 +130,20 @@ def solve_ellipsoid(f, m, center, semi_axes, rotation):
     a = np.asarray(semi_axes, dtype=float)
     R = np.asarray(rotation, dtype=float)
     mp = m - _cross(center, f) if np.any(center) else m
-    f_e = f @ R  # components in the principal frame
-    m_e = mp @ R
-    g = f_e * a
-    mu = m_e * (a / (a[0] * a[1] * a[2]))
+    g = _mat(f, R)  # components in the principal frame
+    g /= a
+    mu = _mat(mp, R)
+    mu *= a / (a[0] * a[1] * a[2])
     P, Q, den = _unit_sphere_terms(g, mu)
-    h = f_e / a  # f · n ∝ h · q
-    hP = _dot(h, P)
-    hQ = _dot(h, Q)
-    sigma = np.where(hQ > 0, -1.0, 1.0)
     with np.errstate(divide="ignore", invalid="ignore"):
-        inv = 1.0 / den
-        q = P + sigma[:, None] * Q
-        q *= inv[:, None]
-        hq = (hP - np.abs(hQ)) * inv
-    ok = (den > 0) & (hq < 0)
-    q /= np.linalg.norm(q, axis=1, keepdims=True)
-    p_e = q * a
-    c = p_e @ R.T
+        q = P - Q
+        q *= (1.0 / den)[:, None]
+        ok = (den > 0) & (_dot(g, q) < 0)
+        q /= np.linalg.norm(q, axis=1, keepdims=True)
+        n_e = q / a
+        n_e /= np.linalg.norm(n_e, axis=1, keepdims=True)
+    c = _mat(q * a, R.T)
     c += center
-    n_e = q / a
-    n_e /= np.linalg.norm(n_e, axis=1, keepdims=True)
-    n = n_e @ R.T
+    n = _mat(n_e, R.T)
     tau = _dot(n, m - _cross(c, f))
     return c, n, tau, ok

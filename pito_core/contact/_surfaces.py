@@ -98,7 +98,7 @@ class Plane(Surface):
         return np.broadcast_to(self.normal, c.shape).copy()
 
     def _retract(self, c):
-        return c - np.outer(c @ self.normal - self.offset, self.normal)
+        return c - np.outer(np.einsum("ij,j->i", c, self.normal) - self.offset, self.normal)
 
     def __repr__(self):
         return f"Plane(point={self.point.tolist()}, normal={self.normal.tolist()})"
@@ -139,18 +139,18 @@ class Ellipsoid(Surface):
         self._A = (R / a**2) @ R.T
 
     def _normal(self, c):
-        g = (c - self.center) @ self._A  # A symmetric
+        g = np.einsum("ij,jk->ik", c - self.center, self._A)  # A symmetric
         return g / np.linalg.norm(g, axis=1, keepdims=True)
 
     def _shape_operator(self, c, n):
-        g = np.linalg.norm((c - self.center) @ self._A, axis=1)
+        g = np.linalg.norm(np.einsum("ij,jk->ik", c - self.center, self._A), axis=1)
         P = np.eye(3) - n[:, :, None] * n[:, None, :]
         return P @ self._A / g[:, None, None]
 
     def _retract(self, c):
-        q = ((c - self.center) @ self.rotation) / self.semi_axes
+        q = np.einsum("ij,jk->ik", c - self.center, self.rotation) / self.semi_axes
         q /= np.linalg.norm(q, axis=1, keepdims=True)
-        return self.center + (q * self.semi_axes) @ self.rotation.T
+        return self.center + np.einsum("ij,kj->ik", q * self.semi_axes, self.rotation)
 
     def __repr__(self):
         return (
@@ -194,12 +194,13 @@ class MeshSurface(Surface):
         The patch's outer surface (open or closed). Facet normals must point out
         of the object (``trimesh`` winding convention); degenerate facets are ignored.
     group_size : int
-        Facets per leaf of the pruning hierarchy (see ``_mesh.py``).
+        Facets per group of the exact pruning hierarchy (see ``_mesh.py``); a tuning
+        knob, the result does not depend on it.
     """
 
     kind = "mesh"
 
-    def __init__(self, mesh, group_size: int = 32):
+    def __init__(self, mesh, group_size: int = 8):
         try:
             import trimesh
         except ImportError as exc:  # pragma: no cover - trimesh is a dependency
