@@ -230,6 +230,9 @@ def evaluate(calibration: Calibration, sessions, *, tare: bool = True,
             pred = calibration.wrenches(b.counts, offset=offset)
             targets, carries, usable, _ = block_targets(b.reference, b.loaded, mount, "face")
             n_loaded = b.loaded.sum(axis=1)
+            # a direct load on a type-3 flange's face goes into the flange: no face senses it,
+            # so such samples cannot be compared with the reference
+            sensed = ~b.loaded[:, s.connected_face - 1] if s.flange == "face" else np.ones(len(n_loaded), bool)
             one = usable & (n_loaded == 1)
             # single-face loads: error on the face carrying the load and on the others
             if one.any():
@@ -239,7 +242,7 @@ def evaluate(calibration: Calibration, sessions, *, tare: bool = True,
                 cross.add(np.where(~car[:, :, None], err, np.nan))
                 n_single += int(one.sum())
             # squeeze: resultant of the loaded faces (in S_A) against the reference
-            many = n_loaded >= 2
+            many = (n_loaded >= 2) & sensed
             resultant = np.einsum("fij,nfj->ni", X_ati_face, np.where(b.loaded[:, :, None], pred, 0.0))
             if many.any():
                 squeeze.add(resultant[many] - b.reference[many])
@@ -256,7 +259,7 @@ def evaluate(calibration: Calibration, sessions, *, tare: bool = True,
                 per_face[mode][0][evaluable] += (got == true)[loaded_rows].sum(axis=0)
                 per_face[mode][1][evaluable] += loaded_rows.sum()
             # comparison series (subsampled)
-            pick = (one | many) & (rng.random(len(one)) < keep_p)
+            pick = ((one & sensed) | many) & (rng.random(len(one)) < keep_p)
             if pick.any():
                 single_pred = np.where(one[:, None], resultant, np.nan)
                 series["predicted"].append(np.where(many[:, None], resultant, single_pred)[pick])

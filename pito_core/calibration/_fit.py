@@ -46,8 +46,19 @@ def session_offsets(session: CalibrationSession, block_size: int = 65536) -> np.
 
     Also refuses NaN, inf and saturated counts, naming the sample indices.
     """
+    return session_tare_stats(session, block_size)[0]
+
+
+def session_tare_stats(session: CalibrationSession, block_size: int = 65536):
+    """``(mean (36,), std (36,))`` of the counts over the unloaded samples, counts.
+
+    The standard deviation is the gauge noise level each channel shows at rest. Refuses
+    NaN, inf and saturated counts anywhere in the session, naming the sample indices.
+    """
     total = np.zeros(36)
+    total_sq = np.zeros(36)
     n = 0
+    shift = None  # first unloaded sample: sums of squares about it do not cancel catastrophically
     lo, hi = session.counts_range
     for b in session.iter_blocks(block_size):
         bad = ~np.isfinite(b.counts).all(axis=1)
@@ -65,11 +76,17 @@ def session_offsets(session: CalibrationSession, block_size: int = 65536) -> np.
         free = ~b.loaded.any(axis=1)
         if free.any():
             c = b.counts[free]
+            if shift is None:
+                shift = c[0].copy()
+            c = c - shift
             total += c.sum(axis=0)
+            total_sq += (c**2).sum(axis=0)
             n += c.shape[0]
     if n == 0:
         raise ValueError("loaded: the session has no unloaded samples (rows of all False) to take the offsets from")
-    return total / n
+    mean = total / n
+    var = np.maximum(total_sq / n - mean**2, 0.0)
+    return mean + shift, np.sqrt(var)
 
 
 def _load_rank(gram: np.ndarray, faces) -> int:
@@ -166,7 +183,12 @@ class Calibrator:
         total_samples = sum(len(s) for s in sessions)
 
         # pass 1: offsets (with NaN/inf/saturation refusal) and per-face excitation Gram matrices
-        offsets = [session_offsets(s, self.block_size) for s in sessions]
+        stats = [session_tare_stats(s, self.block_size) for s in sessions]
+        offsets = [m for m, _ in stats]
+        # gauge noise at rest, pooled over sessions: the coordinates in which signal and
+        # noise directions separate (used when the loads span fewer than 36 dimensions)
+        noise = np.sqrt(np.mean([sd**2 for _, sd in stats], axis=0))
+        noise = noise if np.all(noise > 0) else None
         mounts = [MountGeometry(s) for s in sessions]
         gram = np.zeros((36, 36))  # joint Gram of the scaled targets of all faces
         carried_any = np.zeros(6, dtype=bool)
@@ -188,58 +210,56 @@ class Calibrator:
             raise ValueError("loaded: no face carried load in the sessions; nothing to calibrate")
         self._check_excitation(out_faces, gram)
 
-        # pass 2: streamed QR, one accumulator per group of faces sharing inputs and rows
-        if spec.inputs == "own":
-            groups = [((i,), np.arange(6 * (i - 1), 6 * i)) for i in out_faces]
-        else:
-            groups = [(out_faces, np.arange(36))]
-        accs = [StreamedQR(len(cols), 6 * len(faces), flush_rows=self.block_size) for faces, cols in groups]
+        # pass 2: streamed QR. Each face's own-gauge fit (face_to_face's 6×6 blocks) is
+        # the result for "own" methods, and the prior for "all" methods whose loads span
+        # fewer dimensions than the 36 gauges (see _solve_all).
+        all_rank = _load_rank(gram, out_faces) if spec.inputs == "all" else 0
+        need_own = spec.inputs == "own" or all_rank < 36
+        own = {f: StreamedQR(6, 6, flush_rows=self.block_size) for f in out_faces} if need_own else {}
+        joint = StreamedQR(36, 6 * len(out_faces), flush_rows=self.block_size) if spec.inputs == "all" else None
+        idx = [f - 1 for f in out_faces]
         done = 0
         for s, mount, offset in zip(sessions, mounts, offsets):
             for b in s.iter_blocks(self.block_size):
                 targets, carries, usable, _ = block_targets(b.reference, b.loaded, mount, spec.output_frame)
                 S = b.counts - offset
                 unloaded = ~b.loaded.any(axis=1)
-                for (faces, cols), acc in zip(groups, accs):
-                    if spec.inputs == "own":
-                        i = faces[0] - 1
-                        rows = usable & (carries[:, i] | unloaded)
+                for f, acc in own.items():
+                    rows = usable & (carries[:, f - 1] | unloaded)
+                    acc.add(S[rows, 6 * (f - 1) : 6 * f], targets[rows, f - 1])
+                if joint is not None:
+                    if usable.all():  # the common case: no copies of the whole block
+                        joint.add(S, targets[:, idx, :].reshape(-1, 6 * len(out_faces)))
                     else:
-                        rows = usable
-                    idx = [f - 1 for f in faces]
-                    if rows.all():  # the common case: no copies of the whole block
-                        A = S if len(cols) == 36 else S[:, cols]
-                        B = targets[:, idx, :].reshape(-1, 6 * len(faces))
-                    else:
-                        A = S[np.ix_(rows, cols)]
-                        B = targets[rows][:, idx, :].reshape(-1, 6 * len(faces))
-                    acc.add(A, B)
+                        joint.add(S[usable], targets[usable][:, idx, :].reshape(-1, 6 * len(out_faces)))
                 done += b.counts.shape[0]
                 if self.progress is not None:
                     self.progress(done, total_samples)
 
         matrix = np.zeros((6 * len(out_faces), 36))
-        row_of = {f: r for r, f in enumerate(out_faces)}
         residual = np.full((6, 6), np.nan)
         ranks = []
-        for (faces, cols), acc in zip(groups, accs):
-            rank = _load_rank(gram, faces)
-            res = acc.solve(rank=rank if self._deficient_faces & set(faces) else None)
+        own_X = np.zeros((36, 6 * len(out_faces)))  # block-diagonal: own gauges -> own rows
+        for k, (f, acc) in enumerate(own.items()):
+            rank = _load_rank(gram, (f,))
+            res = self._solve_checked(acc, rank, (f,), deficient=f in self._deficient_faces, strict=spec.inputs == "own",
+                                      col_scale=None if noise is None else noise[6 * (f - 1) : 6 * f])
+            own_X[6 * (f - 1) : 6 * f, 6 * k : 6 * k + 6] = res.X
+            if spec.inputs == "own":
+                ranks.append(res.rank)
+                residual[f - 1] = res.residual_rms
+        if joint is None:
+            matrix[:] = own_X.T
+        else:
+            # loads spanning r < 36 dimensions: fit those r exactly (the noise-only
+            # directions are dropped, not fitted), and act as the faces' own-gauge fits
+            # on the rest (e.g. the net load, which a face flange always balances)
+            rank = min(all_rank, 36)
+            res = self._solve_checked(joint, rank, out_faces, deficient=rank < 36, strict=True,
+                                      prior=own_X if rank < 36 else None, col_scale=noise)
+            matrix[:] = res.X.T
             ranks.append(res.rank)
-            if res.n_rows < len(cols):
-                raise ValueError(
-                    f"sessions: only {res.n_rows} usable samples for face(s) {list(faces)}, "
-                    f"expected at least {len(cols)}"
-                )
-            if res.numerical_rank < rank and not self.allow_rank_deficient:
-                raise ValueError(
-                    f"counts: the gauge data for face(s) {list(faces)} span fewer than the {rank} "
-                    f"dimensions the loads span (rank {res.numerical_rank} < {rank}); "
-                    "a gauge channel may be dead or stuck; pass allow_rank_deficient=True for a minimum-norm fit"
-                )
-            C = res.X.T  # (6·len(faces), len(cols))
-            for k, f in enumerate(faces):
-                matrix[6 * row_of[f] : 6 * row_of[f] + 6][:, cols] = C[6 * k : 6 * k + 6]
+            for k, f in enumerate(out_faces):
                 residual[f - 1] = res.residual_rms[6 * k : 6 * k + 6]
 
         self.offsets_ = offsets
@@ -269,6 +289,22 @@ class Calibrator:
             meta=meta,
         )
         return self
+
+    def _solve_checked(self, acc, rank, faces, *, deficient, strict, prior=None, col_scale=None):
+        """Solve one accumulator, refusing too few samples or dead channels when ``strict``."""
+        p = acc.p
+        if acc.n_rows < p:
+            raise ValueError(
+                f"sessions: only {acc.n_rows} usable samples for face(s) {list(faces)}, expected at least {p}"
+            )
+        res = acc.solve(rank=rank if deficient else None, prior=prior, col_scale=col_scale)
+        if strict and res.numerical_rank < min(rank, p) and not self.allow_rank_deficient:
+            raise ValueError(
+                f"counts: the gauge data for face(s) {list(faces)} span fewer than the {rank} "
+                f"dimensions the loads span (rank {res.numerical_rank} < {rank}); "
+                "a gauge channel may be dead or stuck; pass allow_rank_deficient=True for a minimum-norm fit"
+            )
+        return res
 
     def _check_excitation(self, out_faces, gram) -> None:
         problems = []
