@@ -17,6 +17,10 @@ COMMANDS = (
     "evaluate",
     "simulate",
     "reproduce",
+    "devices",
+    "record",
+    "replay",
+    "bench",
 )
 
 

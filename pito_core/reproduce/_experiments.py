@@ -23,10 +23,16 @@ from ..sim import (
     simulate_touches,
 )
 
-__all__ = ["ReproductionConfig", "Results", "run_experiments", "METHOD_MOUNTS", "METHOD_ORDER"]
+__all__ = ["ReproductionConfig", "Results", "run_experiments", "METHOD_MOUNTS", "METHOD_ORDER", "GRASP_METHODS"]
 
 #: Order of the methods in tables and figures.
 METHOD_ORDER = ("face_to_face", "quasi_total", "total", "loaded_frame", "unloaded_frame")
+
+#: Methods whose face outputs are independent of one another, used for the free grasp. The
+#: face-flange fits (``total``, ``unloaded_frame``) are not: every face-flange sample has
+#: Σ_i F_i = 0 (the flange reaction balances the loads), so their fitted rows sum to zero
+#: and they output ΣF ≡ 0 whatever the counts.
+GRASP_METHODS = ("face_to_face", "quasi_total", "loaded_frame")
 
 #: Calibration mounts of each method: (flange, connected faces of its calibration sessions).
 #: ``total`` combines two face-flange sessions so that the connected face's rows are fitted
@@ -166,7 +172,7 @@ def run_experiments(config: ReproductionConfig | None = None, progress=print) ->
     step(f"simulating calibration sessions (k = {cfg.k} samples per face, connected face {c_main})")
     for method in METHOD_ORDER:
         flange, faces = METHOD_MOUNTS[method]
-        faces = tuple(c_main if f == 6 else (5 if c_main != 5 else 4) for f in faces) if c_main != 6 else faces
+        faces = _mount_faces(faces, c_main)
         sessions = [cal_session(flange, c) for c in faces]
         cal, warns = _calibrate_quiet(sessions, method)
         res.notes += [f"{method}: {w}" for w in warns]
@@ -210,10 +216,9 @@ def run_experiments(config: ReproductionConfig | None = None, progress=print) ->
     # ---------------------------------------------------------------- free grasp
     run = simulate_free_grasp(k=cfg.k_grasp, seed=cfg.seed, model=cube, t0=t0(cfg.k_grasp))
     grasp_methods = {}
-    for method in ("total", "face_to_face"):
+    for method in GRASP_METHODS:
         W = res.calibrations[method].wrenches(run.counts)
-        eq = equilibrium(W, cube.core, run.mass, run.cog)
-        grasp_methods[method] = eq
+        grasp_methods[method] = equilibrium(W, cube.core, run.mass, run.cog)
     eq_true = equilibrium(run.face_wrenches, cube.core, run.mass, run.cog)
     m_ag = run.mass * np.linalg.norm(run.state.accel - run.state.gravity, axis=1)
     res.grasp = {"run": run, "methods": grasp_methods, "truth": eq_true, "m_a_minus_g": m_ag}
@@ -224,6 +229,14 @@ def run_experiments(config: ReproductionConfig | None = None, progress=print) ->
     step("contact-point test: " + ("done" if res.touches.get("available") else res.touches.get("reason", "skipped")))
     res.timings = step.log
     return res
+
+
+def _mount_faces(faces, c_main: int) -> tuple:
+    """:data:`METHOD_MOUNTS` is written for connected face 6; move it to ``c_main``."""
+    if c_main == 6:
+        return tuple(faces)
+    second = 5 if c_main != 5 else 4
+    return tuple(c_main if f == 6 else second for f in faces)
 
 
 def _touch_test(res: Results, cube, cfg, t0) -> dict:

@@ -16,14 +16,13 @@ from ._protocols import (
     SQUEEZE_PAIRS,
     TOUCH_POINTS,
     SimTruth,
-    TouchTruth,
     default_faces,
     simulate_calibration,
     simulate_squeeze,
-    simulate_touches,
 )
 from ._reference import FLANGE_HEIGHT, REFERENCE_PRESETS, ReferenceSensor, ReferenceSpec, reference_pose
 from ._signals import KeypointTrajectory, play_operator
+from ._touches import TouchTruth, simulate_touches
 
 __all__ = [
     "CalibrationLiveSource",

@@ -42,7 +42,11 @@ class LiveSource:
         Pose of the reference frame in the core frame.
     counts_range : (int, int)
         ADC limits, counts.
+    label : str
+        What a device or screen should call this source (says "simulated").
     """
+
+    label = "simulated cube (pito_core.sim)"
 
     def __init__(self, model: VirtualCube | None, seed: int, T_core_ati, reference="delta"):
         if model is None:
@@ -101,6 +105,8 @@ class GraspLiveSource(LiveSource):
 
             contacts = contacts_on_assembly(assembly, n_fingers, seed)
         self.assembly = assembly
+        self.label = f"simulated cube (pito_core.sim): looping grasp, {n_fingers} fingers" + (
+            f" on {assembly!r}" if assembly else "")
         self.scenario = GraspScenario(mass=mass, n_fingers=n_fingers, seed=seed, core=model.core, contacts=contacts)
         self.period = 12.0
 
@@ -150,7 +156,8 @@ class GraspLiveSource(LiveSource):
 class CalibrationLiveSource(LiveSource):
     """An operator loading one face at a time under a calibration mount.
 
-    Set :attr:`face` to the face being loaded (None: nobody touches the object). The load
+    Set :attr:`face` (or call :meth:`set_face` with the switch time, to fade the load in
+    from zero) to the face being loaded (None: nobody touches the object). The load
     on that face moves between random keypoints (±15 N, ±0.1 N·m per axis, face frame)
     every ``period`` seconds and holds still for the last ``1 − ramp`` of each period, so a
     wizard can capture still, new samples. Keypoints depend on (seed, face, period index)
@@ -182,9 +189,11 @@ class CalibrationLiveSource(LiveSource):
             raise ValueError(f"ramp: expected a fraction in (0, 1), got {ramp!r}")
         self.flange = flange
         self.connected_face = connected_face
+        self.label = f"simulated cube (pito_core.sim): calibration, {flange} flange on face {connected_face}"
         self.period = float(period)
         self.ramp = float(ramp)
         self._face = None
+        self._t_switch = None
         self._X = core_from_face_adjoints(model.core)
 
     @property
@@ -194,13 +203,24 @@ class CalibrationLiveSource(LiveSource):
 
     @face.setter
     def face(self, value):
-        if value is None:
-            self._face = None
+        self.set_face(value)
+
+    def set_face(self, face, t=None) -> None:
+        """Load ``face`` (1..6, or None to unload) from time ``t`` (s).
+
+        With ``t`` the operator starts from zero: the load fades in over one ramp
+        (``ramp · period``) after ``t``; without it the new face's load applies at once.
+        """
+        if face is None:
+            self._face, self._t_switch = None, None
             return
-        f = check_face(value, "face")
+        f = check_face(face, "face")
         if self.flange == "frame" and f == self.connected_face:
             raise ValueError(f"face: face {f} is connected to a 'frame' flange and cannot be loaded")
+        if t is not None and not np.isfinite(float(t)):
+            raise ValueError(f"t: expected a finite time in s, got {t!r}")
         self._face = f
+        self._t_switch = None if t is None else float(t)
 
     def _keypoints(self, m: np.ndarray, face: int) -> np.ndarray:
         u = hashed_uniform(self.seed, m, 6, stream=100 + face)
@@ -221,7 +241,10 @@ class CalibrationLiveSource(LiveSource):
         m = np.floor(t / self.period).astype(np.int64)
         s = smoothstep(np.mod(t, self.period) / (self.ramp * self.period))[:, None]
         a, b = self._keypoints(m - 1, face), self._keypoints(m, face)
-        return a * (1 - s) + b * s
+        w = a * (1 - s) + b * s
+        if self._t_switch is not None and face == self._face:
+            w = w * smoothstep((t - self._t_switch) / (self.ramp * self.period))[:, None]
+        return w
 
     def _loads(self, t):
         t = _times(t)

@@ -66,7 +66,6 @@ def face_wrenches_from_applied(applied_core, flange, connected_face, core: CubeC
     if W.ndim != 3 or W.shape[1:] != (6, 6):
         raise ValueError(f"applied_core: expected shape (N, 6, 6), got {W.shape}")
     flange, c = check_mount(flange, connected_face)
-    F_core = W.copy()
     W_total = W.sum(axis=1)
     W_frame = None
     if flange == "frame":
@@ -75,11 +74,13 @@ def face_wrenches_from_applied(applied_core, flange, connected_face, core: CubeC
         W_frame = W_total
     elif flange == "frame_hole":
         W_frame = W_total
-    elif flange == "face":
+    X = face_from_core_adjoints(core)
+    Xblk = np.zeros((36, 36))
+    for f in range(6):
+        Xblk[6 * f : 6 * f + 6, 6 * f : 6 * f + 6] = X[f]
+    F = (W.reshape(-1, 36) @ Xblk.T).reshape(W.shape)
+    if flange == "face":
         # a direct load on the connected face goes straight into the flange; the face
         # carries the reaction of every load applied elsewhere
-        others = W_total - W[:, c - 1]
-        F_core[:, c - 1] = -others
-    X = face_from_core_adjoints(core)
-    F = np.einsum("fab,nfb->nfa", X, F_core)
+        F[:, c - 1] = -(W_total - W[:, c - 1]) @ X[c - 1].T
     return F, W_total, W_frame

@@ -1,4 +1,4 @@
-"""The papers' protocols on the simulator: tare, face by face, squeeze, fingertip touches.
+"""The papers' protocols on the simulator: tare, face by face, squeeze (touches: ``_touches``).
 
 Each protocol builds the loads applied on the faces as smooth keypoint trajectories
 (ramp, still hold, next direction), routes them through the mount (``_mount``), reads
@@ -27,7 +27,6 @@ __all__ = [
     "PATCH_HEIGHT",
     "simulate_calibration",
     "simulate_squeeze",
-    "simulate_touches",
     "default_faces",
 ]
 
@@ -37,8 +36,9 @@ SQUEEZE_PAIRS = ((1, 3), (2, 4), (3, 5), (4, 5), (2, 5), (1, 5), (1, 4), (1, 2))
 #: Side of the flat patch, m (46 × 46 mm).
 PATCH_SIZE = 0.046
 
-#: Height of the flat patch's surface above its face's centre, m (face frame z).
-PATCH_HEIGHT = 0.004
+#: Height of the flat patch's surface above its face's centre, m (face frame z; the library's
+#: ``flat_46mm`` patch).
+PATCH_HEIGHT = 0.003
 
 #: Fingertip test points on the flat patch, face frame (x, y) in m: 8 points on the edges
 #: of a 26 × 26 mm square (corners and mid-edges, counter-clockwise), then its centre.
@@ -55,6 +55,10 @@ TOUCH_POINTS = np.array(
         (0.0, 0.0),
     ]
 )
+
+#: At least this many load directions per face (or pair), so small runs still excite all
+#: six wrench directions well.
+_MIN_SEGMENTS = 24
 
 _PROTOCOL_STREAM = {"calibration": 1, "squeeze": 2, "grasp": 3, "touches": 4}
 
@@ -130,33 +134,34 @@ def _random_keypoints(rng, n_segments: int, lo, hi, rest_every: int = 0) -> np.n
 
 
 class _Builder:
-    """Accumulates blocks of applied loads (face frames) and loaded masks."""
+    """Collects blocks of applied loads (face frames) and loaded masks, then fills one array."""
 
     def __init__(self, model: VirtualCube):
         self.model = model
         self.X_core_face = core_from_face_adjoints(model.core)
-        self.applied = []  # (n, 6, 6) core frame
-        self.loaded = []
-        self.labels = []
+        self.blocks = []  # (n, {face: (n, 6) face-frame wrench}, label)
 
     def rest(self, n: int, label: int = -1):
-        self.applied.append(np.zeros((n, 6, 6)))
-        self.loaded.append(np.zeros((n, 6), dtype=bool))
-        self.labels.append(np.full(n, label))
+        self.blocks.append((n, {}, label))
 
     def load(self, loads_face: dict, n: int, label: int = -1):
         """``loads_face``: {face: (n, 6) wrench in that face's frame at its centre}."""
-        A = np.zeros((n, 6, 6))
-        L = np.zeros((n, 6), dtype=bool)
-        for j, w in loads_face.items():
-            A[:, j - 1] = w @ self.X_core_face[j - 1].T
-            L[:, j - 1] = True
-        self.applied.append(A)
-        self.loaded.append(L)
-        self.labels.append(np.full(n, label))
+        self.blocks.append((n, loads_face, label))
 
     def finish(self):
-        return np.concatenate(self.applied), np.concatenate(self.loaded), np.concatenate(self.labels)
+        """``applied (N, 6, 6)`` core frame, ``loaded (N, 6)``, ``labels (N,)``."""
+        N = sum(n for n, _, _ in self.blocks)
+        A = np.zeros((N, 6, 6))
+        L = np.zeros((N, 6), dtype=bool)
+        labels = np.empty(N, dtype=np.int64)
+        start = 0
+        for n, loads, label in self.blocks:
+            for j, w in loads.items():
+                A[start : start + n, j - 1] = w @ self.X_core_face[j - 1].T
+                L[start : start + n, j - 1] = True
+            labels[start : start + n] = label
+            start += n
+        return A, L, labels
 
 
 def _run(model, applied, loaded, flange, connected_face, reference, rng, t0, meta, return_truth):
@@ -241,7 +246,8 @@ def simulate_calibration(
     tare_fraction : float
         Fraction of the samples that are unloaded, at the start (offset), default 5 %.
     segment_samples : int
-        Samples per move-and-hold segment of the loading gestures.
+        Samples per move-and-hold segment of the loading gestures (shorter when k is
+        small: at least 24 segments per face).
     return_truth : bool
         Also return the :class:`SimTruth`.
 
@@ -279,7 +285,7 @@ def simulate_calibration(
     b.rest(_tare_samples(k * len(faces), tare_fraction))
     n_gap = max(5, k // 100)
     for idx, j in enumerate(faces):
-        n_seg = max(2, int(np.ceil(k / segment_samples)))
+        n_seg = max(_MIN_SEGMENTS, int(np.ceil(k / segment_samples)))
         kp = _random_keypoints(rng, n_seg, -fs, fs, rest_every=0)
         b.load({j: _block_trajectory(k, kp, model.params.rate)}, k, label=j)
         if idx < len(faces) - 1:
@@ -354,7 +360,7 @@ def simulate_squeeze(
     b.rest(_tare_samples(k * len(run_pairs), tare_fraction))
     n_gap = max(5, k // 100)
     for idx, (a, c) in enumerate(run_pairs):
-        n_seg = max(2, int(np.ceil(k / segment_samples)))
+        n_seg = max(_MIN_SEGMENTS, int(np.ceil(k / segment_samples)))
         loads = {}
         for f in (a, c):
             kp = _random_keypoints(rng, n_seg, lo, hi, rest_every=0)
@@ -366,132 +372,3 @@ def simulate_squeeze(
     applied, loaded, _ = b.finish()
     meta = {"protocol": "squeeze", "seed": int(seed), "pairs": [list(p) for p in run_pairs], "k": k}
     return _run(model, applied, loaded, flange, connected_face, reference, rng, t0, meta, return_truth)
-
-
-@dataclass(frozen=True)
-class TouchTruth:
-    """Ground truth of fingertip touches on a patch (face frame of the touched face).
-
-    Attributes
-    ----------
-    face : int
-        The touched face.
-    point_index : ndarray of int, shape (N,)
-        Index into ``points`` of the touched point, −1 when nothing touches.
-    points : ndarray, shape (P, 3)
-        Test points on the patch surface, m.
-    point : ndarray, shape (N, 3)
-        Contact point per sample, m (NaN when nothing touches).
-    normal : ndarray, shape (N, 3)
-        Outward surface normal at the contact (NaN when nothing touches).
-    force : ndarray, shape (N, 3)
-        Force of the fingertip on the patch, N.
-    torsion : ndarray, shape (N,)
-        Moment about the normal, N·m.
-    sim : SimTruth
-        The run's full truth.
-    """
-
-    face: int
-    point_index: np.ndarray
-    points: np.ndarray
-    point: np.ndarray
-    normal: np.ndarray
-    force: np.ndarray
-    torsion: np.ndarray
-    sim: SimTruth
-
-
-def simulate_touches(
-    face: int = 5,
-    flange: str = "face",
-    connected_face: int = 6,
-    k: int = 1_000,
-    seed: int = 0,
-    points=None,
-    model: VirtualCube | None = None,
-    *,
-    patch_height: float = PATCH_HEIGHT,
-    reference="delta",
-    t0: float = 0.0,
-    tare_fraction: float = 0.05,
-):
-    """Fingertip touches on the flat 46 × 46 mm patch of ``face``, one test point at a time.
-
-    Parameters
-    ----------
-    face : int
-        The touched face (must not be the connected face).
-    flange, connected_face :
-        The mount holding the object (default ``face`` flange on face 6).
-    k : int
-        Samples per touch (press, hold, release).
-    points : array-like, shape (P, 2) or (P, 3), optional
-        Touch points in the face frame, m; (x, y) on the flat patch at height
-        ``patch_height``. Default :data:`TOUCH_POINTS` (8 edge points of a 26 × 26 mm
-        square, then its centre).
-    patch_height : float
-        Height of the patch surface above the face centre, m.
-    seed, model, reference, t0, tare_fraction :
-        As :func:`simulate_calibration`.
-
-    Returns
-    -------
-    session : CalibrationSession
-        ``loaded[:, face-1]`` is True during the touches.
-    truth : TouchTruth
-        Contact points, normals, forces and torsions per sample.
-
-    Notes
-    -----
-    Soft-finger contact (SPEC): the face wrench is ``[f, c × f + τ n]`` with the normal
-    force 2–8 N pressing into the patch, a tangential force under 0.3 of it and a torsion
-    within ±2 mN·m.
-    """
-    flange, connected_face = check_mount(flange, connected_face)
-    if flange is None:
-        raise ValueError("flange: expected one of ('frame', 'frame_hole', 'face') for a touch run, got None")
-    face = check_face(face, "face")
-    if face == connected_face:
-        raise ValueError(f"face: expected a free face, got the connected face {face}")
-    k = _check_k(k)
-    model = _model_or_default(model)
-    if points is None:
-        points = TOUCH_POINTS
-    pts = np.asarray(points, dtype=float)
-    if pts.ndim != 2 or pts.shape[1] not in (2, 3) or pts.shape[0] < 1:
-        raise ValueError(f"points: expected shape (P, 2) or (P, 3), got {pts.shape}")
-    if pts.shape[1] == 2:
-        pts = np.column_stack([pts, np.full(len(pts), float(patch_height))])
-    if np.any(np.abs(pts[:, :2]) > PATCH_SIZE / 2):
-        raise ValueError(f"points: expected points on the {PATCH_SIZE * 1000:.0f} mm patch (|x|, |y| <= {PATCH_SIZE / 2} m)")
-    rng = np.random.default_rng([int(seed), _PROTOCOL_STREAM["touches"], face, connected_face])
-    b = _Builder(model)
-    b.rest(_tare_samples(k * len(pts), tare_fraction))
-    n_gap = max(5, k // 10)
-    normal = np.array([0.0, 0.0, 1.0])
-    for p_idx, c in enumerate(pts):
-        fn = rng.uniform(2.0, 8.0)
-        ang = rng.uniform(0, 2 * np.pi)
-        ft = rng.uniform(0, 0.3) * fn
-        tau = rng.uniform(-0.002, 0.002)
-        press = np.array([ft * np.cos(ang), ft * np.sin(ang), -fn, tau])
-        kp = np.stack([np.zeros(4), press, press * rng.uniform(0.8, 1.0), np.zeros(4)])
-        ft_traj = _block_trajectory(k, kp, model.params.rate)  # (k, 4): f, τ
-        f = ft_traj[:, :3]
-        w = np.concatenate([f, np.cross(c, f) + ft_traj[:, 3:4] * normal], axis=1)
-        b.load({face: w}, k, label=p_idx)
-        b.rest(n_gap)
-    applied, loaded, labels = b.finish()
-    meta = {"protocol": "touches", "seed": int(seed), "face": face, "points": pts.tolist(), "k": k}
-    session, sim = _run(model, applied, loaded, flange, connected_face, reference, rng, t0, meta, True)
-    touching = labels >= 0
-    point = np.full((len(labels), 3), np.nan)
-    point[touching] = pts[labels[touching]]
-    nrm = np.full((len(labels), 3), np.nan)
-    nrm[touching] = normal
-    X = core_from_face_adjoints(model.core)[face - 1]
-    w_face = np.linalg.solve(X, applied[:, face - 1].T).T  # back to the face frame
-    torsion = np.where(touching, w_face[:, 5] - np.cross(np.nan_to_num(point), w_face[:, :3])[:, 2], 0.0)
-    truth = TouchTruth(face, labels, pts, point, nrm, w_face[:, :3], torsion, sim)
-    return session, truth

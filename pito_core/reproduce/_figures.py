@@ -1,0 +1,308 @@
+"""Figures (PNG, units on every axis, marked SIMULATED) and their data (CSV)."""
+
+from __future__ import annotations
+
+import csv
+import os
+
+import numpy as np
+
+from ._experiments import METHOD_ORDER, Results
+
+__all__ = ["write_figures", "FIGURES"]
+
+#: Figure files, in the summary's order: name -> (title, csv files).
+FIGURES = {
+    "identification.png": ("Face identification: single face (forces) and squeeze (torques)",
+                           ("identification_single.csv", "identification_squeeze.csv")),
+    "comparison_forces.png": ("Comparison with the reference, forces", ("comparison.csv",)),
+    "comparison_torques.png": ("Comparison with the reference, torques", ("comparison.csv",)),
+    "rmse_methods.png": ("RMSE per face: the five methods", ("rmse_methods.csv",)),
+    "rmse_connected_face.png": ("RMSE per connected face: loaded vs unloaded frame", ("rmse_connected_face.csv",)),
+    "table1_icn.png": ("Table I: inverse condition numbers per connected face", ("table1_inverse_condition_numbers.csv",)),
+    "equilibrium.png": ("Equilibrium during a free grasp", ("equilibrium.csv",)),
+    "contact_points.png": ("Contact-point test (8 points + centre)", ("contact_points.csv",)),
+}
+
+_SIM = " [SIMULATED]"
+_AXES = ("fx", "fy", "fz", "tx", "ty", "tz")
+_COLORS = {"face_to_face": "#d62728", "quasi_total": "#ff7f0e", "total": "#2ca02c", "loaded_frame": "#9467bd",
+           "unloaded_frame": "#1f77b4"}
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg", force=True)
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _write_csv(path, header, rows):
+    with open(path, "w", newline="") as f:
+        w = csv.writer(f)
+        w.writerow(header)
+        for r in rows:
+            w.writerow(["" if (isinstance(v, float) and not np.isfinite(v)) else (f"{v:.9g}" if isinstance(v, float) else v)
+                        for v in r])
+
+
+def _save(fig, path):
+    fig.text(0.995, 0.005, "SIMULATED data — pito_core.sim default cube", ha="right", va="bottom", fontsize=7,
+             color="0.4")
+    fig.savefig(path, dpi=110)
+    _plt().close(fig)
+
+
+def write_figures(res: Results, out_dir) -> list[str]:
+    """Write every figure and its CSV into ``out_dir``; returns the file names written."""
+    written = []
+    for fn in (_identification, _comparison, _rmse_methods, _rmse_connected, _table1, _equilibrium, _contact):
+        written += fn(res, out_dir)
+    return written
+
+
+# ---------------------------------------------------------------------- identification
+def _identification(res, out):
+    plt = _plt()
+    fig, axs = plt.subplots(2, 1, figsize=(9, 6.5))
+    files = []
+    for ax, kind, key, unit, thr in (
+        (axs[0], "single", "force_norm", "N", 0.5),
+        (axs[1], "squeeze", "torque_norm", "N·m", 0.01),
+    ):
+        s = res.identification_series[kind]
+        t, v, loaded = s["time"], s[key], s["loaded"]
+        step = max(1, t.size // 4000)
+        cf = s["connected_face"]
+        ax.plot(t[::step], v[::step, cf - 1], color="0.6", ls=":", lw=0.8,
+                label=f"face {cf} (connected: flange reaction)")
+        for i in range(6):
+            if i != cf - 1:
+                ax.plot(t[::step], v[::step, i], lw=0.9, color=f"C{i}", label=f"face {i + 1}")
+        # shade the loaded face(s) per block
+        for i in range(6):
+            on = loaded[:, i]
+            edges = np.flatnonzero(np.diff(np.r_[0, on.astype(int), 0]))
+            for a, b in zip(edges[::2], edges[1::2]):
+                ax.axvspan(t[a], t[b - 1], color=f"C{i}", alpha=0.08)
+        ax.axhline(thr, color="k", ls="--", lw=0.8, label=f"threshold {thr} {unit}")
+        what = "‖F‖" if key == "force_norm" else "‖T‖"
+        ax.set_ylabel(f"{what} per face [{unit}]")
+        ax.set_xlabel("time [s]")
+        title = "single face loads, forces" if kind == "single" else "squeeze pairs, torques"
+        ax.set_title(f"Face identification ({title}), unloaded_frame calibration{_SIM}", fontsize=9)
+        ax.legend(fontsize=7, ncol=4, loc="upper right")
+        name = f"identification_{kind}.csv"
+        rows = [[float(t[n])] + [float(x) for x in v[n]] + [int(x) for x in loaded[n]] for n in range(0, t.size, step)]
+        _write_csv(os.path.join(out, name), ["time_s"] + [f"face{i}_{key}_{'N' if unit == 'N' else 'Nm'}" for i in range(1, 7)]
+                   + [f"face{i}_loaded" for i in range(1, 7)], rows)
+        files.append(name)
+    fig.tight_layout()
+    _save(fig, os.path.join(out, "identification.png"))
+    return files + ["identification.png"]
+
+
+# ---------------------------------------------------------------------- comparison
+def _comparison(res, out):
+    plt = _plt()
+    methods = ("face_to_face", "loaded_frame", "unloaded_frame")  # drawn in this order: best on top
+    rows = []
+    for m in methods:
+        cmp = res.evaluations[m].comparison
+        for n in range(len(cmp["kind"])):
+            rows.append([m, str(cmp["kind"][n]), int(cmp["face"][n])] + [float(x) for x in cmp["reference"][n]]
+                        + [float(x) for x in cmp["predicted"][n]])
+    _write_csv(os.path.join(out, "comparison.csv"), ["method", "kind", "face"] + [f"ref_{a}" for a in _AXES]
+               + [f"pred_{a}" for a in _AXES], rows)
+    files = ["comparison.csv"]
+    for name, axes, unit in (("comparison_forces.png", (0, 1, 2), "N"), ("comparison_torques.png", (3, 4, 5), "N·m")):
+        fig, axs = plt.subplots(1, 3, figsize=(11, 3.9))
+        for ax, k in zip(axs, axes):
+            lim = 0.0
+            for m in methods:
+                cmp = res.evaluations[m].comparison
+                ok = np.isfinite(cmp["predicted"][:, k])
+                ax.scatter(cmp["reference"][ok, k], cmp["predicted"][ok, k], s=2, alpha=0.4, color=_COLORS[m], label=m)
+                if ok.any():
+                    lim = max(lim, np.abs(cmp["reference"][ok, k]).max())
+            ax.plot([-lim, lim], [-lim, lim], "k-", lw=0.7)
+            ax.set_xlabel(f"reference {_AXES[k]} [{unit}]")
+            ax.set_ylabel(f"calibrated cube {_AXES[k]} [{unit}]")
+            ax.set_title(f"{_AXES[k]}, reference frame{_SIM}", fontsize=9)
+        axs[0].legend(fontsize=7, markerscale=4)
+        fig.tight_layout()
+        _save(fig, os.path.join(out, name))
+        files.append(name)
+    return files
+
+
+# ---------------------------------------------------------------------- RMSE
+def _rmse_methods(res, out):
+    plt = _plt()
+    rows = []
+    for m in METHOD_ORDER:
+        ev = res.evaluations[m]
+        for i in range(6):
+            rows.append([m, i + 1, float(ev.rmse_force()[i]), float(ev.rmse_torque()[i])])
+        sq = ev.rmse_squeeze
+        rows.append([m, "squeeze", float(np.sqrt(np.nanmean(sq[:3] ** 2))), float(np.sqrt(np.nanmean(sq[3:] ** 2)))])
+    _write_csv(os.path.join(out, "rmse_methods.csv"), ["method", "face", "rmse_force_N", "rmse_torque_Nm"], rows)
+    fig, axs = plt.subplots(1, 2, figsize=(12, 4.2))
+    labels = [f"face {i}" for i in range(1, 7)] + ["squeeze"]
+    x = np.arange(7)
+    w = 0.8 / len(METHOD_ORDER)
+    for j, m in enumerate(METHOD_ORDER):
+        f = [r[2] for r in rows if r[0] == m]
+        t = [r[3] for r in rows if r[0] == m]
+        axs[0].bar(x + (j - 2) * w, f, w, label=m, color=_COLORS[m])
+        axs[1].bar(x + (j - 2) * w, t, w, label=m, color=_COLORS[m])
+    for ax, unit, what in ((axs[0], "N", "force"), (axs[1], "N·m", "torque")):
+        ax.set_xticks(x, labels)
+        ax.set_ylabel(f"RMSE, {what} [{unit}]")
+        ax.set_xlabel("loaded face (single-face loads) / squeeze resultant")
+        ax.set_title(f"{what} RMSE per face and method{_SIM}", fontsize=9)
+    axs[0].legend(fontsize=7)
+    fig.tight_layout()
+    _save(fig, os.path.join(out, "rmse_methods.png"))
+    return ["rmse_methods.csv", "rmse_methods.png"]
+
+
+def _rmse_connected(res, out):
+    plt = _plt()
+    rows = []
+    for c in range(1, 7):
+        for m in ("loaded_frame", "unloaded_frame"):
+            _, ev = res.per_connected[(m, c)]
+            rows.append([c, m, float(np.nanmean(ev.rmse_force())), float(np.nanmean(ev.rmse_torque()))])
+    _write_csv(os.path.join(out, "rmse_connected_face.csv"),
+               ["connected_face", "method", "rmse_force_N", "rmse_torque_Nm"], rows)
+    fig, axs = plt.subplots(1, 2, figsize=(10, 3.8))
+    x = np.arange(1, 7)
+    for j, m in enumerate(("loaded_frame", "unloaded_frame")):
+        f = [r[2] for r in rows if r[1] == m]
+        t = [r[3] for r in rows if r[1] == m]
+        axs[0].bar(x + (j - 0.5) * 0.38, f, 0.38, label=m, color=_COLORS[m])
+        axs[1].bar(x + (j - 0.5) * 0.38, t, 0.38, label=m, color=_COLORS[m])
+    for ax, unit, what in ((axs[0], "N", "force"), (axs[1], "N·m", "torque")):
+        ax.set_xticks(x)
+        ax.set_xlabel("connected face (flange)")
+        ax.set_ylabel(f"mean RMSE, {what} [{unit}]")
+        ax.set_title(f"loaded vs unloaded frame, {what}{_SIM}", fontsize=9)
+    axs[0].legend(fontsize=7)
+    fig.tight_layout()
+    _save(fig, os.path.join(out, "rmse_connected_face.png"))
+    return ["rmse_connected_face.csv", "rmse_connected_face.png"]
+
+
+def free_rows_icn(cal) -> float:
+    """σmin/σmax of the rows of the faces other than the connected one (as fitted)."""
+    c = (cal.meta.get("connected_faces") or [None])[0]
+    keep = [k for k, f in enumerate(cal.output_faces) if f != c]
+    rows = np.concatenate([cal.matrix[6 * k : 6 * k + 6] for k in keep])
+    s = np.linalg.svd(rows, compute_uv=False)
+    return float(s[-1] / s[0]) if s[0] > 0 else 0.0
+
+
+def table1_rows(res):
+    rows = []
+    for c in range(1, 7):
+        cl, _ = res.per_connected[("loaded_frame", c)]
+        cu, _ = res.per_connected[("unloaded_frame", c)]
+        rows.append([c, cl.inverse_condition_number, cu.inverse_condition_number, free_rows_icn(cl), free_rows_icn(cu)])
+    return rows
+
+
+def _table1(res, out):
+    plt = _plt()
+    rows = table1_rows(res)
+    _write_csv(os.path.join(out, "table1_inverse_condition_numbers.csv"),
+               ["connected_face", "loaded_frame_icn", "unloaded_frame_icn", "loaded_frame_free_rows_icn",
+                "unloaded_frame_free_rows_icn"], rows)
+    fig, ax = plt.subplots(figsize=(7, 3.8))
+    x = np.arange(1, 7)
+    ax.bar(x - 0.2, [r[1] for r in rows], 0.38, label="loaded_frame (36×36)", color=_COLORS["loaded_frame"])
+    ax.bar(x + 0.2, [r[4] for r in rows], 0.38, label="unloaded_frame (30 free-face rows)", color=_COLORS["unloaded_frame"])
+    ax.axhspan(1e-4, 1e-3, color="0.85", zorder=0, label="paper's range 10⁻⁴–10⁻³")
+    ax.set_yscale("log")
+    ax.set_ylim(3e-5, 1e-2)
+    ax.set_xlabel("connected face (flange)")
+    ax.set_ylabel("inverse condition number σmin/σmax [1]")
+    ax.set_title(f"Table I: inverse condition numbers{_SIM}", fontsize=9)
+    ax.legend(fontsize=7, loc="upper center", ncol=2)
+    fig.tight_layout()
+    _save(fig, os.path.join(out, "table1_icn.png"))
+    return ["table1_inverse_condition_numbers.csv", "table1_icn.png"]
+
+
+# ---------------------------------------------------------------------- equilibrium
+def _equilibrium(res, out):
+    plt = _plt()
+    g = res.grasp
+    run = g["run"]
+    t = run.time - run.time[0]
+    step = max(1, t.size // 3000)
+    fig, axs = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+    axs[0].plot(t[::step], g["m_a_minus_g"][::step], "k-", lw=1.2, label="truth m‖a − g‖")
+    axs[0].axhline(run.weight, color="0.5", ls="--", lw=0.9, label=f"weight m g = {run.weight:.2f} N")
+    for m, eq in g["methods"].items():
+        axs[0].plot(t[::step], eq.force_sum_norm[::step], lw=0.8, color=_COLORS[m], label=f"‖ΣF‖, {m}")
+        axs[1].plot(t[::step], eq.torque_cog_norm[::step], lw=0.8, color=_COLORS[m], label=f"‖ΣT‖ about the cog, {m}")
+    axs[1].plot(t[::step], g["truth"].torque_cog_norm[::step], "k-", lw=1.0, label="truth")
+    on = run.state.on_table
+    for ax in axs:
+        edges = np.flatnonzero(np.diff(np.r_[0, on.astype(int), 0]))
+        for a, b in zip(edges[::2], edges[1::2]):
+            ax.axvspan(t[a], t[b - 1], color="0.9", zorder=0)
+        ax.legend(fontsize=7, loc="upper right")
+    axs[0].set_ylim(0, 2.5 * run.weight)
+    tmax = max(float(np.nanpercentile(eq.torque_cog_norm[~on], 99)) for eq in g["methods"].values()) if (~on).any() else 0.1
+    axs[1].set_ylim(0, max(1.5 * tmax, 0.01))
+    axs[0].text(0.01, 0.97, "quasi_total has no output for face 6 (the connected face of its calibration):\n"
+                "off scale while the object rests on face 6", transform=axs[0].transAxes, fontsize=7, va="top")
+    axs[0].set_ylabel("‖ΣF‖ [N]")
+    axs[1].set_ylabel("‖ΣT‖ about the cog [N·m]")
+    axs[1].set_xlabel("time [s] (grey: object resting on the table, face 6)")
+    axs[0].set_title(f"Free grasp equilibrium, mass {run.mass} kg{_SIM}", fontsize=9)
+    fig.tight_layout()
+    _save(fig, os.path.join(out, "equilibrium.png"))
+    methods = list(g["methods"])
+    rows = []
+    for n in range(0, t.size, step):
+        rows.append([float(t[n]), int(on[n]), float(g["m_a_minus_g"][n]), float(g["truth"].torque_cog_norm[n])]
+                    + [float(g["methods"][m].force_sum_norm[n]) for m in methods]
+                    + [float(g["methods"][m].torque_cog_norm[n]) for m in methods])
+    _write_csv(os.path.join(out, "equilibrium.csv"),
+               ["time_s", "on_table", "truth_m_a_minus_g_N", "truth_torque_cog_Nm"]
+               + [f"{m}_force_sum_N" for m in methods] + [f"{m}_torque_cog_Nm" for m in methods], rows)
+    return ["equilibrium.png", "equilibrium.csv"]
+
+
+# ---------------------------------------------------------------------- contact points
+def _contact(res, out):
+    tc = res.touches
+    if not tc.get("available"):
+        return []
+    plt = _plt()
+    pts = tc["points"]
+    rows = [[int(r[0]) + 1, float(pts[int(r[0]), 0]), float(pts[int(r[0]), 1]), float(r[1]), float(r[2]), float(r[3]), int(r[4])]
+            for r in tc["rows"]]
+    _write_csv(os.path.join(out, "contact_points.csv"),
+               ["point", "true_x_m", "true_y_m", "est_mean_x_m", "est_mean_y_m", "rms_error_m", "samples"], rows)
+    fig, ax = plt.subplots(figsize=(5.2, 5.2))
+    half = 0.023 * 1000
+    ax.plot([-half, half, half, -half, -half], [-half, -half, half, half, -half], "k-", lw=0.8, label="46×46 mm patch")
+    smp = tc["samples"]
+    ok = smp["valid"]
+    sel = np.flatnonzero(ok)[:: max(1, ok.sum() // 3000)]
+    ax.scatter(smp["est"][sel, 0] * 1000, smp["est"][sel, 1] * 1000, s=2, alpha=0.3, color="C0", label="estimated")
+    ax.scatter(pts[:, 0] * 1000, pts[:, 1] * 1000, marker="x", color="C3", s=60, label="true points")
+    ax.set_aspect("equal")
+    ax.set_xlabel(f"x on face {tc['face']} [mm]")
+    ax.set_ylabel(f"y on face {tc['face']} [mm]")
+    ax.set_title(f"Contact points, unloaded_frame{_SIM}", fontsize=9)
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    _save(fig, os.path.join(out, "contact_points.png"))
+    return ["contact_points.csv", "contact_points.png"]
