@@ -21,6 +21,10 @@ AXES = ("fx", "fy", "fz", "tx", "ty", "tz")
 #: A face's loads must excite each wrench direction with at least this fraction of
 #: the strongest direction (scaled: forces by 15 N, torques by 0.1 N·m full scale).
 EXCITATION_RTOL = 1e-3
+#: Default ``min_snr``: where the loads span fewer than 36 dimensions, a counts direction
+#: follows the data when its RMS signal exceeds this many times the gauge noise at rest,
+#: the faces' own-gauge fits otherwise (docs/calibration.md, step 5).
+DEFAULT_MIN_SNR = 30.0
 #: Full-scale loads used to put forces and torques on one footing (N, N·m).
 FULL_SCALE = np.array([15.0, 15.0, 15.0, 0.1, 0.1, 0.1])
 
@@ -124,6 +128,11 @@ class Calibrator:
         Samples per block: memory is bounded by this, not by the number of samples.
     progress : callable, optional
         Called as ``progress(done, total)`` in samples during the fit.
+    min_snr : float
+        Only where the loads span fewer than the 36 gauge dimensions (type-1 and type-3
+        flanges): a direction of the counts follows the data when its RMS signal exceeds
+        ``min_snr`` × the gauge noise at rest, and each face's own-gauge fit otherwise, so
+        loads never seen in calibration (a free grasp's net load) are still measured.
 
     Attributes
     ----------
@@ -135,13 +144,17 @@ class Calibrator:
         Samples used in the fit.
     """
 
-    def __init__(self, method, *, allow_rank_deficient: bool = False, block_size: int = 65536, progress=None):
+    def __init__(self, method, *, allow_rank_deficient: bool = False, block_size: int = 65536, progress=None,
+                 min_snr: float = DEFAULT_MIN_SNR):
         self.method = get_method(method).name
         self.allow_rank_deficient = bool(allow_rank_deficient)
         if int(block_size) < 1:
             raise ValueError(f"block_size: expected a positive number of samples, got {block_size!r}")
         self.block_size = int(block_size)
         self.progress = progress
+        if not float(min_snr) > 0:
+            raise ValueError(f"min_snr: expected a positive signal-to-noise ratio, got {min_snr!r}")
+        self.min_snr = float(min_snr)
 
     # ---------------------------------------------------------------- checks
     def _check_sessions(self, spec: MethodSpec, sessions: list[CalibrationSession]) -> None:
@@ -255,8 +268,15 @@ class Calibrator:
             # directions are dropped, not fitted), and act as the faces' own-gauge fits
             # on the rest (e.g. the net load, which a face flange always balances)
             rank = min(all_rank, 36)
-            res = self._solve_checked(joint, rank, out_faces, deficient=rank < 36, strict=True,
-                                      prior=own_X if rank < 36 else None, col_scale=noise)
+            if rank < 36 and noise is not None:
+                # noisy data: ridge towards the own-gauge fit, in noise units (a direction
+                # needs an RMS signal of min_snr × the noise at rest to follow the data)
+                ridge = joint.n_rows * self.min_snr**2
+                res = self._solve_checked(joint, rank, out_faces, deficient=False, strict=True,
+                                          prior=own_X, col_scale=noise, ridge=ridge)
+            else:  # full-rank loads, or noise-free data: keep the r load directions exactly
+                res = self._solve_checked(joint, rank, out_faces, deficient=rank < 36, strict=True,
+                                          prior=own_X if rank < 36 else None)
             matrix[:] = res.X.T
             ranks.append(res.rank)
             for k, f in enumerate(out_faces):
@@ -276,6 +296,7 @@ class Calibrator:
             "n_samples_fitted": int(n_used),
             "fit_residual_rms": residual.tolist(),
             "load_rank": ranks,
+            "min_snr": self.min_snr,
             "simulated": any(bool(s.meta.get("simulated", False)) for s in sessions),
         }
         self.calibration_ = Calibration(
@@ -290,14 +311,14 @@ class Calibrator:
         )
         return self
 
-    def _solve_checked(self, acc, rank, faces, *, deficient, strict, prior=None, col_scale=None):
+    def _solve_checked(self, acc, rank, faces, *, deficient, strict, prior=None, col_scale=None, ridge=None):
         """Solve one accumulator, refusing too few samples or dead channels when ``strict``."""
         p = acc.p
         if acc.n_rows < p:
             raise ValueError(
                 f"sessions: only {acc.n_rows} usable samples for face(s) {list(faces)}, expected at least {p}"
             )
-        res = acc.solve(rank=rank if deficient else None, prior=prior, col_scale=col_scale)
+        res = acc.solve(rank=rank if deficient else None, prior=prior, col_scale=col_scale, ridge=ridge)
         if strict and res.numerical_rank < min(rank, p) and not self.allow_rank_deficient:
             raise ValueError(
                 f"counts: the gauge data for face(s) {list(faces)} span fewer than the {rank} "
@@ -345,7 +366,7 @@ def calibrate(sessions, method, **kwargs) -> Calibration:
     method : str
         ``face_to_face``, ``quasi_total``, ``total``, ``loaded_frame`` or ``unloaded_frame``.
     **kwargs
-        ``allow_rank_deficient``, ``block_size``, ``progress`` (see :class:`Calibrator`).
+        ``allow_rank_deficient``, ``block_size``, ``progress``, ``min_snr`` (see :class:`Calibrator`).
 
     Returns
     -------

@@ -85,7 +85,8 @@ class StreamedQR:
             self.residual_ss += Bk.sum(axis=0)
         self.R11, self.R12 = R11, R12
 
-    def solve(self, rank: int | None = None, prior: np.ndarray | None = None, col_scale=None) -> LstsqResult:
+    def solve(self, rank: int | None = None, prior: np.ndarray | None = None, col_scale=None,
+              ridge: float | None = None) -> LstsqResult:
         """Least-squares solution from the accumulated factor, of rank at most ``rank``.
 
         Columns of A are scaled to unit norm (their norms are read off R) before the
@@ -102,7 +103,10 @@ class StreamedQR:
 
         With ``prior (p, q)``, the solution equals the prior in the directions left out
         (``X = Xᵣ + (I − VᵣVᵣᵀ) X₀`` in scaled coordinates) instead of zero there: the
-        minimum-norm correction of the prior.
+        minimum-norm correction of the prior. With ``prior`` and ``ridge = λ`` instead, the
+        solution minimises ``‖A X − B‖² + λ‖X − X₀‖²`` in scaled coordinates: directions
+        the data excite strongly (σ² ≫ λ) follow the data, weakly excited ones (noise,
+        σ² ≪ λ) the prior — without choosing a rank.
         """
         R11, R12 = np.triu(self.R11), self.R12
         norms = np.linalg.norm(R11, axis=0) if col_scale is None else np.asarray(col_scale, dtype=float)
@@ -111,6 +115,18 @@ class StreamedQR:
         r_num = int(np.sum(sv > RANK_RTOL * sv[0])) if sv.size and sv[0] > 0 else 0
         r = r_num if rank is None else int(min(rank, r_num))
         keep = slice(0, r)
+        if prior is not None and ridge is not None:
+            Z0 = np.asarray(prior, dtype=float) * np.where(d > 0, 1.0 / np.where(d > 0, d, 1.0), 0.0)[:, None]
+            s_k = sv[keep]
+            V = Vt.T
+            data_w = np.zeros_like(sv)
+            data_w[keep] = s_k / (s_k**2 + ridge)
+            prior_w = np.ones_like(sv)
+            prior_w[keep] = ridge / (s_k**2 + ridge)
+            Z = V @ (data_w[:, None] * (U.T @ R12)) + V @ (prior_w[:, None] * (Vt @ Z0))
+            X = Z * d[:, None]
+            resid = np.sqrt(self.residual_ss / max(self.n_rows, 1))
+            return LstsqResult(X, sv, self.n_rows, resid, r, r_num)
         Z = Vt[keep].T @ ((U[:, keep].T @ R12) / np.where(sv[keep] > 0, sv[keep], np.inf)[:, None])
         if prior is not None:
             Z0 = np.asarray(prior, dtype=float) * np.where(d > 0, 1.0 / np.where(d > 0, d, 1.0), 0.0)[:, None]

@@ -32,7 +32,7 @@ METHOD_ORDER = ("face_to_face", "quasi_total", "total", "loaded_frame", "unloade
 #: face-flange fits (``total``, ``unloaded_frame``) are not: every face-flange sample has
 #: Σ_i F_i = 0 (the flange reaction balances the loads), so their fitted rows sum to zero
 #: and they output ΣF ≡ 0 whatever the counts.
-GRASP_METHODS = ("face_to_face", "quasi_total", "loaded_frame")
+GRASP_METHODS = ("face_to_face", "quasi_total", "loaded_frame", "unloaded_frame")
 
 #: Calibration mounts of each method: (flange, connected faces of its calibration sessions).
 #: ``total`` combines two face-flange sessions so that the connected face's rows are fitted
