@@ -133,6 +133,8 @@ class Calibrator:
         flanges): a direction of the counts follows the data when its RMS signal exceeds
         ``min_snr`` × the gauge noise at rest, and each face's own-gauge fit otherwise, so
         loads never seen in calibration (a free grasp's net load) are still measured.
+        ``min_snr=0`` gives the papers' plain least squares ``C = W S⁺``: lower error on
+        loads like the calibration's, but blind to net loads (docs/calibration.md).
 
     Attributes
     ----------
@@ -152,8 +154,8 @@ class Calibrator:
             raise ValueError(f"block_size: expected a positive number of samples, got {block_size!r}")
         self.block_size = int(block_size)
         self.progress = progress
-        if not float(min_snr) > 0:
-            raise ValueError(f"min_snr: expected a positive signal-to-noise ratio, got {min_snr!r}")
+        if not float(min_snr) >= 0:
+            raise ValueError(f"min_snr: expected a signal-to-noise ratio ≥ 0, got {min_snr!r}")
         self.min_snr = float(min_snr)
 
     # ---------------------------------------------------------------- checks
@@ -268,7 +270,9 @@ class Calibrator:
             # directions are dropped, not fitted), and act as the faces' own-gauge fits
             # on the rest (e.g. the net load, which a face flange always balances)
             rank = min(all_rank, 36)
-            if rank < 36 and noise is not None:
+            if self.min_snr == 0:  # the papers' plain least squares
+                res = self._solve_checked(joint, rank, out_faces, deficient=False, strict=True)
+            elif rank < 36 and noise is not None:
                 # noisy data: ridge towards the own-gauge fit, in noise units (a direction
                 # needs an RMS signal of min_snr × the noise at rest to follow the data)
                 ridge = joint.n_rows * self.min_snr**2

@@ -37,6 +37,9 @@ def register(sub) -> None:
     p.add_argument("--seed", type=int, default=0, help="seed of the hold-out split (default 0)")
     p.add_argument("--allow-rank-deficient", action="store_true",
                    help="fit a minimum-norm matrix (with a warning) when a face's loads miss some directions")
+    p.add_argument("--min-snr", type=float, default=None, metavar="R",
+                   help="type-1/3 flanges: counts directions weaker than R × the gauge noise follow each face's "
+                        "own-gauge fit (default 30); 0 = the papers' plain least squares, blind to net loads")
     p.add_argument("--flange", choices=("frame", "frame_hole", "face"), help="mount of CSV sessions")
     p.add_argument("--connected-face", type=int, choices=range(1, 7), metavar="1..6", help="connected face of CSV sessions")
     p.set_defaults(func=run)
@@ -74,7 +77,8 @@ def run(args) -> int:
         if sys.stderr.isatty():
             print(f"\rfitting: {done}/{total} samples ({100 * done / max(total, 1):.0f} %)", end="", file=sys.stderr)
 
-    cal = calibrate(train, args.method, allow_rank_deficient=args.allow_rank_deficient, progress=progress)
+    extra = {} if args.min_snr is None else {"min_snr": args.min_snr}
+    cal = calibrate(train, args.method, allow_rank_deficient=args.allow_rank_deficient, progress=progress, **extra)
     if sys.stderr.isatty():
         print(file=sys.stderr)
     dt = time.perf_counter() - t0

@@ -213,3 +213,18 @@ def test_fits_on_30_dimensional_loads_still_see_net_loads(method):
         truth = equilibrium(test.true_face_wrenches, cal.core, mass=1.0)
         np.testing.assert_allclose(eq.force_sum_norm, truth.force_sum_norm, atol=0.05)
         assert eq.force_sum_norm.max() > 5.0
+
+
+def test_min_snr_zero_is_the_papers_plain_least_squares():
+    from pito_core.calibration import equilibrium
+
+    K = true_sensitivity(32, coupling=0.0)
+    s = make_session(K, flange="face", connected_face=6, k=800, noise=2.0, free_only=True)
+    plain = calibrate(s, "unloaded_frame", min_snr=0)
+    assert plain.meta["min_snr"] == 0
+    # rows of the connected face are minus the others': blind to net loads
+    test = make_session(K, flange="frame_hole", connected_face=6, k=100, noise=2.0, seed=3)
+    eq = equilibrium(plain.wrenches(test.counts, offset=test.true_offset), plain.core, mass=1.0)
+    assert eq.force_sum_norm.max() < 1e-6
+    with pytest.raises(ValueError, match=r"min_snr: expected a signal-to-noise ratio ≥ 0"):
+        calibrate(s, "unloaded_frame", min_snr=-1)

@@ -1,0 +1,193 @@
+"""pito bench: correctness only (STYLE.md item 12: benchmarks are not tests, no timing asserted)."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from pito_core.bench import _data, _report, _run
+from pito_core.bench._calibration import plain_fit, rmse_summary
+from pito_core.bench._contact import SURFACES, make_surface, pareto, sample_contacts, scipy_solve
+from pito_core.bench._pipeline import _naive_decode, default_pipeline, live_scenario
+
+
+@pytest.fixture(scope="module")
+def quick_result(tmp_path_factory):
+    """A quick run on tiny sizes (calibration and contact sections, in subprocesses)."""
+    return _run.run_bench(
+        quick=True, sections=("calibration", "contact"), sizes=[1000, 2000],
+        workdir=str(tmp_path_factory.mktemp("bench")),
+        contact_sizes={"n_speed": 2000, "n_acc": 400, "n_scipy": 3},
+    )
+
+
+@pytest.mark.slow
+def test_quick_run_json_has_calibration_and_contact_ratios(quick_result):
+    doc = json.loads(json.dumps(quick_result, allow_nan=False))  # strict JSON (no NaN), round trip
+    cal, con = doc["calibration"], doc["contact"]
+    assert "simulated" in cal["data"]
+    methods = {r["method"] for r in cal["memory"]}
+    assert methods == {"face_to_face", "quasi_total", "total", "loaded_frame", "unloaded_frame"}
+    for r in cal["memory"]:
+        assert r["k"] in (1000, 2000)
+        for key in ("rmse_force_N", "rmse_torque_Nm", "rmse_ratio_lstsq", "rmse_ratio_pinv", "time_ratio_lstsq"):
+            assert math.isfinite(r[key]) and r[key] > 0, key
+    assert {r["k"] for r in cal["streamed"]} == {1000, 2000}
+    for r in cal["streamed"]:
+        assert r["fit_peak_rss_MB"] > 0 and math.isfinite(r["rmse_force_N"])
+    kinds = {a["surface"] for a in con["accuracy"]}
+    assert kinds == set(SURFACES)
+    assert {a["scenario"] for a in con["accuracy"]} == {"soft", "near_tangent", "point"}
+    for a in con["accuracy"]:
+        assert "crb_ratio" in a and "valid_fraction" in a
+    finite = [a["crb_ratio"] for a in con["accuracy"] if math.isfinite(a["crb_ratio"])]
+    assert len(finite) >= len(con["accuracy"]) - 2
+    assert all(p["solves_per_s"] > 0 for p in con["pareto"])
+    assert any(p["pareto"] for p in con["pareto"])
+    assert any(t["target"].startswith("contact error") for t in doc["targets"])
+
+
+@pytest.mark.slow
+def test_report_text_has_units_and_plots(quick_result, tmp_path):
+    text = _report.format_report(quick_result)
+    for unit in ("(ms)", "(N)", "(N·m)", "(MB)", "solves/s", "error/CRB", "Targets"):
+        assert unit in text
+    paths = _report.write_plots(quick_result, tmp_path)
+    assert len(paths) == 3
+    assert all(p.endswith(".png") and (tmp_path / p.split("/")[-1]).stat().st_size > 1000 for p in paths)
+
+
+def test_live_section_skipped_without_app_extras(monkeypatch):
+    monkeypatch.setattr(_run, "live_available", lambda: False)
+    out = _run.run_bench(sections=("live",))
+    assert out["live"] == {"status": "skipped: app extras not installed"}
+    assert "skipped: app extras not installed" in _report.format_report(out)
+
+
+def test_unknown_section_is_refused():
+    with pytest.raises(ValueError, match="sections"):
+        _run.run_bench(sections=("gpu",))
+
+
+def test_generated_file_equals_in_memory_session(tmp_path):
+    from pito_core.calibration import CalibrationSession
+
+    n = _data.GEN_BLOCK + 500  # two generator blocks
+    path = tmp_path / "s.h5"
+    _data.write_session_file(path, "face", 6, n, seed=3)
+    a = CalibrationSession.load(path)
+    b = _data.generate_session("face", 6, n, seed=3)
+    assert np.array_equal(a.counts, b.counts) and np.array_equal(a.reference, b.reference)
+    assert np.array_equal(a.loaded, b.loaded) and a.meta["simulated"] is True
+    assert (a.loaded.sum(axis=1) <= 1).all() and (~a.loaded.any(axis=1)).sum() > 50
+
+
+def test_generator_follows_the_load_paths():
+    from pito_core.frames import FACES, invert_pose, transform_wrench
+    from pito_core.sim import face_wrenches_from_applied
+
+    for flange in ("face", "frame", "frame_hole"):
+        d = _data.BenchData(flange, 6, 2000, seed=1)
+        counts, reference, loaded = d.block(0)
+        rng = np.random.default_rng([1, 0])  # replay the block's draws
+        face = np.asarray(d.faces)[rng.integers(0, len(d.faces), 2000)]
+        face[rng.random(2000) < _data.UNLOADED_FRACTION] = 0
+        face[:50] = 0
+        W = rng.uniform(-1, 1, (2000, 6)) * _data.LOAD_SCALE
+        applied = np.zeros((2000, 6, 6))
+        for i in FACES:
+            s = face == i
+            applied[s, i - 1] = transform_wrench(W[s], invert_pose(d.core.face_pose(i)))
+        F, W_total, _ = face_wrenches_from_applied(applied, flange, 6, d.core)
+        np.testing.assert_allclose(reference, transform_wrench(W_total, d.T_core_ati), atol=1e-9)
+        np.testing.assert_array_equal(counts, d.cube.counts_from_face_wrenches(F, np.zeros(2000), rng=rng))
+
+
+def test_plain_fit_is_the_dense_least_squares_solution():
+    from pito_core.calibration import calibrate, evaluate
+
+    s = _data.generate_session("face", 6, 6000, seed=1)
+    test = _data.generate_session("face", 6, 3000, seed=2)
+    for method in ("unloaded_frame", "face_to_face"):
+        faces = calibrate(s, method).output_faces
+        a = plain_fit(s, method, faces, "lstsq")
+        b = plain_fit(s, method, faces, "pinv")
+        assert a.output_faces == faces and a.matrix.shape == (6 * len(faces), 36)
+        np.testing.assert_allclose(a.matrix, b.matrix, rtol=1e-6, atol=1e-9 * np.abs(a.matrix).max())
+        r = rmse_summary(evaluate(a, test))
+        assert 0 < r["rmse_force_N"] < 2.0 and 0 < r["rmse_torque_Nm"] < 0.05  # loads: ±15 N, ±0.1 N·m
+
+
+@pytest.mark.parametrize("kind", ["plane", "sphere", "ellipsoid", "mesh"])
+@pytest.mark.parametrize("scenario", ["soft", "near_tangent", "point"])
+def test_sampled_contacts_push_on_the_surface(kind, scenario):
+    from pito_core.contact import solve
+
+    surface = make_surface(kind)
+    c, n, f, tau = sample_contacts(surface, 200, scenario, np.random.default_rng(0))
+    cosang = -(f * n).sum(1) / np.linalg.norm(f, axis=1)
+    assert (cosang > 0).all()
+    if scenario == "near_tangent":
+        assert (cosang < np.cos(np.deg2rad(79))).all()
+    if scenario == "point":
+        assert (tau == 0).all()
+    w = np.c_[f, np.cross(c, f) + tau[:, None] * n]
+    est = solve(surface, w)
+    ok = est.valid
+    assert ok.mean() > 0.9
+    # every estimate explains the wrench exactly (noise free) ...
+    m_est = np.cross(est.point[ok], est.force[ok]) + est.torsion[ok, None] * est.normal[ok]
+    np.testing.assert_allclose(m_est, w[ok, 3:], atol=1e-9)
+    # ... and is the true contact, except on the bumpy mesh with nearly tangent forces,
+    # where the line of action can enter the surface twice (two exact solutions)
+    if not (kind == "mesh" and scenario == "near_tangent"):
+        np.testing.assert_allclose(est.point[ok], c[ok], atol=1e-7)
+
+
+@pytest.mark.parametrize("kind", ["plane", "sphere", "ellipsoid"])
+def test_scipy_baseline_recovers_noise_free_contacts(kind):
+    surface = make_surface(kind)
+    c, n, f, tau = sample_contacts(surface, 5, "soft", np.random.default_rng(1))
+    w = np.c_[f, np.cross(c, f) + tau[:, None] * n]
+    cov = np.diag([1e-4] * 3 + [1e-8] * 3)
+    np.testing.assert_allclose(scipy_solve(surface, w, cov), c, atol=1e-6)
+
+
+def test_mesh_has_5000_facets():
+    assert len(make_surface("mesh").mesh.faces) == 5000
+
+
+def test_pareto_marks_dominated_points():
+    speed = [{"surface": "plane", "solver": "closed form (soft finger)", "solves_per_s": 10.0},
+             {"surface": "plane", "solver": "scipy least_squares (soft finger)", "solves_per_s": 1.0}]
+    acc = [{"surface": "plane", "scenario": "soft", "crb_ratio": 1.0, "scipy_crb_ratio": 2.0}]
+    pts = {p["solver"]: p["pareto"] for p in pareto(speed, acc)}
+    assert pts == {"closed form (soft finger)": True, "scipy least_squares (soft finger)": False}
+
+
+def test_naive_decoder_and_live_pipeline_on_simulated_frames():
+    from pito_core.devices import pack_frames
+
+    counts, truth = live_scenario(50, seed=0)
+    data = b"\x00\x01" + pack_frames(np.arange(50), np.arange(50) * 1000, counts)
+    assert _naive_decode(data) == 50
+    bundle = default_pipeline().process(counts[-10:])
+    assert bundle["wrenches"].shape == (10, 6, 6) and bundle["valid"].all()
+    # the six contacts of the latest sample, back in face frames, are near the truth
+    pipe = default_pipeline()
+    for i in range(6):
+        p_face = pipe.R[i].T @ (bundle["points"][i] - pipe.p[i])
+        assert np.linalg.norm(p_face - truth["points"][-1, i]) < 2e-3
+
+
+def test_cli_help_and_bad_sizes(capsys):
+    from pito_core.cli import main
+
+    with pytest.raises(SystemExit):
+        main(["bench", "--help"])
+    assert "solves per second" in capsys.readouterr().out
+    assert main(["bench", "--sizes", "12"]) == 1
+    assert "--sizes" in capsys.readouterr().err
