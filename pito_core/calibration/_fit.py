@@ -27,6 +27,7 @@ EXCITATION_RTOL = 1e-3
 DEFAULT_MIN_SNR = 30.0
 #: Full-scale loads used to put forces and torques on one footing (N, N·m).
 FULL_SCALE = np.array([15.0, 15.0, 15.0, 0.1, 0.1, 0.1])
+_GRAM_SCALE = np.outer(np.tile(1 / FULL_SCALE, 6), np.tile(1 / FULL_SCALE, 6))
 
 
 class RankDeficientWarning(UserWarning):
@@ -197,7 +198,7 @@ class Calibrator:
         self._check_sessions(spec, sessions)
         total_samples = sum(len(s) for s in sessions)
 
-        # pass 1: offsets (with NaN/inf/saturation refusal) and per-face excitation Gram matrices
+        # pass 1: offsets and noise at rest (refusing NaN, inf and saturated samples)
         stats = [session_tare_stats(s, self.block_size) for s in sessions]
         offsets = [m for m, _ in stats]
         # gauge noise at rest, pooled over sessions: the coordinates in which signal and
@@ -205,10 +206,21 @@ class Calibrator:
         noise = np.sqrt(np.mean([sd**2 for _, sd in stats], axis=0))
         noise = noise if np.all(noise > 0) else None
         mounts = [MountGeometry(s) for s in sessions]
+
+        # pass 2: targets, their Gram matrix (excitation, load rank) and streamed QR.
+        # Each face's own-gauge fit (face_to_face's 6×6 blocks) is the result for "own"
+        # methods, and the prior for "all" methods under flanges that leave the loads
+        # fewer than 36 dimensions (type 1: the connected face idle; type 3: balanced).
         gram = np.zeros((36, 36))  # joint Gram of the scaled targets of all faces
         carried_any = np.zeros(6, dtype=bool)
         n_used = 0
-        for k, (s, mount) in enumerate(zip(sessions, mounts)):
+        need_own = spec.inputs == "own" or any(s.flange in ("frame", "face") for s in sessions)
+        own = {f: StreamedQR(6, 6, flush_rows=self.block_size) for f in FACES} if need_own else {}
+        joint_faces = self._output_faces(spec, sessions, None) if spec.inputs == "all" else ()
+        joint = StreamedQR(36, 6 * len(joint_faces), flush_rows=self.block_size) if joint_faces else None
+        idx = [f - 1 for f in joint_faces]
+        done = 0
+        for k, (s, mount, offset) in enumerate(zip(sessions, mounts, offsets)):
             for b in s.iter_blocks(self.block_size):
                 targets, carries, usable, bad = block_targets(b.reference, b.loaded, mount, spec.output_frame)
                 if bad.any():
@@ -216,40 +228,31 @@ class Calibrator:
                         f"sessions[{k}].loaded: the connected face {s.connected_face} cannot be loaded with "
                         f"flange 'frame', yet it is marked loaded at sample indices {_few(np.flatnonzero(bad) + b.start)}"
                     )
+                every = usable.all()
                 n_used += int(usable.sum())
                 carried_any |= (carries & usable[:, None]).any(axis=0)
-                t = (targets[usable] / FULL_SCALE).reshape(-1, 36)
-                gram += t.T @ t
-        out_faces = self._output_faces(spec, sessions, carried_any)
-        if not out_faces:
-            raise ValueError("loaded: no face carried load in the sessions; nothing to calibrate")
-        self._check_excitation(out_faces, gram)
-
-        # pass 2: streamed QR. Each face's own-gauge fit (face_to_face's 6×6 blocks) is
-        # the result for "own" methods, and the prior for "all" methods whose loads span
-        # fewer dimensions than the 36 gauges (see _solve_all).
-        all_rank = _load_rank(gram, out_faces) if spec.inputs == "all" else 0
-        need_own = spec.inputs == "own" or all_rank < 36
-        own = {f: StreamedQR(6, 6, flush_rows=self.block_size) for f in out_faces} if need_own else {}
-        joint = StreamedQR(36, 6 * len(out_faces), flush_rows=self.block_size) if spec.inputs == "all" else None
-        idx = [f - 1 for f in out_faces]
-        done = 0
-        for s, mount, offset in zip(sessions, mounts, offsets):
-            for b in s.iter_blocks(self.block_size):
-                targets, carries, usable, _ = block_targets(b.reference, b.loaded, mount, spec.output_frame)
+                t = (targets if every else targets[usable]).reshape(-1, 36)
+                gram += (t.T @ t) * _GRAM_SCALE
                 S = b.counts - offset
                 unloaded = ~b.loaded.any(axis=1)
                 for f, acc in own.items():
                     rows = usable & (carries[:, f - 1] | unloaded)
                     acc.add(S[rows, 6 * (f - 1) : 6 * f], targets[rows, f - 1])
                 if joint is not None:
-                    if usable.all():  # the common case: no copies of the whole block
-                        joint.add(S, targets[:, idx, :].reshape(-1, 6 * len(out_faces)))
+                    if every:  # the common case: no copies of the whole block
+                        B = targets.reshape(-1, 36) if joint_faces == FACES else targets[:, idx, :].reshape(-1, 6 * len(idx))
+                        joint.add(S, B)
                     else:
-                        joint.add(S[usable], targets[usable][:, idx, :].reshape(-1, 6 * len(out_faces)))
+                        joint.add(S[usable], targets[usable][:, idx, :].reshape(-1, 6 * len(joint_faces)))
                 done += b.counts.shape[0]
                 if self.progress is not None:
                     self.progress(done, total_samples)
+        out_faces = joint_faces or self._output_faces(spec, sessions, carried_any)
+        if not out_faces:
+            raise ValueError("loaded: no face carried load in the sessions; nothing to calibrate")
+        self._check_excitation(out_faces, gram)
+        all_rank = _load_rank(gram, out_faces) if spec.inputs == "all" else 0
+        own = {f: own[f] for f in out_faces if f in own}
 
         matrix = np.zeros((6 * len(out_faces), 36))
         residual = np.full((6, 6), np.nan)
@@ -277,10 +280,10 @@ class Calibrator:
                 # needs an RMS signal of min_snr × the noise at rest to follow the data)
                 ridge = joint.n_rows * self.min_snr**2
                 res = self._solve_checked(joint, rank, out_faces, deficient=False, strict=True,
-                                          prior=own_X, col_scale=noise, ridge=ridge)
+                                          prior=own_X if own else None, col_scale=noise, ridge=ridge)
             else:  # full-rank loads, or noise-free data: keep the r load directions exactly
                 res = self._solve_checked(joint, rank, out_faces, deficient=rank < 36, strict=True,
-                                          prior=own_X if rank < 36 else None)
+                                          prior=own_X if rank < 36 and own else None)
             matrix[:] = res.X.T
             ranks.append(res.rank)
             for k, f in enumerate(out_faces):
