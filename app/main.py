@@ -50,8 +50,10 @@ def main(argv=None) -> int:
     from .window import MainWindow
 
     app.setStyleSheet(STYLE)
+    # screenshots: a brisker simulated operator (0.6 s per move-and-hold) so the wizard fills quickly
     window = MainWindow(demo=args.demo, calibration_path=args.calibration, rate=args.rate, seed=args.seed,
-                        demo_k=args.demo_k)
+                        demo_k=args.demo_k, demo_period=0.6 if args.screenshot else 1.5,
+                        wizard_k=600 if args.screenshot else 1000)
     if args.screenshot:
         from .screenshot import take_screenshot
 
@@ -61,10 +63,12 @@ def main(argv=None) -> int:
             return 2
         ok = take_screenshot(window, args.page, args.screenshot, (w, h))
         window.shutdown()
+        window.release_views()
         return 0 if ok else 1
     window.show()
     code = app.exec()
     window.shutdown()
+    window.release_views()
     return code
 
 

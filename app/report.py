@@ -86,15 +86,11 @@ def identification_figure(evaluation, fig: Figure | None = None, dark: bool = Tr
     for i in range(6):
         for j in range(6):
             if np.isfinite(M[i, j]):
-                ax.text(j, i, f"{M[i, j]:.1f}", ha="center", va="center", fontsize=6.5,
+                ax.text(j, i, f"{M[i, j]:.1f}", ha="center", va="center", fontsize=8,
                         color="black" if M[i, j] > 0.6 * np.nanmax(M) else "white")
     acc = (evaluation.identification.get("single") or {}).get("either")
-    ax.set_title("face identification: mean ‖F‖ (N)" + (f"\n{100 * acc:.1f} % of samples right" if acc is not None else ""),
+    ax.set_title("face identification: mean ‖F‖ (N) per face" + (f" — {100 * acc:.1f} % right" if acc is not None else ""),
                  fontsize=9)
-    cb = fig.colorbar(im, ax=ax, fraction=0.046, pad=0.04)
-    cb.set_label("N", color=DARK["fg"] if dark else "black")
-    if dark:
-        cb.ax.tick_params(colors=DARK["fg"], labelsize=7)
     fig.tight_layout()
     style_figure(fig, dark)
     return fig

@@ -12,7 +12,6 @@ from __future__ import annotations
 import numpy as np
 import pyvista as pv
 from pyvistaqt import QtInteractor
-from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QVBoxLayout, QWidget
 
 from pito_core.frames import FACES, CubeCore
@@ -161,9 +160,9 @@ class ContactGlyphs:
             self.spheres[i].SetVisibility(on)
             self.arrows[i].SetVisibility(on)
             tor = float(torsions[k]) if on else np.nan
-            ring_on = on and self.show_torsion and np.isfinite(tor) and abs(tor) * self.torque_scale > 1e-4
+            ring_on = bool(on and self.show_torsion and np.isfinite(tor) and abs(tor) * self.torque_scale > 1e-4)
             self.rings[i].SetVisibility(ring_on)
-            cov_on = on and self.show_uncertainty and covariances is not None and np.isfinite(covariances[k]).all()
+            cov_on = bool(on and self.show_uncertainty and covariances is not None and np.isfinite(covariances[k]).all())
             self.ellipsoids[i].SetVisibility(cov_on)
             if not on:
                 continue
@@ -192,7 +191,7 @@ class CubeScene(QWidget):
         super().__init__(parent)
         self.core = core or CubeCore()
         self.plotter = QtInteractor(self, auto_update=False, multi_samples=0)
-        self.plotter.set_background(BACKGROUND, top="#39424d")
+        self.plotter.set_background(BACKGROUND)  # flat: a gradient costs a full-screen pass in software GL
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(self.plotter.interactor)
@@ -220,12 +219,15 @@ class CubeScene(QWidget):
     def _count_frame(self, *_):
         self.frames_rendered += 1
 
-    def reset_camera(self, distance: float = 6.0) -> None:
+    def reset_camera(self, distance: float = 4.6) -> None:
         e = self.core.edge
-        self.plotter.camera_position = [(distance * e * 0.75, -distance * e, distance * e * 0.6), (0, 0, 0), (0, 0, 1)]
+        d = np.array([0.4, -1.0, 0.55])
+        d *= distance * e / np.linalg.norm(d) * 1.35
+        self.plotter.camera_position = [tuple(d), (0, 0, 0), (0, 0, 1)]
         self.plotter.camera.view_angle = 30.0
 
-    def look_at_mount(self, connected_face: int | None, active_face: int | None = None, distance: float = 4.8) -> None:
+    def look_at_mount(self, connected_face: int | None, active_face: int | None = None, distance: float = 4.8,
+                      elevation: float | None = None) -> None:
         """Camera with the flange's face down (as on the bench), the active face towards the viewer."""
         from pito_core.frames import FACE_NORMALS
 
@@ -239,10 +241,9 @@ class CubeScene(QWidget):
         else:
             front = np.array(next(FACE_NORMALS[i] for i in FACES if abs(np.dot(FACE_NORMALS[i], up)) < 0.5))
         side = np.cross(up, front)
-        if active_face is not None and np.allclose(FACE_NORMALS[active_face], up):
-            elevation = 0.9  # the top face: look from higher up
-        else:
-            elevation = 0.55
+        if elevation is None:
+            top = active_face is not None and np.allclose(FACE_NORMALS[active_face], up)
+            elevation = 0.9 if top else 0.55  # the top face: look from higher up
         direction = front + 0.55 * side + elevation * up
         direction /= np.linalg.norm(direction)
         centre = -up * 0.25 * e
@@ -269,7 +270,7 @@ class CubeScene(QWidget):
             colors[active_face] = ACTIVE_COLOR
         self.set_face_colors(colors)
 
-    def set_mount(self, flange: str | None, connected_face: int | None) -> None:
+    def set_mount(self, flange: str | None, connected_face: int | None, flange_opacity: float = 1.0) -> None:
         """Draw the calibration flange and the reference sensor on ``connected_face`` (or none)."""
         for name in list(self._mount_actors):
             self.plotter.remove_actor(name, render=False)
@@ -300,11 +301,12 @@ class CubeScene(QWidget):
         meshes.append(("stand", pv.Box(bounds=(-1.0 * e, 1.0 * e, -1.0 * e, 1.0 * e, z0 + 0.4 * e, z0 + 0.5 * e)), "#4a5560"))
         for name, mesh, color in meshes:
             actor_name = f"mount_{name}"
-            self.plotter.add_mesh(mesh.transform(T, inplace=False), color=color, name=actor_name, reset_camera=False, smooth_shading=name == "ati")
+            self.plotter.add_mesh(mesh.transform(T, inplace=False), color=color, name=actor_name, reset_camera=False,
+                                  smooth_shading=name == "ati", opacity=flange_opacity if name == "flange" else 1.0)
             self._mount_actors.append(actor_name)
         self.redraw()
 
-    def set_patches(self, meshes: dict[int, pv.PolyData] | None, opacity: float = 0.55) -> None:
+    def set_patches(self, meshes: dict[int, pv.PolyData] | None, opacity: float = 1.0) -> None:
         """Show patch display meshes (core frame, m) on the faces; ``None`` shows the bare cube."""
         for i in list(self._patches):
             self.plotter.remove_actor(f"patch_{i}", render=False)
@@ -316,6 +318,18 @@ class CubeScene(QWidget):
                 mesh, color=FACE_COLORS[i], opacity=opacity, name=f"patch_{i}", smooth_shading=True, reset_camera=False
             )
         self.redraw()
+
+    def set_caption(self, text: str) -> None:
+        """A line of text in the view's top-left corner (replaced, not added, on each call)."""
+        self.plotter.add_text(text, position="upper_left", font_size=11, color="#f0c060", name="caption")
+        self.redraw()
+
+    def close_scene(self) -> None:
+        """Release the GL resources now (not at some later garbage collection, which may fall
+        in another GL widget's paint and crash)."""
+        if not getattr(self, "_closed_scene", False):
+            self._closed_scene = True
+            self.plotter.close()
 
     def set_view_extent(self, radius: float) -> None:
         """Frame the camera on a sphere of ``radius`` m about the core centre."""

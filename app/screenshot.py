@@ -29,9 +29,16 @@ def wait_until(predicate, timeout: float = 30.0, step: float = 0.05) -> bool:
 
 def _prepare_live(window) -> None:
     window.tabs.setCurrentWidget(window.live)
-    # a moment of the grasp where the hand holds the object in the air
-    wait_until(lambda: window.live.bundles_shown > 60 and window.live.scene.glyphs.shown_count() >= 2, timeout=40)
-    process_for(0.5)
+    # a moment of the grasp where the hand holds the object in the air, with some history
+    live = window.live
+    t_start = time.monotonic()
+
+    def holding():
+        g = live.scene.glyphs
+        return (time.monotonic() - t_start > 6.0 and g.shown_count() >= 2 and not g.shown[5]
+                and g.arrows[1].GetVisibility())
+
+    wait_until(holding, timeout=60, step=0.02)
 
 
 def _prepare_mount(window) -> None:
@@ -45,14 +52,14 @@ def _prepare_load(window) -> None:
     from .wizard.driver import run_to_page
 
     window.tabs.setCurrentWidget(window.wizard)
-    run_to_page(window, "load", partial_face=True)
+    run_to_page(window, "load", partial_face=True, k=600)
 
 
 def _prepare_results(window) -> None:
     from .wizard.driver import run_to_page
 
     window.tabs.setCurrentWidget(window.wizard)
-    run_to_page(window, "results")
+    run_to_page(window, "results", k=600)
 
 
 PREPARE = {"live": _prepare_live, "mount": _prepare_mount, "load": _prepare_load, "results": _prepare_results}
@@ -64,7 +71,8 @@ def take_screenshot(window, page: str, path, size=(1440, 900)) -> bool:
     window.show()
     process_for(0.5)
     PREPARE[page](window)
-    process_for(0.3)
+    if page != "live":
+        process_for(0.3)
     QApplication.processEvents()
     img = window.grab()
     return bool(img.save(str(path)))

@@ -37,6 +37,10 @@ QProgressBar { border: 1px solid #45505c; border-radius: 4px; text-align: center
 QProgressBar::chunk { background: #2f7d4f; border-radius: 3px; }
 QStatusBar { background: #151a1f; color: #a9b4bf; }
 QComboBox, QSpinBox, QDoubleSpinBox, QLineEdit { background: #232a31; border: 1px solid #45505c; border-radius: 4px; padding: 3px 6px; }
+QCheckBox::indicator, QRadioButton::indicator { width: 15px; height: 15px; border: 1px solid #8fb8de; background: #232a31; }
+QRadioButton::indicator { border-radius: 8px; }
+QCheckBox::indicator:checked, QRadioButton::indicator:checked { background: #3fa466; border-color: #7fd69f; }
+QCheckBox#confirm { font-size: 11pt; font-weight: bold; color: #f0c060; }
 QSlider::groove:horizontal { height: 6px; background: #323a43; border-radius: 3px; }
 QSlider::handle:horizontal { background: #8fb8de; width: 14px; margin: -5px 0; border-radius: 7px; }
 """

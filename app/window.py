@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
-import numpy as np
-from PySide6.QtCore import Qt, QTimer
+from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QFileDialog, QLabel, QMainWindow, QMessageBox, QTabWidget, QWidget, QHBoxLayout
 
 from pito_core.frames import CubeCore
@@ -34,10 +34,11 @@ class MainWindow(QMainWindow):
     """
 
     def __init__(self, demo: bool = False, calibration_path=None, rate: float = 60.0, seed: int = 0,
-                 demo_k: int = 1500, wizard_k: int = 1000):
+                 demo_k: int = 1500, wizard_k: int = 1000, demo_speed: float = 1.0, demo_period: float = 1.5):
         super().__init__()
         self.demo = demo
         self.seed = seed
+        self.demo_speed, self.demo_period = demo_speed, demo_period
         self.core = CubeCore()
         self.setWindowTitle("pito — Patched Intrinsic Tactile Object" + ("  [SIMULATED DEVICE]" if demo else ""))
         self.model = WizardModel(self.core)
@@ -64,7 +65,9 @@ class MainWindow(QMainWindow):
         self.worker = DeviceWorker(rate=rate, core=self.core)
         self.worker_thread = WorkerThread(self.worker)
         self.worker.bundle.connect(self.on_bundle)
-        self.worker.error.connect(lambda msg: self.statusBar().showMessage(f"acquisition: {msg}", 8000))
+        self.worker.error.connect(self.on_worker_error)
+        self.errors: list[str] = []
+        self.recording_path = None
         self.rig = None  # demo: the simulated devices and their scenarios
         self.calibration = None
         self.assembly = None
@@ -78,6 +81,7 @@ class MainWindow(QMainWindow):
         self.live.seek_requested.connect(self.seek)
         self.live.calibration_requested.connect(self.ask_calibration)
         self.live.assembly_requested.connect(self.set_assembly)
+        self.live.show_uncertainty.toggled.connect(self._install_solver)
         self.model.result_changed.connect(self._wizard_result)
 
         if demo:
@@ -98,19 +102,20 @@ class MainWindow(QMainWindow):
     # ------------------------------------------------------------ demo
     def start_demo(self, k: int) -> None:
         """Open the simulated devices (pty + UDP) and, without a calibration, calibrate the virtual cube."""
-        self.rig = backend.DemoRig(seed=self.seed, core=self.core)
+        self.rig = backend.DemoRig(seed=self.seed, core=self.core, speed=self.demo_speed,
+                                          period=self.demo_period)
         self.rig.set_scenario("grasp")
         source = self.rig.open_source()
         self.worker.post(lambda: self.worker.set_source(source))
         self.statusBar().showMessage(f"SIMULATED DEVICE: {self.rig.describe()}")
         if self.calibration is None:
-            self.statusBar().showMessage(f"Calibrating the virtual cube (method 'total', k = {k} per face)…")
+            m = backend.DEMO_METHOD
+            self.statusBar().showMessage(f"Calibrating the virtual cube (method '{m}', k = {k} per face)…")
             cal = backend.demo_calibration(self.rig, k=k, seed=self.seed)
-            self.set_calibration(cal, f"virtual cube calibrated at startup (total, k = {k})")
+            self.set_calibration(cal, f"virtual cube, calibrated at startup ({m}, k = {k}/face)")
             self.statusBar().showMessage(
-                f"SIMULATED DEVICE — virtual cube calibrated at startup with the simulator "
-                f"(method 'total', k = {k} samples per face, 1/cond = {cal.inverse_condition_number:.2e}). "
-                f"{self.rig.describe()}"
+                f"SIMULATED DEVICE — no calibration file: the virtual cube was calibrated at startup with the "
+                f"simulator ({m}, k = {k} samples per face, 1/cond = {cal.inverse_condition_number:.1e})."
             )
 
     def _tab_changed(self, index: int) -> None:
@@ -133,7 +138,8 @@ class MainWindow(QMainWindow):
         try:
             if simulated:
                 if self.rig is None:
-                    self.rig = backend.DemoRig(seed=self.seed, core=self.core)
+                    self.rig = backend.DemoRig(seed=self.seed, core=self.core, speed=self.demo_speed,
+                                          period=self.demo_period)
                 self.rig.set_scenario("calibration")
                 self._mount_changed()
                 source = self.rig.open_source()
@@ -183,39 +189,46 @@ class MainWindow(QMainWindow):
             self.assembly = None
         self.live.scene.set_patches(backend.display_meshes(self.assembly))
         self.live.equilibrium.set_weight(backend.weight(self.assembly))
-        solver = backend.make_solver(self.assembly, self.core)
-        self.worker.post(lambda: setattr(self.worker, "solver", solver))
+        cog = backend.center_of_gravity(self.assembly)
+        self.worker.post(lambda: setattr(self.worker, "cog", cog))
+        self._install_solver()
         if self.rig is not None:
             self.rig.set_assembly(self.assembly)
 
+    def _install_solver(self, *_) -> None:
+        """Contact solver for the worker; the Cramér–Rao covariance only while it is displayed (~4× the cost)."""
+        cov = backend.wrench_covariance() if self.live.show_uncertainty.isChecked() else None
+        solver = backend.make_solver(self.assembly, self.core, wrench_cov=cov)
+        self.worker.post(lambda: setattr(self.worker, "solver", solver))
+
     # ------------------------------------------------------------ record / replay
-    def toggle_recording(self, on: bool) -> None:
-        if on:
-            self.worker.post(self.worker.start_recording)
+    def toggle_recording(self, on: bool, path=None) -> None:
+        """Start recording (asks for the file unless ``path``) or stop it."""
+        if not on:
+            self.worker.post(self.worker.stop_recording)
+            self.statusBar().showMessage(f"Recording saved to {self.recording_path}", 8000)
             return
-        result = {}
-
-        def stop():
-            result["data"] = self.worker.stop_recording()
-            QTimer.singleShot(0, self, lambda: self._save_recording(result["data"]))
-
-        self.worker.post(stop)
-
-    def _save_recording(self, data, path=None) -> None:
-        t, counts, ref = data
         if path is None:
-            path, _ = QFileDialog.getSaveFileName(self, "Save the recording", "pito-recording.h5", "PITO recording (*.h5)")
-        if path:
-            backend.save_recording(path, t, counts, ref, simulated=self.model.simulated or self.demo)
-            self.statusBar().showMessage(f"Recorded {t.size} samples to {path}", 8000)
+            path, _ = QFileDialog.getSaveFileName(self, "Record to", "pito-recording.pitorec",
+                                                  "PITO recording (*.pitorec);;All files (*)")
+        if not path:
+            self.live.record.blockSignals(True)
+            self.live.record.setChecked(False)
+            self.live.record.setText("● Record")
+            self.live.record.blockSignals(False)
+            return
+        self.recording_path = str(path)
+        simulated = self.model.simulated or self.demo
+        self.worker.post(lambda: self.worker.start_recording(path, simulated))
+        self.statusBar().showMessage(f"Recording both devices to {path}" + (" (SIMULATED)" if simulated else ""))
 
     def open_replay(self, path=None) -> None:
         if path is None:
-            path, _ = QFileDialog.getOpenFileName(self, "Replay a recording", "", "PITO recording (*.h5);;All files (*)")
+            path, _ = QFileDialog.getOpenFileName(self, "Replay a recording", "",
+                                                  "PITO recording (*.pitorec);;All files (*)")
         if not path:
             return
         source = backend.ReplaySource(path)
-        self._live_source_saved = True
         self.worker.post(lambda: self.worker.set_source(source))
         self.live.set_replay_mode(True, source.duration)
 
@@ -229,18 +242,31 @@ class MainWindow(QMainWindow):
             self.worker.post(lambda: self.worker.set_source(source))
 
     # ------------------------------------------------------------ data
+    def on_worker_error(self, message: str) -> None:
+        self.errors.append(message)
+        print(f"pito-app: acquisition: {message}", file=sys.stderr)
+        self.statusBar().showMessage(f"acquisition: {message}", 8000)
+
     def on_bundle(self, bundle) -> None:
-        if self.tabs.currentWidget() is self.live:
-            self.live.on_bundle(bundle)
-        else:
-            self.wizard.on_bundle(bundle)
+        try:
+            if self.tabs.currentWidget() is self.live:
+                self.live.on_bundle(bundle)
+            else:
+                self.wizard.on_bundle(bundle)
+        finally:
+            self.worker.ack()
 
     def closeEvent(self, event):  # noqa: N802
         self.shutdown()
         super().closeEvent(event)
 
     def shutdown(self) -> None:
+        """Stop the worker and the devices, release the 3D views (idempotent)."""
         self.worker_thread.stop()
         if self.rig is not None:
             self.rig.close()
             self.rig = None
+
+    def release_views(self) -> None:
+        for scene in (self.live.scene, self.wizard.pages["mount"].scene, self.wizard.pages["load"].scene):
+            scene.close_scene()

@@ -13,7 +13,7 @@ to a thread-safe queue the worker runs at the start of its next tick.
 from __future__ import annotations
 
 import queue
-import time as _time
+import threading
 from dataclasses import dataclass, field
 from typing import Callable, Protocol
 
@@ -81,10 +81,11 @@ class Bundle:
         return float(self.time[-1]) if self.time.size else float("nan")
 
 
-def face_sums(wrenches: np.ndarray, core: CubeCore) -> tuple[np.ndarray, np.ndarray]:
-    """Σ of the face wrenches ``(6, 6)`` (face frames) in the core frame: ``(ΣF (3,), ΣT (3,))``.
+def face_sums(wrenches: np.ndarray, core: CubeCore, cog=(0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
+    """Σ of the face wrenches ``(6, 6)`` (face frames) in the core frame: ``(ΣF (3,) N, ΣT (3,) N·m)``.
 
-    Faces with NaN (no output) are left out. Moments about the core centre.
+    Faces with NaN (no output) are left out. Moments about ``cog`` (core frame, m), the
+    object's centre of gravity: in a still grasp ‖ΣF‖ = m·g and ΣT = 0 about it.
     """
     total = np.zeros(6)
     for k in range(6):
@@ -92,7 +93,19 @@ def face_sums(wrenches: np.ndarray, core: CubeCore) -> tuple[np.ndarray, np.ndar
         if not np.all(np.isfinite(w)):
             continue
         total += transform_wrench(w, invert_pose(core.face_pose(k + 1)))
-    return total[:3], total[3:]
+    force = total[:3]
+    return force, total[3:] - np.cross(np.asarray(cog, dtype=float), force)
+
+
+def merge_bundles(old: Bundle, new: Bundle) -> Bundle:
+    """One bundle with the samples of both (old first) and the latest derived values of ``new``."""
+    new.time = np.concatenate([old.time, new.time])
+    new.counts = np.concatenate([old.counts, new.counts])
+    new.reference = np.concatenate([old.reference, new.reference])
+    if new.wrenches is None and old.wrenches is not None:
+        new.wrenches, new.contacts = old.wrenches, old.contacts
+        new.sum_force, new.sum_torque = old.sum_force, old.sum_torque
+    return new
 
 
 class DeviceWorker(QObject):
@@ -119,13 +132,19 @@ class DeviceWorker(QObject):
         self.offset = None  # (36,) counts: tare of the calibration
         self.reference_offset = np.zeros(6)
         self.solver: Callable | None = None
+        self.cog = np.zeros(3)  # m, core frame: centre of gravity of the object
         self._commands: queue.Queue = queue.Queue()
         self._timer: QTimer | None = None
-        self._recording: list | None = None
+        self._recorder = None  # a pito_core.io.RecordingWriter while recording
+        self._recorded = 0
         self._last_counts = np.zeros((0, 36))
         self._last_reference = np.zeros((0, 6))
         self._tail = None  # (counts, reference) of the last 0.5 s, for the tare
         self.ticks = 0
+        self.emitted = 0
+        self._pending: Bundle | None = None
+        self._consumed = threading.Event()
+        self._consumed.set()
 
     # ------------------------------------------------------------ thread side
     @Slot()
@@ -170,7 +189,13 @@ class DeviceWorker(QObject):
         if self.source is None:
             return
         try:
-            b = self.process(*self.source.read())
+            chunk = self.source.read()
+            if self._recorder is not None:
+                from . import backend
+
+                backend.record_raw(self._recorder, getattr(self.source, "last_raw", None))
+                self._recorded += len(chunk[0])
+            b = self.process(*chunk)
         except Exception as exc:  # noqa: BLE001
             self.error.emit(f"{type(exc).__name__}: {exc}")
             return
@@ -179,7 +204,20 @@ class DeviceWorker(QObject):
             b.replay_position = b.stats["position"]
             b.replay_duration = b.stats.get("duration")
         self.ticks += 1
-        self.bundle.emit(b)
+        self._pending = b if self._pending is None else merge_bundles(self._pending, b)
+        if self._consumed.is_set():  # the GUI is done with the previous bundle: send the next
+            self._consumed.clear()
+            pending, self._pending = self._pending, None
+            self.emitted += 1
+            self.bundle.emit(pending)
+
+    def ack(self) -> None:
+        """The GUI has shown the last bundle (thread-safe): the next tick may emit again.
+
+        Without it a slow screen would queue bundles without end; with it, samples that
+        arrive meanwhile are merged into the next bundle (none is lost).
+        """
+        self._consumed.set()
 
     # ------------------------------------------------------------ processing (pure)
     def process(self, t, counts, reference) -> Bundle:
@@ -188,15 +226,13 @@ class DeviceWorker(QObject):
         counts = np.asarray(counts, dtype=float).reshape(-1, 36)
         reference = np.asarray(reference, dtype=float).reshape(-1, 6) - self.reference_offset
         self._keep_tail(counts, reference)
-        if self._recording is not None and t.size:
-            self._recording.append((t.copy(), counts.copy(), reference.copy()))
         b = Bundle(t, counts, reference)
-        b.recorded = sum(x[0].size for x in self._recording) if self._recording is not None else 0
+        b.recorded = self._recorded if self._recorder is not None else 0
         if self.calibration is not None and counts.shape[0]:
             latest = counts[-min(5, counts.shape[0]):].mean(axis=0)  # average a few samples against noise
             W = self.calibration.wrenches(latest, offset=self.offset)
             b.wrenches = W
-            b.sum_force, b.sum_torque = face_sums(W, self.core)
+            b.sum_force, b.sum_torque = face_sums(W, self.core, self.cog)
             if self.solver is not None:
                 b.contacts = self.solver(W)
         return b
@@ -232,15 +268,20 @@ class DeviceWorker(QObject):
         if finite.any():
             self.reference_offset = ref[finite].mean(axis=0)
 
-    def start_recording(self) -> None:
-        self._recording = []
+    def start_recording(self, path, simulated: bool = False) -> None:
+        """Record every raw sample of both devices to ``path`` (``pito-recording`` format)."""
+        from . import backend
 
-    def stop_recording(self):
-        """Stop and return ``(time (n,), counts (n, 36), reference (n, 6))`` of the recording."""
-        rec, self._recording = self._recording, None
-        if not rec:
-            return np.zeros(0), np.zeros((0, 36)), np.zeros((0, 6))
-        return tuple(np.concatenate([x[i] for x in rec]) for i in range(3))
+        self.stop_recording()
+        self._recorder = backend.open_recorder(path, simulated)
+        self._recorded = 0
+
+    def stop_recording(self) -> int:
+        """Close the recording; returns the cube samples written."""
+        rec, self._recorder = self._recorder, None
+        if rec is not None:
+            rec.close()
+        return self._recorded
 
 
 class WorkerThread:

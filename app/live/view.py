@@ -7,11 +7,13 @@ repaints to the display rate.
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import (
     QCheckBox, QComboBox, QDoubleSpinBox, QFormLayout, QGroupBox, QHBoxLayout, QLabel, QPushButton, QSlider,
-    QSplitter, QToolButton, QVBoxLayout, QWidget,
+    QSplitter, QVBoxLayout, QWidget,
 )
 
 from ..scene import CubeScene
@@ -46,6 +48,8 @@ class LiveView(QWidget):
         self.force_plot = FaceForcePlot()
         self.equilibrium = EquilibriumPlot()
         self.bundles_shown = 0
+        self.latency = float("nan")
+        self.scene.glyphs.force_scale = 0.004  # m/N: 15 N -> 6 cm
 
         # --- toolbar
         bar = QHBoxLayout()
@@ -133,6 +137,8 @@ class LiveView(QWidget):
         self.assembly.currentTextChanged.connect(self.assembly_requested)
         self.timeline.sliderReleased.connect(self._seek)
         self._last_contacts = None
+        self._last_plot = 0.0
+        self.plot_rate = 20.0  # Hz
 
     # ------------------------------------------------------------ options (glyphs are the model)
     def sync_options(self) -> None:
@@ -200,6 +206,7 @@ class LiveView(QWidget):
         if self.paused or b.time.size == 0:
             return
         t = b.latest_time
+        self.latency = time.monotonic() - t  # s from the newest sample's arrival to its display
         if b.contacts is not None:
             self._last_contacts = b.contacts
             shown = self._show_contacts(b.contacts)
@@ -215,7 +222,10 @@ class LiveView(QWidget):
                 f"{n_shown} contact{'s' if n_shown != 1 else ''}   ‖ΣF‖ {np.linalg.norm(b.sum_force):5.2f} N   "
                 f"‖ΣT‖ {np.linalg.norm(b.sum_torque) * 1000:5.1f} mN·m"
             )
-        self.force_plot.refresh()
-        self.equilibrium.refresh()
+        now = time.monotonic()
+        if now - self._last_plot >= 1.0 / self.plot_rate:  # plots at most plot_rate Hz
+            self._last_plot = now
+            self.force_plot.refresh()
+            self.equilibrium.refresh()
         self.scene.redraw()
         self.bundles_shown += 1

@@ -58,6 +58,8 @@ class RingBuffer:
 
 def _style_plot(plot: pg.PlotItem, left: str, bottom: str = "time (s)") -> None:
     plot.showGrid(x=True, y=True, alpha=0.25)
+    for name in ("left", "bottom"):
+        plot.getAxis(name).enableAutoSIPrefix(False)
     plot.setLabel("left", left)
     plot.setLabel("bottom", bottom)
     plot.setMouseEnabled(x=False, y=False)
@@ -113,13 +115,15 @@ class EquilibriumPlot(QWidget):
         self.force_plot = pg.PlotWidget()
         self.torque_plot = pg.PlotWidget()
         _style_plot(self.force_plot.getPlotItem(), "‖ΣF‖ (N)", bottom="")
-        _style_plot(self.torque_plot.getPlotItem(), "‖ΣT‖ (N·m)")
+        _style_plot(self.torque_plot.getPlotItem(), "‖ΣT‖ (mN·m)")
+        self.torque_plot.addLegend(offset=(6, 4), labelTextSize="8pt")
         self.force_plot.addLegend(offset=(6, 4), labelTextSize="8pt")
-        self.force_curve = self.force_plot.plot([], [], pen=pg.mkPen("#e8edf2", width=2), name="‖ΣF‖ of the faces")
+        self.force_curve = self.force_plot.plot([], [], pen=pg.mkPen("#e8edf2", width=2), name="‖ΣF‖ of the six faces")
         self.weight_line = pg.InfiniteLine(angle=0, pen=pg.mkPen("#f0a030", width=2, style=pg.QtCore.Qt.PenStyle.DashLine),
                                            label="weight m·g = {value:.2f} N", labelOpts={"color": "#f0a030", "position": 0.15})
         self.force_plot.addItem(self.weight_line)
-        self.torque_curve = self.torque_plot.plot([], [], pen=pg.mkPen("#56B4E9", width=2))
+        self.torque_curve = self.torque_plot.plot([], [], pen=pg.mkPen("#56B4E9", width=2),
+                                                  name="‖ΣT‖ about the centre of gravity (0 when still)")
         self.set_weight(weight)
         layout.addWidget(self.force_plot)
         layout.addWidget(self.torque_plot)
@@ -138,12 +142,12 @@ class EquilibriumPlot(QWidget):
             return
         t = d[:, 0] - d[-1, 0]
         self.force_curve.setData(t, np.nan_to_num(d[:, 1]))
-        self.torque_curve.setData(t, np.nan_to_num(d[:, 2]))
+        self.torque_curve.setData(t, np.nan_to_num(d[:, 2]) * 1000)
         for p in (self.force_plot, self.torque_plot):
             p.setXRange(-self.window, 0, padding=0)
         fmax = max(self.weight * 1.5, np.nanmax(d[:, 1]) * 1.15 if np.isfinite(d[:, 1]).any() else 1.0, 1.0)
         self.force_plot.setYRange(0, fmax, padding=0)
-        tmax = max(0.02, np.nanmax(d[:, 2]) * 1.15 if np.isfinite(d[:, 2]).any() else 0.02)
+        tmax = 1000 * max(0.02, np.nanmax(d[:, 2]) * 1.15 if np.isfinite(d[:, 2]).any() else 0.02)
         self.torque_plot.setYRange(0, tmax, padding=0)
 
     def clear_data(self) -> None:

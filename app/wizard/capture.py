@@ -30,7 +30,8 @@ class CaptureRules:
     window : float
         Length of a capture window, s.
     still : float
-        Largest standard deviation over the window, fraction of full scale per axis.
+        Largest drift of the load over the window (spread of the means of its thirds),
+        fraction of full scale per axis.
     min_load : float
         Smallest load (scaled norm) that counts as loaded.
     novelty : float
@@ -39,14 +40,24 @@ class CaptureRules:
         Coverage each axis and sign must reach for the face to be done.
     k : int
         Samples to collect on each face.
+    min_captures : int
+        Distinct still loads needed on each face (a face's 6 wrench directions need at
+        least 6; twice that leaves margin for the held-out check).
+    trim : float
+        Seconds dropped from the end of a capture when the load leaves it, s.
+    max_condition : float
+        Largest condition number of the kept loads (scaled by full scale) for a face to be done.
     """
 
     window: float = 0.06
-    still: float = 0.01
+    still: float = 0.012
     min_load: float = 0.08
     novelty: float = 0.10
     required: float = 0.3
     k: int = 2000
+    min_captures: int = 16
+    max_condition: float = 30.0
+    trim: float = 0.06
 
 
 def scaled(wrench) -> np.ndarray:
@@ -55,11 +66,17 @@ def scaled(wrench) -> np.ndarray:
 
 
 def is_still(wrench_face, rules: CaptureRules) -> bool:
-    """Whether the window of loads ``(n, 6)`` (N, N·m) is still: per-axis std under ``rules.still``."""
+    """Whether the window of loads ``(n, 6)`` (N, N·m) is still.
+
+    The window is cut in thirds; it is still when, on every axis, the means of the thirds
+    differ by less than ``rules.still`` (fraction of full scale). Means average the sensor
+    noise out; a moving load shifts them.
+    """
     w = scaled(wrench_face)
-    if w.shape[0] < 3:
+    if w.shape[0] < 6:
         return False
-    return bool(np.all(w.std(axis=0) < rules.still))
+    thirds = np.array([p.mean(axis=0) for p in np.array_split(w, 3)])
+    return bool(np.all(thirds.max(axis=0) - thirds.min(axis=0) < rules.still))
 
 
 @dataclass
@@ -114,15 +131,15 @@ class FaceCaptures:
         chunk = (time, np.asarray(counts, float), np.asarray(reference, float), np.asarray(wrench_face, float))
         if self._open and self.captures:
             cap = self.captures[-1]
-            dev = np.abs(scaled(chunk[3]) - cap.mean_scaled)
-            if np.all(dev < 3 * self.rules.still) and is_still(np.concatenate([cap.wrench_face[-20:], chunk[3]]), self.rules):
+            dev = np.abs(scaled(chunk[3]).mean(axis=0) - cap.mean_scaled)
+            recent = np.concatenate([cap.wrench_face[-2 * chunk[3].shape[0]:], chunk[3]])
+            if np.all(dev < self.rules.still) and is_still(recent, self.rules):
                 cap.counts = np.concatenate([cap.counts, chunk[1]])
                 cap.reference = np.concatenate([cap.reference, chunk[2]])
                 cap.time = np.concatenate([cap.time, chunk[0]])
                 cap.wrench_face = np.concatenate([cap.wrench_face, chunk[3]])
                 return "growing"
-            self._open = False
-            self._buffer = []
+            self._close_open()
         self._buffer.append(chunk)
         t_last = time[-1]
         while len(self._buffer) > 1 and self._buffer[1][0][0] <= t_last - self.rules.window:
@@ -143,10 +160,21 @@ class FaceCaptures:
         self._buffer = []
         return "kept"
 
-    def close(self) -> None:
-        """End the open capture (e.g. when the operator switches face)."""
+    def _close_open(self) -> None:
+        """End the growing capture, dropping its last ``rules.trim`` s: the load may have begun
+        to move there before the motion showed (and the two devices' clocks differ by a few ms)."""
+        if self._open and self.captures:
+            cap = self.captures[-1]
+            keep = cap.time <= cap.time[-1] - self.rules.trim
+            if keep.sum() >= max(6, cap.time.size // 2):
+                cap.counts, cap.reference = cap.counts[keep], cap.reference[keep]
+                cap.time, cap.wrench_face = cap.time[keep], cap.wrench_face[keep]
         self._open = False
         self._buffer = []
+
+    def close(self) -> None:
+        """End the open capture (e.g. when the operator switches face)."""
+        self._close_open()
 
     def undo(self) -> bool:
         """Drop the last capture; False if there was none."""
@@ -182,5 +210,7 @@ class FaceCaptures:
 
     @property
     def sufficient(self) -> bool:
-        """Enough samples and every axis covered on both signs."""
-        return self.n_samples >= self.rules.k and bool(np.all(self.coverage() >= self.rules.required))
+        """Enough samples and distinct loads, every axis covered on both signs, well conditioned."""
+        r = self.rules
+        return (self.n_samples >= r.k and len(self.captures) >= r.min_captures
+                and bool(np.all(self.coverage() >= r.required)) and self.condition_number() <= r.max_condition)

@@ -2,10 +2,11 @@
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
-from PySide6.QtCore import Qt
 from PySide6.QtWidgets import (
-    QGridLayout, QGroupBox, QHBoxLayout, QLabel, QProgressBar, QPushButton, QVBoxLayout,
+    QGridLayout, QHBoxLayout, QLabel, QProgressBar, QPushButton, QVBoxLayout,
 )
 
 from pito_core.frames import FACES, transform_wrench
@@ -84,6 +85,8 @@ class LoadPage(WizardPage):
         self.body.addLayout(row, 1)
 
         self._dirty = 0
+        self._face_since = -np.inf
+        self.settle = 0.3  # s after a change of face before samples count for the new face
         self.undo.clicked.connect(self.undo_last)
         self.next_face.clicked.connect(self.goto_next_face)
         model.face_changed.connect(self._on_face)
@@ -103,6 +106,9 @@ class LoadPage(WizardPage):
         m = self.model
         for fc in m.captures.values():
             fc.close()
+        # samples taken before this moment belong to the previous face (they may still be in
+        # flight): the new face's captures start with samples newer than the switch
+        self._face_since = time.monotonic() + self.settle
         colors = {m.connected_face: CONNECTED_COLOR, face: ACTIVE_COLOR}
         self.scene.set_face_colors(colors)
         self.scene.look_at_mount(m.connected_face, face)
@@ -125,8 +131,11 @@ class LoadPage(WizardPage):
         self.samples.setMaximum(m.rules.k)
         self.samples.setValue(min(fc.n_samples, m.rules.k))
         kappa = fc.condition_number()
-        self.kappa.setText("— (load more directions)" if not np.isfinite(kappa) else f"{kappa:.1f}" + ("  (good)" if kappa < 20 else ""))
-        self.captures.setText(f"{len(fc.captures)}")
+        limit = m.rules.max_condition
+        self.kappa.setText("— (load more directions)" if not np.isfinite(kappa)
+                           else f"{kappa:.1f}  " + ("✔" if kappa <= limit else f"(needs ≤ {limit:g}: vary the loads)"))
+        self.captures.setText(f"{len(fc.captures)} / {m.rules.min_captures} distinct still loads"
+                              + (" ✔" if len(fc.captures) >= m.rules.min_captures else ""))
         self.undo.setEnabled(bool(fc.captures))
         done = fc.sufficient
         remaining = [f for f in m.faces if not m.captures[f].sufficient]
@@ -169,7 +178,7 @@ class LoadPage(WizardPage):
         m = self.model
         face = m.current_face
         fc = m.captures[face]
-        good = np.isfinite(b.reference).all(axis=1)
+        good = np.isfinite(b.reference).all(axis=1) & (b.time >= self._face_since)
         if not good.any():
             return
         Wf = self.face_wrench(b.reference[good])

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from PySide6.QtWidgets import (
-    QButtonGroup, QComboBox, QFormLayout, QFrame, QGroupBox, QLabel, QRadioButton, QSpinBox, QVBoxLayout,
+    QButtonGroup, QComboBox, QFormLayout, QGroupBox, QLabel, QRadioButton, QSpinBox, QVBoxLayout,
 )
 
 from pito_core.calibration import METHODS

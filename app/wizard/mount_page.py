@@ -77,6 +77,10 @@ class MountPage(WizardPage):
         self.set_ready(False)
         self.flange_label.setText(f"Method {m.method}: flange '{m.flange}' on face {m.connected_face}")
         self.steps.setText("<ol>" + "".join(f"<li style='margin-bottom:6px'>{s}</li>" for s in mount_steps(m.flange, m.connected_face, m.faces)) + "</ol>")
-        self.scene.set_mount(m.flange, m.connected_face)
+        self.scene.set_mount(m.flange, m.connected_face, flange_opacity=0.45)  # see the orange face through it
         self.scene.highlight(connected_face=m.connected_face)
-        self.scene.look_at_mount(m.connected_face)
+        self.scene.look_at_mount(m.connected_face, elevation=0.3)
+        kind = {"frame": "type-1 frame flange", "frame_hole": "type-2 frame flange (access hole)",
+                "face": "type-3 face flange"}[m.flange]
+        self.scene.set_caption(f"orange: face {m.connected_face}, towards the {kind}\n"
+                               "dark cylinder: the reference sensor (ATI) on its stand")

@@ -1,0 +1,1 @@
+"""The calibration wizard: a model, one module per page, capture rules and a driver."""

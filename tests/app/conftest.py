@@ -1,0 +1,39 @@
+"""GUI tests of pito-app (pytest-qt). They need an X server: run the suite under
+``xvfb-run -a -s "-screen 0 1600x1000x24" pytest`` (QT_QPA_PLATFORM unset: the offscreen
+platform leaves the 3D view blank)."""
+
+import os
+
+import pytest
+
+pytest.importorskip("PySide6")
+pytest.importorskip("pyvistaqt")
+pytest.importorskip("pytestqt")
+
+
+def pytest_collection_modifyitems(config, items):
+    here = os.path.dirname(__file__)
+    no_display = not os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY")
+    skip = pytest.mark.skip(reason="GUI test: needs an X server (run under xvfb-run)")
+    for item in items:
+        if str(item.fspath).startswith(here):
+            item.add_marker(pytest.mark.gui)
+            if no_display and "needs_display" in item.keywords:
+                item.add_marker(skip)
+
+
+def pytest_configure(config):
+    config.addinivalue_line("markers", "needs_display: creates windows (skipped without an X server)")
+
+
+@pytest.fixture(scope="session")
+def qapp_args():
+    return ["pito-app-tests"]
+
+
+@pytest.fixture
+def styled(qapp):
+    from app.theme import STYLE
+
+    qapp.setStyleSheet(STYLE)
+    return qapp

@@ -1,0 +1,85 @@
+"""Capture rules of the loading step, on a simulated calibration session (no display)."""
+
+import numpy as np
+import pytest
+
+from app.wizard.capture import CaptureRules, FaceCaptures, is_still, scaled
+from app.wizard.model import faces_to_load
+from pito_core.frames import CubeCore, invert_pose, transform_wrench
+from pito_core.sim import simulate_calibration
+
+
+@pytest.fixture(scope="module")
+def session():
+    return simulate_calibration("frame_hole", 6, k=3000, seed=2)
+
+
+def feed_face(session, face, rules, chunk=17):
+    rows = session.loaded[:, face - 1]
+    T = invert_pose(session.T_core_ati) @ CubeCore().face_pose(face)
+    W = transform_wrench(session.reference[rows], T)
+    fc = FaceCaptures(face, rules)
+    t, c, r = session.time[rows], session.counts[rows], session.reference[rows]
+    events = []
+    for i in range(0, t.size, chunk):
+        events.append(fc.feed(t[i:i + chunk], c[i:i + chunk], r[i:i + chunk], W[i:i + chunk]))
+    return fc, events
+
+
+def test_captures_are_still_new_and_cover(session):
+    rules = CaptureRules(k=500)
+    fc, events = feed_face(session, 1, rules)
+    assert "kept" in events and "moving" in events
+    assert len(fc.captures) >= 5
+    means = np.array([c.mean_scaled for c in fc.captures])
+    d = np.linalg.norm(means[:, None] - means[None], axis=-1) + np.eye(len(means)) * 9
+    assert d.min() >= rules.novelty  # every capture is new
+    for c in fc.captures:  # and still: the load barely moved over the capture
+        w = scaled(c.wrench_face)
+        assert np.all(np.abs(w[: len(w) // 3].mean(0) - w[-len(w) // 3:].mean(0)) < 3 * rules.still)
+    cov = fc.coverage()
+    assert cov.shape == (6, 2) and np.all((cov >= 0) & (cov <= 1))
+    assert np.isfinite(fc.condition_number())
+    assert fc.n_samples == sum(c.counts.shape[0] for c in fc.captures)
+
+
+def test_undo_drops_last_capture(session):
+    fc, _ = feed_face(session, 2, CaptureRules(k=500))
+    n, samples = len(fc.captures), fc.n_samples
+    last = fc.captures[-1].counts.shape[0]
+    assert fc.undo()
+    assert len(fc.captures) == n - 1 and fc.n_samples == samples - last
+    fc.clear()
+    assert not fc.undo() and fc.n_samples == 0 and not fc.sufficient
+
+
+def test_unloaded_or_moving_loads_are_not_kept():
+    rules = CaptureRules()
+    fc = FaceCaptures(1, rules)
+    t = np.arange(200) / 1000
+    zero = np.zeros((200, 6))
+    assert fc.feed(t, np.zeros((200, 36)), zero, zero) == "no load"
+    ramp = np.outer(np.linspace(0, 10, 200), [1, 0, 0, 0, 0, 0])
+    assert fc.feed(t + 1, np.zeros((200, 36)), ramp, ramp) == "moving"
+    assert not is_still(ramp, rules)
+    assert fc.captures == []
+
+
+def test_sufficient_needs_samples_and_coverage(session):
+    fc, _ = feed_face(session, 3, CaptureRules(k=10**6, required=0.2, min_captures=6, max_condition=1e9))
+    assert not fc.sufficient  # coverage may be there, k is not
+    fc.rules.k = 10
+    assert fc.sufficient == bool(np.all(fc.coverage() >= 0.2))
+    fc.rules.min_captures = len(fc.captures) + 1
+    assert not fc.sufficient
+
+
+@pytest.mark.parametrize("method, flange, faces", [
+    ("quasi_total", "frame", (1, 2, 3, 4, 5)),
+    ("loaded_frame", "frame_hole", (1, 2, 3, 4, 5, 6)),
+    ("total", "face", (1, 2, 3, 4, 5, 6)),
+    ("unloaded_frame", "face", (1, 2, 3, 4, 5)),
+    ("face_to_face", "frame", (1, 2, 3, 4, 5)),
+])
+def test_faces_to_load(method, flange, faces):
+    assert faces_to_load(method, flange, 6) == faces

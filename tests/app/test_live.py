@@ -1,0 +1,167 @@
+"""The live view's update path: actors moved in place, hidden under the threshold; the worker."""
+
+import numpy as np
+import pytest
+
+from app.workers import Bundle, DeviceWorker, face_sums, merge_bundles
+from pito_core.frames import CubeCore
+
+pytestmark = pytest.mark.needs_display
+
+
+def contacts(force_face1=(-8.0, 1.0, 2.0), valid=(True, True, False, False, False, False)):
+    pts = np.full((6, 3), np.nan)
+    nrm = np.zeros((6, 3))
+    frc = np.zeros((6, 3))
+    pts[0], nrm[0], frc[0] = (0.027, 0.004, 0.002), (1, 0, 0), force_face1
+    pts[1], nrm[1], frc[1] = (0.0, 0.027, 0.0), (0, 1, 0), (0.0, -0.1, 0.0)  # 0.1 N: under threshold
+    return {"points": pts, "normals": nrm, "forces": frc, "torsions": np.array([0.02, 0, 0, 0, 0, 0.0]),
+            "valid": np.array(valid), "covariance": np.tile(np.eye(3) * 1e-6, (6, 1, 1))}
+
+
+def bundle(t, c):
+    W = np.zeros((6, 6))
+    W[0, :3] = np.linalg.norm(c["forces"][0])
+    return Bundle(np.array([t]), np.zeros((1, 36)), np.zeros((1, 6)), wrenches=W, contacts=c,
+                  sum_force=np.array([0, 0, 2.9]), sum_torque=np.zeros(3))
+
+
+@pytest.fixture
+def live(qtbot, styled):
+    from app.live import LiveView
+
+    view = LiveView(CubeCore(), ["cube"])
+    qtbot.addWidget(view)
+    view.resize(1280, 800)
+    view.show()
+    qtbot.waitExposed(view)
+    yield view
+    view.scene.close_scene()
+
+
+def test_glyphs_move_in_place_and_hide_under_threshold(live):
+    g = live.scene.glyphs
+    renderer = live.scene.plotter.renderer
+    actors_before = dict(renderer.actors)
+    ids = {i: id(g.arrows[i]) for i in g.arrows}
+    shown = []
+    for k in range(20):
+        f = (-8.0 + 0.2 * k, 1.0, 2.0)
+        live.on_bundle(bundle(0.02 * k, contacts(f)))
+        shown.append(g.shown.copy())
+        if k == 0:
+            m0 = np.array(g.arrows[1].user_matrix)
+    m1 = np.array(g.arrows[1].user_matrix)
+    assert dict(renderer.actors).keys() == actors_before.keys()  # nothing added or removed
+    assert {i: id(g.arrows[i]) for i in g.arrows} == ids  # the same actor objects
+    assert not np.allclose(m0, m1)  # ... moved
+    assert all(s.tolist() == [True, False, False, False, False, False] for s in shown)
+    assert g.arrows[1].GetVisibility() and g.spheres[1].GetVisibility()
+    assert not g.arrows[2].GetVisibility()  # 0.1 N: under the 0.3 N threshold
+    assert not g.arrows[3].GetVisibility()  # not valid
+    assert np.allclose(g.spheres[1].position, (0.027, 0.004, 0.002))
+    # raising the threshold hides face 1 as well, still without adding actors
+    live.threshold.setValue(20.0)
+    assert g.threshold == 20.0 and g.shown_count() == 0 and not g.arrows[1].GetVisibility()
+    assert dict(renderer.actors).keys() == actors_before.keys()
+
+
+def test_arrow_ends_at_the_contact_point_and_scales_with_force(live):
+    from app.scene import arrow_matrix
+
+    tip = np.array([0.025, 0.0, 0.0])
+    for f in ((-5.0, 0, 0), (-10.0, 3.0, 1.0)):
+        M = arrow_matrix(tip, f, scale=0.004, width=0.002)
+        end = M @ np.array([1.0, 0, 0, 1])  # the unit arrow's tip
+        assert np.allclose(end[:3], tip)
+        assert np.isclose(np.linalg.norm(M[:3, 0]), 0.004 * np.linalg.norm(f))
+        assert np.allclose(M[:3, 0] / np.linalg.norm(M[:3, 0]), np.array(f) / np.linalg.norm(f))
+
+
+def test_pause_freezes_the_view(live):
+    live.on_bundle(bundle(0.0, contacts()))
+    n = live.bundles_shown
+    live.pause.setChecked(True)
+    live.on_bundle(bundle(0.1, contacts((-2.0, 0, 0))))
+    assert live.bundles_shown == n
+    live.pause.setChecked(False)
+    live.on_bundle(bundle(0.2, contacts((-2.0, 0, 0))))
+    assert live.bundles_shown == n + 1
+    assert len(live.force_plot.buffer) == 2 and len(live.equilibrium.buffer) == 2
+
+
+def test_torsion_and_uncertainty_toggles(live):
+    g = live.scene.glyphs
+    live.show_uncertainty.setChecked(True)
+    live.on_bundle(bundle(0.0, contacts()))
+    assert g.ellipsoids[1].GetVisibility() and g.rings[1].GetVisibility()
+    live.show_torsion.setChecked(False)
+    assert not g.rings[1].GetVisibility()
+
+
+class FakeSource:
+    simulated = True
+
+    def __init__(self):
+        self.t = 0.0
+
+    def read(self):
+        t = self.t + np.arange(17) / 1000
+        self.t = t[-1] + 1e-3
+        counts = np.zeros((17, 36))
+        counts[:, 2] = 1000.0
+        return t, counts, np.zeros((17, 6))
+
+    def stats(self):
+        return {"rate_cube": 1000.0}
+
+    def close(self):
+        pass
+
+
+class FakeCalibration:
+    offset = np.zeros(36)
+
+    def wrenches(self, counts, offset=None):
+        W = np.zeros((6, 6))
+        W[0, 2] = -np.asarray(counts)[2] / 200.0  # 5 N pushing into face 1
+        return W
+
+
+def test_worker_bundles_and_backpressure(qtbot):
+    worker = DeviceWorker(rate=60)
+    worker.set_source(FakeSource())
+    worker.set_calibration(FakeCalibration())
+    got = []
+    worker.bundle.connect(got.append)
+    for _ in range(5):
+        worker.tick()
+    # the GUI has not acknowledged the first bundle: the later ticks were merged, not queued
+    assert worker.emitted == 1 and len(got) == 1
+    worker.ack()
+    worker.tick()
+    assert worker.emitted == 2
+    b = got[-1]
+    assert b.time.size == 5 * 17  # every sample of the merged ticks
+    assert np.allclose(b.wrenches[0, 2], -5.0)
+    assert np.allclose(b.sum_force, [-5.0, 0, 0])  # face 1's z is the core's +x
+
+
+def test_face_sums_about_the_centre_of_gravity():
+    core = CubeCore()
+    W = np.zeros((6, 6))
+    W[0, 2] = -4.0  # pushing on face 1 along -x
+    W[2, 2] = -4.0  # and on face 3 along +x: a squeeze, no net force
+    W[5, 2] = -2.9  # the table under face 6 (pushing up)
+    F, T = face_sums(W, core, cog=(0.0, 0.0, 0.0))
+    assert np.allclose(F, [0, 0, 2.9]) and np.allclose(T, 0)
+    F2, T2 = face_sums(W, core, cog=(0.01, 0.0, 0.0))
+    assert np.allclose(T2, -np.cross([0.01, 0, 0], F2))
+
+
+def test_merge_keeps_every_sample():
+    a = Bundle(np.arange(3.0), np.zeros((3, 36)), np.zeros((3, 6)), wrenches=np.ones((6, 6)))
+    b = Bundle(np.arange(3.0, 5.0), np.ones((2, 36)), np.ones((2, 6)))
+    m = merge_bundles(a, b)
+    assert m.time.tolist() == [0, 1, 2, 3, 4] and m.counts.shape == (5, 36)
+    assert m.wrenches is not None
