@@ -339,7 +339,9 @@ class DemoRig:
             self.port = pito_sim.port
             self.address = f"{netft_sim.host}:{netft_sim.port}"
             cube = devices.PitoSerial(pito_sim.port)
-            netft = devices.NetFT(netft_sim.host, netft_sim.port, http_port=netft_sim.http_port)
+            # buffered RDT (10 records per packet): a tenth of the packets, and of the Python
+            # work per sample in the two in-process device threads, as a real box allows too
+            netft = devices.NetFT(netft_sim.host, netft_sim.port, http_port=netft_sim.http_port, buffered=True)
             self.acquisition = devices.Acquisition(cube, netft, buffer_seconds=30.0, meta={"simulated": True}).start()
             self._stack.callback(self.acquisition.close)
         except Exception:

@@ -138,7 +138,7 @@ class LiveView(QWidget):
         self.timeline.sliderReleased.connect(self._seek)
         self._last_contacts = None
         self._last_plot = 0.0
-        self.plot_rate = 20.0  # Hz
+        self.plot_rate = 10.0  # Hz: pyqtgraph repaints its axes on every refresh
 
     # ------------------------------------------------------------ options (glyphs are the model)
     def sync_options(self) -> None:

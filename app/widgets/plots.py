@@ -76,7 +76,7 @@ class FaceForcePlot(pg.PlotWidget):
         _style_plot(self.getPlotItem(), "force norm ‖F‖ (N)")
         self.addLegend(offset=(6, 4), colCount=6, labelTextSize="8pt")
         self.curves = [
-            self.plot([], [], pen=pg.mkPen(FACE_COLORS[i], width=2), name=f"face {i}") for i in range(1, 7)
+            self.plot([], [], pen=pg.mkPen(FACE_COLORS[i], width=1), name=f"face {i}") for i in range(1, 7)
         ]
         self.setYRange(0, 15)
 
@@ -118,11 +118,11 @@ class EquilibriumPlot(QWidget):
         _style_plot(self.torque_plot.getPlotItem(), "‖ΣT‖ (mN·m)")
         self.torque_plot.addLegend(offset=(6, 4), labelTextSize="8pt")
         self.force_plot.addLegend(offset=(6, 4), labelTextSize="8pt")
-        self.force_curve = self.force_plot.plot([], [], pen=pg.mkPen("#e8edf2", width=2), name="‖ΣF‖ of the six faces")
-        self.weight_line = pg.InfiniteLine(angle=0, pen=pg.mkPen("#f0a030", width=2, style=pg.QtCore.Qt.PenStyle.DashLine),
+        self.force_curve = self.force_plot.plot([], [], pen=pg.mkPen("#e8edf2", width=1), name="‖ΣF‖ of the six faces")
+        self.weight_line = pg.InfiniteLine(angle=0, pen=pg.mkPen("#f0a030", width=1, style=pg.QtCore.Qt.PenStyle.DashLine),
                                            label="weight m·g = {value:.2f} N", labelOpts={"color": "#f0a030", "position": 0.15})
         self.force_plot.addItem(self.weight_line)
-        self.torque_curve = self.torque_plot.plot([], [], pen=pg.mkPen("#56B4E9", width=2),
+        self.torque_curve = self.torque_plot.plot([], [], pen=pg.mkPen("#56B4E9", width=1),
                                                   name="‖ΣT‖ about the centre of gravity (0 when still)")
         self.set_weight(weight)
         layout.addWidget(self.force_plot)
