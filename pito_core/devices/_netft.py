@@ -25,6 +25,7 @@ from urllib.request import urlopen
 import numpy as np
 
 from ._serial import DeviceError, SequenceTracker
+from ._queue import BatchQueue
 
 __all__ = [
     "NetFT",
@@ -247,9 +248,7 @@ class NetFT:
         self._sock: socket.socket | None = None
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
-        self._cond = threading.Condition()
-        self._pending: list[NetFTBatch] = []
-        self._n_pending = 0
+        self._queue = BatchQueue(self.max_pending, NetFTBatch.concatenate)
         self._seq = SequenceTracker()
         self._counts = dict(records=0, packets=0, saturated=0, status_errors=0, bad_packets=0, restarts=0, overflow=0)
         self._last_status = 0
@@ -307,8 +306,7 @@ class NetFT:
                 pass
             self._sock.close()
             self._sock = None
-        with self._cond:
-            self._cond.notify_all()
+        self._queue.wake()
 
     def __enter__(self) -> "NetFT":
         return self.start()
@@ -342,14 +340,9 @@ class NetFT:
                 continue
             rec = np.frombuffer(data, dtype=RDT_RECORD_DTYPE)
             batch = self._batch(rec, now)
-            with self._cond:
-                self._pending.append(batch)
-                self._n_pending += len(batch)
-                while self._n_pending > self.max_pending and len(self._pending) > 1:
-                    old = self._pending.pop(0)
-                    self._n_pending -= len(old)
-                    self._counts["overflow"] += len(old)
-                self._cond.notify_all()
+            dropped = self._queue.put(batch)
+            if dropped:
+                self._counts["overflow"] += dropped
 
     def _batch(self, rec: np.ndarray, now: float) -> NetFTBatch:
         status = rec["status"].astype(np.uint32)
@@ -368,18 +361,7 @@ class NetFT:
     # ------------------------------------------------------------------ consumer API
     def read(self, timeout: float | None = None) -> NetFTBatch | None:
         """All records received since the last call, or None if none came within ``timeout`` s."""
-        with self._cond:
-            if not self._pending and (timeout is None or timeout > 0):
-                deadline = None if timeout is None else time.monotonic() + timeout
-                while not self._pending and not self._stop.is_set():
-                    remaining = None if deadline is None else deadline - time.monotonic()
-                    if remaining is not None and remaining <= 0:
-                        break
-                    self._cond.wait(remaining if remaining is not None else 0.5)
-            if not self._pending:
-                return None
-            batches, self._pending, self._n_pending = self._pending, [], 0
-        return NetFTBatch.concatenate(batches)
+        return self._queue.get(timeout, self._stop)
 
     def stats(self) -> dict:
         """Counters since :meth:`start`.

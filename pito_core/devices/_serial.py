@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._frame import N_CHANNELS, FrameDecoder
+from ._queue import BatchQueue
 
 __all__ = ["PitoSerial", "PitoBatch", "DeviceError", "list_serial_ports", "DEFAULT_BAUDRATE"]
 
@@ -140,9 +141,7 @@ class PitoSerial:
         self._serial = None
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
-        self._cond = threading.Condition()
-        self._pending: list[PitoBatch] = []
-        self._n_pending = 0
+        self._queue = BatchQueue(self.max_pending, PitoBatch.concatenate)
         self._reconnects = 0
         self._overflow = 0
         self._connected = False
@@ -181,8 +180,7 @@ class PitoSerial:
                 pass
             self._serial = None
         self._connected = False
-        with self._cond:
-            self._cond.notify_all()
+        self._queue.wake()
 
     def __enter__(self) -> "PitoSerial":
         return self.start()
@@ -221,14 +219,9 @@ class PitoSerial:
             if len(frames):
                 self._seq.update(frames.seq)
                 batch = PitoBatch(frames.seq, frames.time_us, frames.counts, np.full(len(frames), now))
-                with self._cond:
-                    self._pending.append(batch)
-                    self._n_pending += len(batch)
-                    while self._n_pending > self.max_pending and len(self._pending) > 1:
-                        old = self._pending.pop(0)
-                        self._n_pending -= len(old)
-                        self._overflow += len(old)
-                    self._cond.notify_all()
+                dropped = self._queue.put(batch)
+                if dropped:
+                    self._overflow += dropped
 
     def _reopen(self):
         while not self._stop.wait(self.reconnect_interval):
@@ -249,18 +242,7 @@ class PitoSerial:
 
         ``timeout=None`` waits until frames arrive or the device is closed; ``0`` polls.
         """
-        with self._cond:
-            if not self._pending and (timeout is None or timeout > 0):
-                deadline = None if timeout is None else time.monotonic() + timeout
-                while not self._pending and not self._stop.is_set():
-                    remaining = None if deadline is None else deadline - time.monotonic()
-                    if remaining is not None and remaining <= 0:
-                        break
-                    self._cond.wait(remaining if remaining is not None else 0.5)
-            if not self._pending:
-                return None
-            batches, self._pending, self._n_pending = self._pending, [], 0
-        return PitoBatch.concatenate(batches)
+        return self._queue.get(timeout, self._stop)
 
     def stats(self) -> dict:
         """Counters since :meth:`start`.
