@@ -205,6 +205,17 @@ def _live_table(title, runs) -> str:
 
 
 # ---------------------------------------------------------------- plots
+def _save(fig, out_dir: str, name: str) -> str:
+    """Write ``fig`` as ``out_dir/name`` (PNG, 120 dpi), close it, return the path."""
+    import matplotlib.pyplot as plt
+
+    path = os.path.join(out_dir, name)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
 def write_plots(result: dict, out_dir) -> list[str]:
     """PNG plots of speed against error into ``out_dir``; returns the paths written."""
     import matplotlib
@@ -238,11 +249,7 @@ def write_plots(result: dict, out_dir) -> list[str]:
         ax.set_title("Calibration: speed vs error, simulated data" + tag)
         ax.legend(fontsize=6, ncol=2)
         ax.grid(True, which="both", alpha=0.3)
-        p = os.path.join(out_dir, "calibration_speed_vs_error.png")
-        fig.tight_layout()
-        fig.savefig(p, dpi=120)
-        plt.close(fig)
-        paths.append(p)
+        paths.append(_save(fig, out_dir, "calibration_speed_vs_error.png"))
     con = result.get("contact")
     if con and con["pareto"]:
         fig, ax = plt.subplots(figsize=(7, 5))
@@ -263,11 +270,7 @@ def write_plots(result: dict, out_dir) -> list[str]:
         ax.set_title("Contact: speed vs error (filled: Pareto-optimal)" + tag)
         ax.legend(fontsize=6)
         ax.grid(True, which="both", alpha=0.3)
-        p = os.path.join(out_dir, "contact_speed_vs_error.png")
-        fig.tight_layout()
-        fig.savefig(p, dpi=120)
-        plt.close(fig)
-        paths.append(p)
+        paths.append(_save(fig, out_dir, "contact_speed_vs_error.png"))
         fig, ax = plt.subplots(figsize=(7, 5))
         labels = [f"{a['surface']}/{a['scenario']}/{a['noise']}" for a in con["accuracy"]]
         ax.bar(range(len(labels)), [_n(a["crb_ratio"]) for a in con["accuracy"]], color="C0")
@@ -276,9 +279,5 @@ def write_plots(result: dict, out_dir) -> list[str]:
         ax.set_xticks(range(len(labels)), labels, rotation=90, fontsize=6)
         ax.set_ylabel("RMS point error / Cramér–Rao bound (1)")
         ax.set_title("Contact: error against the bound per scenario" + tag)
-        p = os.path.join(out_dir, "contact_crb_ratio.png")
-        fig.tight_layout()
-        fig.savefig(p, dpi=120)
-        plt.close(fig)
-        paths.append(p)
+        paths.append(_save(fig, out_dir, "contact_crb_ratio.png"))
     return paths
