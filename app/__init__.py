@@ -1,4 +1,4 @@
-"""pito-app: the PySide6 + pyvistaqt desktop application (a thin shell over pito_core)."""
+"""pito-app: the PySide6 + pyvista + pyqtgraph desktop application (a thin shell over pito_core)."""
 
 from ._compat import protect_singletons
 

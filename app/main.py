@@ -1,10 +1,11 @@
-"""``pito-app``: the desktop application (PySide6 + pyvistaqt), a thin shell over ``pito_core``.
+"""``pito-app``: the desktop application (PySide6 + pyvista + pyqtgraph), a thin shell over ``pito_core``.
 
 Usage::
 
     pito-app                       # real devices (choose them in the wizard's Devices step)
     pito-app --demo                # simulated cube and reference, a looping grasp
     pito-app --calibration CAL.h5  # live view with a calibration file
+    pito-app --pito PORT --ati HOST[:PORT]   # devices at these addresses (e.g. printed by `pito sim-devices`)
     pito-app --demo --screenshot live.png --page live   # render one screen to a PNG and exit
 """
 
@@ -27,6 +28,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--demo", action="store_true",
                    help="run on the simulated devices (virtual cube on a pty, virtual Net F/T on loopback UDP)")
     p.add_argument("--calibration", metavar="FILE", help="calibration file for the live view")
+    p.add_argument("--pito", metavar="PORT", help="connect the cube on this serial port at startup "
+                   "(e.g. the port `pito sim-devices` prints)")
+    p.add_argument("--ati", metavar="HOST", help="with --pito: the Net F/T at HOST or HOST:PORT (default: none)")
     p.add_argument("--seed", type=int, default=0, help="seed of the simulators (default 0)")
     p.add_argument("--rate", type=float, default=60.0, help="display ticks per second, Hz (default 60)")
     p.add_argument("--demo-k", type=int, default=1500,
@@ -54,6 +58,8 @@ def main(argv=None) -> int:
     window = MainWindow(demo=args.demo, calibration_path=args.calibration, rate=args.rate, seed=args.seed,
                         demo_k=args.demo_k, demo_period=0.6 if args.screenshot else 1.5,
                         wizard_k=600 if args.screenshot else 1000)
+    if args.pito:
+        window.connect_devices(args.pito, args.ati or "", False)
     if args.screenshot:
         from .screenshot import take_screenshot
 

@@ -59,6 +59,17 @@ def rmse_figure(evaluation, fig: Figure | None = None, dark: bool = True) -> Fig
         ax.set_ylabel(f"{title} ({unit})")
         ax.set_title(f"held-out {title} ({unit})", fontsize=9)
         top = np.nanmax(v) if ok.any() else 1.0
+        unc = getattr(evaluation, "uncertainty95", None)  # (6, 6) half-widths of the 95 % intervals, or None
+        if unc is not None:
+            u = np.asarray(unc, dtype=float)[:, :3] if unit == "N" else np.asarray(unc, dtype=float)[:, 3:] * 1000
+            with np.errstate(invalid="ignore"):
+                u = np.sqrt(np.nanmean(u**2, axis=1))
+            okU = np.isfinite(u)
+            if okU.any():
+                ax.scatter(faces[okU], u[okU], marker="_", s=250, linewidths=2,
+                           color=DARK["fg"] if dark else "black", label="± 95 % (calibration's own, RMS of axes)")
+                ax.legend(fontsize=6, loc="upper left")
+                top = max(top, float(np.nanmax(u)))
         ax.set_ylim(0, top * 1.25 if top > 0 else 1.0)
         ax.grid(axis="y", alpha=0.25)
     fig.tight_layout()
@@ -88,8 +99,9 @@ def identification_figure(evaluation, fig: Figure | None = None, dark: bool = Tr
             if np.isfinite(M[i, j]):
                 ax.text(j, i, f"{M[i, j]:.1f}", ha="center", va="center", fontsize=8,
                         color="black" if M[i, j] > 0.6 * np.nanmax(M) else "white")
-    acc = (evaluation.identification.get("single") or {}).get("either")
-    ax.set_title("face identification: mean ‖F‖ (N) per face" + (f" — {100 * acc:.1f} % right" if acc is not None else ""),
+    acc = (evaluation.identification.get("single") or {}).get("force")  # the papers' rule for single-face loads
+    ax.set_title("face identification: mean ‖F‖ (N) per face"
+                 + (f" — {100 * acc:.1f} % identified by force" if acc is not None else ""),
                  fontsize=9)
     fig.tight_layout()
     style_figure(fig, dark)
@@ -193,10 +205,10 @@ def export_report(folder, calibration, evaluation, info: dict | None = None) -> 
         fs = f"{f[i]:.4f}" if np.isfinite(f[i]) else "n/a"
         ts = f"{t[i] * 1000:.4f}" if np.isfinite(t[i]) else "n/a"
         lines.append(f"| {i + 1} | {fs} | {ts} |")
-    acc = (evaluation.identification.get("single") or {}).get("either")
+    head = evaluation.identification_headline()  # single-face loads by force, squeeze loads by torque
     lines += [
         "",
-        f"Face identification (single-face loads): {100 * acc:.1f} % of samples." if acc is not None else "",
+        ("Face identification (the papers' rule): " + "; ".join(h["text"] for h in head) + ".") if head else "",
         "",
         "![RMSE per face](rmse.png)",
         "",

@@ -2,7 +2,9 @@
 
 Everything is built once; per-frame updates only move actors (``user_matrix``) and toggle
 their visibility, then ask the GL widget for a repaint (``QWidget.update``), which Qt
-coalesces to the display rate. No mesh is rebuilt per frame (STYLE.md item 10).
+coalesces to the display rate. No mesh is rebuilt per frame (STYLE.md item 10). The
+plotter draws into a native child window (:func:`native_plotter`), not a ``QOpenGLWidget``;
+:func:`grab_window` puts its frame into window grabs (screenshots, tests).
 
 All geometry is in the core frame, metres.
 """
@@ -11,22 +13,23 @@ from __future__ import annotations
 
 import numpy as np
 import pyvista as pv
-from pyvistaqt import QtInteractor
+from PySide6.QtGui import QImage, QPainter
 from PySide6.QtWidgets import QVBoxLayout, QWidget
+from vtkmodules.qt.QVTKRenderWindowInteractor import QVTKRenderWindowInteractor
 
 from pito_core.frames import FACES, CubeCore
 
-__all__ = ["CubeScene", "ContactGlyphs", "FACE_COLORS", "arrow_matrix", "ellipsoid_matrix"]
+from .palette import CONTACT_COLOR, FACE_COLORS, hex_rgb
 
-#: One colour per face, shared by the scene and every plot (Okabe–Ito, colour-blind safe).
-FACE_COLORS = {
-    1: "#0072B2",
-    2: "#E69F00",
-    3: "#009E73",
-    4: "#CC79A7",
-    5: "#56B4E9",
-    6: "#D55E00",
-}
+__all__ = ["CubeScene", "ContactGlyphs", "native_plotter", "grab_window", "grab_scene", "FACE_COLORS", "arrow_matrix", "ellipsoid_matrix", "FULL_SCALE_FORCE"]
+
+#: N: arrows are drawn up to this force (a firm grasp, the arrows' full scale) and clamped beyond it
+#: (marked by a white collar at the tail); the live view frames its camera to hold them
+FULL_SCALE_FORCE = 12.0
+
+#: most triangles per patch drawn (display meshes are decimated to it, once per object)
+PATCH_DISPLAY_CELLS = 1200
+
 PLATE_COLOR = "#b8c2cc"
 CORE_COLOR = "#5b6570"
 CONNECTED_COLOR = "#f0a030"
@@ -48,7 +51,7 @@ def _rotation_from_x(direction: np.ndarray) -> np.ndarray:
     return np.column_stack([x, y, z])
 
 
-def arrow_matrix(tip, force, scale: float, width: float) -> np.ndarray:
+def arrow_matrix(tip, force, scale: float, width: float, max_length: float = np.inf, gap: float = 0.0) -> np.ndarray:
     """``(4, 4)`` pose of a unit +x arrow drawn as ``force`` pushing at ``tip``.
 
     Parameters
@@ -61,13 +64,17 @@ def arrow_matrix(tip, force, scale: float, width: float) -> np.ndarray:
         Arrow length per newton, m/N.
     width : float
         Shaft scale, m (the unit arrow's radii are multiplied by this).
+    max_length : float
+        Longest arrow drawn, m (longer ones are clamped to it).
+    gap : float
+        The arrow ends this far before ``tip``, m (on the surface of the contact sphere).
     """
     force = np.asarray(force, dtype=float)
-    length = float(np.linalg.norm(force)) * scale
+    length = min(float(np.linalg.norm(force)) * scale, max_length)
     R = _rotation_from_x(force)
     M = np.eye(4)
     M[:3, :3] = R @ np.diag([length, width, width])
-    M[:3, 3] = np.asarray(tip, dtype=float) - R[:, 0] * length
+    M[:3, 3] = np.asarray(tip, dtype=float) - R[:, 0] * (length + gap)
     return M
 
 
@@ -91,17 +98,19 @@ def _normal_frame_matrix(center, normal, radius: float) -> np.ndarray:
     return M
 
 
-def _hex_rgb(color: str) -> tuple[float, float, float]:
-    """``#rrggbb`` → (r, g, b) in 0..1."""
-    color = color.lstrip("#")
-    return tuple(int(color[k : k + 2], 16) / 255.0 for k in (0, 2, 4))
+_hex_rgb = hex_rgb
 
 
 class ContactGlyphs:
     """One contact sphere, force arrow, torsion ring and uncertainty ellipsoid per face.
 
     Created once; :meth:`update` moves them in place and hides the faces whose force is
-    under ``threshold`` (N) or whose estimate is not valid.
+    under ``threshold`` (N) or whose estimate is not valid. The contact is a white sphere
+    drawn in an overlay layer (the same camera, its own depth buffer), so it stays visible
+    from any camera angle, even behind the object; the arrow, in the face's colour (the
+    colour of its curve in the plots), ends on the sphere's surface. Arrows longer than
+    :data:`FULL_SCALE_FORCE` are clamped to it and get a white collar at the tail. Torsion
+    rings float a little above the surface (a ring in the surface's plane z-fights with it).
 
     Parameters
     ----------
@@ -111,62 +120,96 @@ class ContactGlyphs:
     """
 
     def __init__(self, plotter, edge: float):
+        import vtk
+
         self.plotter = plotter
         self.force_scale = 0.006  # m per N: 15 N -> 9 cm
         self.torque_scale = 0.25  # m per N·m: 0.1 N·m -> 2.5 cm ring radius
         self.threshold = 0.3  # N
+        self.full_scale = FULL_SCALE_FORCE  # N
         self.show_torsion = True
         self.show_uncertainty = False
-        r = 0.06 * edge
+        self.radius = 0.07 * edge  # m, contact sphere
+        self.lift = 0.04 * edge  # m, torsion rings above the surface
         unit_arrow = pv.Arrow(start=(0, 0, 0), direction=(1, 0, 0), tip_length=0.25, tip_radius=2.2, shaft_radius=1.0, scale=1.0)
         # pv.Arrow scales radii by `scale` (=1): radii are in "width" units, length is 1
         unit_sphere = pv.Sphere(radius=1.0, theta_resolution=20, phi_resolution=12)
         ring = pv.Disc(inner=0.82, outer=1.0, r_res=1, c_res=48)
+        collar = pv.Disc(inner=0.0, outer=1.0, r_res=1, c_res=24)
         self._width = 0.0022 * edge / 0.05
-        self.spheres, self.arrows, self.rings, self.ellipsoids = {}, {}, {}, {}
+        # the overlay: a second renderer on layer 1 sharing the scene's camera; it clears only
+        # the depth buffer, so what it draws is never hidden by the object
+        ren_win = plotter.ren_win
+        ren_win.SetNumberOfLayers(max(2, ren_win.GetNumberOfLayers()))
+        self.overlay = vtk.vtkRenderer()
+        self.overlay.SetLayer(1)
+        self.overlay.InteractiveOff()
+        self.overlay.SetActiveCamera(plotter.renderer.GetActiveCamera())
+        ren_win.AddRenderer(self.overlay)
+        sphere_src = pv.Sphere(radius=self.radius, theta_resolution=16, phi_resolution=12)
+        self.spheres, self.arrows, self.rings, self.ellipsoids, self.collars = {}, {}, {}, {}, {}
         for i in FACES:
             c = FACE_COLORS[i]
-            self.spheres[i] = plotter.add_mesh(pv.Sphere(radius=r), color=c, smooth_shading=True, name=f"contact_sphere_{i}", reset_camera=False)
+            sph = pv.Actor(mapper=pv.DataSetMapper(sphere_src.copy()))
+            sph.prop.color = CONTACT_COLOR
+            sph.prop.interpolation = "gouraud"
+            sph.prop.ambient = 0.35
+            self.overlay.AddActor(sph)
+            self.spheres[i] = sph
             self.arrows[i] = plotter.add_mesh(unit_arrow.copy(), color=c, name=f"force_arrow_{i}", reset_camera=False)
             # opaque: a translucent actor costs every frame an extra pass in software GL (~1.6x)
             self.rings[i] = plotter.add_mesh(ring.copy(), color=c, name=f"torsion_ring_{i}", reset_camera=False)
+            self.collars[i] = plotter.add_mesh(collar.copy(), color=CONTACT_COLOR, name=f"clamp_collar_{i}", reset_camera=False)
+            self.collars[i].GetProperty().SetLighting(False)  # plain white from any side
             self.ellipsoids[i] = plotter.add_mesh(unit_sphere.copy(), color=c, opacity=0.25, name=f"uncertainty_{i}", reset_camera=False)
         self.shown = np.zeros(6, dtype=bool)
+        self.clamped = np.zeros(6, dtype=bool)
         self.updates = 0
-        self._ring_colors = {i: (_hex_rgb(FACE_COLORS[i]), tuple(0.45 * v for v in _hex_rgb(FACE_COLORS[i]))) for i in FACES}
-        self.actors = [a for d in (self.spheres, self.arrows, self.rings, self.ellipsoids) for a in d.values()]
+        self._ring_colors = {i: (hex_rgb(FACE_COLORS[i]), tuple(0.45 * v for v in hex_rgb(FACE_COLORS[i]))) for i in FACES}
+        self.actors = [a for d in (self.spheres, self.arrows, self.rings, self.ellipsoids, self.collars) for a in d.values()]
         self.hide()
+
+    @property
+    def max_length(self) -> float:
+        """Longest arrow drawn, m (the full-scale force)."""
+        return self.full_scale * self.force_scale
+
+    def reach(self) -> float:
+        """How far beyond a contact point a glyph can reach, m (arrow at full scale, sphere)."""
+        return self.max_length + 2 * self.radius
 
     def hide(self) -> None:
         for a in self.actors:
             a.SetVisibility(False)
         self.shown = np.zeros(6, dtype=bool)
+        self.clamped = np.zeros(6, dtype=bool)
 
     def shown_count(self) -> int:
         """Contacts on screen after the last update."""
         return int(self.shown.sum())
 
-    def update(self, points, normals, forces, torsions, valid, covariances=None) -> np.ndarray:
-        """Move the glyphs to the latest contacts (core frame) and return the shown mask (6,).
+    def update(self, contacts) -> np.ndarray:
+        """Move the glyphs to the latest contacts and return the shown mask (6,).
 
         Parameters
         ----------
-        points, normals, forces : array-like, shape (6, 3)
-            Contact point (m), outward normal, force on the object (N), face i at row i-1.
-        torsions : array-like, shape (6,)
-            Moment about the normal, N·m.
-        valid : array-like of bool, shape (6,)
-        covariances : array-like, shape (6, 3, 3), optional
-            Covariance of the contact point, m².
+        contacts : pito_core.contact.ObjectContacts
+            The one contact record from the solver (core frame), fields of shape ``(6, …)``,
+            face i at row i-1: ``point`` (m), ``normal`` (outward), ``force`` on the object
+            (N), ``torsion`` about the normal (N·m), ``valid``, ``point_cov`` (m², or None).
         """
-        points = np.asarray(points, dtype=float)
-        forces = np.asarray(forces, dtype=float)
+        points = np.asarray(contacts.point, dtype=float)
+        normals, torsions, valid = contacts.normal, contacts.torsion, contacts.valid
+        covariances = contacts.point_cov
+        forces = np.asarray(contacts.force, dtype=float)
         fnorm = np.linalg.norm(forces, axis=1)
         shown = np.asarray(valid, dtype=bool) & np.isfinite(fnorm) & (fnorm >= self.threshold) & np.isfinite(points).all(axis=1)
+        clamped = shown & (fnorm > self.full_scale)
         for k, i in enumerate(FACES):
             on = bool(shown[k])
             self.spheres[i].SetVisibility(on)
             self.arrows[i].SetVisibility(on)
+            self.collars[i].SetVisibility(bool(clamped[k]))
             tor = float(torsions[k]) if on else np.nan
             ring_on = bool(on and self.show_torsion and np.isfinite(tor) and abs(tor) * self.torque_scale > 1e-4)
             self.rings[i].SetVisibility(ring_on)
@@ -174,21 +217,84 @@ class ContactGlyphs:
             self.ellipsoids[i].SetVisibility(cov_on)
             if not on:
                 continue
-            self.spheres[i].position = points[k]
-            self.arrows[i].user_matrix = arrow_matrix(points[k], forces[k], self.force_scale, self._width)
+            self.spheres[i].SetPosition(*points[k])
+            M = arrow_matrix(points[k], forces[k], self.force_scale, self._width, self.max_length, self.radius)
+            self.arrows[i].user_matrix = M
+            if clamped[k]:
+                # a white collar around the tail of a clamped arrow: "more than full scale"
+                tail = M[:3, 3]
+                self.collars[i].user_matrix = _normal_frame_matrix(tail, forces[k], 4.0 * self._width)
             if ring_on:
-                self.rings[i].user_matrix = _normal_frame_matrix(points[k], normals[k], abs(tor) * self.torque_scale)
+                n = np.asarray(normals[k], dtype=float)
+                n_norm = np.linalg.norm(n)
+                centre = points[k] + (self.lift * n / n_norm if n_norm > 0 else 0.0)
+                self.rings[i].user_matrix = _normal_frame_matrix(centre, normals[k], abs(tor) * self.torque_scale)
                 # the sign of the torsion: full colour counter-clockwise (τ > 0), dimmed clockwise
                 self.rings[i].prop.color = self._ring_colors[i][0 if tor > 0 else 1]
             if cov_on:
                 self.ellipsoids[i].user_matrix = ellipsoid_matrix(points[k], covariances[k])
         self.shown = shown
+        self.clamped = clamped
         self.updates += 1
         return shown
 
 
+def native_plotter(parent) -> pv.Plotter:
+    """A pyvista plotter drawing straight into a native Qt child window.
+
+    VTK's own ``QVTKRenderWindowInteractor`` (a ``QWidget`` with a native window, VTK owns the
+    GL context) hosts the plotter's render window and forwards mouse and keys to its
+    interactor. Unlike a ``QOpenGLWidget`` (pyvistaqt's ``QtInteractor``), it does not make Qt
+    compose the whole top-level window with OpenGL on every frame: in software GL that
+    composition cost more than the scene itself, and every plot repaint paid it too. The
+    widget is ``plotter.interactor``; call :meth:`QWidget.update` on it to repaint.
+    """
+    plotter = pv.Plotter(off_screen=False, window_size=(640, 480))
+    plotter.ren_win.SetMultiSamples(0)  # MSAA multiplies the fill cost in software GL
+    widget = QVTKRenderWindowInteractor(parent, rw=plotter.ren_win, iren=plotter.iren.interactor)
+    plotter.iren.interactor.Enable()  # the Qt widget drives it: no VTK event loop is started
+    pv.set_new_attribute(plotter, "interactor", widget)
+    return plotter
+
+
+def grab_scene(scene) -> QImage:
+    """The scene's last frame as a ``QImage`` (a native GL window is not in ``QWidget.grab``)."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    import vtk
+
+    rw = scene.plotter.ren_win
+    f = vtk.vtkWindowToImageFilter()
+    f.SetInput(rw)
+    f.SetInputBufferTypeToRGB()
+    f.ReadFrontBufferOff()
+    f.ShouldRerenderOn()
+    f.Update()
+    img = f.GetOutput()
+    w, h, _ = img.GetDimensions()
+    arr = vtk_to_numpy(img.GetPointData().GetScalars()).reshape(h, w, 3)[::-1].copy()
+    return QImage(arr.data, w, h, 3 * w, QImage.Format.Format_RGB888).copy()
+
+
+def grab_window(widget):
+    """``widget.grab()`` with every visible :class:`CubeScene`'s frame painted in (a ``QPixmap``)."""
+    pix = widget.grab()
+    painter = QPainter(pix)
+    try:
+        scenes = ([widget] if isinstance(widget, CubeScene) else []) + list(widget.findChildren(CubeScene))
+        for scene in scenes:
+            view = scene.plotter.interactor
+            if not view.isVisible() or getattr(scene, "_closed_scene", False):
+                continue
+            pos = view.mapTo(widget, view.rect().topLeft())
+            img = grab_scene(scene)
+            painter.drawImage(pos.x(), pos.y(), img.scaled(view.width(), view.height()))
+    finally:
+        painter.end()
+    return pix
+
+
 class CubeScene(QWidget):
-    """A pyvistaqt view of the PITO cube: face plates, mount, patches and contact glyphs.
+    """A 3D view of the PITO cube (pyvista in a native VTK widget): face plates, mount, patches, contact glyphs.
 
     Parameters
     ----------
@@ -199,8 +305,11 @@ class CubeScene(QWidget):
     def __init__(self, core: CubeCore | None = None, parent=None):
         super().__init__(parent)
         self.core = core or CubeCore()
-        self.plotter = QtInteractor(self, auto_update=False, multi_samples=0)
-        self.plotter.set_background(BACKGROUND)  # flat: a gradient costs a full-screen pass in software GL
+        self.plotter = native_plotter(self)
+        self.plotter.set_background(BACKGROUND)
+        # one headlight, not pyvista's five-light kit: software GL shades every pixel once per light
+        self.plotter.remove_all_lights()
+        self.plotter.add_light(pv.Light(light_type="headlight"))  # flat: a gradient costs a full-screen pass in software GL
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(self.plotter.interactor)
@@ -215,12 +324,29 @@ class CubeScene(QWidget):
             plate = pv.Box(bounds=(-0.42 * e, 0.42 * e, -0.42 * e, 0.42 * e, -0.04 * e, 0.0)).transform(T, inplace=False)
             self._plates[i] = self.plotter.add_mesh(plate, color=PLATE_COLOR, name=f"plate_{i}", smooth_shading=False, reset_camera=False)
         pts = np.array([self.core.face_pose(i)[:3, 3] * 1.45 for i in FACES])
-        self.plotter.add_point_labels(
-            pts, [str(i) for i in FACES], font_size=22, bold=True, text_color="white", shape_color="#000000",
-            shape_opacity=1.0, show_points=False, always_visible=False, name="face_labels",
-        )
+        # face numbers: six billboard text actors (a label-placement mapper re-places its labels
+        # on every render, a few ms of the GUI thread per frame)
+        import vtk
+
+        self.face_labels = {}
+        for i, p in zip(FACES, pts):
+            lab = vtk.vtkBillboardTextActor3D()
+            lab.SetInput(str(i))
+            lab.SetPosition(*p)
+            tp = lab.GetTextProperty()
+            tp.SetFontSize(26)
+            tp.BoldOn()
+            tp.SetColor(1.0, 1.0, 1.0)
+            tp.SetBackgroundColor(0.0, 0.0, 0.0)
+            tp.SetBackgroundOpacity(1.0)
+            tp.SetJustificationToCentered()
+            tp.SetVerticalJustificationToCentered()
+            self.plotter.renderer.AddActor(lab)
+            self.face_labels[i] = lab
         self._mount_actors: list = []
         self.glyphs = ContactGlyphs(self.plotter, e)
+        #: frame the camera for full-scale arrows (:meth:`frame_contacts`) when the object changes
+        self.frame_glyphs = False
         self.plotter.add_axes(line_width=2, labels_off=False)
         self.reset_camera()
 
@@ -323,9 +449,15 @@ class CubeScene(QWidget):
         for i, mesh in (meshes or {}).items():
             if mesh is None:
                 continue
+            if mesh.n_cells > PATCH_DISPLAY_CELLS:
+                # fewer triangles on screen: software GL pays per vertex every frame; the
+                # smooth-shaded patch looks the same at a quarter of the cells
+                mesh = mesh.triangulate().decimate(1.0 - PATCH_DISPLAY_CELLS / mesh.n_cells)
             self._patches[i] = self.plotter.add_mesh(
                 mesh, color=FACE_COLORS[i], opacity=opacity, name=f"patch_{i}", smooth_shading=True, reset_camera=False
             )
+        if self.frame_glyphs:
+            self.frame_contacts()
         self.redraw()
 
     def set_caption(self, text: str) -> None:
@@ -338,8 +470,37 @@ class CubeScene(QWidget):
         in another GL widget's paint and crash)."""
         if not getattr(self, "_closed_scene", False):
             self._closed_scene = True
-            self.plotter.close()
+            try:
+                self.plotter.interactor.Finalize()
+            finally:
+                self.plotter.close()
 
     def set_view_extent(self, radius: float) -> None:
         """Frame the camera on a sphere of ``radius`` m about the core centre."""
         self.reset_camera(distance=6.0 * max(radius, self.core.edge) / self.core.edge)
+
+    def object_radius(self) -> float:
+        """Radius of the object about the core centre, m: the core's corners and the patches' points."""
+        r = 0.5 * np.sqrt(3.0) * self.core.edge
+        for actor in self._patches.values():
+            pts = np.asarray(actor.mapper.dataset.points) if actor.mapper is not None and actor.mapper.dataset is not None else None
+            if pts is not None and pts.size:
+                r = max(r, float(np.sqrt((pts ** 2).sum(axis=1).max())))
+        return r
+
+    def frame_contacts(self) -> None:
+        """Camera that holds the object and full-scale force arrows on any face.
+
+        A sphere of radius (object radius + the glyphs' reach) about the core centre fits in
+        the view's narrower field of view, from the usual viewing direction. Called when the
+        object or the arrow scale changes, so the framing follows the object.
+        """
+        radius = self.object_radius() + self.glyphs.reach()
+        half_v = np.radians(30.0) / 2
+        w, h = self.plotter.interactor.width(), self.plotter.interactor.height()
+        aspect = min(1.0, max(0.6, w / h)) if w > 0 and h > 0 else 1.0
+        half = min(half_v, np.arctan(np.tan(half_v) * aspect))
+        distance = radius / np.sin(half)
+        self.reset_camera(distance=distance / (self.core.edge * 1.35))
+        self._framed = True
+        self.redraw()

@@ -4,36 +4,24 @@ from __future__ import annotations
 
 import time
 
-from PySide6.QtCore import QEventLoop, QTimer
 from PySide6.QtWidgets import QApplication
 
+from .eventloop import process_for, wait_until
+from .wizard.driver import run_to_page
+
 __all__ = ["take_screenshot", "wait_until", "process_for"]
-
-
-def process_for(seconds: float) -> None:
-    """Run the event loop for ``seconds`` (s)."""
-    loop = QEventLoop()
-    QTimer.singleShot(int(seconds * 1000), loop.quit)
-    loop.exec()
-
-
-def wait_until(predicate, timeout: float = 30.0, step: float = 0.05) -> bool:
-    """Run the event loop until ``predicate()`` is true or ``timeout`` s pass; return the predicate."""
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        if predicate():
-            return True
-        process_for(step)
-    return bool(predicate())
 
 
 def _prepare_live(window) -> None:
     window.tabs.setCurrentWidget(window.live)
     # a moment of the grasp where the hand holds the object in the air, with some history
     live = window.live
-    t_start = time.monotonic()
+    since = {}
 
     def holding():
+        if window.calibration is None:  # the demo calibrates in the background at startup
+            return False
+        t_start = since.setdefault("t", time.monotonic())  # then 6 s of history in the plots
         g = live.scene.glyphs
         return (time.monotonic() - t_start > 6.0 and g.shown_count() >= 2 and not g.shown[5]
                 and g.arrows[1].GetVisibility())
@@ -49,14 +37,12 @@ def _prepare_mount(window) -> None:
 
 
 def _prepare_load(window) -> None:
-    from .wizard.driver import run_to_page
 
     window.tabs.setCurrentWidget(window.wizard)
     run_to_page(window, "load", partial_face=True, k=600)
 
 
 def _prepare_results(window) -> None:
-    from .wizard.driver import run_to_page
 
     window.tabs.setCurrentWidget(window.wizard)
     run_to_page(window, "results", k=600)
@@ -74,5 +60,7 @@ def take_screenshot(window, page: str, path, size=(1440, 900)) -> bool:
     if page != "live":
         process_for(0.3)
     QApplication.processEvents()
-    img = window.grab()
+    from .scene import grab_window
+
+    img = grab_window(window)  # the 3D views are native GL windows: painted in
     return bool(img.save(str(path)))

@@ -10,13 +10,26 @@ from PySide6.QtWidgets import QFileDialog, QLabel, QMainWindow, QMessageBox, QTa
 
 from pito_core.frames import CubeCore
 
-from . import backend
+from pito_core.contact import DEFAULT_WRENCH_COV
+from pito_core.pipeline import RecordingReader, open_reader
+from pito_core.sim import reference_pose
+
+from .demo import DEMO_METHOD, DemoDevices, demo_calibration
 from .live import LiveView
+from .tasks import TaskBar, run_in_process, run_task
+from .objects import display_meshes, list_assemblies, load_assembly, weight
 from .wizard.model import WizardModel
 from .wizard.wizard import CalibrationWizard
 from .workers import DeviceWorker, WorkerThread
 
 __all__ = ["MainWindow"]
+
+
+def _demo_calibration_job(k: int, seed: int, progress=None):
+    """The demo's startup calibration, for :func:`~app.tasks.run_in_process` (SIMULATED data)."""
+    if progress is not None:
+        progress(None, f"simulating and fitting {k} samples per face")
+    return demo_calibration(k=k, seed=seed)
 
 
 class MainWindow(QMainWindow):
@@ -44,7 +57,7 @@ class MainWindow(QMainWindow):
         self.model = WizardModel(self.core)
         self.model.set_k(wizard_k if demo else 10000)
         self.wizard = CalibrationWizard(self.model)
-        self.live = LiveView(self.core, backend.list_assemblies())
+        self.live = LiveView(self.core, list_assemblies())
         self.tabs = QTabWidget()
         self.tabs.addTab(self.live, "Live view")
         self.tabs.addTab(self.wizard, "Calibration wizard")
@@ -60,12 +73,25 @@ class MainWindow(QMainWindow):
         cl.addWidget(self.cal_label)
         cl.addWidget(self.badge)
         self.tabs.setCornerWidget(corner, Qt.Corner.TopRightCorner)
+        self.taskbar = TaskBar()  # file loads and fits in the background: progress and Cancel
+        self.statusBar().addPermanentWidget(self.taskbar)
+        self._loading_calibration = False
         self.resize(1440, 900)
 
         self.worker = DeviceWorker(rate=rate, core=self.core)
         self.worker_thread = WorkerThread(self.worker)
         self.worker.bundle.connect(self.on_bundle)
         self.worker.error.connect(self.on_worker_error)
+        from .export_dialog import install_export_menu  # File → Export; the live view's LSL toggle (docs/interop.md)
+        from .live.lsl_toggle import install_lsl_toggle
+
+        install_export_menu(self)
+        install_lsl_toggle(self.live, self.worker, simulated=demo)
+        from .health import install_health_indicator  # status bar: "stalled", rate mismatch (issue 13)
+        from .press_test import install_press_test_menu  # Tools → Press test (issue 13)
+
+        install_health_indicator(self)
+        install_press_test_menu(self)
         self.errors: list[str] = []
         self.recording_path = None
         self.rig = None  # demo: the simulated devices and their scenarios
@@ -102,21 +128,29 @@ class MainWindow(QMainWindow):
     # ------------------------------------------------------------ demo
     def start_demo(self, k: int) -> None:
         """Open the simulated devices (pty + UDP) and, without a calibration, calibrate the virtual cube."""
-        self.rig = backend.DemoRig(seed=self.seed, core=self.core, speed=self.demo_speed,
-                                          period=self.demo_period)
+        self.rig = DemoDevices(seed=self.seed, speed=self.demo_speed, period=self.demo_period)
         self.rig.set_scenario("grasp")
         source = self.rig.open_source()
         self.worker.post(lambda: self.worker.set_source(source))
+        self.wizard.pages["devices"].set_connected(f"✔ SIMULATED: {self.rig.describe()}", True)
         self.statusBar().showMessage(f"SIMULATED DEVICE: {self.rig.describe()}")
-        if self.calibration is None:
-            m = backend.DEMO_METHOD
+        if self.calibration is None and not self._loading_calibration:
+            m = DEMO_METHOD
             self.statusBar().showMessage(f"Calibrating the virtual cube (method '{m}', k = {k} per face)…")
-            cal = backend.demo_calibration(self.rig, k=k, seed=self.seed)
-            self.set_calibration(cal, f"virtual cube, calibrated at startup ({m}, k = {k}/face)")
-            self.statusBar().showMessage(
-                f"SIMULATED DEVICE — no calibration file: the virtual cube was calibrated at startup with the "
-                f"simulator ({m}, k = {k} samples per face, 1/cond = {cal.inverse_condition_number:.1e})."
-            )
+            seed = self.seed
+
+            def done(cal):
+                if self.calibration is not None:  # a file was loaded meanwhile: it wins
+                    return
+                self.set_calibration(cal, f"virtual cube, calibrated at startup ({m}, k = {k}/face)")
+                self.statusBar().showMessage(
+                    f"SIMULATED DEVICE — no calibration file: the virtual cube was calibrated at startup with the "
+                    f"simulator ({m}, k = {k} samples per face, 1/cond = {cal.inverse_condition_number:.1e})."
+                )
+
+            # in a child process (the fit's LAPACK holds the GIL): the window shows the raw demo meanwhile
+            run_in_process(_demo_calibration_job, (k, seed), f"Calibrating the virtual cube ({m}, SIMULATED)", done,
+                           self.on_worker_error, bar=self.taskbar)
 
     def _tab_changed(self, index: int) -> None:
         if self.rig is None:
@@ -128,7 +162,7 @@ class MainWindow(QMainWindow):
             self.rig.set_scenario("grasp")
 
     def _mount_changed(self) -> None:
-        self.model.T_core_ati = backend.mount_pose(self.model.flange, self.model.connected_face, self.core)
+        self.model.T_core_ati = reference_pose(self.model.flange, self.model.connected_face, self.core)
         if self.rig is not None:
             self.rig.set_mount(self.model.flange, self.model.connected_face)
 
@@ -138,8 +172,7 @@ class MainWindow(QMainWindow):
         try:
             if simulated:
                 if self.rig is None:
-                    self.rig = backend.DemoRig(seed=self.seed, core=self.core, speed=self.demo_speed,
-                                          period=self.demo_period)
+                    self.rig = DemoDevices(seed=self.seed, speed=self.demo_speed, period=self.demo_period)
                 self.rig.set_scenario("calibration")
                 self._mount_changed()
                 source = self.rig.open_source()
@@ -147,7 +180,7 @@ class MainWindow(QMainWindow):
                 self.badge.setVisible(True)
                 text = f"✔ SIMULATED: {self.rig.describe()}"
             else:
-                source = backend.open_hardware(port, host)
+                source = open_reader(port, host)
                 self.model.simulated = False
                 text = f"✔ cube on {port}, reference at {host}"
         except Exception as exc:  # noqa: BLE001 - shown to the operator
@@ -160,22 +193,35 @@ class MainWindow(QMainWindow):
     def set_calibration(self, calibration, label: str = "") -> None:
         self.calibration = calibration
         self.worker.post(lambda: self.worker.set_calibration(calibration))
-        self.cal_label.setText(f"calibration: {label or calibration.method}")
+        from pito_core.io import calibration_hash, short_hash
 
-    def load_calibration(self, path) -> None:
+        h = short_hash(calibration_hash(calibration))  # the calibration's identity (issue 13)
+        self.cal_label.setText(f"calibration: {label or calibration.method} [{h}]")
+        base = self.windowTitle().split("  — calibration")[0]
+        self.setWindowTitle(f"{base}  — calibration {label or calibration.method} [{h}]")
+
+    def load_calibration(self, path):
+        """Load a calibration file in the background; returns the task (its ``done`` carries the calibration)."""
         from pito_core.calibration import load_calibration
 
-        cal = load_calibration(path)
-        self.set_calibration(cal, Path(path).name)
-        self.statusBar().showMessage(f"Loaded calibration {path} ({cal.method})", 8000)
+        self._loading_calibration = True
+
+        def done(cal):
+            self.set_calibration(cal, Path(path).name)
+            self.statusBar().showMessage(f"Loaded calibration {path} ({cal.method})", 8000)
+
+        def failed(message):
+            QMessageBox.warning(self, "Calibration", f"Could not load {path}:\n{message}")
+
+        task = run_task(lambda progress: load_calibration(path), f"Loading {Path(path).name}", done, failed,
+                        bar=self.taskbar)
+        task.ended.connect(lambda: setattr(self, "_loading_calibration", False))
+        return task
 
     def ask_calibration(self) -> None:
         path, _ = QFileDialog.getOpenFileName(self, "Load a calibration", "", "PITO calibration (*.h5 *.hdf5);;All files (*)")
         if path:
-            try:
-                self.load_calibration(path)
-            except Exception as exc:  # noqa: BLE001
-                QMessageBox.warning(self, "Calibration", f"Could not load {path}:\n{exc}")
+            self.load_calibration(path)
 
     def _wizard_result(self) -> None:
         if self.model.calibration is not None and self.model.accepted:
@@ -183,23 +229,21 @@ class MainWindow(QMainWindow):
 
     def set_assembly(self, name: str) -> None:
         try:
-            self.assembly = backend.load_assembly(name, self.core)
+            self.assembly = load_assembly(name)
         except Exception as exc:  # noqa: BLE001
             self.statusBar().showMessage(f"assembly {name}: {exc}", 8000)
             self.assembly = None
-        self.live.scene.set_patches(backend.display_meshes(self.assembly))
-        self.live.equilibrium.set_weight(backend.weight(self.assembly))
-        cog = backend.center_of_gravity(self.assembly)
-        self.worker.post(lambda: setattr(self.worker, "cog", cog))
+        self.live.scene.set_patches(display_meshes(self.assembly))
+        self.live.equilibrium.set_weight(weight(self.assembly))
         self._install_solver()
         if self.rig is not None:
             self.rig.set_assembly(self.assembly)
 
     def _install_solver(self, *_) -> None:
         """Contact solver for the worker; the Cramér–Rao covariance only while it is displayed (~4× the cost)."""
-        cov = backend.wrench_covariance() if self.live.show_uncertainty.isChecked() else None
-        solver = backend.make_solver(self.assembly, self.core, wrench_cov=cov)
-        self.worker.post(lambda: setattr(self.worker, "solver", solver))
+        cov = DEFAULT_WRENCH_COV if self.live.show_uncertainty.isChecked() else None
+        assembly = self.assembly
+        self.worker.post(lambda: self.worker.set_assembly(assembly, cov))
 
     # ------------------------------------------------------------ record / replay
     def toggle_recording(self, on: bool, path=None) -> None:
@@ -228,9 +272,18 @@ class MainWindow(QMainWindow):
                                                   "PITO recording (*.pitorec);;All files (*)")
         if not path:
             return
-        source = backend.ReplaySource(path)
-        self.worker.post(lambda: self.worker.set_source(source))
-        self.live.set_replay_mode(True, source.duration)
+
+        def done(source):
+            self.worker.post(lambda: self.worker.set_source(source))
+            self.live.set_replay_mode(True, source.duration)
+            self.wizard.pages["devices"].set_connected(f"▶ replaying {Path(path).name} (recorded data, not live devices)", True)
+
+        def failed(message):
+            QMessageBox.warning(self, "Replay", f"Could not open {path}:\n{message}")
+
+        # reading a recording (checksums, pairing) can take seconds: in the background
+        return run_task(lambda progress: RecordingReader(path), f"Opening {Path(path).name}", done, failed,
+                        bar=self.taskbar)
 
     def seek(self, t: float) -> None:
         self.worker.post(lambda: getattr(self.worker.source, "seek", lambda _t: None)(t))
@@ -240,6 +293,9 @@ class MainWindow(QMainWindow):
         if self.rig is not None:
             source = self.rig.open_source()
             self.worker.post(lambda: self.worker.set_source(source))
+            self.wizard.pages["devices"].set_connected(f"✔ SIMULATED: {self.rig.describe()}", True)
+        else:
+            self.wizard.pages["devices"].set_connected("not connected", False)
 
     # ------------------------------------------------------------ data
     def on_worker_error(self, message: str) -> None:

@@ -1,10 +1,12 @@
-"""The acquisition worker: owns the devices in a thread, emits one bundle per display tick.
+"""The acquisition worker: runs the core's one pipeline in a thread, emits one bundle per display tick.
 
 The worker lives in its own ``QThread``. A timer in that thread ticks at the display rate
-(default 60 Hz): each tick drains every new sample from the source, applies the
-calibration and the tare to the whole chunk, records the chunk if recording, solves the
-contacts of the latest sample, and emits one :class:`Bundle` (numpy arrays). The GUI never
-sees individual samples; a slow screen loses no samples (STYLE.md item 10).
+(default 60 Hz): each tick reads the new samples from the source (a running acquisition,
+by its ring buffers' write cursors, or a recording) and hands them to
+:class:`pito_core.pipeline.Pipeline` — pairing with the reference by the device clocks,
+tare, calibration of every new sample, contacts of the latest — and emits the one
+:class:`~pito_core.pipeline.LiveBundle` it returns. Recording runs beside it, in the
+acquisition's collecting thread, so a slow screen never loses samples (STYLE.md item 10).
 
 Commands from the GUI thread (set calibration, tare, record, ...) are posted as callables
 to a thread-safe queue the worker runs at the start of its next tick.
@@ -14,110 +16,52 @@ from __future__ import annotations
 
 import queue
 import threading
-from dataclasses import dataclass, field
 from typing import Callable, Protocol
 
 import numpy as np
 from PySide6.QtCore import QObject, QThread, QTimer, Signal, Slot
 
-from pito_core.frames import CubeCore, invert_pose, transform_wrench
+from pito_core.frames import CubeCore
+from pito_core.pipeline import LiveBundle, NewSamples, Pipeline, face_sums
 
-__all__ = ["Source", "Bundle", "DeviceWorker", "WorkerThread"]
+__all__ = ["Source", "Bundle", "DeviceWorker", "WorkerThread", "face_sums", "merge_bundles"]
+
+#: What the worker emits: the core pipeline's bundle (one type from the pipeline to the screen).
+Bundle = LiveBundle
 
 
 class Source(Protocol):
-    """What the worker reads: the real drivers, the simulators or a recording.
+    """What the worker reads: ``pito_core.pipeline.AcquisitionReader`` (devices, real or
+    simulated) or ``RecordingReader`` (a recording).
 
-    ``read()`` returns the samples that arrived since the previous call:
-    ``time (n,)`` s, ``counts (n, 36)``, ``reference (n, 6)`` N and N·m in the reference
-    frame (NaN rows where there is no reference).
+    ``read()`` returns the rows that arrived since the previous call as
+    :class:`~pito_core.pipeline.NewSamples`; ``has_reference`` says whether a reference
+    device is connected (cube samples then wait for their reference record).
     """
 
     simulated: bool
+    has_reference: bool
 
-    def read(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]: ...
+    def read(self) -> NewSamples: ...
 
     def stats(self) -> dict: ...
 
     def close(self) -> None: ...
 
 
-@dataclass
-class Bundle:
-    """One display tick's worth of data (numpy arrays, SI units).
-
-    Attributes
-    ----------
-    time, counts, reference : ndarray, shapes (n,), (n, 36), (n, 6)
-        The new samples of this tick (s, counts, N and N·m in the reference frame).
-    stats : dict
-        Device figures: ``rate_cube``/``rate_reference`` (Hz), ``saturated``, ``dropped`` (frames).
-    wrenches : ndarray, shape (6, 6) or None
-        Wrench on each face in its frame at the latest sample ``[fx, fy, fz, tx, ty, tz]``
-        (N, N·m), tared; NaN for faces without output. None without a calibration.
-    contacts : dict or None
-        Core frame: ``points (6, 3)`` m, ``normals (6, 3)``, ``forces (6, 3)`` N (on the
-        object), ``torsions (6,)`` N·m, ``valid (6,)`` bool, ``covariance (6, 3, 3)`` m².
-    sum_force, sum_torque : ndarray, shape (3,)
-        Σ of the face loads in the core frame (N; N·m about the core centre).
-    recorded : int
-        Samples recorded so far in the current recording (0 when not recording).
-    """
-
-    time: np.ndarray
-    counts: np.ndarray
-    reference: np.ndarray
-    stats: dict = field(default_factory=dict)
-    wrenches: np.ndarray | None = None
-    contacts: dict | None = None
-    sum_force: np.ndarray | None = None
-    sum_torque: np.ndarray | None = None
-    recorded: int = 0
-    replay_position: float | None = None
-    replay_duration: float | None = None
-
-    @property
-    def latest_time(self) -> float:
-        return float(self.time[-1]) if self.time.size else float("nan")
-
-
-def face_sums(wrenches: np.ndarray, core: CubeCore, cog=(0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
-    """Σ of the face wrenches ``(6, 6)`` (face frames) in the core frame: ``(ΣF (3,) N, ΣT (3,) N·m)``.
-
-    Faces with NaN (no output) are left out. Moments about ``cog`` (core frame, m), the
-    object's centre of gravity: in a still grasp ‖ΣF‖ = m·g and ΣT = 0 about it.
-    """
-    total = np.zeros(6)
-    for k in range(6):
-        w = wrenches[k]
-        if not np.all(np.isfinite(w)):
-            continue
-        total += transform_wrench(w, invert_pose(core.face_pose(k + 1)))
-    force = total[:3]
-    return force, total[3:] - np.cross(np.asarray(cog, dtype=float), force)
-
-
 def merge_bundles(old: Bundle, new: Bundle) -> Bundle:
     """One bundle with the samples of both (old first) and the latest derived values of ``new``."""
-    new.time = np.concatenate([old.time, new.time])
-    new.counts = np.concatenate([old.counts, new.counts])
-    new.reference = np.concatenate([old.reference, new.reference])
-    if new.wrenches is None and old.wrenches is not None:
-        new.wrenches, new.contacts = old.wrenches, old.contacts
-        new.sum_force, new.sum_torque = old.sum_force, old.sum_torque
-    return new
+    return old.merged(new)
 
 
 class DeviceWorker(QObject):
-    """Reads a :class:`Source`, applies calibration and contact solving, emits :class:`Bundle`.
+    """Reads a :class:`Source`, runs :class:`~pito_core.pipeline.Pipeline`, emits :data:`Bundle`.
 
     Parameters
     ----------
     rate : float
         Display ticks per second (Hz).
-    solver : callable, optional
-        ``solver(wrenches (6, 6)) -> dict`` of contacts (see :class:`Bundle`), run on the
-        latest tared face wrenches each tick.
+    core : CubeCore, optional
     """
 
     bundle = Signal(object)
@@ -127,24 +71,29 @@ class DeviceWorker(QObject):
         super().__init__()
         self.rate = float(rate)
         self.core = core or CubeCore()
+        self.pipeline = Pipeline(core=self.core)
         self.source: Source | None = None
-        self.calibration = None
-        self.offset = None  # (36,) counts: tare of the calibration
-        self.reference_offset = np.zeros(6)
-        self.solver: Callable | None = None
-        self.cog = np.zeros(3)  # m, core frame: centre of gravity of the object
         self._commands: queue.Queue = queue.Queue()
         self._timer: QTimer | None = None
-        self._recorder = None  # a pito_core.io.RecordingWriter while recording
-        self._recorded = 0
-        self._last_counts = np.zeros((0, 36))
-        self._last_reference = np.zeros((0, 6))
-        self._tail = None  # (counts, reference) of the last 0.5 s, for the tare
+        self._recording = None  # (acquisition, writer, cube cursor at start) while recording
         self.ticks = 0
         self.emitted = 0
         self._pending: Bundle | None = None
         self._consumed = threading.Event()
         self._consumed.set()
+
+    # ------------------------------------------------------------ compatibility views
+    @property
+    def calibration(self):
+        return self.pipeline.calibration
+
+    @property
+    def cog(self) -> np.ndarray:
+        return self.pipeline.cog
+
+    @cog.setter
+    def cog(self, value) -> None:
+        self.pipeline.cog = np.asarray(value, dtype=float)
 
     # ------------------------------------------------------------ thread side
     @Slot()
@@ -160,11 +109,12 @@ class DeviceWorker(QObject):
         if self._timer is not None:
             self._timer.stop()
         self._run_commands()
+        self.stop_recording()
         if self.source is not None:
             try:
                 self.source.close()
-            except Exception:  # noqa: BLE001 - closing must not fail the shutdown
-                pass
+            except Exception as exc:  # noqa: BLE001 - closing must not fail the shutdown; say so
+                self.error.emit(f"closing the source: {type(exc).__name__}: {exc}")
             self.source = None
 
     def post(self, fn: Callable[[], None]) -> None:
@@ -184,27 +134,22 @@ class DeviceWorker(QObject):
 
     @Slot()
     def tick(self) -> None:
-        """Drain the source, process, emit one bundle."""
+        """Read the source, run the pipeline, emit one bundle (or merge it into the unsent one)."""
         self._run_commands()
         if self.source is None:
             return
         try:
-            chunk = self.source.read()
-            if self._recorder is not None:
-                from . import backend
-
-                backend.record_raw(self._recorder, getattr(self.source, "last_raw", None))
-                self._recorded += len(chunk[0])
-            b = self.process(*chunk)
-        except Exception as exc:  # noqa: BLE001
+            b = self.pipeline.feed(self.source.read())
+            b.stats = self.source.stats()
+        except Exception as exc:  # noqa: BLE001 - shown to the operator, the worker keeps running
             self.error.emit(f"{type(exc).__name__}: {exc}")
             return
-        b.stats = self.source.stats()
         if "position" in b.stats:
             b.replay_position = b.stats["position"]
             b.replay_duration = b.stats.get("duration")
+        b.recorded = self.recorded()
         self.ticks += 1
-        self._pending = b if self._pending is None else merge_bundles(self._pending, b)
+        self._pending = b if self._pending is None else self._pending.merged(b)
         if self._consumed.is_set():  # the GUI is done with the previous bundle: send the next
             self._consumed.clear()
             pending, self._pending = self._pending, None
@@ -219,69 +164,74 @@ class DeviceWorker(QObject):
         """
         self._consumed.set()
 
-    # ------------------------------------------------------------ processing (pure)
-    def process(self, t, counts, reference) -> Bundle:
-        """Turn one chunk into a bundle (also usable without a thread, e.g. in tests)."""
-        t = np.asarray(t, dtype=float).reshape(-1)
-        counts = np.asarray(counts, dtype=float).reshape(-1, 36)
-        reference = np.asarray(reference, dtype=float).reshape(-1, 6) - self.reference_offset
-        self._keep_tail(counts, reference)
-        b = Bundle(t, counts, reference)
-        b.recorded = self._recorded if self._recorder is not None else 0
-        if self.calibration is not None and counts.shape[0]:
-            latest = counts[-min(5, counts.shape[0]):].mean(axis=0)  # average a few samples against noise
-            W = self.calibration.wrenches(latest, offset=self.offset)
-            b.wrenches = W
-            b.sum_force, b.sum_torque = face_sums(W, self.core, self.cog)
-            if self.solver is not None:
-                b.contacts = self.solver(W)
-        return b
-
-    def _keep_tail(self, counts, reference) -> None:
-        n_keep = 500
-        if self._tail is None:
-            self._tail = (counts[-n_keep:], reference[-n_keep:])
-        else:
-            c = np.concatenate([self._tail[0], counts])[-n_keep:]
-            r = np.concatenate([self._tail[1], reference])[-n_keep:]
-            self._tail = (c, r)
+    def process(self, samples: NewSamples) -> Bundle:
+        """Run the pipeline on one read (also usable without a thread, e.g. in tests)."""
+        return self.pipeline.feed(samples)
 
     # ------------------------------------------------------------ commands (run in the thread)
     def set_source(self, source) -> None:
         if self.source is not None and self.source is not source:
+            self.stop_recording()
             self.source.close()
         self.source = source
-        self._tail = None
+        self.pipeline.has_reference = bool(getattr(source, "has_reference", True))
+        self.pipeline.reset()
 
     def set_calibration(self, calibration) -> None:
-        self.calibration = calibration
-        self.offset = None if calibration is None else np.asarray(calibration.offset, dtype=float)
+        self.pipeline.set_calibration(calibration)
+
+    def set_assembly(self, assembly, wrench_cov=None) -> None:
+        """Contacts on this object's patches (``Assembly``, library name or None); covariance with ``wrench_cov``."""
+        self.pipeline.set_assembly(assembly, wrench_cov)
 
     def tare(self) -> None:
-        """Zero the face wrenches and the reference on the last ~0.5 s of samples."""
-        if self._tail is None or self._tail[0].shape[0] == 0:
-            return
-        c, r = self._tail
-        self.offset = c.mean(axis=0)
-        ref = r + self.reference_offset
-        finite = np.isfinite(ref).all(axis=1)
-        if finite.any():
-            self.reference_offset = ref[finite].mean(axis=0)
+        """Zero the face wrenches and the reference on the last ~0.5 s (recorded as an event when recording)."""
+        try:
+            event = self.pipeline.tare()
+        except ValueError:
+            return  # nothing seen yet: nothing to zero
+        if self._recording is not None:
+            self._recording[1].append_event(event)
 
-    def start_recording(self, path, simulated: bool = False) -> None:
-        """Record every raw sample of both devices to ``path`` (``pito-recording`` format)."""
-        from . import backend
+    def start_recording(self, path, simulated: bool = False, meta: dict | None = None) -> None:
+        """Record every raw sample of both devices to ``path`` (``pito-recording`` format).
 
+        Raises
+        ------
+        ValueError
+            The source is not a running acquisition (e.g. a replay).
+        """
+        from pito_core.io import RecordingWriter
+
+        acq = getattr(self.source, "acq", None)
+        if acq is None:
+            raise ValueError("recording: the source is not a device acquisition (a replay cannot be recorded)")
         self.stop_recording()
-        self._recorder = backend.open_recorder(path, simulated)
-        self._recorded = 0
+        from pito_core.interop import provenance_meta
+
+        info = {"simulated": bool(simulated), "source": "pito-app"}
+        info.update(provenance_meta(self.pipeline))  # the calibration and object shown (docs/interop.md)
+        info.update(meta or {})
+        writer = RecordingWriter(path, meta=info)
+        acq.start_recording(writer)
+        self._recording = (acq, writer, acq.cursors()[0])
+
+    def recorded(self) -> int:
+        """Cube samples recorded so far in the current recording (0 when not recording)."""
+        if self._recording is None:
+            return 0
+        acq, _, c0 = self._recording
+        return acq.cursors()[0] - c0
 
     def stop_recording(self) -> int:
         """Close the recording; returns the cube samples written."""
-        rec, self._recorder = self._recorder, None
-        if rec is not None:
-            rec.close()
-        return self._recorded
+        rec, self._recording = self._recording, None
+        if rec is None:
+            return 0
+        acq, writer, _ = rec
+        acq.stop_recording()
+        writer.close()
+        return writer.rows_written["pito"]
 
 
 class WorkerThread:

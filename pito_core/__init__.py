@@ -7,7 +7,7 @@ The public names of SPEC.md are re-exported here: ``transform_wrench``, ``CubeCo
 from .calibration import Calibration, CalibrationSession, Calibrator, calibrate, load_calibration
 from .frames import CubeCore, transform_wrench
 
-__version__ = "0.1.0"
+from ._version import __version__
 
 __all__ = [
     "Calibration",

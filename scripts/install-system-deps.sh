@@ -8,7 +8,8 @@ PKGS=(python3-venv python3-pip
   libgl1 libegl1 libglib2.0-0 libdbus-1-3 libfontconfig1 libfreetype6 libx11-6 libxkbcommon0
   xvfb xauth libx11-xcb1 libxkbcommon-x11-0 libxcb-cursor0 libxcb-icccm4 libxcb-image0
   libxcb-keysyms1 libxcb-randr0 libxcb-render-util0 libxcb-shape0 libxcb-xkb1 libxcb-glx0
-  libxcb-util1 libxcb-sync1 libxcb-xfixes0 libxcb-shm0 libxcb-render0 libxcursor1)
+  libxcb-util1 libxcb-sync1 libxcb-xfixes0 libxcb-shm0 libxcb-render0 libxcursor1
+  iproute2)  # iproute2: `ip link set lo up` in the private network namespace of the LSL tests
 
 if ! command -v dpkg-query >/dev/null 2>&1; then
   echo "install-system-deps: not a Debian/Ubuntu system; install the equivalents of: ${PKGS[*]}" >&2

@@ -1,8 +1,15 @@
 """Live view: contacts on the patched object, force and equilibrium plots, controls.
 
-The view only *shows* bundles from the worker (:class:`app.workers.DeviceWorker`): each
-bundle moves the contact glyphs in place and appends one point per plot; Qt coalesces the
-repaints to the display rate.
+The view only *shows* bundles from the worker (:class:`app.workers.DeviceWorker`). A bundle
+moves the contact glyphs in place and appends its samples to the plots' ring buffers — no
+drawing. Drawing is paced by the display, not by the data: a single-shot timer fires at most
+``display_rate`` times a second (and only when something new arrived), refreshes the plots
+from their rings and asks the 3D view for a repaint (``QWidget.update``, which Qt coalesces).
+A frame is drawn as soon as data arrive if the previous one is older than a display period,
+so pacing adds no latency beyond it.
+
+``scene_time`` and ``force_plot.last_time`` are the times (s, host clock) of the newest sample
+the scene and the force plot show (the live-window benchmark reads them back off the screen).
 """
 
 from __future__ import annotations
@@ -10,7 +17,7 @@ from __future__ import annotations
 import time
 
 import numpy as np
-from PySide6.QtCore import Qt, Signal
+from PySide6.QtCore import Qt, QTimer, Signal
 from PySide6.QtWidgets import (
     QCheckBox, QComboBox, QDoubleSpinBox, QFormLayout, QGroupBox, QHBoxLayout, QLabel, QPushButton, QSlider,
     QSplitter, QVBoxLayout, QWidget,
@@ -49,7 +56,10 @@ class LiveView(QWidget):
         self.equilibrium = EquilibriumPlot()
         self.bundles_shown = 0
         self.latency = float("nan")
-        self.scene.glyphs.force_scale = 0.004  # m/N: 15 N -> 6 cm
+        self.scene_time = float("nan")  # s: newest sample the glyphs show
+        self.frames = 0  # display ticks that drew something
+        self.scene.glyphs.force_scale = 0.0035  # m/N: 12 N (full scale) -> 4.2 cm
+        self.scene.frame_glyphs = True  # the camera holds full-scale arrows, for every object
 
         # --- toolbar
         bar = QHBoxLayout()
@@ -137,8 +147,17 @@ class LiveView(QWidget):
         self.assembly.currentTextChanged.connect(self.assembly_requested)
         self.timeline.sliderReleased.connect(self._seek)
         self._last_contacts = None
-        self._last_plot = 0.0
-        self.plot_rate = 10.0  # Hz: pyqtgraph repaints its axes on every refresh
+        #: Hz: most frames a second (scene and plots); the pacer draws only when data are new
+        self.display_rate = 60.0
+        self.readout_rate = 5.0  # Hz: text that a person reads
+        self._pacer = QTimer(self)
+        self._pacer.setSingleShot(True)
+        self._pacer.setTimerType(Qt.TimerType.PreciseTimer)
+        self._pacer.timeout.connect(self.display)
+        self._last_display = -1e9
+        self._last_readout = -np.inf
+        self._readout_text = ""
+        self.scene.frame_contacts()
 
     # ------------------------------------------------------------ options (glyphs are the model)
     def sync_options(self) -> None:
@@ -164,6 +183,8 @@ class LiveView(QWidget):
         g.show_uncertainty = self.show_uncertainty.isChecked()
         if self._last_contacts is not None:
             self._show_contacts(self._last_contacts)
+        if self.sender() is self.force_scale:
+            self.scene.frame_contacts()  # full-scale arrows stay in view
         self.scene.redraw()
 
     def _pause(self, on: bool) -> None:
@@ -190,42 +211,71 @@ class LiveView(QWidget):
 
     # ------------------------------------------------------------ data
     def _show_contacts(self, c) -> np.ndarray:
-        return self.scene.glyphs.update(c["points"], c["normals"], c["forces"], c["torsions"], c["valid"],
-                                        c.get("covariance"))
+        return self.scene.glyphs.update(c)
 
     def on_bundle(self, b) -> None:
-        """Show one bundle: glyphs moved in place, one point per plot, a repaint request."""
+        """Take one bundle: glyphs moved in place, samples into the plots' rings; a frame is requested."""
         if b.replay_position is not None and b.replay_duration:
             if not self.timeline.isSliderDown():
                 self.timeline.blockSignals(True)
                 self.timeline.setValue(int(1000 * b.replay_position / b.replay_duration))
                 self.timeline.blockSignals(False)
-            self.time_label.setText(f"replay {b.replay_position:6.2f} / {b.replay_duration:.2f} s")
+            self._replay_text = f"replay {b.replay_position:6.2f} / {b.replay_duration:.2f} s"
         if self.record.isChecked():
-            self.record.setText(f"■ Stop recording ({b.recorded / 1000:.1f} k samples)")
+            self._record_text = f"■ Stop recording ({b.recorded / 1000:.1f} k samples)"
         if self.paused or b.time.size == 0:
             return
         t = b.latest_time
-        self.latency = time.monotonic() - t  # s from the newest sample's arrival to its display
+        self.latency = time.monotonic() - t  # s from the newest sample's time to its display
         if b.contacts is not None:
             self._last_contacts = b.contacts
             shown = self._show_contacts(b.contacts)
             n_shown = int(shown.sum())
+            self.scene_time = t
         else:
             n_shown = 0
         if b.wrenches is not None:
-            fn = np.linalg.norm(b.wrenches[:, :3], axis=1)
-            self.force_plot.append(t, fn)
+            fw = getattr(b, "face_wrenches", None)
+            if fw is not None and fw.shape[0] == b.time.size:
+                self.force_plot.append(b.time, np.linalg.norm(fw[:, :, :3], axis=2))  # every sample
+            else:
+                self.force_plot.append(t, np.linalg.norm(b.wrenches[:, :3], axis=1))
             if b.sum_force is not None:
-                self.equilibrium.append(t, float(np.linalg.norm(b.sum_force)), float(np.linalg.norm(b.sum_torque)))
-            self.readout.setText(
-                f"{n_shown} contact{'s' if n_shown != 1 else ''}   ‖ΣF‖ {np.linalg.norm(b.sum_force):5.2f} N   "
-                f"‖ΣT‖ {np.linalg.norm(b.sum_torque) * 1000:5.1f} mN·m"
-            )
+                fs, ts = float(np.linalg.norm(b.sum_force)), float(np.linalg.norm(b.sum_torque))
+                self.equilibrium.append(t, fs, ts)
+                self._readout_text = (f"{n_shown} contact{'s' if n_shown != 1 else ''}   ‖ΣF‖ {fs:5.2f} N   "
+                                      f"‖ΣT‖ {ts * 1000:5.1f} mN·m")
+        self.bundles_shown += 1
+        self.request_display()
+
+    # ------------------------------------------------------------ drawing, paced by the display
+    def request_display(self) -> None:
+        """Draw soon: now if the last frame is a display period old, else when it will be."""
+        if self._pacer.isActive():
+            return
+        wait = self._last_display + 1.0 / self.display_rate - time.monotonic()
+        self._pacer.start(max(0, int(round(wait * 1000))))
+
+    def display(self) -> None:
+        """One frame: plots from their rings (decimated to pixels), a repaint of the 3D view."""
         now = time.monotonic()
-        if now - self._last_plot >= 1.0 / self.plot_rate:  # plots at most plot_rate Hz
-            self._last_plot = now
+        self._last_display = now
+        if self.force_plot.isVisible():
             self.force_plot.refresh()
             self.equilibrium.refresh()
+        if now - self._last_readout >= 1.0 / self.readout_rate:
+            self._last_readout = now
+            if self._readout_text != self.readout.text():
+                self.readout.setText(self._readout_text)
+            rt = getattr(self, "_replay_text", None)
+            if rt and self.timeline.isEnabled():
+                self.time_label.setText(rt)
+            rec = getattr(self, "_record_text", None)
+            if rec and self.record.isChecked():
+                self.record.setText(rec)
         self.scene.redraw()
-        self.bundles_shown += 1
+        self.frames += 1
+
+    def showEvent(self, event):  # noqa: N802
+        super().showEvent(event)
+        self.scene.frame_contacts()  # the view's aspect is known now

@@ -7,10 +7,12 @@ from PySide6.QtCore import QObject, QRectF, Qt, Signal
 from PySide6.QtGui import QColor, QFont, QPainter, QPen
 from PySide6.QtWidgets import QSizePolicy, QWidget
 
+from pito_core.defaults import FULL_SCALE_FACE
+
 __all__ = ["CoverageModel", "CoverageBars", "FULL_SCALE", "AXIS_LABELS"]
 
 #: Full-scale loads of one face: ±15 N, ±0.1 N·m (fx, fy, fz, tx, ty, tz).
-FULL_SCALE = np.array([15.0, 15.0, 15.0, 0.1, 0.1, 0.1])
+FULL_SCALE = np.array(FULL_SCALE_FACE)  # N, N·m per axis (pito_core.defaults)
 AXIS_LABELS = ("fx", "fy", "fz", "tx", "ty", "tz")
 AXIS_UNITS = ("N", "N", "N", "N·m", "N·m", "N·m")
 

@@ -1,4 +1,12 @@
-"""Time plots over ring buffers (pyqtgraph): force norm per face, equilibrium."""
+"""Time plots over ring buffers (pyqtgraph): force norm per face, equilibrium.
+
+Data and drawing are decoupled: :meth:`append` writes new samples into a ring buffer (O(new
+samples), called once per worker bundle); :meth:`refresh` — called by the live view's display
+pacer, at most at the display rate — hands each curve the last ``window`` seconds as a view
+of the ring (no copy), decimated to the plot's pixel width by min–max per pixel column, so
+a 1 kHz stream costs the same to draw as a 60 Hz one and no peak is lost. The axes move only
+when the range must change (hysteresis), so a refresh repaints curves, not tick labels.
+"""
 
 from __future__ import annotations
 
@@ -6,15 +14,18 @@ import numpy as np
 import pyqtgraph as pg
 from PySide6.QtWidgets import QVBoxLayout, QWidget
 
-from ..scene import FACE_COLORS
+from ..palette import FACE_COLORS
 
-__all__ = ["RingBuffer", "FaceForcePlot", "EquilibriumPlot"]
+__all__ = ["RingBuffer", "FaceForcePlot", "EquilibriumPlot", "minmax_decimate"]
 
 pg.setConfigOptions(antialias=False, background="#1e2329", foreground="#c9d1d9")
 
 
 class RingBuffer:
-    """A fixed-size ring of rows: ``append`` is O(rows), ``data()`` returns them oldest first.
+    """A fixed-size ring of rows whose newest ``capacity`` rows are always one contiguous view.
+
+    Each row is written twice (at ``i`` and ``i + capacity`` of a ``2 × capacity`` array), so
+    :meth:`view` returns the rows oldest first without copying; ``append`` is O(rows).
 
     Parameters
     ----------
@@ -26,7 +37,7 @@ class RingBuffer:
 
     def __init__(self, capacity: int, width: int):
         self.capacity = int(capacity)
-        self._buf = np.full((self.capacity, width), np.nan)
+        self._buf = np.full((2 * self.capacity, width), np.nan)
         self._n = 0  # rows written in all
 
     def append(self, rows) -> None:
@@ -34,10 +45,17 @@ class RingBuffer:
         if rows.shape[0] >= self.capacity:
             rows = rows[-self.capacity :]
         m = rows.shape[0]
-        start = self._n % self.capacity
-        first = min(m, self.capacity - start)
-        self._buf[start : start + first] = rows[:first]
-        self._buf[: m - first] = rows[first:]
+        if m == 0:
+            return
+        cap = self.capacity
+        start = self._n % cap
+        first = min(m, cap - start)
+        for off in (0, cap):
+            self._buf[off + start : off + start + first] = rows[:first]
+        rest = m - first
+        if rest:
+            self._buf[:rest] = rows[first:]
+            self._buf[cap : cap + rest] = rows[first:]
         self._n += m
 
     def __len__(self) -> int:
@@ -47,55 +65,127 @@ class RingBuffer:
         self._n = 0
         self._buf[:] = np.nan
 
+    def view(self) -> np.ndarray:
+        """``(len, width)`` rows, oldest first: a view into the ring (valid until the next append)."""
+        n = len(self)
+        end = self._n % self.capacity + self.capacity if self._n >= self.capacity else self._n
+        return self._buf[end - n : end]
+
     def data(self) -> np.ndarray:
         """``(len, width)`` rows, oldest first (a copy)."""
-        n = len(self)
-        if self._n <= self.capacity:
-            return self._buf[:n].copy()
-        start = self._n % self.capacity
-        return np.concatenate([self._buf[start:], self._buf[:start]])
+        return self.view().copy()
+
+
+def minmax_decimate(t, y, t0: float, t1: float, n_bins: int):
+    """Min–max decimation of ``y (n, k)`` over sorted times ``t (n,)`` to ``n_bins`` columns of ``[t0, t1]``.
+
+    Returns ``(t (m,), y (m, k))`` with, per non-empty column, its first time and the column's
+    minimum, then its last time and its maximum (``m ≤ 2 n_bins``); NaN samples are ignored
+    (a column of NaN only stays NaN). Inputs with no more than ``2 n_bins`` samples are
+    returned as they are.
+    """
+    t = np.asarray(t, dtype=float)
+    y = np.asarray(y, dtype=float)
+    if t.size <= 2 * n_bins:
+        return t, y
+    col = np.clip(np.floor((t - t0) / max(t1 - t0, 1e-12) * n_bins), 0, n_bins - 1).astype(np.int64)
+    starts = np.flatnonzero(np.r_[True, col[1:] != col[:-1]])
+    ends = np.r_[starts[1:], t.size] - 1
+    with np.errstate(invalid="ignore"):
+        lo = np.fmin.reduceat(y, starts, axis=0)
+        hi = np.fmax.reduceat(y, starts, axis=0)
+    m = starts.size
+    t_out = np.empty(2 * m)
+    t_out[0::2], t_out[1::2] = t[starts], t[ends]
+    y_out = np.empty((2 * m, y.shape[1]))
+    y_out[0::2], y_out[1::2] = lo, hi
+    return t_out, y_out
 
 
 def _style_plot(plot: pg.PlotItem, left: str, bottom: str = "time (s)") -> None:
-    plot.showGrid(x=True, y=True, alpha=0.25)
+    # no grid: pyqtgraph draws it as part of each axis, so every curve update repainted the
+    # axes and their grid (~2.4 ms a paint, 7 paints a frame); tick labels remain
+    plot.showGrid(x=False, y=False)
     for name in ("left", "bottom"):
         plot.getAxis(name).enableAutoSIPrefix(False)
     plot.setLabel("left", left)
     plot.setLabel("bottom", bottom)
     plot.setMouseEnabled(x=False, y=False)
     plot.hideButtons()
+    plot.getViewBox().disableAutoRange()
+
+
+class _YRange:
+    """A y range ``[0, top]`` that grows at once and shrinks only when the data fall well under it."""
+
+    def __init__(self, floor: float):
+        self.floor = float(floor)
+        self.top = float(floor)
+
+    def fit(self, peak: float) -> bool:
+        """New range for data peaking at ``peak``; True if it changed."""
+        if not np.isfinite(peak):
+            return False
+        want = max(self.floor, 1.15 * peak)
+        if want > self.top or want < 0.5 * self.top:
+            self.top = want
+            return True
+        return False
 
 
 class FaceForcePlot(pg.PlotWidget):
-    """‖F‖ (N) on each face over the last ``window`` seconds, one curve per face colour."""
+    """‖F‖ (N) on each face over the last ``window`` seconds, one curve per face colour.
 
-    def __init__(self, window: float = 10.0, rate: float = 60.0, parent=None):
+    ``last_time`` is the time (s, host clock) of the newest sample drawn by the last refresh.
+    """
+
+    def __init__(self, window: float = 10.0, rate: float = 1000.0, parent=None):
         super().__init__(parent)
         self.window = float(window)
-        self.buffer = RingBuffer(int(window * rate * 1.5), 7)  # t, |F1|..|F6|
+        self.buffer = RingBuffer(int(window * rate * 1.25), 7)  # t, |F1|..|F6|
         _style_plot(self.getPlotItem(), "force norm ‖F‖ (N)")
         self.addLegend(offset=(6, 4), colCount=6, labelTextSize="8pt")
         self.curves = [
             self.plot([], [], pen=pg.mkPen(FACE_COLORS[i], width=1), name=f"face {i}") for i in range(1, 7)
         ]
-        self.setYRange(0, 15)
-
-    def append(self, t: float, norms) -> None:
-        self.buffer.append(np.concatenate([[t], np.asarray(norms, dtype=float)]))
-
-    def refresh(self) -> None:
-        d = self.buffer.data()
-        if d.shape[0] == 0:
-            return
-        t = d[:, 0] - d[-1, 0]
-        for k, c in enumerate(self.curves):
-            c.setData(t, np.nan_to_num(d[:, k + 1]), connect="finite")
+        self._y = _YRange(2.0)
         self.setXRange(-self.window, 0, padding=0)
-        top = np.nanmax(d[:, 1:]) if np.isfinite(d[:, 1:]).any() else 1.0
-        self.setYRange(0, max(2.0, 1.15 * top), padding=0)
+        self.setYRange(0, self._y.top, padding=0)
+        self.last_time = float("nan")
+        self.refreshes = 0
+        self._drawn_n = -1
+
+    def append(self, t, norms) -> None:
+        """New samples: times ``t`` (n,) s and force norms ``(n, 6)`` N (or one time and a (6,) row)."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        norms = np.asarray(norms, dtype=float).reshape(t.size, 6)
+        self.buffer.append(np.column_stack([t, norms]))
+
+    def refresh(self) -> bool:
+        """Redraw the curves from the ring (decimated to the pixel width); False if nothing new."""
+        if self.buffer._n == self._drawn_n:
+            return False
+        self._drawn_n = self.buffer._n
+        d = self.buffer.view()
+        if d.shape[0] == 0:
+            return False
+        t_end = d[-1, 0]
+        first = int(np.searchsorted(d[:, 0], t_end - self.window))
+        d = d[first:]
+        px = max(50, int(self.getPlotItem().getViewBox().width()))
+        t, y = minmax_decimate(d[:, 0], d[:, 1:], t_end - self.window, t_end, px)
+        t = t - t_end
+        for k, c in enumerate(self.curves):
+            c.setData(t, y[:, k], connect="finite")
+        if self._y.fit(float(np.nanmax(y)) if np.isfinite(y).any() else np.nan):
+            self.setYRange(0, self._y.top, padding=0)
+        self.last_time = float(t_end)
+        self.refreshes += 1
+        return True
 
     def clear_data(self) -> None:
         self.buffer.clear()
+        self._drawn_n = -1
 
 
 class EquilibriumPlot(QWidget):
@@ -105,10 +195,10 @@ class EquilibriumPlot(QWidget):
     ‖ΣT‖ ≈ 0 about its centre of mass.
     """
 
-    def __init__(self, weight: float = 0.0, window: float = 10.0, rate: float = 60.0, parent=None):
+    def __init__(self, weight: float = 0.0, window: float = 10.0, rate: float = 120.0, parent=None):
         super().__init__(parent)
         self.window = float(window)
-        self.buffer = RingBuffer(int(window * rate * 1.5), 3)  # t, |ΣF|, |ΣT|
+        self.buffer = RingBuffer(int(window * rate * 1.25), 3)  # t, |ΣF|, |ΣT|
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.setSpacing(2)
@@ -124,31 +214,49 @@ class EquilibriumPlot(QWidget):
         self.force_plot.addItem(self.weight_line)
         self.torque_curve = self.torque_plot.plot([], [], pen=pg.mkPen("#56B4E9", width=1),
                                                   name="‖ΣT‖ about the centre of gravity (0 when still)")
+        self._fy = _YRange(1.0)
+        self._ty = _YRange(20.0)  # mN·m
+        for p in (self.force_plot, self.torque_plot):
+            p.setXRange(-self.window, 0, padding=0)
+        self.force_plot.setYRange(0, self._fy.top, padding=0)
+        self.torque_plot.setYRange(0, self._ty.top, padding=0)
         self.set_weight(weight)
         layout.addWidget(self.force_plot)
         layout.addWidget(self.torque_plot)
+        self._drawn_n = -1
+        self.last_time = float("nan")
 
     def set_weight(self, weight: float) -> None:
         """The object's weight m·g, N."""
         self.weight = float(weight)
         self.weight_line.setValue(self.weight)
+        self._fy.floor = max(1.0, 1.5 * self.weight)
+        self._fy.top = max(self._fy.top, self._fy.floor)
+        self.force_plot.setYRange(0, self._fy.top, padding=0)
 
     def append(self, t: float, sum_force: float, sum_torque: float) -> None:
         self.buffer.append([t, sum_force, sum_torque])
 
-    def refresh(self) -> None:
-        d = self.buffer.data()
+    def refresh(self) -> bool:
+        """Redraw from the ring; False if nothing new."""
+        if self.buffer._n == self._drawn_n:
+            return False
+        self._drawn_n = self.buffer._n
+        d = self.buffer.view()
         if d.shape[0] == 0:
-            return
-        t = d[:, 0] - d[-1, 0]
-        self.force_curve.setData(t, np.nan_to_num(d[:, 1]))
-        self.torque_curve.setData(t, np.nan_to_num(d[:, 2]) * 1000)
-        for p in (self.force_plot, self.torque_plot):
-            p.setXRange(-self.window, 0, padding=0)
-        fmax = max(self.weight * 1.5, np.nanmax(d[:, 1]) * 1.15 if np.isfinite(d[:, 1]).any() else 1.0, 1.0)
-        self.force_plot.setYRange(0, fmax, padding=0)
-        tmax = 1000 * max(0.02, np.nanmax(d[:, 2]) * 1.15 if np.isfinite(d[:, 2]).any() else 0.02)
-        self.torque_plot.setYRange(0, tmax, padding=0)
+            return False
+        t_end = d[-1, 0]
+        d = d[int(np.searchsorted(d[:, 0], t_end - self.window)):]
+        t = d[:, 0] - t_end
+        self.force_curve.setData(t, d[:, 1], connect="finite")
+        self.torque_curve.setData(t, d[:, 2] * 1000, connect="finite")
+        if self._fy.fit(float(np.nanmax(d[:, 1])) if np.isfinite(d[:, 1]).any() else np.nan):
+            self.force_plot.setYRange(0, self._fy.top, padding=0)
+        if self._ty.fit(1000 * float(np.nanmax(d[:, 2])) if np.isfinite(d[:, 2]).any() else np.nan):
+            self.torque_plot.setYRange(0, self._ty.top, padding=0)
+        self.last_time = float(t_end)
+        return True
 
     def clear_data(self) -> None:
         self.buffer.clear()
+        self._drawn_n = -1

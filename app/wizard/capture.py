@@ -13,7 +13,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..widgets.coverage import FULL_SCALE
+from pito_core.defaults import FULL_SCALE_FACE
+
+FULL_SCALE = np.array(FULL_SCALE_FACE)  # [fx, fy, fz, tx, ty, tz] full scale, N and N·m
 
 __all__ = ["CaptureRules", "Capture", "FaceCaptures", "is_still", "scaled"]
 

@@ -28,6 +28,17 @@ def list_serial_ports() -> list[str]:
 
 
 class DevicesPage(WizardPage):
+    """Wizard step 3: connect the cube (serial port) and the reference (Net F/T host), or the simulators.
+
+    Shows the raw counts (36,) and the reference wrench ``[fx, fy, fz, tx, ty, tz]`` (N, N·m) live,
+    with both sample rates (Hz). Emits ``connect_requested(port, host, simulated)``.
+
+    Parameters
+    ----------
+    model : app.wizard.model.WizardModel
+        The wizard's state (method, mount, captures); the page reads and sets it.
+    parent : QWidget, optional
+    """
     title = "3 · Devices"
     help = ("Connect the cube (serial port) and the reference sensor (ATI Net F/T address). Check that the raw "
             "values move when you touch the cube, that both sample rates are steady, and that nothing saturates "
@@ -101,6 +112,7 @@ class DevicesPage(WizardPage):
         self.connect_btn.clicked.connect(self._connect)
         self._last_table = 0.0
         self._seen = 0
+        self.connected = False
 
     def _connect(self) -> None:
         self.status.setText("connecting…")
@@ -108,6 +120,8 @@ class DevicesPage(WizardPage):
         self.connect_requested.emit(self.port.currentText(), self.host.text(), self.simulated.isChecked())
 
     def set_connected(self, text: str, ok: bool) -> None:
+        """The state of the source the worker reads (the window calls this whenever it changes it)."""
+        self.connected = bool(ok)
         self.status.setText(text)
         self.status.setProperty("ok", ok)
         self.status.style().polish(self.status)
@@ -121,6 +135,8 @@ class DevicesPage(WizardPage):
             if v is not None:
                 self.health[key].setText(fmt.format(int(v) if "d}" in fmt else float(v)))
         if b.time.size:
+            if not self.connected:  # data flow, whoever opened the source: the state says so
+                self.set_connected("✔ receiving data" + (" (SIMULATED)" if s.get("simulated") else ""), True)
             self._seen += b.time.size
             if self._seen > 100:
                 self.set_ready(True)

@@ -7,7 +7,7 @@ through the real drivers.
 
 from __future__ import annotations
 
-from ..screenshot import process_for, wait_until
+from ..eventloop import process_for, wait_until
 
 __all__ = ["run_to_page", "complete_loading", "finish", "StepTimeout"]
 
@@ -117,4 +117,5 @@ def finish(window, save_path=None, report_dir=None) -> None:
             res.save(save_path)
         if report_dir is not None:
             res.export(report_dir)
+            _wait(lambda: not res.exporting, 60, "report export")
     process_for(0.3)

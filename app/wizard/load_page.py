@@ -9,16 +9,44 @@ from PySide6.QtWidgets import (
     QGridLayout, QHBoxLayout, QLabel, QProgressBar, QPushButton, QVBoxLayout,
 )
 
+from pito_core.contact import ObjectContacts
 from pito_core.frames import FACES, transform_wrench
 
 from ..scene import ACTIVE_COLOR, CONNECTED_COLOR, CubeScene
-from ..widgets.coverage import CoverageBars, CoverageModel, FULL_SCALE
+from ..widgets.coverage import AXIS_LABELS, CoverageBars, CoverageModel, FULL_SCALE
 from .page import WizardPage
 
-__all__ = ["LoadPage"]
+__all__ = ["LoadPage", "face_gates"]
+
+
+def face_gates(fc) -> list[tuple[float, str]]:
+    """What decides that a face is done (:attr:`FaceCaptures.sufficient`), as ``(fraction done
+    0..1, what it waits on)`` per gate: conditioning, distinct still loads, coverage, samples."""
+    r = fc.rules
+    kappa = fc.condition_number()
+    cov = fc.coverage()
+    return [
+        (0.0 if not np.isfinite(kappa) else min(1.0, r.max_condition / kappa),
+         "κ " + ("∞" if not np.isfinite(kappa) else f"{kappa:.0f}") + f" → ≤ {r.max_condition:g}"),
+        (min(1.0, len(fc.captures) / r.min_captures), f"still loads {len(fc.captures)} → {r.min_captures}"),
+        (min(1.0, float(cov.min()) / r.required) if r.required > 0 else 1.0,
+         f"coverage {cov.min():.2f} → {r.required:.2f}"),
+        (min(1.0, fc.n_samples / r.k), f"samples {fc.n_samples} → {r.k}"),
+    ]
 
 
 class LoadPage(WizardPage):
+    """Wizard step 5: load each free face in turn; still loads are kept as calibration samples.
+
+    Coverage per axis and sign is the largest fraction of full scale reached
+    (``pito_core.defaults.FULL_SCALE_FACE``: ±15 N, ±0.1 N·m, face frame ``[fx, fy, fz, tx, ty, tz]``).
+
+    Parameters
+    ----------
+    model : app.wizard.model.WizardModel
+        The wizard's state (method, mount, captures); the page reads and sets it.
+    parent : QWidget, optional
+    """
     title = "5 · Load each face"
     help = ("Press on the green face with the probe in every direction — push, pull sideways, twist — and hold "
             "each load still for a moment. Still, new loads are kept automatically; the bars show how far each "
@@ -56,22 +84,25 @@ class LoadPage(WizardPage):
         self.bars = CoverageBars(self.coverage_model)
         right.addWidget(self.bars, 1)
         grid = QGridLayout()
-        self.samples = QProgressBar()
-        self.samples.setFormat("%v / %m samples")
+        # the face is done when all four gates pass; the bar shows the one furthest behind
+        self.progress = QProgressBar()
+        self.progress.setRange(0, 100)
+        self.samples = QLabel("—")
+        self.samples.setObjectName("value")
         self.kappa = QLabel("—")
         self.kappa.setObjectName("value")
         self.captures = QLabel("0")
         self.captures.setObjectName("value")
+        self.coverage_text = QLabel("—")
+        self.coverage_text.setObjectName("value")
         self.state = QLabel("—")
         self.state.setObjectName("state")
-        grid.addWidget(QLabel("Samples toward k"), 0, 0)
-        grid.addWidget(self.samples, 0, 1)
-        grid.addWidget(QLabel("Condition number of the kept loads κ"), 1, 0)
-        grid.addWidget(self.kappa, 1, 1)
-        grid.addWidget(QLabel("Captures kept"), 2, 0)
-        grid.addWidget(self.captures, 2, 1)
-        grid.addWidget(QLabel("Live"), 3, 0)
-        grid.addWidget(self.state, 3, 1)
+        rows = (("Face done when all four are ✔", self.progress), ("Condition number of the kept loads κ", self.kappa),
+                ("Distinct still loads", self.captures), ("Coverage (weakest axis)", self.coverage_text),
+                ("Samples kept", self.samples), ("Live", self.state))
+        for r, (text, w) in enumerate(rows):
+            grid.addWidget(QLabel(text), r, 0)
+            grid.addWidget(w, r, 1)
         right.addLayout(grid)
         buttons = QHBoxLayout()
         self.undo = QPushButton("Undo last capture")
@@ -128,14 +159,22 @@ class LoadPage(WizardPage):
                 b.setText(f"face {i} ✔" if m.captures[i].sufficient else f"face {i}")
         self.coverage_model.required = m.rules.required
         self.coverage_model.set_state(fc.coverage(), self.coverage_model.current)
-        self.samples.setMaximum(m.rules.k)
-        self.samples.setValue(min(fc.n_samples, m.rules.k))
+        gates = face_gates(fc)
+        fraction, name = min((g[0], g[1]) for g in gates)
+        self.progress.setValue(int(round(100 * fraction)))
+        self.progress.setFormat("✔ face done" if fc.sufficient else f"%p%  ·  next: {name}")
         kappa = fc.condition_number()
         limit = m.rules.max_condition
         self.kappa.setText("— (load more directions)" if not np.isfinite(kappa)
                            else f"{kappa:.1f}  " + ("✔" if kappa <= limit else f"(needs ≤ {limit:g}: vary the loads)"))
-        self.captures.setText(f"{len(fc.captures)} / {m.rules.min_captures} distinct still loads"
+        self.captures.setText(f"{len(fc.captures)} / {m.rules.min_captures}"
                               + (" ✔" if len(fc.captures) >= m.rules.min_captures else ""))
+        cov = fc.coverage()
+        worst = np.unravel_index(np.argmin(cov), cov.shape)
+        axis = AXIS_LABELS[worst[0]] + ("−" if worst[1] == 0 else "+")
+        self.coverage_text.setText(f"{axis} {cov[worst]:.2f} / {m.rules.required:.2f} of full scale"
+                                   + (" ✔" if cov.min() >= m.rules.required else ""))
+        self.samples.setText(f"{fc.n_samples} / {m.rules.k}" + (" ✔" if fc.n_samples >= m.rules.k else ""))
         self.undo.setEnabled(bool(fc.captures))
         done = fc.sufficient
         remaining = [f for f in m.faces if not m.captures[f].sufficient]
@@ -215,5 +254,5 @@ class LoadPage(WizardPage):
         valid[k] = True
         tors = np.zeros(6)
         tors[k] = wrench_face[5]
-        self.scene.glyphs.update(pts, normals, forces, tors, valid)
+        self.scene.glyphs.update(ObjectContacts(pts, normals, forces, tors, valid))
         self.scene.redraw()

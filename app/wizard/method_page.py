@@ -8,7 +8,7 @@ from PySide6.QtWidgets import (
 
 from pito_core.calibration import METHODS
 
-from .model import faces_to_load
+from .model import RECOMMENDED_METHOD, RECOMMENDED_WHY, faces_to_load
 from .page import WizardPage
 
 __all__ = ["MethodPage", "FLANGE_TEXT"]
@@ -22,6 +22,14 @@ FLANGE_TEXT = {
 
 
 class MethodPage(WizardPage):
+    """Wizard step 1: choose the calibration method (sets the flange, the faces to load and the outputs).
+
+    Parameters
+    ----------
+    model : app.wizard.model.WizardModel
+        The wizard's state (method, mount, captures); the page reads and sets it.
+    parent : QWidget, optional
+    """
     title = "1 · Method"
     help = ("Choose how the cube will be calibrated. Each method fixes the flange that holds the cube on the "
             "reference sensor, the faces you load one at a time, and what the calibration outputs.")
@@ -32,8 +40,13 @@ class MethodPage(WizardPage):
         lay = QVBoxLayout(box)
         self.group = QButtonGroup(self)
         self.buttons = {}
+        self.why = QLabel(RECOMMENDED_WHY)
+        self.why.setObjectName("emphasis")
+        self.why.setWordWrap(True)
+        lay.addWidget(self.why)
         for name, spec in METHODS.items():
-            rb = QRadioButton(f"{name}   ({spec.paper})")
+            label = f"{name}   ({spec.paper})" + ("   — recommended" if name == RECOMMENDED_METHOD else "")
+            rb = QRadioButton(label)
             rb.setObjectName("methodRadio")
             text = QLabel(spec.summary)
             text.setWordWrap(True)

@@ -10,7 +10,14 @@ from pito_core.frames import FACES, CubeCore, invert_pose
 
 from .capture import CaptureRules, FaceCaptures
 
-__all__ = ["WizardModel", "faces_to_load"]
+__all__ = ["WizardModel", "faces_to_load", "RECOMMENDED_METHOD", "RECOMMENDED_WHY"]
+
+#: The wizard's default: the method the PITO paper recommends (III-B).
+RECOMMENDED_METHOD = "unloaded_frame"
+#: One line for the operator: why it is the default.
+RECOMMENDED_WHY = ("Recommended (PITO paper, III-B): every face from all 36 gauges, so the coupling between faces is "
+                   "calibrated (face_to_face ignores it and is the worst under coupling), outputs in face frames, "
+                   "no access hole needed.")
 
 
 def faces_to_load(method: str, flange: str, connected_face: int) -> tuple[int, ...]:
@@ -46,8 +53,9 @@ class WizardModel(QObject):
         super().__init__(parent)
         self.core = core or CubeCore()
         self.rules = rules or CaptureRules()
-        self.method = "face_to_face"
-        self.flange = "frame_hole"
+        # the PITO paper's recommended method (see RECOMMENDED_WHY in the method page)
+        self.method = RECOMMENDED_METHOD
+        self.flange = "face"
         self.connected_face = 6
         self.T_core_ati = np.eye(4)
         self.simulated = False

@@ -40,6 +40,14 @@ def mount_steps(flange: str, connected_face: int, faces) -> list[str]:
 
 
 class MountPage(WizardPage):
+    """Wizard step 2: show how to mount the cube (flange, connected face 1..6) in a 3-D view; the operator confirms.
+
+    Parameters
+    ----------
+    model : app.wizard.model.WizardModel
+        The wizard's state (method, mount, captures); the page reads and sets it.
+    parent : QWidget, optional
+    """
     title = "2 · Mount"
     help = ("Mount the cube as shown: the flange's face is orange. Follow the steps, then confirm. "
             "Drag to rotate the view.")

@@ -6,46 +6,118 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-from matplotlib.backends.backend_qtagg import FigureCanvasQTAgg
 from matplotlib.figure import Figure
 from PySide6.QtCore import Qt
-from PySide6.QtGui import QGuiApplication
+from PySide6.QtGui import QImage, QPixmap
 from PySide6.QtWidgets import (
     QComboBox, QFileDialog, QGridLayout, QGroupBox, QHBoxLayout, QLabel, QPushButton,
 )
 
-from pito_core.calibration import calibrate
+from pito_core.calibration import RankDeficientError, calibrate
 
 from .. import report
+from ..tasks import TaskBar, run_in_process, run_task
 from .page import WizardPage
 
-__all__ = ["ResultsPage", "fit_and_evaluate"]
+__all__ = ["ResultsPage", "fit_and_evaluate", "render_figures"]
+
+#: samples per block of the streamed QR in the wizard's fit (keeps each GIL-holding LAPACK call short)
+FIT_BLOCK = 8192
 
 
-def fit_and_evaluate(session, method: str, holdout: float = 0.25, seed: int = 0):
+def fit_and_evaluate(session, method: str, holdout: float = 0.25, seed: int = 0, progress=None):
     """Fit ``method`` on a training split of ``session`` and evaluate it on the held-out rest.
 
     Returns ``(calibration, evaluation, note)``; ``note`` says if a minimum-norm fit was needed.
+    ``progress(fraction, text)``, if given, is called between the steps (and may raise to cancel).
     """
     from pito_core.calibration import evaluate
 
+    progress = progress or (lambda *_: None)
+    progress(0.0, "splitting the samples")
     # blocks of 50 samples: every kept capture (a few hundred still samples) feeds both sides,
     # so the fit keeps every loaded direction and the held-out samples test it on new noise
     train, test = session.split(holdout=holdout, block=50, seed=seed)
+    n_fit = train.counts.shape[0]
+    progress(0.1, f"fitting {method} on {n_fit} samples")
+    # small blocks: LAPACK holds the GIL through each block's QR, and the GUI thread needs it
+    # every few ms; the fit's own progress is also where a cancel stops it
+    fit_options = {"block_size": FIT_BLOCK,
+                   "progress": lambda done, total: progress(0.1 + 0.6 * done / max(total, 1),
+                                                            f"fitting {method}: {done} / {total} samples")}
     note = ""
     try:
-        cal = calibrate(train, method)
-    except ValueError as exc:
-        if "excite" not in str(exc) and "rank" not in str(exc):
-            raise
+        cal = calibrate(train, method, **fit_options)
+    except RankDeficientError as exc:  # unexcited directions or dead channels: fit minimum-norm, say so
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            cal = calibrate(train, method, allow_rank_deficient=True)
+            cal = calibrate(train, method, allow_rank_deficient=True, **fit_options)
         note = f"minimum-norm fit — {exc}"
-    return cal, evaluate(cal, test), note
+    progress(0.75, f"evaluating on {test.counts.shape[0]} held-out samples")
+    ev = evaluate(cal, test)
+    progress(1.0, "done")
+    return cal, ev, note
+
+
+def fit_job(session, method: str, sizes: dict, progress=None):
+    """Fit, evaluate and draw the figures (any process): ``(calibration, evaluation, note, images)``."""
+    cal, ev, note = fit_and_evaluate(session, method, progress=progress)
+    if progress is not None:
+        progress(0.9, "drawing the figures")
+    return cal, ev, note, render_figures(ev, sizes)
+
+
+def render_figures(evaluation, sizes: dict) -> dict:
+    """The results figures of ``evaluation`` as RGBA images ``(h, w, 4) uint8`` (Agg, any thread).
+
+    ``sizes``: name (``rmse``, ``ident``, ``comp``) → ``(width, height)`` px.
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    draw = {"rmse": report.rmse_figure, "ident": report.identification_figure, "comp": report.comparison_figure}
+    out = {}
+    for name, (w, h) in sizes.items():
+        fig = Figure(figsize=(w / 90, h / 90), dpi=90)
+        canvas = FigureCanvasAgg(fig)
+        draw[name](evaluation, fig)
+        canvas.draw()
+        out[name] = np.asarray(canvas.buffer_rgba()).copy()
+    return out
+
+
+class FigureImage(QLabel):
+    """A figure drawn elsewhere, shown as an image (no drawing on the GUI thread)."""
+
+    def __init__(self, size):
+        super().__init__()
+        self._default = size
+        self.setMinimumSize(200, 150)
+        self.setAlignment(Qt.AlignmentFlag.AlignCenter)
+        self.image = None
+
+    def target_size(self) -> tuple[int, int]:
+        """Pixels to draw at: the widget's size once laid out, else the default."""
+        w, h = self.width(), self.height()
+        return (w, h) if w > 250 and h > 180 else self._default
+
+    def set_image(self, rgba) -> None:
+        self.image = np.ascontiguousarray(rgba)
+        h, w = self.image.shape[:2]
+        qimg = QImage(self.image.data, w, h, 4 * w, QImage.Format.Format_RGBA8888).copy()
+        self.setPixmap(QPixmap.fromImage(qimg))
 
 
 class ResultsPage(WizardPage):
+    """Wizard step 6: fit on 75 % of the kept samples, evaluate on the held-out rest, accept or redo.
+
+    Figures of merit in N and N·m (RMSE per axis), inverse condition numbers (dimensionless).
+
+    Parameters
+    ----------
+    model : app.wizard.model.WizardModel
+        The wizard's state (method, mount, captures); the page reads and sets it.
+    parent : QWidget, optional
+    """
     title = "6 · Results"
     help = ("The calibration was fitted on 75 % of the kept samples and checked on the held-out rest. "
             "Accept it, or redo a face whose error is too high; then save the calibration and export the report.")
@@ -71,12 +143,11 @@ class ResultsPage(WizardPage):
             lab.setWordWrap(True)
             grid.addWidget(lab, r, 1)
             self.values[key] = lab
-        self.fig_rmse = Figure(figsize=(6.4, 2.6), dpi=90)
-        self.canvas_rmse = FigureCanvasQTAgg(self.fig_rmse)
-        self.fig_ident = Figure(figsize=(3.6, 3.0), dpi=90)
-        self.canvas_ident = FigureCanvasQTAgg(self.fig_ident)
-        self.fig_comp = Figure(figsize=(6.4, 3.0), dpi=90)
-        self.canvas_comp = FigureCanvasQTAgg(self.fig_comp)
+        # figures are drawn (Agg) in the worker thread with the fit, shown here as images
+        self.canvas_rmse = FigureImage((576, 234))
+        self.canvas_ident = FigureImage((324, 270))
+        self.canvas_comp = FigureImage((576, 270))
+        self._images_for = None  # the evaluation the shown images belong to
         grid_l.addWidget(nums, 0, 0)
         grid_l.addWidget(self.canvas_ident, 1, 0)
         grid_l.addWidget(self.canvas_rmse, 0, 1)
@@ -99,6 +170,9 @@ class ResultsPage(WizardPage):
         buttons.addWidget(self.save_btn)
         buttons.addWidget(self.export_btn)
         self.body.addLayout(buttons)
+        self.taskbar = TaskBar()  # the fit runs in a worker thread: progress and Cancel here
+        self.body.addWidget(self.taskbar)
+        self.task = None
         self.accept_btn.clicked.connect(self.accept)
         self.redo_btn.clicked.connect(self._redo_clicked)
         self.save_btn.clicked.connect(lambda: self.save())
@@ -113,16 +187,57 @@ class ResultsPage(WizardPage):
             self.compute()
         self.refresh()
 
-    def compute(self) -> None:
-        QGuiApplication.setOverrideCursor(Qt.CursorShape.WaitCursor)
-        try:
-            cal, ev, self.note = fit_and_evaluate(self.model.session(), self.model.method)
+    def _figure_sizes(self) -> dict:
+        return {name: w.target_size() for name, w in
+                (("rmse", self.canvas_rmse), ("ident", self.canvas_ident), ("comp", self.canvas_comp))}
+
+    def _render_figures(self, ev) -> None:
+        """Draw the three figures of ``ev`` in a worker thread; show them when done."""
+        sizes = self._figure_sizes()
+        self._images_for = ev
+
+        def done(images):
+            if self._images_for is ev:
+                self._show_images(images)
+
+        self.figure_task = run_task(lambda progress: render_figures(ev, sizes), "Drawing the figures", done,
+                                    lambda msg: self.values["status"].setText(f"✘ figures: {msg}"))
+
+    def _show_images(self, images: dict) -> None:
+        for name, w in (("rmse", self.canvas_rmse), ("ident", self.canvas_ident), ("comp", self.canvas_comp)):
+            w.set_image(images[name])
+
+    @property
+    def fitting(self) -> bool:
+        return self.task is not None and self.task.running
+
+    def compute(self, session=None) -> None:
+        """Fit and evaluate in a worker thread (the window stays live); the result arrives by signal.
+
+        ``session`` defaults to the wizard's kept samples."""
+        if self.fitting:
+            self.task.cancel()
+        session = self.model.session() if session is None else session
+        method = self.model.method
+        self.note = ""
+
+        def done(result):
+            cal, ev, self.note, images = result
+            self._images_for = ev
+            self._show_images(images)
             self.model.set_result(cal, ev)
-        except ValueError as exc:
-            self.note = str(exc)
+            self.refresh()
+
+        def failed(message):
+            self.note = message
             self.model.set_result(None, None)
-        finally:
-            QGuiApplication.restoreOverrideCursor()
+            self.refresh()
+
+        sizes = self._figure_sizes()
+        # in a child process: the fit's LAPACK calls hold the GIL for long stretches
+        self.task = run_in_process(fit_job, (session, method, sizes),
+                             f"Fitting {method} on {session.counts.shape[0]} samples", done, failed, bar=self.taskbar)
+        self.task.ended.connect(self.refresh)
 
     def refresh(self) -> None:
         m = self.model
@@ -134,9 +249,14 @@ class ResultsPage(WizardPage):
         for b in (self.accept_btn, self.save_btn, self.export_btn):
             b.setEnabled(has)
         self.save_btn.setEnabled(has and m.accepted)
-        self.export_btn.setEnabled(has and m.accepted)
+        self.export_btn.setEnabled(has and m.accepted and not self.exporting)
         if not has:
-            self.values["status"].setText(f"✘ fit failed: {self.note}")
+            if self.fitting:
+                self.values["status"].setText("fitting in the background… (the window stays live; Cancel below)")
+            elif self.task is not None and self.task.cancelled:
+                self.values["status"].setText("fit cancelled — go back to the loading step, or reopen this page to fit again")
+            else:
+                self.values["status"].setText(f"✘ fit failed: {self.note}")
             self.set_ready(False)
             return
         f, t = ev.rmse_force(), ev.rmse_torque()
@@ -148,8 +268,17 @@ class ResultsPage(WizardPage):
         self.values["samples"].setText(f"{cal.meta.get('n_samples_fitted', '?')} / {ev.n_single}")
         self.values["force"].setText(f"{np.nanmax(f):.3f} N (face {worst_f})" if worst_f else "n/a")
         self.values["torque"].setText(f"{np.nanmax(t) * 1000:.2f} mN·m (face {worst_t})" if worst_t else "n/a")
-        acc = (ev.identification.get("single") or {}).get("either")
-        self.values["ident"].setText(f"{100 * acc:.1f} % of samples" if acc is not None else "n/a")
+        head = ev.identification_headline()  # the papers' rule: single by force, squeeze by torque
+        self.values["ident"].setText("; ".join(h["text"] for h in head) if head else "n/a")
+        self.values["ident"].setWordWrap(True)
+        unc = ev.uncertainty95
+        if unc is not None and worst_f and worst_t:
+            self.values["force"].setText(self.values["force"].text()
+                                         + f", ± {np.nanmax(unc[worst_f - 1, :3]):.3f} N (95 %, calibration's own)")
+            self.values["torque"].setText(self.values["torque"].text()
+                                          + f", ± {np.nanmax(unc[worst_t - 1, 3:]) * 1000:.2f} mN·m (95 %)")
+        self.values["method"].setText(self.values["method"].text()
+                                      + f"; net force of a free grasp: {cal.meta.get('net_load', 'not recorded')}")
         status = "✔ accepted" if m.accepted else "awaiting your decision"
         if m.saved_path:
             status += f" — saved to {Path(m.saved_path).name}"
@@ -159,11 +288,8 @@ class ResultsPage(WizardPage):
         self.values["status"].setToolTip(self.note)
         if worst_f:
             self.redo_face.setCurrentIndex(max(0, self.redo_face.findData(worst_f)))
-        report.rmse_figure(ev, self.fig_rmse)
-        report.identification_figure(ev, self.fig_ident)
-        report.comparison_figure(ev, self.fig_comp)
-        for c in (self.canvas_rmse, self.canvas_ident, self.canvas_comp):
-            c.draw_idle()
+        if self._images_for is not ev:
+            self._render_figures(ev)
         self.set_ready(m.accepted)
 
     # ------------------------------------------------------------ actions
@@ -211,4 +337,23 @@ class ResultsPage(WizardPage):
             "faces loaded": ", ".join(map(str, m.faces)), "samples per face (k)": m.rules.k,
             "simulated": m.simulated, "calibration file": m.saved_path or "(not saved)",
         }
-        return report.export_report(folder, m.calibration, m.evaluation, info)
+        cal, ev = m.calibration, m.evaluation
+
+        def work(progress):
+            progress(None, f"figures and numbers into {folder}")
+            return report.export_report(folder, cal, ev, info)
+
+        def done(path):
+            self.exported_path = path
+            self.values["status"].setText(f"report exported to {path}")
+
+        self.export_task = run_task(work, "Exporting the report", done,
+                                    lambda msg: self.values["status"].setText(f"✘ export failed: {msg}"), bar=self.taskbar)
+        self.export_task.ended.connect(self.refresh)
+        self.refresh()
+        return Path(folder) / "report.md"
+
+    @property
+    def exporting(self) -> bool:
+        t = getattr(self, "export_task", None)
+        return t is not None and t.running

@@ -26,6 +26,14 @@ def tare_still(reference) -> tuple[bool, float, float]:
 
 
 class TarePage(WizardPage):
+    """Wizard step 4: record the unloaded offsets (counts (36,), reference (6,) N and N·m) over a duration in s.
+
+    Parameters
+    ----------
+    model : app.wizard.model.WizardModel
+        The wizard's state (method, mount, captures); the page reads and sets it.
+    parent : QWidget, optional
+    """
     title = "4 · Tare"
     help = ("Take your hands off: nothing may touch the cube or the flange. Record the unloaded offsets of "
             "both devices; the recording is kept only if the cube stayed still.")

@@ -11,11 +11,26 @@ from ._evaluate import (
     identify_loaded_faces,
     inverse_condition_table,
 )
-from ._fit import AXES, Calibrator, RankDeficientWarning, calibrate, session_offsets
+from ._fit import (
+    AXES,
+    NET_LOAD_MEASURED,
+    NET_LOAD_PRIOR,
+    NET_LOAD_UNIDENTIFIED,
+    PRIORS,
+    Calibrator,
+    ExcitationError,
+    RankDeficientError,
+    RankDeficientWarning,
+    calibrate,
+    session_offsets,
+)
+from ._uncertainty import CalibrationCovariance, CovarianceGroup
 from ._methods import METHODS, MethodSpec, get_method
 from ._session import DEFAULT_COUNTS_RANGE, FLANGES, N_GAUGES, CalibrationSession, SessionBlock
 
 __all__ = [
+    "ExcitationError",
+    "RankDeficientError",
     "DEFAULT_FORCE_THRESHOLD",
     "DEFAULT_TORQUE_THRESHOLD",
     "Equilibrium",
@@ -25,6 +40,12 @@ __all__ = [
     "identify_loaded_faces",
     "inverse_condition_table",
     "AXES",
+    "NET_LOAD_MEASURED",
+    "NET_LOAD_PRIOR",
+    "NET_LOAD_UNIDENTIFIED",
+    "PRIORS",
+    "CalibrationCovariance",
+    "CovarianceGroup",
     "Calibration",
     "CalibrationSession",
     "Calibrator",

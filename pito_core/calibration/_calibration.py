@@ -5,6 +5,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..frames import FACES, CubeCore, check_pose, invert_pose, wrench_adjoint
+from ..io._calibration_file import read_calibration_fields, write_calibration
+from ..io._hdf5 import FileFormatError
+from ._uncertainty import CalibrationCovariance, CovarianceGroup
 
 __all__ = ["Calibration", "load_calibration"]
 
@@ -32,9 +35,13 @@ class Calibration:
         Pose of the reference frame S_A in the core frame at calibration.
     meta : dict
         Method, mount, date, samples, validation figures (JSON-serialisable).
+    covariance : CalibrationCovariance, optional
+        The fit's uncertainty (residual covariance, design, gauge noise); None for
+        calibrations without it (files of format version 1).
     """
 
-    def __init__(self, method, matrix, output_faces, output_frame, offset, core, T_core_ati, meta=None):
+    def __init__(self, method, matrix, output_faces, output_frame, offset, core, T_core_ati, meta=None,
+                 covariance=None):
         self.method = str(method)
         output_faces = tuple(int(f) for f in output_faces)
         if not output_faces or any(f not in FACES for f in output_faces) or len(set(output_faces)) != len(output_faces):
@@ -58,17 +65,26 @@ class Calibration:
         self.core = core
         self.T_core_ati = check_pose(T_core_ati, "T_core_ati")
         self.meta = {} if meta is None else dict(meta)
+        if covariance is not None and not isinstance(covariance, CalibrationCovariance):
+            raise ValueError(f"covariance: expected a CalibrationCovariance or None, got {type(covariance).__name__}")
+        self.covariance = covariance
+        self._face_from_output = self._build_adjoints()
         self._apply = self._build_apply()
+
+    def _build_adjoints(self) -> np.ndarray:
+        """(6, 6, 6): each face's fitted output frame → its face frame (identity for ``face``)."""
+        X = np.broadcast_to(np.eye(6), (6, 6, 6)).copy()
+        if self.output_frame == "reference":
+            T_ati_core = invert_pose(self.T_core_ati)
+            for f in FACES:
+                X[f - 1] = wrench_adjoint(T_ati_core @ self.core.face_pose(f))
+        return X
 
     def _build_apply(self) -> np.ndarray:
         """(6, 6, 36) maps: counts → wrench on face i in face i's frame (zeros where no output)."""
         A = np.zeros((6, 6, 36))
-        T_ati_core = invert_pose(self.T_core_ati)
         for k, f in enumerate(self.output_faces):
-            rows = self.matrix[6 * k : 6 * k + 6]
-            if self.output_frame == "reference":
-                rows = wrench_adjoint(T_ati_core @ self.core.face_pose(f)) @ rows
-            A[f - 1] = rows
+            A[f - 1] = self._face_from_output[f - 1] @ self.matrix[6 * k : 6 * k + 6]
         return A
 
     # ------------------------------------------------------------------ use
@@ -79,21 +95,30 @@ class Calibration:
         m[[f - 1 for f in self.output_faces]] = True
         return m
 
-    def wrenches(self, counts, offset=None) -> np.ndarray:
-        """Wrench on each face in that face's frame.
+    def wrenches(self, counts, offset=None, *, return_cov: bool = False):
+        """Wrench on each face in that face's frame (and its covariance).
 
         Parameters
         ----------
         counts : array-like, shape (N, 36) or (36,)
             Raw gauge counts.
         offset : array-like, shape (36,), optional
-            Unloaded counts to subtract; default the calibration's own tare.
+            Unloaded counts to subtract; default the calibration's own (fitted, or set by
+            :meth:`tare`). With an explicit offset its own uncertainty is not included.
+        return_cov : bool
+            Also return each face's 6×6 covariance.
 
         Returns
         -------
         wrenches : ndarray, shape (N, 6, 6) (or (6, 6))
             ``[:, i-1, :]`` = ``[fx, fy, fz, tx, ty, tz]`` on face i in N and N·m,
             moment about face i's origin; NaN for faces the method does not output.
+        cov : ndarray, shape (N, 6, 6, 6) (or (6, 6, 6)), with ``return_cov``
+            ``cov[:, i-1]``: covariance of face i's wrench in its frame, N², N²·m, N²·m²
+            — the calibration's own error (residuals and design of the fit) plus the gauge
+            noise of the sample (and of the tare after :meth:`tare`); NaN for faces
+            without output. Raises ``ValueError`` if the calibration has no covariance
+            (files of format version 1).
         """
         c = np.asarray(counts, dtype=float)
         single = c.ndim == 1
@@ -105,16 +130,27 @@ class Calibration:
             raise ValueError(f"offset: expected shape (36,), got {off.shape}")
         W = np.einsum("fij,nj->nfi", self._apply, c2 - off)
         W[:, ~self.has_output] = np.nan
-        return W[0] if single else W
+        if not return_cov:
+            return W[0] if single else W
+        if self.covariance is None:
+            raise ValueError("return_cov: this calibration has no covariance (written by an older pito, "
+                             "format version 1); fit it again to get one")
+        cov = self.covariance.face_covariances(c2, off, self._apply, self._face_from_output, self.output_faces,
+                                               explicit_offset=offset is not None)
+        return (W[0], cov[0]) if single else (W, cov)
 
     def tare(self, counts_unloaded) -> "Calibration":
-        """A copy whose offset is the mean of ``counts_unloaded (N, 36)`` (N ≥ 1)."""
+        """A copy whose offset is the mean of ``counts_unloaded (N, 36)`` (N ≥ 1).
+
+        The covariance then includes the tare's own noise (gauge noise / N).
+        """
         c = np.asarray(counts_unloaded, dtype=float)
         if c.ndim != 2 or c.shape[1] != 36 or c.shape[0] == 0:
             raise ValueError(f"counts_unloaded: expected shape (N, 36) with N ≥ 1, got {c.shape}")
         return Calibration(
             self.method, self.matrix, self.output_faces, self.output_frame, c.mean(axis=0),
             self.core, self.T_core_ati, self.meta,
+            covariance=None if self.covariance is None else self.covariance.retared(c.shape[0]),
         )
 
     @property
@@ -140,9 +176,7 @@ class Calibration:
 
     # ------------------------------------------------------------------ files
     def save(self, path) -> None:
-        """Write exactly ``path`` (HDF5, format ``pito-calibration`` v1; docs/file-formats.md)."""
-        from ..io import write_calibration
-
+        """Write exactly ``path`` (HDF5, format ``pito-calibration`` v2; docs/file-formats.md)."""
         write_calibration(path, self)
 
     @classmethod
@@ -152,7 +186,23 @@ class Calibration:
 
 
 def load_calibration(path) -> Calibration:
-    """Read a calibration file written by :meth:`Calibration.save`."""
-    from ..io import read_calibration
+    """Read a calibration file written by :meth:`Calibration.save`.
 
-    return read_calibration(path)
+    A wrong, truncated, corrupt or inconsistent file raises ``pito_core.io.FileFormatError``
+    naming the file.
+    """
+    fields = read_calibration_fields(path)
+    cov = fields.pop("covariance")
+    try:
+        if cov is not None:
+            groups = [CovarianceGroup(**g) for g in cov["groups"]]
+            cov = CalibrationCovariance(groups, cov["gauge_cov"], cov["n_tare"], cov["variance_coef"], cov["residual_corr"])
+    except ValueError as exc:
+        raise FileFormatError(f"{path}: covariance: {exc}") from None
+    try:
+        return Calibration(
+            fields["method"], fields["matrix"], fields["output_faces"], fields["output_frame"], fields["offset"],
+            CubeCore(fields["core_edge"]), fields["T_core_ati"], fields["meta"], covariance=cov,
+        )
+    except ValueError as exc:
+        raise FileFormatError(f"{path}: inconsistent calibration: {exc}") from None

@@ -7,18 +7,26 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..defaults import LOADED_FORCE_N, LOADED_TORQUE_NM
 from ..frames import invert_pose, wrench_adjoint
 from ._calibration import Calibration
 from ._fit import AXES, _as_sessions
 from ._targets import MountGeometry, block_targets
 
 __all__ = ["Evaluation", "evaluate", "inverse_condition_table", "identify_loaded_faces", "equilibrium", "Equilibrium",
-           "DEFAULT_FORCE_THRESHOLD", "DEFAULT_TORQUE_THRESHOLD"]
+           "DEFAULT_FORCE_THRESHOLD", "DEFAULT_TORQUE_THRESHOLD", "PAPER_IDENTIFICATION_RULE",
+           "calibration_uncertainty", "UNCERTAINTY_WORDS"]
 
-#: A face counts as loaded when the norm of its force exceeds this, N.
-DEFAULT_FORCE_THRESHOLD = 0.5
+#: The papers' identification rule per kind of load: single-face loads are identified by the
+#: force norm, squeeze loads (two or more faces, equal and opposite forces) by the torque norm.
+PAPER_IDENTIFICATION_RULE = {"single": "force", "squeeze": "torque"}
+_RULE_WORDS = {"force": "by force (‖F‖ > {f} N)", "torque": "by torque (‖T‖ > {t} N·m)",
+               "either": "by force or torque (‖F‖ > {f} N or ‖T‖ > {t} N·m)"}
+
+#: A face counts as loaded when the norm of its force exceeds this, N (``pito_core.defaults``).
+DEFAULT_FORCE_THRESHOLD = LOADED_FORCE_N
 #: … or the norm of its torque exceeds this, N·m.
-DEFAULT_TORQUE_THRESHOLD = 0.01
+DEFAULT_TORQUE_THRESHOLD = LOADED_TORQUE_NM
 #: Comparison series kept for plots (evenly subsampled beyond this).
 MAX_SERIES = 5000
 
@@ -107,6 +115,9 @@ class Evaluation:
         same samples as ``comparison``, and ``true_loaded (M, 6)``.
     inverse_condition_number : float
     face_inverse_condition_numbers : ndarray (6,)
+    uncertainty95 : ndarray (6, 6) or None
+        Half-width of the 95 % interval per face and axis from the calibration's own
+        covariance (:func:`calibration_uncertainty`); None for calibrations without one.
     """
 
     method: str
@@ -122,6 +133,31 @@ class Evaluation:
     face_inverse_condition_numbers: np.ndarray
     simulated: bool = False
     sessions: list = field(default_factory=list)
+    uncertainty95: np.ndarray | None = None
+
+    def identification_headline(self) -> list[dict]:
+        """The papers' face identification figures: single-face loads by force, squeeze by torque.
+
+        Returns
+        -------
+        list of dict
+            One per kind of load present: ``kind`` ("single"/"squeeze"), ``rule``
+            ("force"/"torque"), ``accuracy`` (fraction of samples whose identified set of
+            loaded faces is exactly right), ``n`` (samples) and ``text`` (the figure and its
+            rule in words, e.g. "single-face loads: 99.8 % identified by force (‖F‖ > 0.5 N)").
+        """
+        idn = self.identification
+        out = []
+        for kind, rule in PAPER_IDENTIFICATION_RULE.items():
+            d = idn.get(kind) or {}
+            acc = d.get(rule)
+            if not d.get("n") or acc is None:
+                continue
+            words = _RULE_WORDS[rule].format(f=idn.get("force_threshold_N"), t=idn.get("torque_threshold_Nm"))
+            label = "single-face loads" if kind == "single" else "squeeze loads"
+            out.append({"kind": kind, "rule": rule, "accuracy": float(acc), "n": int(d["n"]),
+                        "text": f"{label}: {100 * acc:.1f} % of {d['n']} samples identified {words}"})
+        return out
 
     def rmse_force(self) -> np.ndarray:
         """(6,) RMS over the three force axes of each loaded face, N."""
@@ -157,8 +193,11 @@ class Evaluation:
             "n_single": self.n_single,
             "n_squeeze": self.n_squeeze,
             "identification": nan_to_none(_jsonable(self.identification)),
+            "identification_headline": self.identification_headline(),
             "inverse_condition_number": self.inverse_condition_number,
             "face_inverse_condition_numbers": nan_to_none(clean(self.face_inverse_condition_numbers)),
+            "uncertainty95": None if self.uncertainty95 is None else nan_to_none(clean(self.uncertainty95)),
+            "uncertainty95_meaning": UNCERTAINTY_WORDS,
         }
         if series:
             d["comparison"] = {k: np.asarray(v).tolist() for k, v in self.comparison.items()}
@@ -294,7 +333,50 @@ def evaluate(calibration: Calibration, sessions, *, tare: bool = True,
         face_inverse_condition_numbers=calibration.face_inverse_condition_numbers(),
         simulated=bool(calibration.meta.get("simulated")) or any(bool(s.meta.get("simulated")) for s in sessions),
         sessions=[repr(s) for s in sessions],
+        uncertainty95=calibration_uncertainty(calibration, sessions, seed=seed),
     )
+
+
+#: What :attr:`Evaluation.uncertainty95` is, in words (CLI, app, JSON).
+UNCERTAINTY_WORDS = ("± = 95 % interval (1.96 σ) of each face's wrench from the calibration's own covariance "
+                     "(fit residuals and design, gauge noise), median over the held-out loaded samples")
+
+
+def calibration_uncertainty(calibration: Calibration, sessions, max_samples: int = 2000, seed: int = 0):
+    """Half-width of the 95 % interval per face and axis, from the calibration's covariance.
+
+    Parameters
+    ----------
+    calibration : Calibration
+    sessions : CalibrationSession or list
+        Samples at which the covariance is evaluated (only loaded samples are used).
+    max_samples : int
+        At most this many samples (evenly random) are used.
+
+    Returns
+    -------
+    ndarray, shape (6, 6), or None
+        ``[i-1, a]`` = 1.96 × the median standard deviation of face i's axis ``a`` (N for
+        forces, N·m for torques); NaN for faces without output. None when the calibration
+        has no covariance (files of format version 1) or no sample is loaded.
+    """
+    if getattr(calibration, "covariance", None) is None:
+        return None
+    rng = np.random.default_rng(seed)
+    picked = []
+    for s in _as_sessions(sessions):
+        loaded = np.asarray(s.loaded).any(axis=1)
+        idx = np.flatnonzero(loaded)
+        if idx.size:
+            picked.append(np.asarray(s.counts, dtype=float)[idx])
+    if not picked:
+        return None
+    counts = np.concatenate(picked)
+    if len(counts) > max_samples:
+        counts = counts[np.sort(rng.choice(len(counts), max_samples, replace=False))]
+    _, cov = calibration.wrenches(counts, return_cov=True)
+    sd = np.sqrt(np.clip(np.diagonal(cov, axis1=-2, axis2=-1), 0, None))  # (N, 6, 6)
+    return 1.96 * np.median(sd, axis=0)
 
 
 def inverse_condition_table(calibrations) -> list[dict]:

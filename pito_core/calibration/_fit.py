@@ -1,4 +1,14 @@
-"""The one least-squares core behind the five methods: ``calibrate`` and ``Calibrator``."""
+"""The one least-squares core behind the five methods: ``calibrate`` and ``Calibrator``.
+
+Every method solves the papers' ``C = W S⁺`` as an affine least-squares problem: the
+counts ``S`` (less each session's tare mean, an exact re-centring) beside one offset
+column per session, the unloaded (tare) samples included as zero-wrench rows, solved by
+streamed QR (``_lstsq.py``). The offsets are therefore fitted from every sample, not
+from the tare samples alone, and the default result *is* the plain affine least-squares
+fit. Only where the loads leave directions of the counts unexcited (a ``face`` or
+``frame`` flange: 30 of 36) and the caller asks for it (``prior="own_gauge"``) are those
+directions filled from each face's own-gauge fit (docs/calibration.md).
+"""
 
 from __future__ import annotations
 
@@ -6,32 +16,73 @@ import datetime as _dt
 import warnings
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
+from ..defaults import FULL_SCALE_FACE
 from ..frames import FACES
 from ._calibration import Calibration
 from ._lstsq import RANK_RTOL, StreamedQR
 from ._methods import MethodSpec, get_method
 from ._session import CalibrationSession, _few
 from ._targets import MountGeometry, block_targets
+from ._residuals import fit_error_model
+from ._uncertainty import CalibrationCovariance, CovarianceGroup
 
-__all__ = ["calibrate", "Calibrator", "RankDeficientWarning", "session_offsets", "AXES"]
+__all__ = ["calibrate", "Calibrator", "RankDeficientWarning", "RankDeficientError", "ExcitationError", "session_offsets", "AXES", "PRIORS",
+           "NET_LOAD_MEASURED", "NET_LOAD_PRIOR", "NET_LOAD_UNIDENTIFIED"]
 
 AXES = ("fx", "fy", "fz", "tx", "ty", "tz")
 
 #: A face's loads must excite each wrench direction with at least this fraction of
 #: the strongest direction (scaled: forces by 15 N, torques by 0.1 N·m full scale).
 EXCITATION_RTOL = 1e-3
-#: Default ``min_snr``: where the loads span fewer than 36 dimensions, a counts direction
-#: follows the data when its RMS signal exceeds this many times the gauge noise at rest,
-#: the faces' own-gauge fits otherwise (docs/calibration.md, step 5).
-DEFAULT_MIN_SNR = 30.0
 #: Full-scale loads used to put forces and torques on one footing (N, N·m).
-FULL_SCALE = np.array([15.0, 15.0, 15.0, 0.1, 0.1, 0.1])
+FULL_SCALE = np.array(FULL_SCALE_FACE)
 _GRAM_SCALE = np.outer(np.tile(1 / FULL_SCALE, 6), np.tile(1 / FULL_SCALE, 6))
+#: What may fill the load directions the data leave unexcited: nothing (the papers' plain
+#: least squares) or each face's own-gauge fit.
+PRIORS = (None, "own_gauge")
+#: ``meta["net_load"]``, in words for the command line and the app.
+NET_LOAD_MEASURED = "measured"
+NET_LOAD_PRIOR = "not measured: from the faces' own-gauge fits"
+NET_LOAD_UNIDENTIFIED = "not measured: not identified (plain least squares)"
+#: Flange of the extra sessions that measure the net-load directions for face-frame methods.
+NET_LOAD_FLANGE = "frame_hole"
 
 
 class RankDeficientWarning(UserWarning):
-    """A face's loads did not excite every wrench direction; a minimum-norm fit was used."""
+    """A face's loads did not excite every wrench direction; those directions are not calibrated."""
+
+
+class RankDeficientError(ValueError):
+    """The data do not determine the fit (``allow_rank_deficient=True`` gives a minimum-norm fit).
+
+    Attributes
+    ----------
+    faces : tuple of int
+        The faces (1..6) whose part of the fit is not determined.
+    """
+
+    def __init__(self, message: str, faces=()):
+        super().__init__(message)
+        self.faces = tuple(int(f) for f in faces)
+
+
+class ExcitationError(RankDeficientError):
+    """A face's loads did not excite every wrench direction.
+
+    Attributes
+    ----------
+    faces : tuple of int
+        The faces (1..6) with unexcited directions.
+    directions : dict of int to list of str
+        Per face, the unexcited wrench directions in words (e.g. ``"tz"``; "all six
+        directions" when the face carried no load).
+    """
+
+    def __init__(self, message: str, directions: dict):
+        super().__init__(message, faces=sorted(directions))
+        self.directions = {int(f): list(d) for f, d in directions.items()}
 
 
 def _as_sessions(sessions) -> list[CalibrationSession]:
@@ -60,8 +111,21 @@ def session_tare_stats(session: CalibrationSession, block_size: int = 65536):
     The standard deviation is the gauge noise level each channel shows at rest. Refuses
     NaN, inf and saturated counts anywhere in the session, naming the sample indices.
     """
+    mean, cov, _ = _tare_moments(session, block_size)
+    return mean, np.sqrt(np.clip(np.diag(cov), 0.0, None))
+
+
+def _tare_moments(session: CalibrationSession, block_size: int = 65536, with_reference: bool = False):
+    """``(mean (36,), cov (36, 36), n)`` of the unloaded samples' counts (cov with 1/n).
+
+    With ``with_reference``, also ``cov (6, 6)`` of the reference over the same samples
+    (its noise at rest, N², N²·m, N²·m²). Refuses NaN, inf and saturated counts anywhere
+    in the session, naming the sample indices.
+    """
     total = np.zeros(36)
-    total_sq = np.zeros(36)
+    total_sq = np.zeros((36, 36))
+    r_total = np.zeros(6)
+    r_sq = np.zeros((6, 6))
     n = 0
     shift = None  # first unloaded sample: sums of squares about it do not cancel catastrophically
     lo, hi = session.counts_range
@@ -85,13 +149,21 @@ def session_tare_stats(session: CalibrationSession, block_size: int = 65536):
                 shift = c[0].copy()
             c = c - shift
             total += c.sum(axis=0)
-            total_sq += (c**2).sum(axis=0)
+            total_sq += c.T @ c
+            r = b.reference[free]
+            r_total += r.sum(axis=0)
+            r_sq += r.T @ r
             n += c.shape[0]
     if n == 0:
         raise ValueError("loaded: the session has no unloaded samples (rows of all False) to take the offsets from")
     mean = total / n
-    var = np.maximum(total_sq / n - mean**2, 0.0)
-    return mean + shift, np.sqrt(var)
+    cov = total_sq / n - np.outer(mean, mean)
+    out = (mean + shift, 0.5 * (cov + cov.T), n)
+    if with_reference:
+        rm = r_total / n
+        rc = r_sq / n - np.outer(rm, rm)
+        out = out + (0.5 * (rc + rc.T),)
+    return out
 
 
 def _load_rank(gram: np.ndarray, faces) -> int:
@@ -113,6 +185,11 @@ def _direction_name(v: np.ndarray) -> str:
     return "(" + " ".join(terms) + ")"
 
 
+def _offset_from_intercept(C: np.ndarray, center: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Counts ``o`` with ``C (center − o) = b`` (least change of ``center``): the fitted zero-load counts."""
+    return center - np.linalg.lstsq(C, b, rcond=RANK_RTOL)[0]
+
+
 class Calibrator:
     """Fit a calibration matrix from sessions (scikit-learn-like estimator).
 
@@ -121,56 +198,74 @@ class Calibrator:
     method : str
         One of ``face_to_face``, ``quasi_total``, ``total``, ``loaded_frame``,
         ``unloaded_frame`` (SPEC "Calibration methods").
+    prior : {None, "own_gauge"}
+        None (default): the papers' plain least squares everywhere. ``"own_gauge"``: where
+        the loads leave directions of the counts unexcited (a ``face`` or ``frame`` flange
+        alone: 30 of the 36 load dimensions), each face's own-gauge fit gives the response
+        in those directions only (so a free grasp's net load is estimated, not reported as
+        zero); it never changes the response to the excited directions, but passes the
+        gauge noise of 6 more directions (docs/calibration.md gives the cost).
     allow_rank_deficient : bool
-        If a face's loads did not excite all six wrench directions, fit the
-        minimum-norm solution and warn (:class:`RankDeficientWarning`) instead of
-        raising ``ValueError``.
+        If a face's loads did not excite all six wrench directions, fit anyway (the
+        pseudo-inverse: those directions are not calibrated) and warn
+        (:class:`RankDeficientWarning`) instead of raising ``ValueError``.
     block_size : int
         Samples per block: memory is bounded by this, not by the number of samples.
     progress : callable, optional
         Called as ``progress(done, total)`` in samples during the fit.
-    min_snr : float
-        Only where the loads span fewer than the 36 gauge dimensions (type-1 and type-3
-        flanges): a direction of the counts follows the data when its RMS signal exceeds
-        ``min_snr`` × the gauge noise at rest, and each face's own-gauge fit otherwise, so
-        loads never seen in calibration (a free grasp's net load) are still measured.
-        ``min_snr=0`` gives the papers' plain least squares ``C = W S⁺``: lower error on
-        loads like the calibration's, but blind to net loads (docs/calibration.md).
+    min_snr : None or 0
+        Removed (it tuned a ridge towards the own-gauge fits); 0 is accepted and means the
+        default. Use ``prior="own_gauge"`` for a prior on the unexcited directions.
 
     Attributes
     ----------
     calibration_ : Calibration
         The fitted calibration (after :meth:`fit`).
     offsets_ : list of ndarray (36,)
-        Unloaded counts of each session, counts.
+        Fitted zero-load counts of each session, counts.
+    tare_means_ : list of ndarray (36,)
+        Mean counts of each session's unloaded samples, counts.
     n_samples_ : int
         Samples used in the fit.
     """
 
-    def __init__(self, method, *, allow_rank_deficient: bool = False, block_size: int = 65536, progress=None,
-                 min_snr: float = DEFAULT_MIN_SNR):
+    def __init__(self, method, *, prior=None, allow_rank_deficient: bool = False, block_size: int = 65536,
+                 progress=None, min_snr=None):
         self.method = get_method(method).name
+        if prior not in PRIORS:
+            raise ValueError(f"prior: expected None or 'own_gauge', got {prior!r}")
+        self.prior = prior
         self.allow_rank_deficient = bool(allow_rank_deficient)
         if int(block_size) < 1:
             raise ValueError(f"block_size: expected a positive number of samples, got {block_size!r}")
         self.block_size = int(block_size)
         self.progress = progress
-        if not float(min_snr) >= 0:
-            raise ValueError(f"min_snr: expected a signal-to-noise ratio ≥ 0, got {min_snr!r}")
-        self.min_snr = float(min_snr)
+        if min_snr is not None and min_snr != 0:
+            raise ValueError(
+                f"min_snr: no longer supported (got {min_snr!r}); the default is the papers' plain least squares, "
+                "and prior='own_gauge' fills only the unexcited load directions from each face's own-gauge fit"
+            )
 
     # ---------------------------------------------------------------- checks
     def _check_sessions(self, spec: MethodSpec, sessions: list[CalibrationSession]) -> None:
+        net_ok = spec.inputs == "all" and spec.output_frame == "face" and NET_LOAD_FLANGE not in spec.flanges
         for k, s in enumerate(sessions):
-            if s.flange not in spec.flanges:
+            if s.flange not in spec.flanges and not (net_ok and s.flange == NET_LOAD_FLANGE):
+                extra = f" ('{NET_LOAD_FLANGE}' sessions may be added beside them, for the net loads)" if net_ok else ""
                 raise ValueError(
-                    f"sessions[{k}].flange: method '{spec.name}' needs a flange in {spec.flanges}, got {s.flange!r}"
+                    f"sessions[{k}].flange: method '{spec.name}' needs a flange in {spec.flanges}, got {s.flange!r}{extra}"
                 )
             if s.core != sessions[0].core:
                 raise ValueError(f"sessions[{k}].core: expected the same cube as sessions[0] ({sessions[0].core!r})")
+        main = [(k, s) for k, s in enumerate(sessions) if s.flange in spec.flanges]
+        if not main:
+            raise ValueError(
+                f"sessions: method '{spec.name}' needs at least one session with a flange in {spec.flanges}; "
+                f"'{NET_LOAD_FLANGE}' sessions only add the net-load directions"
+            )
         if not spec.mixed_mounts:
-            s0 = sessions[0]
-            for k, s in enumerate(sessions[1:], 1):
+            k0, s0 = main[0]
+            for k, s in main[1:]:
                 if s.connected_face != s0.connected_face:
                     raise ValueError(
                         f"sessions[{k}].connected_face: method '{spec.name}' fits one mount at a time; "
@@ -182,45 +277,50 @@ class Calibrator:
                         "so every session needs the same T_core_ati"
                     )
 
-    def _output_faces(self, spec, sessions, carried_any: np.ndarray) -> tuple[int, ...]:
+    def _output_faces(self, spec, sessions, carried_any: np.ndarray | None) -> tuple[int, ...]:
         if spec.outputs == "all":
             return FACES
         if spec.outputs == "free":
-            c = sessions[0].connected_face
+            c = next(s for s in sessions if s.flange in spec.flanges).connected_face
             return tuple(i for i in FACES if i != c)
         return tuple(i for i in FACES if carried_any[i - 1])
 
     # ---------------------------------------------------------------- fit
     def fit(self, sessions) -> "Calibrator":
-        """Fit from one session or a list of sessions; returns ``self``."""
+        """Fit from one session or a list of sessions; returns ``self``.
+
+        BLAS/LAPACK run single-threaded during the fit: its QR folds cache-sized chunks,
+        which threads only slow down (and, on a busy machine, by ten times or more).
+        """
+        with threadpool_limits(limits=1):
+            return self._fit(sessions)
+
+    def _fit(self, sessions) -> "Calibrator":
         spec = get_method(self.method)
         sessions = _as_sessions(sessions)
         self._check_sessions(spec, sessions)
         total_samples = sum(len(s) for s in sessions)
+        n_int = len(sessions)
 
-        # pass 1: offsets and noise at rest (refusing NaN, inf and saturated samples)
-        stats = [session_tare_stats(s, self.block_size) for s in sessions]
-        offsets = [m for m, _ in stats]
-        # gauge noise at rest, pooled over sessions: the coordinates in which signal and
-        # noise directions separate (used when the loads span fewer than 36 dimensions)
-        noise = np.sqrt(np.mean([sd**2 for _, sd in stats], axis=0))
-        noise = noise if np.all(noise > 0) else None
+        # pass 1: tare means and the gauge noise at rest (refusing NaN, inf and saturated samples)
+        moments = [_tare_moments(s, self.block_size) for s in sessions]
+        tare_means = [m for m, _, _ in moments]
+        n_tare = sum(n for _, _, n in moments)
+        gauge_cov = sum(c * n for _, c, n in moments) / max(n_tare - n_int, 1)  # pooled within sessions
         mounts = [MountGeometry(s) for s in sessions]
 
-        # pass 2: targets, their Gram matrix (excitation, load rank) and streamed QR.
-        # Each face's own-gauge fit (face_to_face's 6×6 blocks) is the result for "own"
-        # methods, and the prior for "all" methods under flanges that leave the loads
-        # fewer than 36 dimensions (type 1: the connected face idle; type 3: balanced).
+        # pass 2: targets, their Gram matrix (excitation, load rank) and streamed QR of the
+        # affine design [offset column of each session | counts − tare mean]
         gram = np.zeros((36, 36))  # joint Gram of the scaled targets of all faces
         carried_any = np.zeros(6, dtype=bool)
         n_used = 0
-        need_own = spec.inputs == "own" or any(s.flange in ("frame", "face") for s in sessions)
-        own = {f: StreamedQR(6, 6, flush_rows=self.block_size) for f in FACES} if need_own else {}
+        need_own = spec.inputs == "own" or self.prior == "own_gauge"
+        own = {f: StreamedQR(n_int + 6, 6, flush_rows=self.block_size) for f in FACES} if need_own else {}
         joint_faces = self._output_faces(spec, sessions, None) if spec.inputs == "all" else ()
-        joint = StreamedQR(36, 6 * len(joint_faces), flush_rows=self.block_size) if joint_faces else None
+        joint = StreamedQR(n_int + 36, 6 * len(joint_faces), flush_rows=self.block_size) if joint_faces else None
         idx = [f - 1 for f in joint_faces]
         done = 0
-        for k, (s, mount, offset) in enumerate(zip(sessions, mounts, offsets)):
+        for k, (s, mount, center) in enumerate(zip(sessions, mounts, tare_means)):
             for b in s.iter_blocks(self.block_size):
                 targets, carries, usable, bad = block_targets(b.reference, b.loaded, mount, spec.output_frame)
                 if bad.any():
@@ -228,22 +328,20 @@ class Calibrator:
                         f"sessions[{k}].loaded: the connected face {s.connected_face} cannot be loaded with "
                         f"flange 'frame', yet it is marked loaded at sample indices {_few(np.flatnonzero(bad) + b.start)}"
                     )
-                every = usable.all()
                 n_used += int(usable.sum())
                 carried_any |= (carries & usable[:, None]).any(axis=0)
-                t = (targets if every else targets[usable]).reshape(-1, 36)
+                t = targets[usable].reshape(-1, 36)
                 gram += (t.T @ t) * _GRAM_SCALE
-                S = b.counts - offset
+                A = np.zeros((b.counts.shape[0], n_int + 36))
+                A[:, k] = 1.0
+                np.subtract(b.counts, center, out=A[:, n_int:])
                 unloaded = ~b.loaded.any(axis=1)
                 for f, acc in own.items():
                     rows = usable & (carries[:, f - 1] | unloaded)
-                    acc.add(S[rows, 6 * (f - 1) : 6 * f], targets[rows, f - 1])
+                    cols = np.r_[np.arange(n_int), n_int + np.arange(6 * (f - 1), 6 * f)]
+                    acc.add(A[np.ix_(rows, cols)], targets[rows, f - 1])
                 if joint is not None:
-                    if every:  # the common case: no copies of the whole block
-                        B = targets.reshape(-1, 36) if joint_faces == FACES else targets[:, idx, :].reshape(-1, 6 * len(idx))
-                        joint.add(S, B)
-                    else:
-                        joint.add(S[usable], targets[usable][:, idx, :].reshape(-1, 6 * len(joint_faces)))
+                    joint.add(A[usable], targets[usable][:, idx, :].reshape(-1, 6 * len(idx)))
                 done += b.counts.shape[0]
                 if self.progress is not None:
                     self.progress(done, total_samples)
@@ -251,47 +349,67 @@ class Calibrator:
         if not out_faces:
             raise ValueError("loaded: no face carried load in the sessions; nothing to calibrate")
         self._check_excitation(out_faces, gram)
-        all_rank = _load_rank(gram, out_faces) if spec.inputs == "all" else 0
+        load_rank = _load_rank(gram, FACES)  # dimension of the 36-d space of face wrenches the loads span
         own = {f: own[f] for f in out_faces if f in own}
+        center = np.mean(tare_means, axis=0)
+        weights = np.full(n_int, 1.0 / n_int)
 
         matrix = np.zeros((6 * len(out_faces), 36))
         residual = np.full((6, 6), np.nan)
-        ranks = []
-        own_X = np.zeros((36, 6 * len(out_faces)))  # block-diagonal: own gauges -> own rows
+        ranks, groups = [], []
+        own_C = np.zeros((6 * len(out_faces), 36))  # block-diagonal: own gauges -> own rows
+        own_b = np.zeros((n_int, 6 * len(out_faces)))
+        counts_rank = []
         for k, (f, acc) in enumerate(own.items()):
-            rank = _load_rank(gram, (f,))
-            res = self._solve_checked(acc, rank, (f,), deficient=f in self._deficient_faces, strict=spec.inputs == "own",
-                                      col_scale=None if noise is None else noise[6 * (f - 1) : 6 * f])
-            own_X[6 * (f - 1) : 6 * f, 6 * k : 6 * k + 6] = res.X
+            res = self._solve_checked(acc, n_int + _load_rank(gram, (f,)), (f,), strict=spec.inputs == "own")
+            g = slice(6 * (f - 1), 6 * f)
+            own_C[6 * k : 6 * k + 6, g] = res.X[n_int:].T
+            own_b[:, 6 * k : 6 * k + 6] = res.X[:n_int]
             if spec.inputs == "own":
-                ranks.append(res.rank)
+                ranks.append(_load_rank(gram, (f,)))
+                counts_rank.append(res.numerical_rank - n_int)
                 residual[f - 1] = res.residual_rms
+                groups.append(self._group(res, np.arange(6 * (f - 1), 6 * f), np.arange(6 * k, 6 * k + 6),
+                                          center[g], weights))
         if joint is None:
-            matrix[:] = own_X.T
+            matrix[:] = own_C
+            offsets = []
+            for j, m in enumerate(tare_means):
+                o = m.copy()
+                for k, f in enumerate(out_faces):
+                    g = slice(6 * (f - 1), 6 * f)
+                    o[g] = _offset_from_intercept(own_C[6 * k : 6 * k + 6, g], m[g], own_b[j, 6 * k : 6 * k + 6])
+                offsets.append(o)
         else:
-            # loads spanning r < 36 dimensions: fit those r exactly (the noise-only
-            # directions are dropped, not fitted), and act as the faces' own-gauge fits
-            # on the rest (e.g. the net load, which a face flange always balances)
-            rank = min(all_rank, 36)
-            if self.min_snr == 0:  # the papers' plain least squares
-                res = self._solve_checked(joint, rank, out_faces, deficient=False, strict=True)
-            elif rank < 36 and noise is not None:
-                # noisy data: ridge towards the own-gauge fit, in noise units (a direction
-                # needs an RMS signal of min_snr × the noise at rest to follow the data)
-                ridge = joint.n_rows * self.min_snr**2
-                res = self._solve_checked(joint, rank, out_faces, deficient=False, strict=True,
-                                          prior=own_X if own else None, col_scale=noise, ridge=ridge)
-            else:  # full-rank loads, or noise-free data: keep the r load directions exactly
-                res = self._solve_checked(joint, rank, out_faces, deficient=rank < 36, strict=True,
-                                          prior=own_X if rank < 36 and own else None)
-            matrix[:] = res.X.T
-            ranks.append(res.rank)
+            res = self._solve_checked(joint, n_int + min(load_rank, 36), out_faces, strict=True)
+            C = res.X[n_int:].T
+            B = res.X[:n_int]
+            offsets = [_offset_from_intercept(C, m, B[k]) for k, m in enumerate(tare_means)]
+            if self.prior == "own_gauge" and load_rank < 36:
+                C_new = self._fill_unexcited(joint, res, C, own_C, gauge_cov, n_int, 36 - load_rank)
+                X_new = np.vstack([np.stack([C_new @ (m - o) for m, o in zip(tare_means, offsets)]), C_new.T])
+                D = X_new - res.X
+                RD = np.triu(joint.R11) @ D
+                res.residual_cp = res.residual_cp + RD.T @ RD
+                res.residual_rms = np.sqrt(np.diag(res.residual_cp) / max(res.n_rows, 1))
+                C = C_new
+            matrix[:] = C
+            ranks.append(load_rank)
+            counts_rank.append(res.numerical_rank - n_int)
             for k, f in enumerate(out_faces):
                 residual[f - 1] = res.residual_rms[6 * k : 6 * k + 6]
+            groups.append(self._group(res, np.arange(36), np.arange(6 * len(out_faces)), center, weights))
 
+        if load_rank >= 36:
+            net_load = NET_LOAD_MEASURED
+        elif spec.inputs == "own" or self.prior == "own_gauge":
+            net_load = NET_LOAD_PRIOR
+        else:
+            net_load = NET_LOAD_UNIDENTIFIED
         self.offsets_ = offsets
+        self.tare_means_ = tare_means
         self.n_samples_ = n_used
-        s0 = sessions[0]
+        s0 = next(s for s in sessions if s.flange in spec.flanges)
         meta = {
             "method": spec.name,
             "paper": spec.paper,
@@ -301,36 +419,75 @@ class Calibrator:
             "n_sessions": len(sessions),
             "n_samples": int(total_samples),
             "n_samples_fitted": int(n_used),
+            "fit": "affine least squares: counts beside one offset column per session, unloaded samples as "
+                   "zero-wrench rows (C = W S⁺)",
             "fit_residual_rms": residual.tolist(),
             "load_rank": ranks,
-            "min_snr": self.min_snr,
+            "counts_rank": counts_rank,
+            "prior": self.prior,
+            "net_load": net_load,
+            "load_directions": {
+                "measured": int(load_rank),
+                "from_prior": int(36 - load_rank) if net_load == NET_LOAD_PRIOR else 0,
+                "not_identified": int(36 - load_rank) if net_load == NET_LOAD_UNIDENTIFIED else 0,
+            },
             "simulated": any(bool(s.meta.get("simulated", False)) for s in sessions),
         }
-        self.calibration_ = Calibration(
-            method=spec.name,
-            matrix=matrix,
-            output_faces=out_faces,
-            output_frame=spec.output_frame,
-            offset=np.mean(offsets, axis=0),
-            core=s0.core,
-            T_core_ati=s0.T_core_ati,
-            meta=meta,
-        )
+        cal = Calibration(spec.name, matrix, out_faces, spec.output_frame, np.mean(offsets, axis=0), s0.core,
+                          s0.T_core_ati, meta)
+        # pass 3: the error a sample brings itself (noise, what the linear model misses), against its load
+        coef, corr = fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, self.block_size)
+        cal.covariance = CalibrationCovariance(groups, gauge_cov, None, coef, corr)
+        self.calibration_ = cal
         return self
 
-    def _solve_checked(self, acc, rank, faces, *, deficient, strict, prior=None, col_scale=None, ridge=None):
+    @staticmethod
+    def _group(res, inputs, rows, center, weights) -> CovarianceGroup:
+        dof = max(res.n_rows - res.rank, 1)
+        return CovarianceGroup(inputs, rows, res.design_pinv, res.residual_cp / dof, center, weights, dof)
+
+    @staticmethod
+    def _fill_unexcited(joint, res, C, own_C, gauge_cov, n_int, n_free) -> np.ndarray:
+        """``C`` with its response to the ``n_free`` unexcited counts directions taken from ``own_C``.
+
+        In counts whitened by the gauge noise at rest (``z = L⁻¹ s``, ``Σ_g = L Lᵀ``), the
+        directions the loads excite are those the targets explain: the leading
+        eigenvectors of ``Zᵀ P_T Z`` (the counts projected on the span of the targets, the
+        offset columns projected out; read off the QR of ``[offsets | S | T]``). The other
+        ``n_free`` carry noise only; there the response is the own-gauge fit's, elsewhere
+        the least-squares fit's (unchanged).
+        """
+        R = np.triu(joint.R11)[n_int:, n_int:]  # Rᵀ R = Gram of the counts less their per-session means
+        R12 = joint.R12[n_int:]
+        G_ST = R.T @ R12
+        G_TT = R12.T @ R12 + res.residual_cp
+        w = np.linalg.eigvalsh(gauge_cov) if np.all(np.isfinite(gauge_cov)) else np.zeros(36)
+        if w[0] > 1e-12 * max(w[-1], 1e-300):
+            L = np.linalg.cholesky(gauge_cov)
+        else:  # noise-free data: scale by the columns' norms
+            L = np.diag(np.where(np.linalg.norm(R, axis=0) > 0, np.linalg.norm(R, axis=0), 1.0))
+        Gz = np.linalg.solve(L, G_ST)  # L⁻¹ Sᵀ T
+        M = Gz @ np.linalg.pinv(G_TT, rcond=RANK_RTOL, hermitian=True) @ Gz.T  # L⁻¹ Sᵀ P_T S L⁻ᵀ
+        _, V = np.linalg.eigh(0.5 * (M + M.T))
+        V = V[:, :n_free]  # (36, n_free): whitened directions the targets do not explain
+        LV = L @ V
+        LinvV = np.linalg.solve(L.T, V)  # L⁻ᵀ V: the projector is L V Vᵀ L⁻¹ in counts
+        return C + (own_C - C) @ LV @ LinvV.T
+
+    def _solve_checked(self, acc, rank, faces, *, strict):
         """Solve one accumulator, refusing too few samples or dead channels when ``strict``."""
         p = acc.p
         if acc.n_rows < p:
             raise ValueError(
                 f"sessions: only {acc.n_rows} usable samples for face(s) {list(faces)}, expected at least {p}"
             )
-        res = acc.solve(rank=rank if deficient else None, prior=prior, col_scale=col_scale, ridge=ridge)
+        res = acc.solve()
         if strict and res.numerical_rank < min(rank, p) and not self.allow_rank_deficient:
-            raise ValueError(
+            raise RankDeficientError(
                 f"counts: the gauge data for face(s) {list(faces)} span fewer than the {rank} "
-                f"dimensions the loads span (rank {res.numerical_rank} < {rank}); "
-                "a gauge channel may be dead or stuck; pass allow_rank_deficient=True for a minimum-norm fit"
+                f"dimensions the loads and offsets span (rank {res.numerical_rank} < {rank}); "
+                "a gauge channel may be dead or stuck; pass allow_rank_deficient=True for a minimum-norm fit",
+                faces=faces,
             )
         return res
 
@@ -341,21 +498,22 @@ class Calibrator:
             G = gram[6 * (f - 1) : 6 * f, 6 * (f - 1) : 6 * f]
             w, V = np.linalg.eigh(G)
             if w[-1] <= 0:
-                problems.append((f, "all six directions (the face carried no load)"))
+                problems.append((f, ["all six directions (the face carried no load)"]))
                 continue
             weak = np.sqrt(np.clip(w, 0, None) / w[-1]) < EXCITATION_RTOL
             if weak.any():
-                names = ", ".join(_direction_name(V[:, k]) for k in np.flatnonzero(weak))
-                problems.append((f, names))
+                problems.append((f, [_direction_name(V[:, k]) for k in np.flatnonzero(weak)]))
         self._deficient_faces = {f for f, _ in problems}
         if not problems:
             return
-        text = "; ".join(f"face {f}: {names}" for f, names in problems)
+        text = "; ".join(f"face {f}: {', '.join(names)}" for f, names in problems)
         msg = f"loaded: loads did not excite every wrench direction — {text}"
         if self.allow_rank_deficient:
-            warnings.warn(msg + " (minimum-norm fit used)", RankDeficientWarning, stacklevel=3)
+            warnings.warn(msg + " (minimum-norm least squares: those directions are not calibrated)",
+                          RankDeficientWarning, stacklevel=3)
         else:
-            raise ValueError(msg + "; load those directions, or pass allow_rank_deficient=True for a minimum-norm fit")
+            raise ExcitationError(msg + "; load those directions, or pass allow_rank_deficient=True for a minimum-norm fit",
+                                  dict(problems))
 
     def predict(self, counts, offset=None) -> np.ndarray:
         """``Calibration.wrenches`` of the fitted calibration: (N, 6, 6) face frames."""
@@ -370,10 +528,12 @@ def calibrate(sessions, method, **kwargs) -> Calibration:
     Parameters
     ----------
     sessions : CalibrationSession or list of CalibrationSession
+        Sessions under the method's flange; for ``total``, ``unloaded_frame`` and
+        ``quasi_total`` also ``frame_hole`` sessions, which measure the net-load directions.
     method : str
         ``face_to_face``, ``quasi_total``, ``total``, ``loaded_frame`` or ``unloaded_frame``.
     **kwargs
-        ``allow_rank_deficient``, ``block_size``, ``progress``, ``min_snr`` (see :class:`Calibrator`).
+        ``prior``, ``allow_rank_deficient``, ``block_size``, ``progress`` (see :class:`Calibrator`).
 
     Returns
     -------

@@ -19,16 +19,37 @@ RANK_RTOL = 1e-10
 
 
 class LstsqResult:
-    """Solution ``X (p, q)``, the scaled design's singular values ``sv (p,)`` and the rank kept."""
+    """Result of :meth:`StreamedQR.solve`.
 
-    def __init__(self, X, sv, n_rows, residual_rms, rank, numerical_rank):
+    Attributes
+    ----------
+    X : ndarray, shape (p, q)
+        The least-squares solution (minimum norm in the scaled columns where the design is
+        rank deficient).
+    sv : ndarray, shape (p,)
+        Singular values of the column-scaled design.
+    rank, numerical_rank : int
+        Singular values kept, and those above ``RANK_RTOL·σ1``.
+    n_rows : int
+        Rows (samples) folded in.
+    residual_rms : ndarray, shape (q,)
+        RMS residual of each right-hand side over the rows.
+    residual_cp : ndarray, shape (q, q)
+        ``Eᵀ E``: cross-products of the residuals ``E = B − A X`` (sums over rows).
+    design_pinv : ndarray, shape (p, p)
+        ``(AᵀA)⁺`` restricted to the kept directions: the covariance of a row of ``X`` per
+        unit residual variance (``Cov(X[:, j]) = σ_j² (AᵀA)⁺``).
+    """
+
+    def __init__(self, X, sv, n_rows, residual_rms, rank, numerical_rank, residual_cp=None, design_pinv=None):
         self.rank = rank
         self.numerical_rank = numerical_rank
         self.X = X
         self.sv = sv
         self.n_rows = n_rows
         self.residual_rms = residual_rms
-
+        self.residual_cp = residual_cp
+        self.design_pinv = design_pinv
 
 
 class StreamedQR:
@@ -60,7 +81,7 @@ class StreamedQR:
         self.chunk_rows = max(1, int(chunk_rows))
         self.R11 = np.zeros((p, p), order="F")
         self.R12 = np.zeros((p, q), order="F")
-        self.residual_ss = np.zeros(q)  # Σ over samples of the squared residual of each column of B
+        self.residual_cp = np.zeros((q, q))  # Σ over samples of the residuals' cross-products (Eᵀ E)
         self.n_rows = 0
         self._nb = max(1, min(64, p))  # one Householder block for p ≤ 64 (36 gauges): ~5 % faster than 32
 
@@ -81,12 +102,15 @@ class StreamedQR:
             R12, Bk, info = tpmqrt(0, V, T, R12, Bk, trans="T", overwrite_a=1, overwrite_b=1)
             if info != 0:  # pragma: no cover
                 raise RuntimeError(f"dtpmqrt failed with info={info}")
-            np.multiply(Bk, Bk, out=Bk)
-            self.residual_ss += Bk.sum(axis=0)
+            self.residual_cp += Bk.T @ Bk  # rows of Qᵀ[B] below R12: the residual's Gram
         self.R11, self.R12 = R11, R12
 
-    def solve(self, rank: int | None = None, prior: np.ndarray | None = None, col_scale=None,
-              ridge: float | None = None) -> LstsqResult:
+    @property
+    def residual_ss(self) -> np.ndarray:
+        """``(q,)`` Σ over samples of the squared residual of each column of B."""
+        return np.diag(self.residual_cp).copy()
+
+    def solve(self, rank: int | None = None) -> LstsqResult:
         """Least-squares solution from the accumulated factor, of rank at most ``rank``.
 
         Columns of A are scaled to unit norm (their norms are read off R) before the
@@ -95,43 +119,22 @@ class StreamedQR:
         values (default all): with fewer, the minimum-norm solution in the subspace
         the data span. Singular values below ``RANK_RTOL·σ1`` are always dropped (the
         ``S⁺`` of the papers: least squares when the design has full rank, minimum norm
-        when it has not).
-
-        ``col_scale (p,)`` (e.g. each gauge's noise level at rest) replaces the column
-        norms as the scale: truncation then keeps the directions that stand out of the
-        noise. A full-rank least-squares solution does not depend on the scale.
-
-        With ``prior (p, q)``, the solution equals the prior in the directions left out
-        (``X = Xᵣ + (I − VᵣVᵣᵀ) X₀`` in scaled coordinates) instead of zero there: the
-        minimum-norm correction of the prior. With ``prior`` and ``ridge = λ`` instead, the
-        solution minimises ``‖A X − B‖² + λ‖X − X₀‖²`` in scaled coordinates: directions
-        the data excite strongly (σ² ≫ λ) follow the data, weakly excited ones (noise,
-        σ² ≪ λ) the prior — without choosing a rank.
+        when it has not). A full-rank least-squares solution does not depend on the scale.
         """
         R11, R12 = np.triu(self.R11), self.R12
-        norms = np.linalg.norm(R11, axis=0) if col_scale is None else np.asarray(col_scale, dtype=float)
+        norms = np.linalg.norm(R11, axis=0)
         d = np.where(norms > 0, 1.0 / np.where(norms > 0, norms, 1.0), 0.0)
         U, sv, Vt = np.linalg.svd(R11 * d)
         r_num = int(np.sum(sv > RANK_RTOL * sv[0])) if sv.size and sv[0] > 0 else 0
         r = r_num if rank is None else int(min(rank, r_num))
         keep = slice(0, r)
-        if prior is not None and ridge is not None:
-            Z0 = np.asarray(prior, dtype=float) * np.where(d > 0, 1.0 / np.where(d > 0, d, 1.0), 0.0)[:, None]
-            s_k = sv[keep]
-            V = Vt.T
-            data_w = np.zeros_like(sv)
-            data_w[keep] = s_k / (s_k**2 + ridge)
-            prior_w = np.ones_like(sv)
-            prior_w[keep] = ridge / (s_k**2 + ridge)
-            Z = V @ (data_w[:, None] * (U.T @ R12)) + V @ (prior_w[:, None] * (Vt @ Z0))
-            X = Z * d[:, None]
-            resid = np.sqrt(self.residual_ss / max(self.n_rows, 1))
-            return LstsqResult(X, sv, self.n_rows, resid, r, r_num)
-        Z = Vt[keep].T @ ((U[:, keep].T @ R12) / np.where(sv[keep] > 0, sv[keep], np.inf)[:, None])
-        if prior is not None:
-            Z0 = np.asarray(prior, dtype=float) * np.where(d > 0, 1.0 / np.where(d > 0, d, 1.0), 0.0)[:, None]
-            Vr = Vt[keep].T
-            Z = Z + Z0 - Vr @ (Vr.T @ Z0)
+        inv_s = 1.0 / sv[keep]
+        Z = Vt[keep].T @ ((U[:, keep].T @ R12) * inv_s[:, None])
         X = Z * d[:, None]
-        resid = np.sqrt(self.residual_ss / max(self.n_rows, 1))
-        return LstsqResult(X, sv, self.n_rows, resid, r, r_num)
+        F = (Vt[keep].T * inv_s) * d[:, None]  # (p, r): (AᵀA)⁺ = F Fᵀ
+        resid_cp = self.residual_cp.copy()
+        if r < r_num or r < self.p:  # directions left out add their part of R12 to the residual
+            Ud = U[:, r:].T @ R12
+            resid_cp += Ud.T @ Ud
+        resid = np.sqrt(np.diag(resid_cp) / max(self.n_rows, 1))
+        return LstsqResult(X, sv, self.n_rows, resid, r, r_num, resid_cp, F @ F.T)

@@ -92,8 +92,7 @@ METHODS: dict[str, MethodSpec] = {
             mixed_mounts=True,
             summary=(
                 "Flange on a face (type 3); load every face; a 36×36 matrix, the connected face's "
-                "rows fitted from the flange reaction (and from direct loads in sessions with "
-                "another face connected)."
+                "rows fitted from its own direct loads and the reactions −W of the others (eq. 6)."
             ),
         ),
         MethodSpec(

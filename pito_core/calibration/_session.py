@@ -8,6 +8,9 @@ from typing import Iterator
 import numpy as np
 
 from ..frames import CubeCore, check_face, check_pose
+from ..io._csv import read_session_csv_fields, write_session_csv
+from ..io._hdf5 import FileFormatError
+from ..io._session_file import read_session_fields, write_session
 
 __all__ = ["CalibrationSession", "FLANGES", "SessionBlock", "N_GAUGES", "DEFAULT_COUNTS_RANGE"]
 
@@ -242,8 +245,6 @@ class CalibrationSession:
     # ------------------------------------------------------------------ files
     def save(self, path) -> None:
         """Write exactly ``path`` (HDF5, format ``pito-session`` v1; see docs/file-formats.md)."""
-        from ..io import write_session
-
         write_session(path, self)
 
     @classmethod
@@ -253,23 +254,29 @@ class CalibrationSession:
         With ``lazy=True`` the arrays stay on disk (h5py datasets) and are read block by
         block by :meth:`iter_blocks`; the file stays open while the session lives.
         """
-        from ..io import read_session
-
-        return read_session(path, lazy=lazy)
+        fields, f = read_session_fields(path, lazy=lazy)
+        core_edge = fields.pop("core_edge")
+        try:
+            session = cls(**fields, core=CubeCore(core_edge), _lazy=lazy)
+        except ValueError as exc:
+            if f is not None:
+                f.close()
+            raise FileFormatError(f"{path}: inconsistent session: {exc}") from None
+        if f is not None:
+            session._file = f  # keeps the lazy datasets readable while the session lives
+        return session
 
     @classmethod
     def from_csv(cls, path, *, flange, connected_face, T_core_ati=None, core=None, meta=None):
         """Read a session from a CSV file (columns documented in docs/file-formats.md)."""
-        from ..io import read_session_csv
-
-        return read_session_csv(
-            path, flange=flange, connected_face=connected_face, T_core_ati=T_core_ati, core=core, meta=meta
+        cols = read_session_csv_fields(path)
+        return cls(
+            cols["counts"], cols["reference"], cols["loaded"], np.eye(4) if T_core_ati is None else T_core_ati,
+            flange, connected_face, core=core, time=cols["time"], meta=meta,
         )
 
     def to_csv(self, path) -> None:
         """Write the samples as CSV (the columns :meth:`from_csv` reads)."""
-        from ..io import write_session_csv
-
         write_session_csv(path, self)
 
     # ------------------------------------------------------------------ combine

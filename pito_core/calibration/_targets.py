@@ -44,8 +44,10 @@ def block_targets(reference: np.ndarray, loaded: np.ndarray, mount: MountGeometr
         ``targets[n, i-1]`` = wrench on face i, N and N·m. Zero for faces carrying
         nothing; undefined (NaN) on rows that are not usable.
     carries : ndarray of bool, shape (n, 6)
-        Face i carries a (nonzero) load in sample n: the directly loaded face, or the
-        connected face under a ``face`` flange (the reaction).
+        Face i carries a (nonzero) load in sample n: the directly loaded face (under a
+        ``face`` flange also the connected face itself, eq. 6 of the multi-touch paper), or
+        the connected face under a ``face`` flange when another face is loaded (the
+        reaction ``−W``).
     usable : ndarray of bool, shape (n,)
         Samples whose every face wrench is known: unloaded or exactly one loaded face.
     bad_connected : ndarray of bool, shape (n,)
@@ -62,10 +64,9 @@ def block_targets(reference: np.ndarray, loaded: np.ndarray, mount: MountGeometr
     carries = direct.copy()
     sign = np.where(direct, 1.0, 0.0)
     if mount.flange == "face":
-        # a direct load on the connected face goes into the flange: no face carries it
+        # eq. 6 of the multi-touch paper: a direct load on the connected face is carried by
+        # it (+W in its frame, already set above); a load elsewhere by its reaction −W
         on_connected = direct[:, c]
-        carries[on_connected, c] = False
-        sign[on_connected, c] = 0.0
         elsewhere = direct.any(axis=1) & ~on_connected
         carries[elsewhere, c] = True
         sign[elsewhere, c] = -1.0

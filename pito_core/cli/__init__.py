@@ -11,6 +11,8 @@ import argparse
 import importlib
 import sys
 
+from .._version import __version__
+
 #: Subcommand modules, in the order ``pito --help`` lists them.
 COMMANDS = (
     "calibrate",
@@ -18,10 +20,24 @@ COMMANDS = (
     "simulate",
     "reproduce",
     "devices",
+    "sim-devices",
     "record",
     "replay",
-    "bench",
+    "export",
+    "stream",
 )
+
+#: Entry-point group through which other installed packages add subcommands (``pito bench``
+#: comes from ``pito_bench``, outside the core, so the core never imports the benchmark,
+#: which starts the desktop app in a subprocess).
+PLUGIN_GROUP = "pito.commands"
+
+
+def _plugins():
+    """The ``register`` functions other installed packages offer, sorted by command name."""
+    from importlib.metadata import entry_points
+
+    return sorted(entry_points(group=PLUGIN_GROUP), key=lambda ep: ep.name)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -32,12 +48,12 @@ def build_parser() -> argparse.ArgumentParser:
             "simulate, record and replay. Units are SI everywhere (N, N·m, m, s); faces are 1..6."
         ),
     )
-    from .. import __version__
-
     parser.add_argument("--version", action="version", version=f"pito {__version__}")
     sub = parser.add_subparsers(title="commands", metavar="COMMAND")
     for name in COMMANDS:
-        importlib.import_module(f"{__name__}._{name}").register(sub)
+        importlib.import_module(f"{__name__}._{name.replace('-', '_')}").register(sub)
+    for ep in _plugins():
+        ep.load()(sub)
     return parser
 
 

@@ -18,7 +18,8 @@ everything and evaluate later on separate sessions with `pito evaluate`.
 Methods (flange, faces loaded → result):
   face_to_face    any flange, each face            → six 6×6, each face from its own gauges
   quasi_total     frame (type 1), 5 free faces     → 30×36, free faces from all gauges
-  total           face (type 3), all 6 faces       → 36×36, connected face from the reaction
+  total           face (type 3), all 6 faces       → 36×36 (eq. 6: direct loads on the connected face
+                                                     carried by it, reactions elsewhere)
   loaded_frame    frame_hole (type 2), all 6 faces → 36×36 fitted in the reference frame S_A
   unloaded_frame  face (type 3), 5 free faces      → 36×36 in face frames, connected face = −ΣW
 """
@@ -37,32 +38,19 @@ def register(sub) -> None:
     p.add_argument("--seed", type=int, default=0, help="seed of the hold-out split (default 0)")
     p.add_argument("--allow-rank-deficient", action="store_true",
                    help="fit a minimum-norm matrix (with a warning) when a face's loads miss some directions")
-    p.add_argument("--min-snr", type=float, default=None, metavar="R",
-                   help="type-1/3 flanges: counts directions weaker than R × the gauge noise follow each face's "
-                        "own-gauge fit (default 30); 0 = the papers' plain least squares, blind to net loads")
+    p.add_argument("--prior", choices=("none", "own_gauge"), default="none",
+                   help="face/frame flange without frame_hole sessions: fill the 6 unexcited load directions (the net "
+                        "load) from each face's own-gauge fit (own_gauge), or not (none, default: the papers' plain "
+                        "least squares). Add a frame_hole session to measure them instead")
     p.add_argument("--flange", choices=("frame", "frame_hole", "face"), help="mount of CSV sessions")
     p.add_argument("--connected-face", type=int, choices=range(1, 7), metavar="1..6", help="connected face of CSV sessions")
     p.set_defaults(func=run)
 
 
-def load_sessions(paths, flange=None, connected_face=None):
-    """Sessions from .h5 files, or .csv files with the mount given."""
-    from ..calibration import CalibrationSession
-
-    out = []
-    for path in paths:
-        if str(path).lower().endswith(".csv"):
-            if flange is None or connected_face is None:
-                raise ValueError(f"{path}: CSV sessions need --flange and --connected-face")
-            out.append(CalibrationSession.from_csv(path, flange=flange, connected_face=connected_face))
-        else:
-            out.append(CalibrationSession.load(path))
-    return out
-
-
 def run(args) -> int:
     from ..calibration import calibrate, evaluate
     from ._evaluate import print_evaluation
+    from ._sessions import load_sessions
 
     sessions = load_sessions(args.sessions, args.flange, args.connected_face)
     if args.holdout:
@@ -77,8 +65,8 @@ def run(args) -> int:
         if sys.stderr.isatty():
             print(f"\rfitting: {done}/{total} samples ({100 * done / max(total, 1):.0f} %)", end="", file=sys.stderr)
 
-    extra = {} if args.min_snr is None else {"min_snr": args.min_snr}
-    cal = calibrate(train, args.method, allow_rank_deficient=args.allow_rank_deficient, progress=progress, **extra)
+    prior = None if args.prior == "none" else args.prior
+    cal = calibrate(train, args.method, allow_rank_deficient=args.allow_rank_deficient, progress=progress, prior=prior)
     if sys.stderr.isatty():
         print(file=sys.stderr)
     dt = time.perf_counter() - t0
@@ -89,7 +77,11 @@ def run(args) -> int:
         cal.meta["validation"] = ev.to_dict()
         cal.meta["validation"]["holdout"] = args.holdout
         print(f"validation on the held-out {100 * args.holdout:.0f} % ({sum(len(s) for s in test)} samples):")
-        print_evaluation(ev)
+        print_evaluation(ev, cal)
+    else:
+        print(f"net force/torque of a free grasp: {cal.meta['net_load']}")
     cal.save(args.output)
-    print(f"wrote {args.output}")
+    from ..io import calibration_hash, short_hash
+
+    print(f"wrote {args.output} [{short_hash(calibration_hash(cal))}]")
     return 0

@@ -9,8 +9,9 @@ HELP = """\
 List the serial ports the PITO cube may be on (pyserial's serial.tools.list_ports).
 
 Give one of the listed devices to `pito record --pito PORT`. The address `sim` is always
-available: it starts the simulated cube (a pseudo-terminal streaming real frames) and,
-with `--ati sim`, a simulated ATI Net F/T on loopback UDP.
+available: it starts the simulated devices in their own process — the cube on a
+pseudo-terminal streaming real frames and, with `--ati sim`, an ATI Net F/T on loopback
+UDP (`pito sim-devices` runs them standalone and prints their addresses).
 
 The Net F/T is not listed: it is addressed by IP (`--ati HOST`, RDT on UDP port 49152,
 configuration page on HTTP port 80; the factory default address is 192.168.1.1).

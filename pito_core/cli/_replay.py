@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 
 import numpy as np
 
@@ -11,8 +12,10 @@ HELP = """\
 Replay a pito recording (written by `pito record`), print its content, or export it.
 
 Without options the recording is replayed at real speed (--speed 2 is twice as fast,
---speed inf as fast as possible), printing each second of recording: cube samples and
-rate, and the reference's mean force magnitude (N). --csv PREFIX writes PREFIX_pito.csv
+--speed inf as fast as possible) through the same pipeline as the live view (the reference
+paired to the cube samples by the device clocks, the recorded tare applied), printing each
+second of recording: cube samples, and the paired reference's mean force magnitude (N);
+with --calibration FILE also the largest force on each face (N). --csv PREFIX writes PREFIX_pito.csv
 (host_time s, seq, time_us µs, counts_1..36) and PREFIX_ati.csv (host_time s, rdt_seq,
 ft_seq, status, fx fy fz N, tx ty tz N·m); --mat FILE writes a MATLAB file (variables
 listed in docs/devices.md). A recording whose recorder was killed is incomplete: add
@@ -25,6 +28,8 @@ def register(sub) -> None:
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("file", metavar="FILE", help="recording file")
     p.add_argument("--speed", type=float, default=1.0, help="replay speed, 1 = real time, inf = no pause (default 1)")
+    p.add_argument("--calibration", metavar="FILE", help="calibration file: print the face forces too "
+                   "(default: the one embedded in the recording, if any; a given file recomputes and says so)")
     p.add_argument("--recover", action="store_true", help="read an incomplete (killed) recording's intact part")
     p.add_argument("--info", action="store_true", help="print the summary only, no replay")
     p.add_argument("--csv", metavar="PREFIX", help="export to PREFIX_pito.csv and PREFIX_ati.csv (no replay)")
@@ -52,32 +57,54 @@ def _summary(rec) -> str:
 
 
 def run(args) -> int:
-    from ..io import Recording, export_recording_csv, export_recording_mat
+    from ..io import Recording, export_recording_files
 
     if not args.speed > 0:
         raise ValueError(f"--speed: expected > 0, got {args.speed}")
     rec = Recording(args.file, recover=args.recover)
     print(_summary(rec))
     if args.csv or args.mat:
-        if args.csv:
-            export_recording_csv(rec, f"{args.csv}_pito.csv", "pito")
-            export_recording_csv(rec, f"{args.csv}_ati.csv", "netft")
-            print(f"wrote {args.csv}_pito.csv and {args.csv}_ati.csv")
-        if args.mat:
-            export_recording_mat(rec, args.mat)
-            print(f"wrote {args.mat}")
+        for written in export_recording_files(rec, args.csv, args.mat):
+            print(f"wrote {written}")
         return 0
     if args.info:
         return 0
-    second, n_p, n_a, force = 1.0, 0, 0, []
-    for batch in rec.replay(speed=args.speed, step=0.05):
-        n_p += batch.pito.size
-        n_a += batch.netft.size
-        if batch.netft.size:
-            force.append(np.linalg.norm(batch.netft["wrench"][:, :3], axis=1))
-        if batch.t >= second - 1e-9:
+    from ..pipeline import Pipeline, RecordingReader
+
+    calibration = None
+    if args.calibration:
+        from ..calibration import load_calibration
+
+        calibration = load_calibration(args.calibration)
+    if calibration is not None or rec.meta.get("calibration"):  # provenance (docs/interop.md): say which one
+        from ..interop import recording_calibration
+
+        calibration, note = recording_calibration(rec.meta, calibration, args.calibration)
+        print(note)
+    reader = RecordingReader(rec, speed=args.speed, loop=False)
+    pipe = Pipeline(calibration, has_reference=reader.has_reference)
+    t_next, n, force, faces = 1.0, 0, [], []
+    while True:
+        samples = reader.read()
+        done = reader.finished
+        b = pipe.feed(samples, flush=done)
+        n += len(b)
+        if len(b):
+            ok = np.isfinite(b.reference).all(axis=1)
+            if ok.any():
+                force.append(np.linalg.norm(b.reference[ok, :3], axis=1))
+            if b.face_wrenches is not None:
+                faces.append(np.nanmax(np.linalg.norm(b.face_wrenches[:, :, :3], axis=2), axis=0))
+        pos = reader.stats()["position"]
+        if pos >= t_next - 1e-9 or (done and n):
             f = f", mean |F| {np.concatenate(force).mean():.3f} N" if force else ""
-            print(f"{batch.t:7.1f} s  cube {n_p} samples, reference {n_a} samples{f}", file=sys.stderr, flush=True)
-            second, n_p, n_a, force = second + 1.0, 0, 0, []
+            if faces:
+                f += "; max face |F| " + " ".join(f"{x:.2f}" for x in np.nanmax(faces, axis=0)) + " N"
+            print(f"{pos:7.1f} s  cube {n} samples{f}", file=sys.stderr, flush=True)
+            t_next, n, force, faces = t_next + 1.0, 0, [], []
+        if done:
+            break
+        if not np.isinf(args.speed):
+            time.sleep(0.02)
     print("replay done")
     return 0

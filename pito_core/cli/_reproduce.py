@@ -11,16 +11,19 @@ DESCRIPTION = """\
 Re-run the experiments of both seed papers on the simulated cube and reference
 (pito_core.sim; nothing is measured) and write into DIR:
 
-  *.png       figures, units on every axis, marked SIMULATED: face identification,
-              comparison with the reference (forces, torques), RMSE per face and method,
-              RMSE per connected face (loaded vs unloaded frame), Table I (inverse
-              condition numbers), free-grasp equilibrium, contact-point test
+  *.png       figures, units on every axis, marked SIMULATED: face identification
+              (unloaded and loaded frame), comparison with the reference (forces,
+              torques), RMSE per face and method, single-face and squeeze RMSE per
+              connected face, Table I (inverse condition numbers), free-grasp
+              equilibrium for every calibration (saying whether its net load was
+              measured), the 8-point test on the cube and on the reference sensor
+              with realistic touch placement (sigma 1.5 mm per axis)
   *.csv       the data of every figure (SI units: N, N·m, m, s)
   summary.md  one page: the figures, the tables and the papers' qualitative findings,
               each checked ("yes"/"NO" with the numbers)
 
 Sizes: k = 10000 samples per face for calibration (about a minute or two per run on two
-cores); --quick uses k = 2000 and finishes well under two minutes (CI smoke test).
+cores, longer under load); --quick uses k = 2000 and finishes well under two minutes (CI smoke test).
 A progress line with the elapsed time is printed per step. Exit status 0 when every
 finding holds, 3 when the run worked but a finding does not hold.
 """

@@ -12,10 +12,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._tol import BOUNDARY_TOL
+
 __all__ = ["PatchBoundary", "BOUNDARY_TOL"]
 
-#: Distance (m) within which a point on the boundary line counts as inside.
-BOUNDARY_TOL = 1e-9
 
 _SHAPES = ("rectangle", "ellipse", "polygon", None)
 

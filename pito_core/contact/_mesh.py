@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._quadric import _cross, _mat
-from ._surfaces import BARYCENTRIC_TOL
+from ._tol import BARYCENTRIC_TOL
 
 __all__ = ["MeshIndex"]
 

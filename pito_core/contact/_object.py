@@ -63,8 +63,11 @@ def solve_object(assembly, face_wrenches, force_threshold=DEFAULT_FORCE_THRESHOL
         Minimum force in N for a contact.
     point_contact : bool
         Use the point-contact (``τ = 0``) estimate.
-    wrench_cov : array-like, shape (6, 6) or (6, 6, 6), optional
-        Wrench noise covariance, shared or per face (face frames).
+    wrench_cov : array-like, shape (6, 6), (6, 6, 6) or (..., 6, 6, 6), optional
+        Wrench noise covariance (face frames; N², N²·m, N²·m²): shared, per face, or per
+        sample and face as ``Calibration.wrenches(counts, return_cov=True)`` returns it
+        (leading shape that of ``face_wrenches``). Faces whose covariance is NaN (no
+        output) get no covariance.
 
     Returns
     -------
@@ -77,18 +80,23 @@ def solve_object(assembly, face_wrenches, force_threshold=DEFAULT_FORCE_THRESHOL
     w = check_vectors(face_wrenches, 6, "face_wrenches")
     if w.ndim < 2 or w.shape[-2] != 6:
         raise ValueError(f"face_wrenches: expected shape (..., 6, 6), got {w.shape}")
+    lead = w.shape[:-2]
     covs = None
     if wrench_cov is not None:
         covs = np.asarray(wrench_cov, dtype=float)
         if covs.shape == (6, 6):
             covs = np.broadcast_to(covs, (6, 6, 6))
+        elif covs.shape == lead + (6, 6, 6) and lead:  # per sample and face (Calibration.wrenches)
+            covs = np.moveaxis(covs.reshape((-1, 6, 6, 6)), 1, 0)  # (6, M, 6, 6)
         elif covs.shape != (6, 6, 6):
-            raise ValueError(f"wrench_cov: expected shape (6, 6) or (6, 6, 6), got {covs.shape}")
-    lead = w.shape[:-2]
+            raise ValueError(f"wrench_cov: expected shape (6, 6), (6, 6, 6) or {lead + (6, 6, 6)}, got {covs.shape}")
     out = {k: [] for k in ("point", "normal", "force", "torsion", "valid", "point_cov")}
     for i in FACES:
+        cov_i = None if covs is None else covs[i - 1]
+        if cov_i is not None and np.isnan(cov_i).all():
+            cov_i = np.broadcast_to(np.eye(6), (6, 6))  # a face without output: NaN wrenches, no contact
         est = solve(assembly.patches[i], w[..., i - 1, :].reshape(-1, 6), force_threshold,
-                    point_contact=point_contact, wrench_cov=None if covs is None else covs[i - 1])
+                    point_contact=point_contact, wrench_cov=cov_i)
         T = assembly.core.face_pose(i)
         R, t = T[:3, :3], T[:3, 3]
         out["point"].append(np.einsum("ij,kj->ik", est.point, R) + t)

@@ -6,6 +6,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from ..defaults import IDENTIFY_FORCE_N
 from ..frames import check_vectors
 from ._crb import check_wrench_cov, covariance_from_jacobian, wrench_jacobian
 from ._pointcontact import DEFAULT_WRENCH_COV, refine_point_contact
@@ -14,8 +15,8 @@ from ._surfaces import Ellipsoid, MeshSurface, Plane, Sphere, Surface
 
 __all__ = ["ContactEstimate", "solve", "contact_crb", "DEFAULT_FORCE_THRESHOLD"]
 
-#: Forces below this magnitude (N) give no contact (``valid = False``).
-DEFAULT_FORCE_THRESHOLD = 0.05
+#: Forces below this magnitude (N) give no contact (``valid = False``); ``pito_core.defaults``.
+DEFAULT_FORCE_THRESHOLD = IDENTIFY_FORCE_N
 
 
 @dataclass

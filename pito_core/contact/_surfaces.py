@@ -10,12 +10,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..frames import ROTATION_TOL
+from ._mesh import MeshIndex
+from ._tol import BARYCENTRIC_TOL
 
 __all__ = ["Plane", "Sphere", "Ellipsoid", "MeshSurface", "Surface", "BARYCENTRIC_TOL"]
-
-#: Slack on barycentric coordinates when deciding that a point lies on a facet
-#: (points on a shared edge belong to both facets).
-BARYCENTRIC_TOL = 1e-9
 
 
 def _check_point(x, name: str) -> np.ndarray:
@@ -212,8 +210,6 @@ class MeshSurface(Surface):
         if not np.all(np.isfinite(mesh.vertices)):
             raise ValueError("mesh: expected finite vertices, got NaN or inf")
         self.mesh = mesh
-        from ._mesh import MeshIndex
-
         self._index = MeshIndex(np.asarray(mesh.triangles, dtype=float), int(group_size))
 
     @property

@@ -1,6 +1,11 @@
-"""Devices: the cube's serial frames, the ATI Net F/T, ATI .cal files, simulated transports, acquisition."""
+"""Devices: the cube's serial frames, the ATI Net F/T, ATI .cal files, acquisition.
 
-from ._acquisition import Acquisition, ClockFit, fit_clock
+The simulated devices live in :mod:`pito_core.sim` (they speak these formats over a pty and
+loopback UDP); ``devices`` never imports ``sim``.
+"""
+
+from ._acquisition import Acquisition
+from ._clock import PAIRING_RULE, StreamClock, TickUnwrapper, pair_reference
 from ._atical import DIST_UNITS, AtiCalibration, load_ati_calibration
 from ._frame import (
     FRAME_DTYPE,
@@ -26,23 +31,18 @@ from ._netft import (
     decode_status,
     read_netft_config,
 )
-from ._open import SIM, open_devices
+from ._open import SIM, open_devices, parse_ati_address
 from ._serial import DEFAULT_BAUDRATE, DeviceError, PitoBatch, PitoSerial, list_serial_ports
-from ._sim_transport import (
-    SimulatedNetFT,
-    SimulatedPitoPort,
-    Source,
-    TestSignalSource,
-    default_simulated_source,
-    open_simulated_devices,
-)
 
 __all__ = [
     "Acquisition",
     "SIM",
     "open_devices",
-    "ClockFit",
-    "fit_clock",
+    "parse_ati_address",
+    "PAIRING_RULE",
+    "StreamClock",
+    "TickUnwrapper",
+    "pair_reference",
     "AtiCalibration",
     "load_ati_calibration",
     "DIST_UNITS",
@@ -71,10 +71,4 @@ __all__ = [
     "PitoBatch",
     "PitoSerial",
     "list_serial_ports",
-    "SimulatedNetFT",
-    "SimulatedPitoPort",
-    "Source",
-    "TestSignalSource",
-    "default_simulated_source",
-    "open_simulated_devices",
 ]

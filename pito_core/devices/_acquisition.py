@@ -8,72 +8,30 @@ Typical use (the desktop wizard does the same, from its worker thread)::
         session = acq.to_session(t0, t1, loaded=2, flange="frame", connected_face=6,
                                  T_core_ati=T)
 
-Time alignment (:meth:`Acquisition.to_session`): every sample carries the host clock
-(``time.monotonic()``, s) at which its bytes arrived, which jitters by the transport's
-batching. Each stream is put back on a regular clock by fitting
-``host_time ≈ a + b · k`` over the window, where ``k`` is the device's own tick (the cube's
-``time_us``; the Net F/T's ``rdt_sequence``), with ``b`` from least squares refitted on
-the 20 % earliest arrivals and ``a`` at the lower envelope (the smallest transport latency), which removes the jitter and any
-drift between the clocks. The reference is then interpolated linearly at the cube's sample
-times. A constant difference of transport latency between the two devices is not
-observable from the data: pass it as ``reference_delay`` (s, default 0).
+Every sample is stamped on arrival with the host clock (``host_time``, ``time.monotonic()``
+s) and, as it is collected, given its sample ``time`` by the one pairing rule
+(:mod:`pito_core.devices._clock`: the device's own clock put on the host clock by the
+smallest recent transport delay). Readers take new rows by their write cursor
+(:meth:`Acquisition.read_since`), so the work per read is proportional to the new samples.
+:meth:`Acquisition.to_session` pairs the reference to the cube samples by the same rule.
 """
 
 from __future__ import annotations
 
 import threading
 import time
-from dataclasses import dataclass
 
 import numpy as np
 
+from ._clock import PAIRING_RULE, StreamClock, TickUnwrapper, pair_reference
 from ._frame import N_CHANNELS
 from ._netft import NetFTBatch
 from ._serial import PitoBatch
 
-__all__ = ["Acquisition", "ClockFit", "fit_clock"]
 
-
-@dataclass(frozen=True)
-class ClockFit:
-    """``host_time ≈ offset + slope · tick`` for one stream (see module docstring)."""
-
-    offset: float
-    slope: float
-    residual_max: float  # s, largest arrival delay above the fitted line (transport jitter)
-
-    def __call__(self, tick) -> np.ndarray:
-        return self.offset + self.slope * np.asarray(tick, dtype=float)
-
-
-def fit_clock(tick, host_time) -> ClockFit:
-    """Fit ``host_time ≈ a + b · tick`` with ``a`` on the lower envelope.
-
-    Parameters
-    ----------
-    tick : array-like, shape (n,)
-        Device tick, increasing (unwrapped).
-    host_time : array-like, shape (n,)
-        Arrival times, s.
-    """
-    k = np.asarray(tick, dtype=float)
-    h = np.asarray(host_time, dtype=float)
-    if k.shape != h.shape or k.ndim != 1:
-        raise ValueError(f"tick, host_time: expected two (n,) arrays, got {k.shape} and {h.shape}")
-    if k.size < 2 or np.ptp(k) == 0:
-        return ClockFit(float(h.min() - 0.0) if h.size else 0.0, 0.0, 0.0)
-    sel = np.ones(k.size, bool)
-    for _ in range(3):  # least squares, then again on the points nearest the lower envelope
-        km, hm = k[sel].mean(), h[sel].mean()
-        den = ((k[sel] - km) ** 2).sum()
-        if den == 0:
-            break
-        slope = float(((k[sel] - km) * (h[sel] - hm)).sum() / den)
-        resid = h - slope * k
-        sel = resid <= np.quantile(resid, 0.2)
-    resid = h - slope * k
-    offset = float(resid.min())
-    return ClockFit(offset, slope, float(resid.max() - offset))
+#: A cube sample with a gauge at or beyond these counts is saturated (24-bit ADC of the cube's boards).
+CUBE_ADC_LIMIT = 2**23 - 1
+__all__ = ["Acquisition"]
 
 
 class _Ring:
@@ -99,6 +57,29 @@ class _Ring:
             self.data[k][: n - first] = v[first:]
         self.count += n
 
+    def since(self, cursor: int, limit: int | None = None) -> tuple[dict, int, int]:
+        """Rows appended after ``cursor`` (a past :attr:`count`): ``(rows, new cursor, lost)``.
+
+        Reads by the write cursor: the work is proportional to the new rows, never to the
+        capacity (a wrap gives two slices). ``lost`` counts rows overwritten before they
+        were read (the reader fell behind by more than the capacity). ``limit`` caps the
+        rows returned (the oldest first); the cursor then stops after them.
+        """
+        end = self.count
+        start = max(int(cursor), end - self.capacity)
+        lost = start - int(cursor)
+        if limit is not None:
+            end = min(end, start + int(limit))
+        n = end - start
+        a, b = start % self.capacity, end % self.capacity
+        if n == 0:
+            return {k: v[:0].copy() for k, v in self.data.items()}, end, lost
+        if a < b:
+            rows = {k: v[a:b].copy() for k, v in self.data.items()}
+        else:
+            rows = {k: np.concatenate([v[a:], v[:b]]) for k, v in self.data.items()}
+        return rows, end, lost
+
     def last(self, n: int | None = None) -> dict:
         avail = min(self.count, self.capacity)
         n = avail if n is None else max(0, min(int(n), avail))
@@ -120,6 +101,8 @@ class Acquisition:
         Seconds kept in the ring buffers, at ``rate_hz``; default 600.
     rate_hz : float, optional
         Nominal sample rate used to size the buffers, default 1000.
+    reference_rate_hz : float, optional
+        The Net F/T's configured RDT output rate, Hz (its ``rdt_sequence`` clock), default 1000.
     recorder : RecordingWriter, optional
         Every sample collected is also appended to it (from the collecting thread).
     meta : dict, optional
@@ -131,20 +114,26 @@ class Acquisition:
     """
 
     def __init__(self, pito, netft=None, *, buffer_seconds: float = 600.0, rate_hz: float = 1000.0,
-                 recorder=None, meta: dict | None = None):
+                 reference_rate_hz: float = 1000.0, recorder=None, meta: dict | None = None):
         if not buffer_seconds > 0:
             raise ValueError(f"buffer_seconds: expected > 0, got {buffer_seconds!r}")
         if not rate_hz > 0:
             raise ValueError(f"rate_hz: expected > 0, got {rate_hz!r}")
+        if not reference_rate_hz > 0:
+            raise ValueError(f"reference_rate_hz: expected > 0 Hz, got {reference_rate_hz!r}")
+        self.reference_rate_hz = float(reference_rate_hz)
         self.pito, self.netft, self.recorder = pito, netft, recorder
         self.meta = dict(meta or {})
         cap = int(buffer_seconds * rate_hz * 1.2) + 1
         self._pito_ring = _Ring(cap, {"seq": (np.uint32, ()), "time_us": (np.uint32, ()), "tick": (np.int64, ()),
-                                      "counts": (np.int32, (N_CHANNELS,)), "host_time": (np.float64, ())})
+                                      "counts": (np.int32, (N_CHANNELS,)), "host_time": (np.float64, ()),
+                                      "time": (np.float64, ())})
         self._ft_ring = _Ring(cap, {"rdt_seq": (np.uint32, ()), "ft_seq": (np.uint32, ()), "tick": (np.int64, ()),
                                     "status": (np.uint32, ()), "wrench": (np.float64, (6,)),
-                                    "host_time": (np.float64, ()), "saturated": (bool, ())})
-        self._unwrap = {"pito": None, "netft": None}
+                                    "host_time": (np.float64, ()), "saturated": (bool, ()),
+                                    "time": (np.float64, ())})
+        self._unwrap = {"pito": TickUnwrapper(), "netft": TickUnwrapper()}
+        self._clock = {"pito": StreamClock(), "netft": StreamClock()}
         self._lock = threading.Lock()
         self._collect_lock = threading.Lock()
         self._stop = threading.Event()
@@ -211,32 +200,68 @@ class Acquisition:
             if self.recorder is not None:
                 self.recorder.maybe_flush()
 
-    def _tick(self, name: str, raw: np.ndarray) -> np.ndarray:
-        """Unwrap a u32 counter to int64; a backward jump (device restart) continues by +1."""
-        prev = self._unwrap[name]
-        r = raw.astype(np.int64)
-        d = np.diff(r, prepend=r[0] if prev is None else prev[0]) % 2**32
-        d[d >= 2**31] = 1
-        if prev is None:
-            d[0] = 0
-        ticks = (0 if prev is None else prev[1]) + np.cumsum(d)
-        self._unwrap[name] = (int(r[-1]), int(ticks[-1]))
-        return ticks
-
     def _add_pito(self, b: PitoBatch) -> None:
         with self._lock:
-            tick = self._tick("pito", b.time_us)
-            self._pito_ring.append(seq=b.seq, time_us=b.time_us, tick=tick, counts=b.counts, host_time=b.host_time)
-        if self.recorder is not None:
-            self.recorder.append_pito(b.seq, b.time_us, b.host_time, b.counts)
+            tick = self._unwrap["pito"](b.time_us)
+            t = self._clock["pito"](tick * 1e-6, b.host_time, self._unwrap["pito"].restarts)
+            self._pito_ring.append(seq=b.seq, time_us=b.time_us, tick=tick, counts=b.counts, host_time=b.host_time,
+                                   time=t)
+            recorder = self.recorder
+        if recorder is not None:
+            recorder.append_pito(b.seq, b.time_us, b.host_time, b.counts)
 
     def _add_netft(self, f: NetFTBatch) -> None:
         with self._lock:
-            tick = self._tick("netft", f.rdt_seq)
+            tick = self._unwrap["netft"](f.rdt_seq)
+            t = self._clock["netft"](tick / self.reference_rate_hz, f.host_time, self._unwrap["netft"].restarts)
             self._ft_ring.append(rdt_seq=f.rdt_seq, ft_seq=f.ft_seq, tick=tick, status=f.status,
-                                 wrench=f.wrench, host_time=f.host_time, saturated=f.saturated)
-        if self.recorder is not None:
-            self.recorder.append_netft(f.rdt_seq, f.ft_seq, f.status, f.host_time, f.wrench)
+                                 wrench=f.wrench, host_time=f.host_time, saturated=f.saturated, time=t)
+            recorder = self.recorder
+        if recorder is not None:
+            recorder.append_netft(f.rdt_seq, f.ft_seq, f.status, f.host_time, f.wrench)
+
+    # ------------------------------------------------------------------ recording
+    def start_recording(self, writer) -> None:
+        """Append every sample collected from now on to ``writer`` (a ``RecordingWriter``), beside any reader.
+
+        Recording runs in the collecting thread, so a slow consumer (a screen) never loses
+        samples. The recording's metadata gets ``reference_rate_hz`` if it has none.
+        """
+        with self._collect_lock:
+            writer.meta.setdefault("reference_rate_hz", self.reference_rate_hz)
+            with self._lock:
+                self.recorder = writer
+
+    def stop_recording(self):
+        """Stop appending to the recorder and return it (not closed), or None."""
+        with self._collect_lock:
+            with self._lock:
+                rec, self.recorder = self.recorder, None
+        if rec is not None:
+            rec.flush()
+        return rec
+
+    # ------------------------------------------------------------------ reading by cursor
+    def cursors(self) -> tuple[int, int]:
+        """The write cursors ``(cube, reference)``: rows appended so far to each ring."""
+        with self._lock:
+            return self._pito_ring.count, self._ft_ring.count
+
+    def read_since(self, cube_cursor: int, reference_cursor: int, limit: int | None = None):
+        """Rows appended after the cursors: ``(cube rows, reference rows or None, new cursors, lost)``.
+
+        Rows are dicts of arrays: cube ``seq, time_us, tick, counts (n, 36), host_time, time``;
+        reference ``rdt_seq, ft_seq, tick, status, wrench (m, 6), host_time, saturated, time``
+        (``time``: sample time by the pairing rule, s). Work is proportional to the new rows.
+        ``lost`` ``(cube, reference)`` counts rows overwritten before they were read.
+        """
+        with self._lock:
+            p, pc, pl = self._pito_ring.since(cube_cursor, limit)
+            if self.netft is not None:
+                f, fc, fl = self._ft_ring.since(reference_cursor, limit)
+            else:
+                f, fc, fl = None, reference_cursor, 0
+        return p, f, (pc, fc), (pl, fl)
 
     # ------------------------------------------------------------------ views
     def latest(self, n: int | None = None, *, tared: bool = False):
@@ -274,7 +299,9 @@ class Acquisition:
         """Take the mean of the last ``duration`` s of both streams as the unloaded offsets.
 
         Sets :attr:`counts_offset` ``(36,)`` (counts) and :attr:`reference_bias` ``(6,)``
-        (N, N·m), records a ``tare`` event in the recorder if any, and returns them.
+        (N, N·m), records a ``tare`` event in the recorder if any (the event of
+        ``pito_core.pipeline.Pipeline.tare``: ``from_tick`` is the next cube tick, µs), and
+        returns them.
 
         Raises
         ------
@@ -296,8 +323,9 @@ class Acquisition:
                 raise ValueError(f"duration: no reference sample in the last {duration} s")
             bias = f["wrench"].mean(axis=0)
         self.counts_offset, self.reference_bias, self.tared_at = counts_offset, bias, now
+        # the same event as ``Pipeline.tare``: replay applies it from the next cube sample
         out = {"counts_offset": counts_offset.tolist(), "reference_bias": bias.tolist(), "host_time": now,
-               "duration": duration}
+               "duration": duration, "from_tick": int(p["tick"][-1]) + 1}
         if self.recorder is not None:
             self.recorder.append_event({"type": "tare", **out})
         return out
@@ -329,15 +357,16 @@ class Acquisition:
         meta : dict, optional
             Added to the session's ``meta`` (with the clock fits, tare and device stats).
         reference_delay : float, optional
-            Extra transport latency of the reference relative to the cube, s (see module
-            docstring); default 0.
+            Extra transport latency of the reference relative to the cube, s (not
+            observable from the data); default 0.
 
         Returns
         -------
         CalibrationSession
             ``counts`` raw (the calibration removes the unloaded offset itself),
-            ``reference`` interpolated at the cube samples and minus
-            :attr:`reference_bias`, ``time`` the cube's de-jittered host times (s).
+            ``reference`` paired to the cube samples by the one pairing rule
+            (:mod:`pito_core.devices._clock`) and minus :attr:`reference_bias`, ``time``
+            the cube's sample times (s, host clock).
 
         Raises
         ------
@@ -354,32 +383,39 @@ class Acquisition:
         f = self._window(self._ft_ring, None if t0 is None else t0 - margin, None if t1 is None else t1 + margin)
         if p["tick"].size < 2 or f["tick"].size < 2:
             raise ValueError("t0, t1: fewer than 2 samples of a stream in the window")
-        cube_clock = fit_clock(p["tick"] * 1e-6, p["host_time"])
-        ref_clock = fit_clock(f["tick"], f["host_time"])
-        t_cube = cube_clock(p["tick"] * 1e-6)
-        t_ref = ref_clock(f["tick"]) - reference_delay
+        t_cube = p["time"]
+        t_ref = f["time"] - reference_delay
         sel = np.ones(t_cube.shape, bool)
         if t0 is not None:
             sel &= p["host_time"] >= t0
         if t1 is not None:
             sel &= p["host_time"] <= t1
-        sel &= (t_cube >= t_ref.min()) & (t_cube <= t_ref.max())  # no extrapolation
+        sel &= (t_cube >= t_ref[0]) & (t_cube <= t_ref[-1])  # no extrapolation
         if not sel.any():
             raise ValueError("t0, t1: no cube sample inside the reference's time span")
+        # issue 13: a sample paired with a saturated reference record, or with a cube gauge at its
+        # ADC limit, never enters a calibration
+        sat_ref = pair_reference(t_cube[sel], t_ref, np.repeat(f["saturated"].astype(float)[:, None], 6, axis=1))[:, 0] > 0
+        sat_cube = (np.abs(p["counts"][sel]) >= CUBE_ADC_LIMIT).any(axis=1)
+        n_excluded = int((sat_ref | sat_cube).sum())
+        keep = np.flatnonzero(sel)[~(sat_ref | sat_cube)]
+        sel = np.zeros_like(sel)
+        sel[keep] = True
+        if not sel.any():
+            raise ValueError("t0, t1: every sample in the window is saturated (reference status or cube ADC limit)")
         t = t_cube[sel]
-        order = np.argsort(t_ref, kind="stable")
-        w = f["wrench"][order] - self.reference_bias
-        reference = np.column_stack([np.interp(t, t_ref[order], w[:, j]) for j in range(6)])
+        reference = pair_reference(t, t_ref, f["wrench"]) - self.reference_bias
         loaded_arr = self._loaded(loaded, t)
         info = dict(self.meta)
         info.update(meta or {})
         info["acquisition"] = {
-            "clock_cube": {"offset": cube_clock.offset, "slope": cube_clock.slope, "jitter": cube_clock.residual_max},
-            "clock_reference": {"offset": ref_clock.offset, "slope": ref_clock.slope, "jitter": ref_clock.residual_max},
+            "pairing": PAIRING_RULE,
+            "reference_rate_hz": self.reference_rate_hz,
             "reference_delay": reference_delay,
             "reference_bias": self.reference_bias.tolist(),
             "counts_offset": self.counts_offset.tolist(),
             "saturated_reference_samples": int(f["saturated"].sum()),
+            "excluded_saturated_samples": n_excluded,
         }
         return CalibrationSession(p["counts"][sel], reference, loaded_arr, T_core_ati, flange, connected_face,
                                   core=core, time=t, meta=info)

@@ -19,12 +19,12 @@ import struct
 import threading
 import time
 import xml.etree.ElementTree as ET
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from urllib.request import urlopen
 
 import numpy as np
 
-from ._serial import DeviceError, SequenceTracker
+from ._serial import STALL_AFTER, DeviceError, SequenceTracker, StallMonitor
 from ._queue import BatchQueue
 
 __all__ = [
@@ -101,12 +101,15 @@ class NetFTConfig:
         As configured on the box (counts per ``force_unit`` / ``torque_unit``).
     force_unit, torque_unit : str
         e.g. ``"N"``, ``"N-m"`` (keys of :data:`FORCE_UNITS` / :data:`TORQUE_UNITS`).
+    rdt_rate_hz : float or None
+        The RDT output rate the box is configured for (``comrdtrate``, Hz), if it says.
     """
 
     counts_per_force: float
     counts_per_torque: float
     force_unit: str = "N"
     torque_unit: str = "N-m"
+    rdt_rate_hz: float | None = field(default=None, compare=False)
 
     def scale(self) -> np.ndarray:
         """``(6,)`` factors from counts to N and N·m."""
@@ -139,9 +142,13 @@ def read_netft_config(host: str, http_port: int = 80, timeout: float = 2.0) -> N
     if missing:
         raise DeviceError(f"host: {url} lacks {missing}; pass counts_per_force and counts_per_torque explicitly")
     try:
-        cfg = NetFTConfig(float(values["cfgcpf"]), float(values["cfgcpt"]), values["scfgfu"], values["scfgtu"])
-        if not (cfg.counts_per_force > 0 and cfg.counts_per_torque > 0):
-            raise ValueError("counts per unit must be positive")
+        rate = float(values["comrdtrate"]) if values.get("comrdtrate") else None
+        cfg = NetFTConfig(float(values["cfgcpf"]), float(values["cfgcpt"]), values["scfgfu"], values["scfgtu"], rate)
+        if not (np.isfinite(cfg.counts_per_force) and np.isfinite(cfg.counts_per_torque)
+                and cfg.counts_per_force > 0 and cfg.counts_per_torque > 0):
+            raise ValueError(f"counts per unit must be finite and positive (cfgcpf={values['cfgcpf']}, cfgcpt={values['cfgcpt']})")
+        if rate is not None and not (np.isfinite(rate) and rate > 0):
+            raise ValueError(f"comrdtrate: RDT output rate must be a positive number of Hz, got {values['comrdtrate']!r}")
         cfg.scale()
     except ValueError as exc:
         raise DeviceError(f"host: unusable Net F/T configuration at {url}: {exc}") from None
@@ -212,6 +219,17 @@ class NetFT:
         was power-cycled or the request was lost), default 1.0.
     max_pending : int, optional
         Records kept for :meth:`read` if nobody reads; older ones are counted as ``overflow``.
+    stall_after : float, optional
+        Seconds without a record after which :meth:`stats` says ``stalled`` (default 0.1 s;
+        flagged within 0.12 s).
+    rate_tolerance : float, optional
+        Relative difference between the received record rate and the box's configured RDT
+        rate (``comrdtrate``) above which ``rate_mismatch`` is set, default 0.05. The host
+        lag (``lag_ms``: how far arrivals trail the box's clock, from the sequence numbers
+        and the configured rate) growing above ``max_lag`` s also sets it — the reader
+        cannot keep up (the well-known lag at a 7 kHz output rate).
+    max_lag : float, optional
+        Default 0.25 s.
     """
 
     def __init__(
@@ -226,6 +244,9 @@ class NetFT:
         saturation_mask: int = STATUS_SATURATION,
         restart_after: float = 1.0,
         max_pending: int = 600_000,
+        stall_after: float = STALL_AFTER,
+        rate_tolerance: float = 0.05,
+        max_lag: float = 0.25,
     ):
         if not isinstance(host, str) or not host:
             raise ValueError(f"host: expected a host name or address, got {host!r}")
@@ -253,6 +274,15 @@ class NetFT:
         self._counts = dict(records=0, packets=0, saturated=0, status_errors=0, bad_packets=0, restarts=0, overflow=0)
         self._last_status = 0
         self._scale = None
+        self._stall = StallMonitor(stall_after)
+        self.rate_tolerance = float(rate_tolerance)
+        self.max_lag = float(max_lag)
+        self._rate = {"t0": None, "seq0": 0, "n": 0, "t_last": None, "lag": 0.0, "lag_min": None}
+        self._undo = np.zeros(6)  # N, N·m added back after an undone box bias
+        #: Every bias: ``{"event": "bias"|"undo_bias", "host_time" (s, monotonic), "unix_time",
+        #: "wrench" [6] N, N·m (the output just before), "status"}``.
+        self.bias_history: list[dict] = []
+        self._last_wrench = np.zeros(6)
 
     # ------------------------------------------------------------------ lifecycle
     def start(self) -> "NetFT":
@@ -262,6 +292,7 @@ class NetFT:
         if self.config is None:
             self.config = read_netft_config(self.host, self.http_port)
         self._scale = self.config.scale()
+        self._stall = StallMonitor(self._stall.after)
         try:
             addr = socket.getaddrinfo(self.host, self.port, socket.AF_INET, socket.SOCK_DGRAM)[0][4]
         except OSError as exc:
@@ -273,7 +304,7 @@ class NetFT:
         except OSError:
             pass
         sock.bind(("", 0))
-        sock.settimeout(0.1)
+        sock.settimeout(min(0.1, self._stall.after / 5))
         self._sock = sock
         self._send(CMD_START_BUFFERED if self.buffered else CMD_START_REALTIME)
         self._stop.clear()
@@ -287,11 +318,32 @@ class NetFT:
         except OSError as exc:
             raise DeviceError(f"host: cannot send to {self._addr}: {exc}") from None
 
-    def bias(self) -> None:
-        """Ask the box to bias (zero) its output at the current load (RDT command 0x42)."""
+    def bias(self) -> dict:
+        """Ask the box to bias (zero) its output at the current load (RDT command 0x42).
+
+        Recorded in :attr:`bias_history` with the time and the output just before (N, N·m);
+        :meth:`undo_bias` adds that output back. Returns the history entry.
+        """
         if self._sock is None:
             raise DeviceError("NetFT: not started")
         self._send(CMD_BIAS)
+        ev = {"event": "bias", "host_time": time.monotonic(), "unix_time": time.time(),
+              "wrench": [float(v) for v in self._last_wrench], "status": self._last_status}
+        self.bias_history.append(ev)
+        return ev
+
+    def undo_bias(self) -> dict:
+        """Undo the last :meth:`bias` not yet undone: its wrench is added back to every later record."""
+        done = [e for e in self.bias_history if e["event"] == "bias" and not e.get("undone")]
+        if not done:
+            raise DeviceError("NetFT: no bias to undo")
+        last = done[-1]
+        last["undone"] = True
+        self._undo = self._undo + np.asarray(last["wrench"])
+        ev = {"event": "undo_bias", "host_time": time.monotonic(), "unix_time": time.time(),
+              "wrench": list(last["wrench"]), "of": last["host_time"]}
+        self.bias_history.append(ev)
+        return ev
 
     def close(self) -> None:
         """Send the stop request, stop the thread, close the socket (idempotent)."""
@@ -323,6 +375,7 @@ class NetFT:
             try:
                 data = sock.recv(65536)
             except socket.timeout:
+                self._stall.poll(time.monotonic())
                 if time.monotonic() - last_rx > self.restart_after:
                     try:
                         self._send(CMD_START_BUFFERED if self.buffered else CMD_START_REALTIME)
@@ -337,7 +390,9 @@ class NetFT:
             last_rx = now
             if not data or len(data) % size:
                 self._counts["bad_packets"] += 1
+                self._stall.poll(now)
                 continue
+            self._stall.data(now)
             rec = np.frombuffer(data, dtype=RDT_RECORD_DTYPE)
             batch = self._batch(rec, now)
             dropped = self._queue.put(batch)
@@ -354,9 +409,25 @@ class NetFT:
         c["status_errors"] += int((status != 0).sum())
         self._last_status = int(status[-1])
         rdt_seq = rec["rdt_seq"].astype(np.uint32)
+        restarts = self._seq.restarts
         self._seq.update(rdt_seq)
-        wrench = rec["counts"].astype(np.float64) * self._scale
+        self._track_rate(int(self._seq.last), now, self._seq.restarts != restarts)
+        wrench = rec["counts"].astype(np.float64) * self._scale + self._undo
+        self._last_wrench = wrench[-1]
         return NetFTBatch(rdt_seq, rec["ft_seq"].astype(np.uint32), status, wrench, np.full(rec.size, now), saturated)
+
+    def _track_rate(self, seq: int, now: float, restarted: bool) -> None:
+        """Received rate (records/s) and host lag behind the box's clock (s), from the sequence numbers."""
+        r = self._rate
+        if r["t0"] is None or restarted:
+            r.update(t0=now, seq0=seq, n=0, lag=0.0, lag_min=None)
+        r["n"] = (seq - r["seq0"]) % 2**32
+        r["t_last"] = now
+        rate = self.config.rdt_rate_hz if self.config is not None else None
+        if rate and r["n"]:
+            lag = (now - r["t0"]) - r["n"] / rate  # arrival time minus the box's own time for that record
+            r["lag_min"] = lag if r["lag_min"] is None else min(r["lag_min"], lag)
+            r["lag"] = lag - r["lag_min"]
 
     # ------------------------------------------------------------------ consumer API
     def read(self, timeout: float | None = None) -> NetFTBatch | None:
@@ -369,12 +440,37 @@ class NetFT:
         Keys: ``records``, ``packets``, ``lost`` (records missing from the RDT sequence),
         ``saturated`` (records whose status flags saturation), ``status_errors`` (records
         with a non-zero status), ``bad_packets`` (wrong size), ``restarts`` (start request
-        re-sent after silence), ``seq_restarts``, ``overflow``, ``last_status``.
+        re-sent after silence), ``seq_restarts``, ``overflow``, ``last_status``,
+        ``out_of_order`` (late records), ``stalled`` / ``stalls`` / ``stalled_s`` /
+        ``since_data_s`` (no record for more than ``stall_after`` s), ``configured_rate_hz``
+        (the box's ``comrdtrate``, None if it does not say), ``rate_hz`` (records/s received,
+        from the sequence numbers), ``lag_ms`` (how much later than the box's clock records
+        now arrive than they did at best), ``rate_mismatch`` (bool), ``counts_per_force``,
+        ``counts_per_torque``, ``force_unit``, ``torque_unit``, ``biases`` (len of :attr:`bias_history`).
         """
         out = dict(self._counts)
         out["lost"] = self._seq.dropped
         out["seq_restarts"] = self._seq.restarts
+        out["out_of_order"] = self._seq.out_of_order
         out["last_status"] = self._last_status
+        out.update(self._stall.stats())
+        r = self._rate
+        cfg = self.config
+        configured = cfg.rdt_rate_hz if cfg is not None else None
+        span = (r["t_last"] - r["t0"]) if r["t0"] is not None else 0.0
+        out["configured_rate_hz"] = configured
+        out["rate_hz"] = r["n"] / span if span >= 0.5 else None
+        out["lag_ms"] = 1e3 * r["lag"] if configured else None
+        mismatch = False
+        if configured and out["rate_hz"] is not None and span >= 1.0:
+            mismatch = abs(out["rate_hz"] - configured) > self.rate_tolerance * configured
+        if out["lag_ms"] is not None and r["lag"] > self.max_lag:
+            mismatch = True
+        out["rate_mismatch"] = mismatch
+        if cfg is not None:
+            out.update(counts_per_force=cfg.counts_per_force, counts_per_torque=cfg.counts_per_torque,
+                       force_unit=cfg.force_unit, torque_unit=cfg.torque_unit)
+        out["biases"] = len(self.bias_history)
         return out
 
     def __repr__(self) -> str:

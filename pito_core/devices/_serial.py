@@ -11,7 +11,10 @@ import numpy as np
 from ._frame import N_CHANNELS, FrameDecoder
 from ._queue import BatchQueue
 
-__all__ = ["PitoSerial", "PitoBatch", "DeviceError", "list_serial_ports", "DEFAULT_BAUDRATE"]
+__all__ = ["PitoSerial", "PitoBatch", "DeviceError", "list_serial_ports", "DEFAULT_BAUDRATE", "StallMonitor", "STALL_AFTER"]
+
+#: Seconds without a frame after which a device is reported "stalled".
+STALL_AFTER = 0.1
 
 #: Default baud rate. A 156-byte frame at 1 kHz is 1.56 Mbit/s with 8N1 framing; USB CDC
 #: devices ignore the value.
@@ -67,17 +70,29 @@ def list_serial_ports() -> list[dict]:
 
 
 class SequenceTracker:
-    """Counts frames missing from a wrapping u32 sequence (``dropped``) and restarts.
+    """Counts frames missing from a wrapping u32 sequence (``dropped``), late ones and restarts.
 
-    A forward jump of g (modulo 2**32, g < 2**31) means ``g - 1`` frames were lost; a
-    repeat or a backward jump is a device restart (``seq_restarts``), not a loss.
+    A forward jump of g (modulo 2**32, g < 2**31) means ``g - 1`` frames were lost. A number
+    up to ``reorder_window`` behind the highest one seen is a late (out-of-order) record: it
+    is counted in ``out_of_order`` and no longer as lost. A repeat of the last number or a
+    larger backward jump is a device restart (``restarts``), not a loss.
     """
 
-    def __init__(self, bits: int = 32):
+    def __init__(self, bits: int = 32, reorder_window: int = 1024):
         self.modulus = 2**bits
+        self.reorder_window = int(reorder_window)
         self.last: int | None = None
         self.dropped = 0
         self.restarts = 0
+        self.out_of_order = 0
+        self._missing: set[int] = set()  # skipped numbers of the last ``reorder_window``
+
+    def _skip(self, last: int, v: int, g: int) -> None:
+        if g - 1 <= self.reorder_window:
+            self._missing.update((last + k) % self.modulus for k in range(1, g))
+        if len(self._missing) > 4 * self.reorder_window:
+            lo = (v - self.reorder_window) % self.modulus
+            self._missing = {m for m in self._missing if (m - lo) % self.modulus <= self.reorder_window}
 
     def update(self, seq: np.ndarray) -> None:
         if seq.size == 0:
@@ -86,9 +101,71 @@ class SequenceTracker:
         prev = np.concatenate([[self.last if self.last is not None else s[0] - 1], s[:-1]])
         gap = (s - prev) % self.modulus
         forward = (gap >= 1) & (gap < self.modulus // 2)
-        self.dropped += int((gap[forward] - 1).sum())
-        self.restarts += int((~forward).sum())
-        self.last = int(s[-1])
+        if forward.all():
+            self.dropped += int((gap - 1).sum())
+            for i in np.flatnonzero(gap > 1).tolist():
+                self._skip(int(prev[i]), int(s[i]), int(gap[i]))
+            self.last = int(s[-1])
+            return
+        last = self.last if self.last is not None else int(s[0]) - 1
+        half = self.modulus // 2
+        for v in s.tolist():
+            g = (v - last) % self.modulus
+            if 1 <= g < half:
+                self.dropped += g - 1
+                if g > 1:
+                    self._skip(last, v, g)
+                last = v
+            elif v in self._missing:
+                self._missing.discard(v)
+                self.out_of_order += 1  # a late record: it was counted lost when skipped
+                self.dropped -= 1
+            else:
+                self.restarts += 1
+                self._missing.clear()
+                last = v
+        self.last = last
+
+
+class StallMonitor:
+    """"Stalled" when no data came for more than ``after`` s; counted, timed, cleared on resume.
+
+    The reader thread calls :meth:`data` when data arrive and :meth:`poll` at least every
+    ``after`` / 2 s, so a stall is flagged within ``after`` + one poll period.
+    """
+
+    def __init__(self, after: float = 0.1):
+        if not after > 0:
+            raise ValueError(f"stall_after: expected > 0 s, got {after!r}")
+        self.after = float(after)
+        self.last = time.monotonic()
+        self.stalled = False
+        self.stalls = 0
+        self.stalled_s = 0.0
+        self.since: float | None = None
+        self.events: list[dict] = []
+
+    def data(self, now: float) -> None:
+        if self.stalled:
+            self.stalled_s += now - self.since
+            self.events.append({"event": "resumed", "host_time": now, "stalled_s": now - self.since})
+            self.stalled = False
+        self.last = now
+
+    def poll(self, now: float) -> None:
+        if not self.stalled and now - self.last > self.after:
+            self.stalled, self.since = True, self.last
+            self.stalls += 1
+            self.events.append({"event": "stalled", "host_time": now, "last_data": self.last})
+
+    def stats(self, now: float | None = None) -> dict:
+        now = time.monotonic() if now is None else now
+        return {
+            "stalled": self.stalled,
+            "stalls": self.stalls,
+            "stalled_s": self.stalled_s + ((now - self.since) if self.stalled else 0.0),
+            "since_data_s": now - self.last,
+        }
 
 
 class PitoSerial:
@@ -108,6 +185,9 @@ class PitoSerial:
     max_pending : int, optional
         Frames kept for :meth:`read` if nobody reads (oldest dropped beyond, counted as
         ``overflow``). Default 600 000 (10 min at 1 kHz).
+    stall_after : float, optional
+        Seconds without an intact frame after which :meth:`stats` says ``stalled``
+        (default :data:`STALL_AFTER`, 0.1 s; flagged within 0.15 s).
 
     Examples
     --------
@@ -124,6 +204,7 @@ class PitoSerial:
         reconnect: bool = True,
         reconnect_interval: float = 0.25,
         max_pending: int = 600_000,
+        stall_after: float = STALL_AFTER,
     ):
         if not isinstance(port, str) or not port:
             raise ValueError(f"port: expected a device path, got {port!r}")
@@ -146,6 +227,7 @@ class PitoSerial:
         self._overflow = 0
         self._connected = False
         self._error: str | None = None
+        self._stall = StallMonitor(stall_after)
 
     # ------------------------------------------------------------------ lifecycle
     def _open(self):
@@ -162,6 +244,7 @@ class PitoSerial:
         except Exception as exc:  # serial.SerialException, OSError
             raise DeviceError(f"port: cannot open {self.port!r}: {exc}") from None
         self._connected = True
+        self._stall = StallMonitor(self._stall.after)
         self._stop.clear()
         self._thread = threading.Thread(target=self._run, name=f"PitoSerial({self.port})", daemon=True)
         self._thread.start()
@@ -176,7 +259,7 @@ class PitoSerial:
         if self._serial is not None:
             try:
                 self._serial.close()
-            except Exception:
+            except OSError:  # closing a port that is already gone (serial.SerialException is an OSError)
                 pass
             self._serial = None
         self._connected = False
@@ -204,7 +287,7 @@ class PitoSerial:
                 self._connected = False
                 try:
                     ser.close()
-                except Exception:
+                except OSError:  # the port is already gone (serial.SerialException is an OSError)
                     pass
                 if not self.reconnect:
                     break
@@ -212,11 +295,13 @@ class PitoSerial:
                 if ser is None:
                     break
                 continue
+            now = time.monotonic()
+            self._stall.poll(now)
             if not data:
                 continue
-            now = time.monotonic()
             frames = self._decoder.feed(data)
             if len(frames):
+                self._stall.data(now)
                 self._seq.update(frames.seq)
                 batch = PitoBatch(frames.seq, frames.time_us, frames.counts, np.full(len(frames), now))
                 dropped = self._queue.put(batch)
@@ -224,10 +309,17 @@ class PitoSerial:
                     self._overflow += dropped
 
     def _reopen(self):
-        while not self._stop.wait(self.reconnect_interval):
+        next_try = time.monotonic() + self.reconnect_interval
+        while not self._stop.wait(min(self.reconnect_interval, self._stall.after / 2)):
+            now = time.monotonic()
+            self._stall.poll(now)  # an unplugged cube is reported stalled, too
+            if now < next_try:
+                continue
+            next_try = now + self.reconnect_interval
             try:
                 ser = self._open()
-            except Exception:
+            except OSError as exc:  # still unplugged: keep the reason visible, retry at the next interval
+                self._error = str(exc)
                 continue
             self._decoder.reset_alignment()
             self._serial = ser
@@ -251,10 +343,13 @@ class PitoSerial:
         the sequence: lost on the line, corrupted, or never sent), ``resyncs``,
         ``bytes_skipped``, ``reconnects``, ``seq_restarts`` (sequence went backwards:
         device reset), ``overflow`` (frames discarded because nobody read them),
-        ``connected`` (bool), ``last_error`` (str or None).
+        ``connected`` (bool), ``last_error`` (str or None), ``stalled`` (bool: no intact
+        frame for more than ``stall_after`` s), ``stalls`` (times it stalled), ``stalled_s``
+        (s spent stalled), ``since_data_s`` (s since the last intact frame).
         """
         d = self._decoder.stats()
         return {
+            **self._stall.stats(),
             "frames": d["frames"],
             "crc_errors": d["crc_errors"],
             "dropped": self._seq.dropped,

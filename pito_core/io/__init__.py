@@ -1,9 +1,10 @@
 """File formats: sessions, calibrations, recordings; CSV and MATLAB export."""
 
-from ._calibration_file import CALIBRATION_FORMAT, CALIBRATION_VERSION, read_calibration, write_calibration
-from ._csv import CSV_COUNTS, CSV_LOADED, CSV_REFERENCE, read_session_csv, write_session_csv
-from ._hdf5 import FileFormatError
-from ._session_file import SESSION_FORMAT, SESSION_VERSION, read_session, write_session
+from ._calibration_file import CALIBRATION_FORMAT, CALIBRATION_VERSION, read_calibration_fields, write_calibration
+from ._csv import CSV_COUNTS, CSV_LOADED, CSV_REFERENCE, read_session_csv_fields, write_session_csv
+from ._hdf5 import ChecksumError, FileFormatError, UnverifiedFileWarning
+from ._calhash import calibration_hash, short_hash
+from ._session_file import SESSION_FORMAT, SESSION_VERSION, read_session_fields, write_session
 from ._recording import (
     NETFT_ROW,
     PITO_ROW,
@@ -14,19 +15,25 @@ from ._recording import (
     ReplayBatch,
     read_recording,
 )
-from ._export import RECORDING_CSV_COLUMNS, export_recording_csv, export_recording_mat, read_recording_csv
+from ._verify import verify_file
+from ._export import RECORDING_CSV_COLUMNS, export_recording_csv, export_recording_files, export_recording_mat, read_recording_csv
 
 __all__ = [
     "CALIBRATION_FORMAT",
     "CALIBRATION_VERSION",
-    "read_calibration",
+    "read_calibration_fields",
     "write_calibration",
     "FileFormatError",
+    "ChecksumError",
+    "UnverifiedFileWarning",
+    "verify_file",
+    "calibration_hash",
+    "short_hash",
     "SESSION_FORMAT",
     "SESSION_VERSION",
-    "read_session",
+    "read_session_fields",
     "write_session",
-    "read_session_csv",
+    "read_session_csv_fields",
     "write_session_csv",
     "CSV_COUNTS",
     "CSV_REFERENCE",
@@ -41,6 +48,7 @@ __all__ = [
     "read_recording",
     "RECORDING_CSV_COLUMNS",
     "export_recording_csv",
+    "export_recording_files",
     "export_recording_mat",
     "read_recording_csv",
 ]

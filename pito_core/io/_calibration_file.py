@@ -1,12 +1,23 @@
-"""The calibration file: HDF5, format ``pito-calibration``, version 1.
+"""The calibration file: HDF5, format ``pito-calibration``, version 2 (reads 1 and 2).
 
 Layout (docs/file-formats.md)::
 
-    /             attrs: format="pito-calibration", version=1, writer, method, output_frame,
+    /             attrs: format="pito-calibration", version=2, writer, method, output_frame,
                          output_faces [..], core_edge (m), meta (JSON text)
     /matrix       (6·F, 36) float64: counts → N, N·m
     /offset       (36,) float64 counts
     /T_core_ati   (4, 4) float64
+    /covariance   group (version 2; absent in version 1 files), attrs: n_groups, n_tare (-1: fitted offset)
+        gauge_cov         (36, 36) float64 counts²: gauge noise at rest
+        g{k}_inputs       (m,) int64 gauge columns of least-squares problem k
+        g{k}_rows         (q,) int64 rows of /matrix it fitted
+        g{k}_design_pinv  (n_int+m, n_int+m) float64 (XᵀX)⁺ of its design [offset columns | counts − center]
+        g{k}_residual_cov (q, q) float64 residual covariance (N², N²·m, N²·m²), attrs: dof
+        g{k}_center       (m,) float64 counts
+        g{k}_weights      (n_int,) float64
+        g{k}_inflation    (q,) float64 ≥ 1: cluster-robust inflation of the coefficients' variance
+        variance_coef     (6F, 4) float64: each row's error variance on [1, q, q², q_other]
+        residual_corr     (F, 6, 6) float64: residual correlation between a face's six outputs
 """
 
 from __future__ import annotations
@@ -16,12 +27,15 @@ import os
 import h5py
 import numpy as np
 
-from ._hdf5 import FileFormatError, json_attr, open_checked, read_json_attr, require, write_header
+from ._hdf5 import FileFormatError, checked_dataset, json_attr, open_checked, read_json_attr, require, seal, verify, write_header
 
-__all__ = ["write_calibration", "read_calibration", "CALIBRATION_FORMAT", "CALIBRATION_VERSION"]
+__all__ = ["write_calibration", "read_calibration_fields", "CALIBRATION_FORMAT", "CALIBRATION_VERSION"]
 
 CALIBRATION_FORMAT = "pito-calibration"
-CALIBRATION_VERSION = 1
+CALIBRATION_VERSION = 2
+#: Versions this pito reads (version 1: no covariance).
+CALIBRATION_READ_VERSIONS = {1, 2}
+_GROUP_FIELDS = ("inputs", "rows", "design_pinv", "residual_cov", "center", "weights", "inflation")
 
 
 def write_calibration(path, cal) -> None:
@@ -34,18 +48,36 @@ def write_calibration(path, cal) -> None:
         f.attrs["output_faces"] = np.asarray(cal.output_faces, dtype=np.int64)
         f.attrs["core_edge"] = cal.core.edge
         f.attrs["meta"] = json_attr(cal.meta)
-        f.create_dataset("matrix", data=cal.matrix)
-        f.create_dataset("offset", data=cal.offset)
-        f.create_dataset("T_core_ati", data=cal.T_core_ati)
+        checked_dataset(f, "matrix", data=cal.matrix)
+        checked_dataset(f, "offset", data=cal.offset)
+        checked_dataset(f, "T_core_ati", data=cal.T_core_ati)
+        cov = getattr(cal, "covariance", None)
+        if cov is not None:
+            g = f.create_group("covariance")
+            g.attrs["n_groups"] = len(cov.groups)
+            g.attrs["n_tare"] = -1 if cov.n_tare is None else int(cov.n_tare)
+            checked_dataset(g, "gauge_cov", data=cov.gauge_cov)
+            for k, grp in enumerate(cov.groups):
+                for name in _GROUP_FIELDS:
+                    checked_dataset(g, f"g{k}_{name}", data=getattr(grp, name))
+                g[f"g{k}_residual_cov"].attrs["dof"] = int(grp.dof)
+            checked_dataset(g, "variance_coef", data=cov.variance_coef)
+            checked_dataset(g, "residual_corr", data=cov.residual_corr)
+        seal(f)  # SHA-256 manifest of every dataset and attribute (last: covers everything above)
     os.replace(tmp, path)
 
 
-def read_calibration(path):
-    """Read a calibration file; a wrong, truncated or corrupt file raises ``FileFormatError``."""
-    from ..calibration._calibration import Calibration
-    from ..frames import CubeCore
+def read_calibration_fields(path) -> dict:
+    """Read a calibration file into plain fields; a wrong, truncated or corrupt file raises ``FileFormatError``.
 
-    with open_checked(path, CALIBRATION_FORMAT, {CALIBRATION_VERSION}) as f:
+    Returns the keyword arguments of ``pito_core.calibration.Calibration`` (``method``,
+    ``matrix`` (M, 36), ``output_faces``, ``output_frame``, ``offset`` (36,) counts,
+    ``core_edge`` m, ``T_core_ati`` (4, 4), ``meta``) and ``covariance``: ``None`` or a dict
+    (``groups``: list of dicts, ``gauge_cov``, ``n_tare``, ``variance_coef``, ``residual_corr``).
+    The objects are built by ``pito_core.calibration.load_calibration`` (io never imports calibration).
+    """
+    with open_checked(path, CALIBRATION_FORMAT, CALIBRATION_READ_VERSIONS) as f:
+        verify(f, path)  # ChecksumError naming the dataset; a warning for files without checksums
         try:
             attrs = {k: f.attrs[k] for k in ("method", "output_frame", "output_faces", "core_edge")}
         except KeyError as exc:
@@ -54,14 +86,34 @@ def read_calibration(path):
             matrix = np.asarray(require(f, "matrix", path)[()])
             offset = np.asarray(require(f, "offset", path)[()])
             T = np.asarray(require(f, "T_core_ati", path)[()])
+            covariance = _read_covariance(f, path) if "covariance" in f else None
         except OSError as exc:
             raise FileFormatError(f"{path}: data could not be read (truncated or corrupt?): {exc}") from None
         meta = read_json_attr(f, "meta", path)
     dec = lambda v: v.decode() if isinstance(v, bytes) else str(v)  # noqa: E731
+    return {
+        "method": dec(attrs["method"]), "matrix": matrix, "output_faces": [int(v) for v in attrs["output_faces"]],
+        "output_frame": dec(attrs["output_frame"]), "offset": offset, "core_edge": float(attrs["core_edge"]),
+        "T_core_ati": T, "meta": meta, "covariance": covariance,
+    }
+
+
+def _read_covariance(f, path) -> dict:
+    g = f["covariance"]
     try:
-        return Calibration(
-            dec(attrs["method"]), matrix, [int(v) for v in attrs["output_faces"]], dec(attrs["output_frame"]),
-            offset, CubeCore(float(attrs["core_edge"])), T, meta,
-        )
-    except ValueError as exc:
-        raise FileFormatError(f"{path}: inconsistent calibration: {exc}") from None
+        n_groups = int(g.attrs["n_groups"])
+        n_tare = int(g.attrs["n_tare"])
+    except KeyError as exc:
+        raise FileFormatError(f"{path}: covariance: missing attribute {exc}") from None
+    groups = []
+    for k in range(n_groups):
+        fields = {name: np.asarray(require(g, f"g{k}_{name}", path)[()]) for name in _GROUP_FIELDS}
+        dof = int(g[f"g{k}_residual_cov"].attrs.get("dof", 0))
+        groups.append({**fields, "dof": dof})
+    return {
+        "groups": groups,
+        "gauge_cov": np.asarray(require(g, "gauge_cov", path)[()]),
+        "n_tare": None if n_tare < 0 else n_tare,
+        "variance_coef": np.asarray(require(g, "variance_coef", path)[()]),
+        "residual_corr": np.asarray(require(g, "residual_corr", path)[()]),
+    }

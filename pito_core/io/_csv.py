@@ -11,7 +11,7 @@ import csv
 
 import numpy as np
 
-__all__ = ["read_session_csv", "write_session_csv", "CSV_COUNTS", "CSV_REFERENCE", "CSV_LOADED"]
+__all__ = ["read_session_csv_fields", "write_session_csv", "CSV_COUNTS", "CSV_REFERENCE", "CSV_LOADED"]
 
 CSV_COUNTS = [f"counts_{j}" for j in range(1, 37)]
 CSV_REFERENCE = ["fx", "fy", "fz", "tx", "ty", "tz"]
@@ -28,12 +28,12 @@ def _parse_bool(col: np.ndarray, name: str, rows_offset: int = 2) -> np.ndarray:
     return true
 
 
-def read_session_csv(path, *, flange, connected_face, T_core_ati=None, core=None, meta=None):
-    """Read a :class:`CalibrationSession` from CSV (see module docstring for the columns).
+def read_session_csv_fields(path) -> dict:
+    """Read the sample columns of a session CSV (see module docstring for the columns).
 
-    ``T_core_ati`` defaults to the identity (reference frame = core frame).
+    Returns ``counts`` (N, 36), ``reference`` (N, 6) N and N·m, ``loaded`` (N, 6) bool and
+    ``time`` (N,) s or None; ``CalibrationSession.from_csv`` builds the session.
     """
-    from ..calibration._session import CalibrationSession
 
     with open(path, newline="") as fh:
         reader = csv.reader(fh)
@@ -64,17 +64,7 @@ def read_session_csv(path, *, flange, connected_face, T_core_ati=None, core=None
     reference = numeric(CSV_REFERENCE, "reference")
     loaded = np.array([_parse_bool(col[c], c) for c in CSV_LOADED]).T.reshape(len(rows), 6)
     time = numeric(["time"], "time")[:, 0] if "time" in col else None
-    return CalibrationSession(
-        counts,
-        reference,
-        loaded,
-        np.eye(4) if T_core_ati is None else T_core_ati,
-        flange,
-        connected_face,
-        core=core,
-        time=time,
-        meta=meta,
-    )
+    return {"counts": counts, "reference": reference, "loaded": loaded, "time": time}
 
 
 def write_session_csv(path, session) -> None:

@@ -21,7 +21,7 @@ import numpy as np
 
 from ._csv import CSV_COUNTS, CSV_REFERENCE
 
-__all__ = ["export_recording_csv", "export_recording_mat", "read_recording_csv", "RECORDING_CSV_COLUMNS"]
+__all__ = ["export_recording_files", "export_recording_csv", "export_recording_mat", "read_recording_csv", "RECORDING_CSV_COLUMNS"]
 
 #: Column names of the exported CSV files, per stream.
 RECORDING_CSV_COLUMNS = {
@@ -98,3 +98,19 @@ def export_recording_mat(recording, path) -> None:
             },
             do_compression=True,
         )
+
+
+def export_recording_files(recording, csv_prefix=None, mat=None) -> list[str]:
+    """Write ``recording`` as ``{csv_prefix}_pito.csv`` + ``{csv_prefix}_ati.csv`` and/or ``mat``.
+
+    The one export path of ``pito replay --csv/--mat`` and ``pito export``; returns the paths written.
+    """
+    written = []
+    if csv_prefix:
+        export_recording_csv(recording, f"{csv_prefix}_pito.csv", "pito")
+        export_recording_csv(recording, f"{csv_prefix}_ati.csv", "netft")
+        written += [f"{csv_prefix}_pito.csv", f"{csv_prefix}_ati.csv"]
+    if mat:
+        export_recording_mat(recording, mat)
+        written.append(str(mat))
+    return written

@@ -30,7 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ._hdf5 import FileFormatError
+from ._hdf5 import ChecksumError, FileFormatError
+from .._version import __version__
 
 __all__ = [
     "RECORDING_FORMAT",
@@ -89,8 +90,6 @@ class RecordingWriter:
         self.fsync = bool(fsync)
         meta = dict(meta or {})
         meta.setdefault("created_unix", time.time())
-        from .. import __version__
-
         meta.setdefault("writer", f"pito {__version__}")
         self.meta = meta
         head = _json_bytes(meta)
@@ -252,7 +251,9 @@ class Recording:
         p = self.path
         if len(data) < _HEAD.size or data[:8] != _MAGIC:
             raise FileFormatError(f"{p}: not a '{RECORDING_FORMAT}' file (bad magic bytes)")
-        _, version, _, n = _HEAD.unpack_from(data, 0)
+        _, version, flags, n = _HEAD.unpack_from(data, 0)
+        if flags != 0:
+            raise ChecksumError(p, "header", f"flags field is {flags}, written as 0")
         if version != RECORDING_VERSION:
             raise FileFormatError(f"{p}: '{RECORDING_FORMAT}' version {version} is not supported (this pito reads [1])")
         end = _HEAD.size + n
@@ -260,7 +261,7 @@ class Recording:
             raise FileFormatError(f"{p}: truncated header")
         head = data[_HEAD.size:end]
         if struct.unpack_from("<I", data, end)[0] != zlib.crc32(head):
-            raise FileFormatError(f"{p}: header CRC mismatch (corrupt file)")
+            raise ChecksumError(p, "header", "CRC-32 of the header metadata does not match")
         self.meta = json.loads(head.decode("utf-8"))
         self.version = version
         pos = end + 4
@@ -268,6 +269,7 @@ class Recording:
         self.events: list[dict] = []
         self.summary: dict | None = None
         problem = None
+        crc_bad = None
         while pos < len(data):
             if len(data) - pos < _CHUNK.size:
                 problem = f"truncated chunk header at byte {pos}"
@@ -283,6 +285,7 @@ class Recording:
             payload = data[body : body + size]
             if zlib.crc32(payload, zlib.crc32(data[pos : pos + 16])) != crc:
                 problem = f"chunk CRC mismatch at byte {pos}"
+                crc_bad = (pos, kind)
                 break
             if kind in _ROWS:
                 if size != rows * _ROWS[kind].itemsize:
@@ -300,6 +303,12 @@ class Recording:
             pos = body + size
         self.complete = self.summary is not None and problem is None
         self.damaged_bytes = len(data) - pos if problem else 0
+        if crc_bad is not None and not recover:
+            name = {KIND_PITO: "cube rows", KIND_NETFT: "Net F/T rows", KIND_EVENT: "event", KIND_END: "end marker"}
+            raise ChecksumError(
+                p, f"chunk at byte {crc_bad[0]} ({name.get(crc_bad[1], f'kind {crc_bad[1]}')})",
+                "CRC mismatch (CRC-32); the intact part before it can be read with Recording(path, recover=True)",
+            )
         if not self.complete and not recover:
             why = problem or "no end marker: the recorder did not close it (crash or kill)"
             raise FileFormatError(

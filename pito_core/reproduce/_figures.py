@@ -13,21 +13,29 @@ __all__ = ["write_figures", "FIGURES"]
 
 #: Figure files, in the summary's order: name -> (title, csv files).
 FIGURES = {
-    "identification.png": ("Face identification: single face (forces) and squeeze (torques)",
+    "identification.png": ("Face identification (Fig. 6): single face (forces) and squeeze (torques), unloaded_frame",
                            ("identification_single.csv", "identification_squeeze.csv")),
+    "identification_loaded_frame.png": ("Face identification (Fig. 6) with the loaded-frame calibration (frame_hole mount)",
+                                        ("identification_loaded_frame_single.csv", "identification_loaded_frame_squeeze.csv")),
     "comparison_forces.png": ("Comparison with the reference, forces", ("comparison.csv",)),
     "comparison_torques.png": ("Comparison with the reference, torques", ("comparison.csv",)),
     "rmse_methods.png": ("RMSE per face: the five methods", ("rmse_methods.csv",)),
-    "rmse_connected_face.png": ("RMSE per connected face: loaded vs unloaded frame", ("rmse_connected_face.csv",)),
+    "rmse_connected_face.png": ("RMSE per connected face: loaded vs unloaded frame (single-face loads)",
+                                ("rmse_connected_face.csv",)),
+    "squeeze_connected_face.png": ("Squeeze resultant RMSE per connected face (Figs 11, 12, 16, 19)",
+                                   ("squeeze_connected_face.csv",)),
     "table1_icn.png": ("Table I: inverse condition numbers per connected face", ("table1_inverse_condition_numbers.csv",)),
     "equilibrium.png": ("Equilibrium during a free grasp", ("equilibrium.csv",)),
-    "contact_points.png": ("Contact-point test (8 points + centre)", ("contact_points.csv",)),
+    "contact_points.png": ("8-point test (8 points + centre): cube and reference sensor, realistic touch placement",
+                           ("contact_points.csv",)),
 }
 
 _SIM = " [SIMULATED]"
 _AXES = ("fx", "fy", "fz", "tx", "ty", "tz")
 _COLORS = {"face_to_face": "#d62728", "quasi_total": "#ff7f0e", "total": "#2ca02c", "loaded_frame": "#9467bd",
-           "unloaded_frame": "#1f77b4"}
+           "unloaded_frame": "#1f77b4", "unloaded_frame+frame_hole": "#17becf"}
+#: The three per-connected-face calibrations.
+_PER_CONNECTED = ("loaded_frame", "unloaded_frame", "unloaded_frame+frame_hole")
 
 
 def _plt():
@@ -58,28 +66,31 @@ def _save(fig, path):
 def write_figures(res: Results, out_dir) -> list[str]:
     """Write every figure and its CSV into ``out_dir``; returns the file names written."""
     written = []
-    for fn in (_identification, _comparison, _rmse_methods, _rmse_connected, _table1, _equilibrium, _contact):
+    for fn in (_identification, _identification_loaded, _comparison, _rmse_methods, _rmse_connected, _squeeze_connected,
+               _table1, _equilibrium, _contact):
         written += fn(res, out_dir)
     return written
 
 
 # ---------------------------------------------------------------------- identification
-def _identification(res, out):
+def _identification(res, out, method="unloaded_frame"):
     plt = _plt()
+    tag = "" if method == "unloaded_frame" else f"_{method}"
     fig, axs = plt.subplots(2, 1, figsize=(9, 6.5))
     files = []
     for ax, kind, key, unit, thr in (
         (axs[0], "single", "force_norm", "N", 0.5),
         (axs[1], "squeeze", "torque_norm", "N·m", 0.01),
     ):
-        s = res.identification_series[kind]
+        s = res.identification_series[kind if method == "unloaded_frame" else (method, kind)]
         t, v, loaded = s["time"], s[key], s["loaded"]
         step = max(1, t.size // 4000)
         cf = s["connected_face"]
-        ax.plot(t[::step], v[::step, cf - 1], color="0.6", ls=":", lw=0.8,
-                label=f"face {cf} (connected: flange reaction)")
+        if s.get("flange", "face") == "face":
+            ax.plot(t[::step], v[::step, cf - 1], color="0.6", ls=":", lw=0.8,
+                    label=f"face {cf} (connected: flange reaction)")
         for i in range(6):
-            if i != cf - 1:
+            if i != cf - 1 or s.get("flange", "face") != "face":
                 ax.plot(t[::step], v[::step, i], lw=0.9, color=f"C{i}", label=f"face {i + 1}")
         # shade the loaded face(s) per block
         for i in range(6):
@@ -92,16 +103,21 @@ def _identification(res, out):
         ax.set_ylabel(f"{what} per face [{unit}]")
         ax.set_xlabel("time [s]")
         title = "single face loads, forces" if kind == "single" else "squeeze pairs, torques"
-        ax.set_title(f"Face identification ({title}), unloaded_frame calibration{_SIM}", fontsize=9)
+        ax.set_title(f"Face identification ({title}), {method} calibration, {s.get('flange', 'face')} mount{_SIM}",
+                     fontsize=9)
         ax.legend(fontsize=7, ncol=4, loc="upper right")
-        name = f"identification_{kind}.csv"
+        name = f"identification{tag}_{kind}.csv"
         rows = [[float(t[n])] + [float(x) for x in v[n]] + [int(x) for x in loaded[n]] for n in range(0, t.size, step)]
         _write_csv(os.path.join(out, name), ["time_s"] + [f"face{i}_{key}_{'N' if unit == 'N' else 'Nm'}" for i in range(1, 7)]
                    + [f"face{i}_loaded" for i in range(1, 7)], rows)
         files.append(name)
     fig.tight_layout()
-    _save(fig, os.path.join(out, "identification.png"))
-    return files + ["identification.png"]
+    _save(fig, os.path.join(out, f"identification{tag}.png"))
+    return files + [f"identification{tag}.png"]
+
+
+def _identification_loaded(res, out):
+    return _identification(res, out, "loaded_frame")
 
 
 # ---------------------------------------------------------------------- comparison
@@ -173,18 +189,18 @@ def _rmse_connected(res, out):
     plt = _plt()
     rows = []
     for c in range(1, 7):
-        for m in ("loaded_frame", "unloaded_frame"):
+        for m in _PER_CONNECTED:
             _, ev = res.per_connected[(m, c)]
             rows.append([c, m, float(np.nanmean(ev.rmse_force())), float(np.nanmean(ev.rmse_torque()))])
     _write_csv(os.path.join(out, "rmse_connected_face.csv"),
                ["connected_face", "method", "rmse_force_N", "rmse_torque_Nm"], rows)
     fig, axs = plt.subplots(1, 2, figsize=(10, 3.8))
     x = np.arange(1, 7)
-    for j, m in enumerate(("loaded_frame", "unloaded_frame")):
+    for j, m in enumerate(_PER_CONNECTED):
         f = [r[2] for r in rows if r[1] == m]
         t = [r[3] for r in rows if r[1] == m]
-        axs[0].bar(x + (j - 0.5) * 0.38, f, 0.38, label=m, color=_COLORS[m])
-        axs[1].bar(x + (j - 0.5) * 0.38, t, 0.38, label=m, color=_COLORS[m])
+        axs[0].bar(x + (j - 1) * 0.27, f, 0.27, label=m, color=_COLORS[m])
+        axs[1].bar(x + (j - 1) * 0.27, t, 0.27, label=m, color=_COLORS[m])
     for ax, unit, what in ((axs[0], "N", "force"), (axs[1], "N·m", "torque")):
         ax.set_xticks(x)
         ax.set_xlabel("connected face (flange)")
@@ -196,12 +212,40 @@ def _rmse_connected(res, out):
     return ["rmse_connected_face.csv", "rmse_connected_face.png"]
 
 
+def _squeeze_connected(res, out):
+    plt = _plt()
+    rows = []
+    for c in range(1, 7):
+        for m in _PER_CONNECTED:
+            ev = res.squeeze_per_connected[(m, c)]
+            sq = ev.rmse_squeeze
+            rows.append([c, m, float(np.sqrt(np.nanmean(sq[:3] ** 2))), float(np.sqrt(np.nanmean(sq[3:] ** 2))),
+                         ev.n_squeeze])
+    _write_csv(os.path.join(out, "squeeze_connected_face.csv"),
+               ["connected_face", "method", "squeeze_rmse_force_N", "squeeze_rmse_torque_Nm", "samples"], rows)
+    fig, axs = plt.subplots(1, 2, figsize=(10, 3.8))
+    x = np.arange(1, 7)
+    for j, m in enumerate(_PER_CONNECTED):
+        axs[0].bar(x + (j - 1) * 0.27, [r[2] for r in rows if r[1] == m], 0.27, label=m, color=_COLORS[m])
+        axs[1].bar(x + (j - 1) * 0.27, [r[3] for r in rows if r[1] == m], 0.27, label=m, color=_COLORS[m])
+    for ax, unit, what in ((axs[0], "N", "force"), (axs[1], "N·m", "torque")):
+        ax.set_xticks(x)
+        ax.set_xlabel("connected face (flange)")
+        ax.set_ylabel(f"squeeze resultant RMSE, {what} [{unit}]")
+        ax.set_title(f"squeeze pairs vs reference, {what}{_SIM}", fontsize=9)
+    axs[0].legend(fontsize=7)
+    fig.tight_layout()
+    _save(fig, os.path.join(out, "squeeze_connected_face.png"))
+    return ["squeeze_connected_face.csv", "squeeze_connected_face.png"]
+
+
 def table1_rows(res):
     rows = []
     for c in range(1, 7):
         cl, _ = res.per_connected[("loaded_frame", c)]
         cu, _ = res.per_connected[("unloaded_frame", c)]
-        rows.append([c, cl.inverse_condition_number, cu.inverse_condition_number])
+        cm, _ = res.per_connected[("unloaded_frame+frame_hole", c)]
+        rows.append([c, cl.inverse_condition_number, cu.inverse_condition_number, cm.inverse_condition_number])
     return rows
 
 
@@ -209,11 +253,14 @@ def _table1(res, out):
     plt = _plt()
     rows = table1_rows(res)
     _write_csv(os.path.join(out, "table1_inverse_condition_numbers.csv"),
-               ["connected_face", "loaded_frame_icn", "unloaded_frame_icn"], rows)
+               ["connected_face", "loaded_frame_icn", "unloaded_frame_icn", "unloaded_frame_with_frame_hole_icn"], rows)
     fig, ax = plt.subplots(figsize=(7, 3.8))
     x = np.arange(1, 7)
-    ax.bar(x - 0.2, [r[1] for r in rows], 0.38, label="loaded_frame (36×36)", color=_COLORS["loaded_frame"])
-    ax.bar(x + 0.2, [r[2] for r in rows], 0.38, label="unloaded_frame (36×36)", color=_COLORS["unloaded_frame"])
+    ax.bar(x - 0.27, [r[1] for r in rows], 0.27, label="loaded_frame (36×36)", color=_COLORS["loaded_frame"])
+    ax.bar(x, [max(r[2], 3.1e-5) for r in rows], 0.27, label="unloaded_frame alone (rank 30: ≈0, clipped)",
+           color=_COLORS["unloaded_frame"])
+    ax.bar(x + 0.27, [r[3] for r in rows], 0.27, label="unloaded_frame + frame_hole session",
+           color=_COLORS["unloaded_frame+frame_hole"])
     ax.axhspan(1e-4, 1e-3, color="0.85", zorder=0, label="paper's range 10⁻⁴–10⁻³")
     ax.set_yscale("log")
     ax.set_ylim(3e-5, 1e-2)
@@ -237,7 +284,9 @@ def _equilibrium(res, out):
     axs[0].plot(t[::step], g["m_a_minus_g"][::step], "k-", lw=1.2, label="truth m‖a − g‖")
     axs[0].axhline(run.weight, color="0.5", ls="--", lw=0.9, label=f"weight m g = {run.weight:.2f} N")
     for m, eq in g["methods"].items():
-        axs[0].plot(t[::step], eq.force_sum_norm[::step], lw=0.8, color=_COLORS[m], label=f"‖ΣF‖, {m}")
+        net = res.grasp_net_load.get(m, "")
+        axs[0].plot(t[::step], eq.force_sum_norm[::step], lw=0.8, color=_COLORS[m],
+                    label=f"‖ΣF‖, {m} (net load {'measured' if net == 'measured' else 'NOT measured'})")
         axs[1].plot(t[::step], eq.torque_cog_norm[::step], lw=0.8, color=_COLORS[m], label=f"‖ΣT‖ about the cog, {m}")
     axs[1].plot(t[::step], g["truth"].torque_cog_norm[::step], "k-", lw=1.0, label="truth")
     on = run.state.on_table
@@ -276,22 +325,31 @@ def _contact(res, out):
         return []
     plt = _plt()
     pts = tc["points"]
-    rows = [[int(r[0]) + 1, float(pts[int(r[0]), 0]), float(pts[int(r[0]), 1]), float(r[1]), float(r[2]), float(r[3]), int(r[4])]
-            for r in tc["rows"]]
+    rows = [[src, int(r[0]) + 1, float(pts[int(r[0]), 0]), float(pts[int(r[0]), 1]), float(r[1]), float(r[2]), float(r[3]),
+             float(r[4]), int(r[5])]
+            for src in ("cube", "reference") for r in tc[src]["rows"]]
     _write_csv(os.path.join(out, "contact_points.csv"),
-               ["point", "true_x_m", "true_y_m", "est_mean_x_m", "est_mean_y_m", "rms_error_m", "samples"], rows)
+               ["sensor", "point", "target_x_m", "target_y_m", "est_mean_x_m", "est_mean_y_m", "rms_error_to_target_m",
+                "rms_error_to_placed_m", "samples"], rows)
     fig, ax = plt.subplots(figsize=(5.2, 5.2))
     half = 0.023 * 1000
     ax.plot([-half, half, half, -half, -half], [-half, -half, half, half, -half], "k-", lw=0.8, label="46×46 mm patch")
     smp = tc["samples"]
     ok = smp["valid"]
     sel = np.flatnonzero(ok)[:: max(1, ok.sum() // 3000)]
-    ax.scatter(smp["est"][sel, 0] * 1000, smp["est"][sel, 1] * 1000, s=2, alpha=0.3, color="C0", label="estimated")
-    ax.scatter(pts[:, 0] * 1000, pts[:, 1] * 1000, marker="x", color="C3", s=60, label="true points")
+    rv = smp["ref_valid"]
+    rsel = np.flatnonzero(rv)[:: max(1, rv.sum() // 3000)]
+    ax.scatter(smp["ref_est"][rsel, 0] * 1000, smp["ref_est"][rsel, 1] * 1000, s=2, alpha=0.3, color="C2",
+               label=f"reference sensor, RMS {1000 * tc['reference']['rms_target']:.2f} mm")
+    ax.scatter(smp["est"][sel, 0] * 1000, smp["est"][sel, 1] * 1000, s=2, alpha=0.3, color="C0",
+               label=f"cube (unloaded_frame), RMS {1000 * tc['cube']['rms_target']:.2f} mm")
+    ax.scatter(smp["placed"][:, 0] * 1000, smp["placed"][:, 1] * 1000, marker="+", color="k", s=30,
+               label=f"where touches landed (σ {1000 * tc['scatter_m']:.1f} mm/axis)")
+    ax.scatter(pts[:, 0] * 1000, pts[:, 1] * 1000, marker="x", color="C3", s=60, label="marked targets")
     ax.set_aspect("equal")
     ax.set_xlabel(f"x on face {tc['face']} [mm]")
     ax.set_ylabel(f"y on face {tc['face']} [mm]")
-    ax.set_title(f"Contact points, unloaded_frame{_SIM}", fontsize=9)
+    ax.set_title(f"8-point test, errors to the targets{_SIM}", fontsize=9)
     ax.legend(fontsize=7)
     fig.tight_layout()
     _save(fig, os.path.join(out, "contact_points.png"))

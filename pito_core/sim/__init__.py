@@ -20,11 +20,33 @@ from ._protocols import (
     simulate_calibration,
     simulate_squeeze,
 )
+from ._random_sensor import RandomSensor, random_sensor, random_sensor_session
 from ._reference import FLANGE_HEIGHT, REFERENCE_PRESETS, ReferenceSensor, ReferenceSpec, reference_pose
 from ._signals import KeypointTrajectory, play_operator
 from ._touches import TouchTruth, simulate_touches
+from ._world import SCENARIOS, DemoWorld, SwitchedLiveSource
+from ._process import SimulatedDevices, SimulatorError, run_devices
+from ._transport import open_simulated_devices
+from ._transport_netft import SimulatedNetFT
+from ._transport_pito import SimulatedPitoPort
+from ._transport_source import Source, TestSignalSource, default_simulated_source
 
 __all__ = [
+    "RandomSensor",
+    "random_sensor",
+    "random_sensor_session",
+    "DemoWorld",
+    "SCENARIOS",
+    "SimulatedDevices",
+    "SimulatorError",
+    "SwitchedLiveSource",
+    "run_devices",
+    "SimulatedNetFT",
+    "SimulatedPitoPort",
+    "Source",
+    "TestSignalSource",
+    "default_simulated_source",
+    "open_simulated_devices",
     "CalibrationLiveSource",
     "FINGER_LAYOUTS",
     "GraspLiveSource",

@@ -80,7 +80,7 @@ def face_wrenches_from_applied(applied_core, flange, connected_face, core: CubeC
         Xblk[6 * f : 6 * f + 6, 6 * f : 6 * f + 6] = X[f]
     F = (W.reshape(-1, 36) @ Xblk.T).reshape(W.shape)
     if flange == "face":
-        # a direct load on the connected face goes straight into the flange; the face
-        # carries the reaction of every load applied elsewhere
-        F[:, c - 1] = -(W_total - W[:, c - 1]) @ X[c - 1].T
+        # eq. 6 of the multi-touch paper: a direct load on the connected face is carried by
+        # it, and it carries the reaction of every load applied elsewhere
+        F[:, c - 1] = (2.0 * W[:, c - 1] - W_total) @ X[c - 1].T
     return F, W_total, W_frame

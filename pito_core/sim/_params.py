@@ -6,15 +6,17 @@ from dataclasses import asdict, dataclass, fields
 
 import numpy as np
 
+from .. import defaults
+
 __all__ = ["SimParams", "FULL_SCALE_FACE", "FULL_SCALE_FRAME"]
 
 #: Calibration load range of one face, face frame: ``[fx, fy, fz, tx, ty, tz]`` in N and N·m
 #: (the papers' protocol: forces within ±15 N, torques within ±0.1 N·m).
-FULL_SCALE_FACE = (15.0, 15.0, 15.0, 0.1, 0.1, 0.1)
+FULL_SCALE_FACE = defaults.FULL_SCALE_FACE
 
 #: Scale of the total load through the frame's screw joints, core frame (N, N·m): moments
 #: about the core centre reach ~0.4 N·m for a 15 N force on a face of a 50 mm cube.
-FULL_SCALE_FRAME = (15.0, 15.0, 15.0, 0.4, 0.4, 0.4)
+FULL_SCALE_FRAME = defaults.FULL_SCALE_FRAME
 
 
 @dataclass(frozen=True)

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..contact import load_assembly
 from ._grasp import FINGER_LAYOUTS
 
 __all__ = ["contacts_on_assembly", "point_above"]
@@ -68,10 +69,6 @@ def contacts_on_assembly(name, n_fingers: int, seed: int = 0):
     n_fingers : {2, 3, 4, 5}
     seed : int
     """
-    try:
-        from ..contact import load_assembly
-    except ImportError:  # pragma: no cover - depends on the contact package
-        raise ValueError(f"assembly: patch assemblies are not available (pito_core.contact), got {name!r}") from None
     if n_fingers not in FINGER_LAYOUTS:
         raise ValueError(f"n_fingers: expected one of {tuple(FINGER_LAYOUTS)}, got {n_fingers!r}")
     try:

@@ -236,7 +236,7 @@ def simulate_calibration(
     faces : sequence of int, optional
         Faces loaded one at a time, in order. Default: all six, without the connected
         face under the ``frame`` flange (it cannot be loaded). Under ``face`` a load on
-        the connected face goes straight into the flange (a zero-wrench sample).
+        the connected face is carried by that face (eq. 6 of the multi-touch paper).
     model : VirtualCube, optional
         The simulated cube (default ``VirtualCube()``, seed 0).
     reference : {"delta", "nano17"} or ReferenceSpec

@@ -4,7 +4,9 @@ import numpy as np
 import pytest
 
 from app.workers import Bundle, DeviceWorker, face_sums, merge_bundles
+from pito_core.contact import ObjectContacts
 from pito_core.frames import CubeCore
+from pito_core.pipeline import NewSamples
 
 pytestmark = pytest.mark.needs_display
 
@@ -15,13 +17,13 @@ def contacts(force_face1=(-8.0, 1.0, 2.0), valid=(True, True, False, False, Fals
     frc = np.zeros((6, 3))
     pts[0], nrm[0], frc[0] = (0.027, 0.004, 0.002), (1, 0, 0), force_face1
     pts[1], nrm[1], frc[1] = (0.0, 0.027, 0.0), (0, 1, 0), (0.0, -0.1, 0.0)  # 0.1 N: under threshold
-    return {"points": pts, "normals": nrm, "forces": frc, "torsions": np.array([0.02, 0, 0, 0, 0, 0.0]),
-            "valid": np.array(valid), "covariance": np.tile(np.eye(3) * 1e-6, (6, 1, 1))}
+    return ObjectContacts(pts, nrm, frc, np.array([0.02, 0, 0, 0, 0, 0.0]), np.array(valid),
+                          np.tile(np.eye(3) * 1e-6, (6, 1, 1)))
 
 
 def bundle(t, c):
     W = np.zeros((6, 6))
-    W[0, :3] = np.linalg.norm(c["forces"][0])
+    W[0, :3] = np.linalg.norm(c.force[0])
     return Bundle(np.array([t]), np.zeros((1, 36)), np.zeros((1, 6)), wrenches=W, contacts=c,
                   sum_force=np.array([0, 0, 2.9]), sum_torque=np.zeros(3))
 
@@ -101,6 +103,7 @@ def test_torsion_and_uncertainty_toggles(live):
 
 class FakeSource:
     simulated = True
+    has_reference = False
 
     def __init__(self):
         self.t = 0.0
@@ -110,7 +113,7 @@ class FakeSource:
         self.t = t[-1] + 1e-3
         counts = np.zeros((17, 36))
         counts[:, 2] = 1000.0
-        return t, counts, np.zeros((17, 6))
+        return NewSamples({"time": t, "counts": counts, "tick": np.rint(t * 1e6).astype(np.int64)})
 
     def stats(self):
         return {"rate_cube": 1000.0}
@@ -123,8 +126,9 @@ class FakeCalibration:
     offset = np.zeros(36)
 
     def wrenches(self, counts, offset=None):
-        W = np.zeros((6, 6))
-        W[0, 2] = -np.asarray(counts)[2] / 200.0  # 5 N pushing into face 1
+        counts = np.asarray(counts)
+        W = np.zeros((counts.shape[0], 6, 6))
+        W[:, 0, 2] = -counts[:, 2] / 200.0  # 5 N pushing into face 1
         return W
 
 

@@ -34,8 +34,8 @@ def test_record_then_replay(qtbot, styled, tmp_path):
         assert rec.pito.size > 1000 and rec.netft.size > 500  # ~2 s at 1 kHz, both devices
         assert np.all(np.diff(rec.pito["seq"].astype(np.int64)) == 1)  # no sample lost
         # replay: bundles come from the file, the timeline follows and can seek
-        window.open_replay(str(path))
-        assert live.timeline.isEnabled() and live.back_live.isVisible()
+        window.open_replay(str(path))  # the file is read in the background
+        assert wait_until(lambda: live.timeline.isEnabled(), timeout=20) and live.back_live.isVisible()
         shown = live.bundles_shown
         assert wait_until(lambda: live.bundles_shown > shown + 10 and live.time_label.text().startswith("replay"),
                           timeout=20)

@@ -28,6 +28,7 @@ def region_of(window, widget):
 
 
 def test_wizard_end_to_end_on_the_simulators(qtbot, styled, tmp_path):
+    from app.scene import grab_window
     from app.window import MainWindow
     from app.wizard.driver import complete_loading, finish, run_to_page
     from pito_core.calibration import CalibrationSession, evaluate, load_calibration
@@ -46,7 +47,7 @@ def test_wizard_end_to_end_on_the_simulators(qtbot, styled, tmp_path):
         # the loading page: every face done, its 3D view drawn (not blank)
         load = window.wizard.pages["load"]
         assert load.is_ready() and window.wizard.next.isEnabled()
-        img = image_array(window.grab())
+        img = image_array(grab_window(window))  # the 3D views are native windows
         y0, y1, x0, x1 = region_of(window, load.scene)
         assert img[y0:y1, x0:x1].std() > 10 and len(np.unique(img[y0:y1, x0:x1].reshape(-1, 3), axis=0)) > 50
         # undo works and takes Next away until the face is covered again

@@ -8,10 +8,10 @@ import math
 import numpy as np
 import pytest
 
-from pito_core.bench import _data, _report, _run
-from pito_core.bench._calibration import plain_fit, rmse_summary
-from pito_core.bench._contact import SURFACES, make_surface, pareto, sample_contacts, scipy_solve
-from pito_core.bench._pipeline import _naive_decode, default_pipeline, live_scenario
+from pito_bench import _data, _report, _run
+from pito_bench._calibration import plain_fit, rmse_summary
+from pito_bench._contact import SURFACES, make_surface, pareto, sample_contacts, scipy_solve
+from pito_bench._pipeline import _naive_decode, default_pipeline, live_scenario
 
 
 @pytest.fixture(scope="module")
@@ -35,6 +35,10 @@ def test_quick_run_json_has_calibration_and_contact_ratios(quick_result):
         assert r["k"] in (1000, 2000)
         for key in ("rmse_force_N", "rmse_torque_Nm", "rmse_ratio_lstsq", "rmse_ratio_pinv", "time_ratio_lstsq"):
             assert math.isfinite(r[key]) and r[key] > 0, key
+    rc = cal["random_cubes"]["rows"]  # default fit vs the papers' plain affine least squares (issue 10, item 7)
+    assert {r["method"] for r in rc} == methods
+    for r in rc:
+        assert r["n_cases"] > 0 and r["force_ratio_worst"] <= 1.02 and r["torque_ratio_worst"] <= 1.02, r
     assert {r["k"] for r in cal["streamed"]} == {1000, 2000}
     for r in cal["streamed"]:
         assert r["fit_peak_rss_MB"] > 0 and math.isfinite(r["rmse_force_N"])
@@ -174,12 +178,14 @@ def test_naive_decoder_and_live_pipeline_on_simulated_frames():
     counts, truth = live_scenario(50, seed=0)
     data = b"\x00\x01" + pack_frames(np.arange(50), np.arange(50) * 1000, counts)
     assert _naive_decode(data) == 50
-    bundle = default_pipeline().process(counts[-10:])
-    assert bundle["wrenches"].shape == (10, 6, 6) and bundle["valid"].all()
+    pipe = default_pipeline()  # the one pipeline of pito_core (what the app and pito record run)
+    t = np.arange(40, 50) * 1e-3
+    bundle = pipe.process({"time": t, "counts": counts[-10:], "tick": np.arange(40, 50) * 1000})
+    assert bundle.face_wrenches.shape == (10, 6, 6) and bundle.contacts.valid.all()
     # the six contacts of the latest sample, back in face frames, are near the truth
-    pipe = default_pipeline()
+    T = pipe.core.face_poses()
     for i in range(6):
-        p_face = pipe.R[i].T @ (bundle["points"][i] - pipe.p[i])
+        p_face = T[i, :3, :3].T @ (bundle.contacts.point[i] - T[i, :3, 3])
         assert np.linalg.norm(p_face - truth["points"][-1, i]) < 2e-3
 
 

@@ -82,10 +82,8 @@ def make_session(K, flange="face", connected_face=6, faces=None, k=2000, n_unloa
     applied = np.vstack([np.zeros((n_unloaded, 6, 6))] + rows_W)  # core frame, about core centre
     total = applied.sum(axis=1)
     carried = applied.copy()
-    if flange == "face":
-        direct_c = loaded[:, c - 1] & (loaded.sum(axis=1) == 1)
-        carried[:, c - 1] = -(total - applied[:, c - 1])
-        carried[direct_c] = 0.0
+    if flange == "face":  # eq. 6 of the multi-touch paper: the connected face carries its own load, −W of the others
+        carried[:, c - 1] = applied[:, c - 1] - (total - applied[:, c - 1])
     elif flange == "frame":
         carried[:, c - 1] = 0.0
     F = np.stack([transform_wrench(carried[:, i], poses[i]) for i in range(6)], axis=1)  # face frames

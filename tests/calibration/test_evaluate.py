@@ -1,4 +1,5 @@
 import json
+import re
 
 import numpy as np
 import pytest
@@ -102,3 +103,31 @@ def test_cli_csv_sessions(tmp_path, capsys):
     assert "CSV sessions need --flange and --connected-face" in capsys.readouterr().err
     assert main(["calibrate", str(tmp_path / "s.csv"), "--method", "face_to_face", "--flange", "frame_hole",
                  "--connected-face", "2", "-o", str(tmp_path / "c")]) == 0
+
+
+def test_cli_evaluate_headlines_the_papers_rule_and_shows_uncertainty(tmp_path, capsys):
+    """Identification headline: single-face loads by force, squeeze by torque (in words);
+    ± (95 %) per face and axis from the calibration's covariance; net load in words."""
+    K = true_sensitivity(22)
+    train, test, cal = tmp_path / "train.h5", tmp_path / "test.h5", tmp_path / "cube.pitocal"
+    make_session(K, flange="face", connected_face=6, k=600, free_only=True).save(train)
+    make_session(K, flange="face", connected_face=6, k=300, free_only=True, seed=4, squeeze_pairs=[(1, 3)]).save(test)
+    assert main(["calibrate", str(train), "--method", "unloaded_frame", "--holdout", "0", "-o", str(cal)]) == 0
+    out = capsys.readouterr().out
+    assert "net force/torque of a free grasp: not measured" in out
+    assert main(["evaluate", str(cal), str(test)]) == 0
+    out = capsys.readouterr().out
+    assert re.search(r"single-face loads: [0-9.]+ % of \d+ samples identified by force", out)
+    assert re.search(r"squeeze loads: [0-9.]+ % of \d+ samples identified by torque", out)
+    assert "± (95 %)" in out and "net force/torque of a free grasp: not measured" in out
+    assert main(["evaluate", str(cal), str(test), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    head = {h["kind"]: h for h in d["identification_headline"]}
+    assert head["single"]["rule"] == "force" and head["squeeze"]["rule"] == "torque"
+    assert head["single"]["accuracy"] == d["identification"]["single"]["force"]
+    assert head["squeeze"]["accuracy"] == d["identification"]["squeeze"]["torque"]
+    u = np.array(d["uncertainty95"], dtype=float)
+    assert u.shape == (6, 6)
+    free = u[:5]  # the five free faces are fitted: finite, positive intervals in N and N·m
+    assert np.all(np.isfinite(free)) and np.all(free > 0)
+    assert np.all(free[:, :3] < 5.0) and np.all(free[:, 3:] < 0.1)

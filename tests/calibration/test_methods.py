@@ -63,15 +63,18 @@ def test_recovery_down_to_the_noise_floor(method):
 def test_total_combines_mounts():
     """Sessions under several face flanges fit one matrix that holds for a mount it never saw.
 
-    Under a face flange the six face wrenches always balance (the connected face carries
-    the reaction), so every such load lies in the 30-dimensional self-equilibrated
-    subspace; the fit is exact there whatever the mount (and that is the subspace a
-    free grasp lives in, up to the object's weight).
+    Eq. 6 of the multi-touch paper: under a face flange the connected face carries the
+    reaction −W of a load elsewhere and a direct load W on itself. The free faces' loads
+    balance (30 dimensions); the direct loads on the connected face add its 6: `total`
+    sees all 36 load dimensions, so its fit is exact for any mount.
     """
     K = true_sensitivity(3)
     kw = dict(flange="face", k=300, noise=0, counts_dtype=float)
     one = calibrate(make_session(K, connected_face=6, **kw), "total")
-    assert one.meta["load_rank"] == [30]
+    assert one.meta["load_rank"] == [36] and one.meta["net_load"] == "measured"
+    free = calibrate(make_session(K, connected_face=6, free_only=True, **kw), "total")
+    assert free.meta["load_rank"] == [30]
+    assert free.meta["net_load"] == "not measured: not identified (plain least squares)"
     both = calibrate([make_session(K, connected_face=c, seed=c, **kw) for c in (6, 5)], "total")
     assert both.meta["connected_faces"] == [5, 6]
     other = make_session(K, connected_face=2, seed=42, **kw)
@@ -80,6 +83,25 @@ def test_total_combines_mounts():
     # the frame_hole mount loads every face independently: the full 36 dimensions
     full = calibrate(make_session(K, flange="frame_hole", connected_face=6, k=300, noise=0, counts_dtype=float), "loaded_frame")
     assert full.meta["load_rank"] == [36]
+
+
+def test_total_direct_load_on_the_connected_face_is_carried_by_it():
+    """Eq. 6: face 6's own load is W_6 in row 6 (not a zero-wrench sample)."""
+    from pito_core.calibration._targets import MountGeometry, block_targets
+    from pito_core.frames import transform_wrench
+
+    K = true_sensitivity(33)
+    s = make_session(K, flange="face", connected_face=6, k=50, noise=0, counts_dtype=float)
+    T, carries, usable, _ = block_targets(s.reference, s.loaded, MountGeometry(s), "face")
+    on6 = s.loaded[:, 5] & (s.loaded.sum(axis=1) == 1)
+    assert on6.any() and carries[on6, 5].all() and not carries[on6, :5].any()
+    expected = transform_wrench(s.reference[on6], s.T_ati_face(6))
+    np.testing.assert_allclose(T[on6, 5], expected, atol=1e-12)
+    on1 = s.loaded[:, 0] & (s.loaded.sum(axis=1) == 1)
+    np.testing.assert_allclose(T[on1, 5], -transform_wrench(s.reference[on1], s.T_ati_face(6)), atol=1e-12)
+    cal = calibrate(s, "total")
+    np.testing.assert_allclose(cal.wrenches(s.counts[on6], offset=s.true_offset), s.true_face_wrenches[on6],
+                               atol=1e-9 * np.abs(s.true_face_wrenches).max())
 
 
 def test_loaded_frame_fits_in_the_reference_frame():
@@ -190,24 +212,33 @@ def test_validation_figures_match_truth():
 
 
 @pytest.mark.parametrize("method", ["total", "unloaded_frame", "quasi_total"])
-def test_fits_on_30_dimensional_loads_still_see_net_loads(method):
-    """A face flange balances every load (and a frame flange leaves the connected face
-    idle), so the data span 30 of 36 load dimensions. The fit is exact on those and
-    falls back to each face's own-gauge fit on the rest, so a free grasp's net load (the
-    weight) is still measured — not forced to ΣF ≡ 0 — and the noise-only directions
-    are not fitted."""
+def test_own_gauge_prior_fills_only_the_unexcited_directions(method):
+    """A face flange balances the free faces' loads (and a frame flange leaves the connected
+    face idle), so without direct loads on the connected face the data span 30 of 36 load
+    dimensions. ``prior="own_gauge"`` keeps the least-squares response on those and takes
+    each face's own-gauge fit on the other 6, so a free grasp's net load (the weight) is
+    still measured — not forced to ΣF ≡ 0 as by the papers' plain fit."""
     from pito_core.calibration import equilibrium
 
     K = true_sensitivity(31, coupling=0.0)  # coupling-free: the own-gauge fit is exact too
     flange = "frame" if method == "quasi_total" else "face"
-    cal = calibrate(make_session(K, flange=flange, connected_face=6, k=1500, noise=2.0,
-                                 free_only=method == "unloaded_frame"), method)
+    s = make_session(K, flange=flange, connected_face=6, k=1500, noise=2.0, free_only=True)
+    cal = calibrate(s, method, prior="own_gauge")
+    plain = calibrate(s, method)
+    assert cal.meta["prior"] == "own_gauge" and cal.meta["net_load"] == "not measured: from the faces' own-gauge fits"
+    assert cal.meta["load_directions"] == {"measured": 30, "from_prior": 6, "not_identified": 0}
+    assert plain.meta["net_load"] == "not measured: not identified (plain least squares)"
     assert 3e-4 < cal.inverse_condition_number < 1  # not singular
     test = make_session(K, flange="frame_hole", connected_face=6, k=400, noise=2.0, seed=8)  # every face on its own
     W = cal.wrenches(test.counts, offset=test.true_offset)
     out = cal.has_output
     err = np.sqrt(np.mean((W[:, out] - test.true_face_wrenches[:, out]) ** 2, axis=(0, 1)))
     assert err[:3].max() < 0.01 and err[3:].max() < 1e-4
+    # on loads like the calibration's, the prior changes nothing but the noise of 6 more directions
+    same = make_session(K, flange=flange, connected_face=6, k=400, noise=0, seed=9, free_only=True, counts_dtype=float)
+    np.testing.assert_allclose(cal.wrenches(same.counts, offset=same.true_offset)[:, out],
+                               plain.wrenches(same.counts, offset=same.true_offset)[:, out],
+                               atol=0.02 * np.abs(same.true_face_wrenches).max())
     if method != "quasi_total":
         eq = equilibrium(W, cal.core, mass=1.0)
         truth = equilibrium(test.true_face_wrenches, cal.core, mass=1.0)
@@ -215,16 +246,41 @@ def test_fits_on_30_dimensional_loads_still_see_net_loads(method):
         assert eq.force_sum_norm.max() > 5.0
 
 
-def test_min_snr_zero_is_the_papers_plain_least_squares():
+def test_default_is_the_papers_plain_least_squares_blind_to_net_loads():
     from pito_core.calibration import equilibrium
 
     K = true_sensitivity(32, coupling=0.0)
     s = make_session(K, flange="face", connected_face=6, k=800, noise=2.0, free_only=True)
-    plain = calibrate(s, "unloaded_frame", min_snr=0)
-    assert plain.meta["min_snr"] == 0
-    # rows of the connected face are minus the others': blind to net loads
+    plain = calibrate(s, "unloaded_frame")
+    assert plain.meta["prior"] is None and plain.meta["load_rank"] == [30] and plain.meta["counts_rank"] == [36]
+    assert plain.meta["load_directions"] == {"measured": 30, "from_prior": 0, "not_identified": 6}
+    np.testing.assert_array_equal(calibrate(s, "unloaded_frame", min_snr=0).matrix, plain.matrix)  # old spelling
+    # rows of the connected face are (nearly) minus the others': blind to net loads
     test = make_session(K, flange="frame_hole", connected_face=6, k=100, noise=2.0, seed=3)
     eq = equilibrium(plain.wrenches(test.counts, offset=test.true_offset), plain.core, mass=1.0)
-    assert eq.force_sum_norm.max() < 1e-6
-    with pytest.raises(ValueError, match=r"min_snr: expected a signal-to-noise ratio ≥ 0"):
-        calibrate(s, "unloaded_frame", min_snr=-1)
+    truth = equilibrium(test.true_face_wrenches, plain.core, mass=1.0)
+    assert np.median(eq.force_sum_norm) < 0.1 * np.median(truth.force_sum_norm)
+    with pytest.raises(ValueError, match=r"min_snr: no longer supported .* prior='own_gauge'"):
+        calibrate(s, "unloaded_frame", min_snr=30)
+    with pytest.raises(ValueError, match=r"prior: expected None or 'own_gauge', got 'ridge'"):
+        calibrate(s, "unloaded_frame", prior="ridge")
+
+
+@pytest.mark.parametrize("method", ["total", "unloaded_frame"])
+def test_a_frame_hole_session_measures_the_net_load_directions(method):
+    """A face-flange session with a ``frame_hole`` session: every load direction is fitted from data."""
+    from pito_core.calibration import equilibrium
+
+    K = true_sensitivity(34)  # with coupling: no prior could get the net loads right
+    face = make_session(K, flange="face", connected_face=6, k=1500, noise=2.0, free_only=True)
+    hole = make_session(K, flange="frame_hole", connected_face=5, k=300, noise=2.0, seed=5)
+    cal = calibrate([face, hole], method)
+    assert cal.meta["net_load"] == "measured" and cal.meta["load_rank"] == [36]
+    assert cal.meta["flanges"] == ["face", "frame_hole"]
+    test = make_session(K, flange="frame_hole", connected_face=6, k=300, noise=2.0, seed=11)
+    W = cal.wrenches(test.counts, offset=test.true_offset)
+    eq = equilibrium(W, cal.core, mass=1.0)
+    truth = equilibrium(test.true_face_wrenches, cal.core, mass=1.0)
+    np.testing.assert_allclose(eq.force_sum_norm, truth.force_sum_norm, atol=0.1)
+    with pytest.raises(ValueError, match=r"needs at least one session with a flange in \('face',\)"):
+        calibrate([hole], method)

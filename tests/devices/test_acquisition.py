@@ -3,15 +3,8 @@
 import numpy as np
 import pytest
 
-from pito_core.devices import (
-    Acquisition,
-    NetFT,
-    PitoSerial,
-    SimulatedNetFT,
-    SimulatedPitoPort,
-    TestSignalSource,
-    fit_clock,
-)
+from pito_core.devices import Acquisition, NetFT, PitoSerial
+from pito_core.sim import SimulatedNetFT, SimulatedPitoPort, TestSignalSource
 
 
 AMPLITUDE = np.array([2.0, 1.0, 3.0, 0.02, 0.01, 0.03])
@@ -77,7 +70,7 @@ def test_session_aligns_reference_onto_cube_samples(running):
     assert np.max(np.abs(off.reference - off_truth).max(axis=0) / AMPLITUDE) > 0.15
     assert s.loaded[:, 2].all() and not s.loaded[:, [0, 1, 3, 4, 5]].any()
     assert np.all(np.diff(s.time) > 0)
-    assert s.meta["simulated"] is True and "clock_cube" in s.meta["acquisition"]
+    assert s.meta["simulated"] is True and "device clocks" in s.meta["acquisition"]["pairing"]
 
 
 def test_tare_removes_offsets(running):
@@ -129,14 +122,3 @@ def test_acquisition_validation_and_cube_only():
             assert acq.latest()[1] is None
     with pytest.raises(ValueError, match="buffer_seconds"):
         Acquisition(None, buffer_seconds=0)
-
-
-def test_fit_clock_lower_envelope():
-    rng = np.random.default_rng(0)
-    k = np.arange(2000) * 1e-3
-    latency = 0.002 + rng.exponential(0.003, k.size)
-    fit = fit_clock(k, 50.0 + 1.00001 * k + latency)
-    assert fit.slope == pytest.approx(1.00001, abs=1e-4)
-    assert fit(0.0) == pytest.approx(50.002, abs=5e-4)
-    with pytest.raises(ValueError, match="tick, host_time"):
-        fit_clock([1, 2], [1.0])

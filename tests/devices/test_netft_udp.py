@@ -9,11 +9,10 @@ from pito_core.devices import (
     DeviceError,
     NetFT,
     NetFTConfig,
-    SimulatedNetFT,
-    TestSignalSource,
     decode_status,
     read_netft_config,
 )
+from pito_core.sim import SimulatedNetFT, TestSignalSource
 
 from .conftest import drain, n_rows
 

@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from pito_core.devices import DeviceError, PitoSerial, SimulatedPitoPort, TestSignalSource, list_serial_ports
+from pito_core.devices import DeviceError, PitoSerial, list_serial_ports
+from pito_core.sim import SimulatedPitoPort, TestSignalSource
 
 from .conftest import drain, n_rows
 

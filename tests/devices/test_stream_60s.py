@@ -4,7 +4,8 @@ import time
 
 import numpy as np
 
-from pito_core.devices import Acquisition, NetFT, PitoSerial, SimulatedNetFT, SimulatedPitoPort, TestSignalSource
+from pito_core.devices import Acquisition, NetFT, PitoSerial
+from pito_core.sim import SimulatedNetFT, SimulatedPitoPort, TestSignalSource
 from pito_core.io import Recording, RecordingWriter
 
 N = 60_000  # 60 s at 1 kHz

@@ -60,6 +60,11 @@ EXPECTED = [
     "identification.png",
     "identification_single.csv",
     "identification_squeeze.csv",
+    "identification_loaded_frame.png",
+    "identification_loaded_frame_single.csv",
+    "identification_loaded_frame_squeeze.csv",
+    "squeeze_connected_face.png",
+    "squeeze_connected_face.csv",
     "comparison_forces.png",
     "comparison_torques.png",
     "comparison.csv",
@@ -95,9 +100,22 @@ def test_quick_reproduction_writes_everything(quick_run):
     else:
         assert (out / "contact_points.png").exists() and (out / "contact_points.csv").exists()
         rows = (out / "contact_points.csv").read_text().splitlines()
-        assert rows[0].startswith("point,true_x_m,true_y_m") and len(rows) == 10  # 8 points + centre
+        # 8 points + centre, for the cube and for the reference sensor
+        assert rows[0].startswith("sensor,point,target_x_m,target_y_m") and len(rows) == 1 + 2 * 9
+        assert {r.split(",")[0] for r in rows[1:]} == {"cube", "reference"}
+    sq = (out / "squeeze_connected_face.csv").read_text().splitlines()
+    assert len(sq) == 1 + 6 * 3  # 6 connected faces × (loaded, unloaded, unloaded + frame_hole)
     header = (out / "rmse_methods.csv").read_text().splitlines()[0]
     assert "rmse_force_N" in header and "rmse_torque_Nm" in header
+
+
+def test_failing_finding_is_reported_not_dropped(quick_run):
+    """A finding that does not hold is printed as NO with its numbers (exit status 3)."""
+    out, code = quick_run
+    text = (out / "summary.md").read_text()
+    rows = [line for line in text.splitlines() if line.startswith("| ") and ("**yes**" in line or "**NO**" in line)]
+    assert len(rows) >= 9
+    assert (code == 0) == all("**yes**" in r for r in rows)
 
 
 @pytest.mark.slow
@@ -116,7 +134,17 @@ def test_quick_reproduction_summary_findings(quick_run):
     assert holds("unloaded frame beats loaded frame on RMSE")
     assert holds("loaded faces are identified")
     assert holds("inverse condition numbers")
-    assert holds("free grasp")
+    assert holds("free grasp (Fig. 20): with the net load measured")
+    assert holds("free grasp under a face-flange calibration without a net-load measurement")
+    assert holds("squeeze loads for every connected face")
+    assert holds("8-point test")
+    # the 8-point test's numbers: the error to the targets is the placement's (~mm), not the cube's
+    row = next(line for line in text.splitlines() if "8-point test" in line and line.startswith("| "))
+    cube, ref = (float(x) for x in re.findall(r"RMS to targets: cube ([0-9.]+) mm, reference ([0-9.]+) mm", row)[0])
+    assert 0.5 < cube < 5 and 0.5 < ref < 5
+    # every calibration of the free grasp says how its net force was obtained
+    assert "| unloaded_frame+frame_hole | measured |" in text
+    assert "| unloaded_frame | not measured" in text
     # the numbers behind "unloaded < loaded" are in the row, in N
     row = next(line for line in text.splitlines() if "unloaded frame beats loaded frame on RMSE" in line)
     a, b = (float(x) for x in re.findall(r"forces ([0-9.]+) N vs ([0-9.]+) N", row)[0])

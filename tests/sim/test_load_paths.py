@@ -71,12 +71,14 @@ def test_face_flange_connected_face_carries_the_reaction(c):
     assert W_frame is None
 
 
-def test_face_flange_direct_load_on_connected_face_goes_to_flange():
+def test_face_flange_direct_load_on_connected_face_is_carried_by_it():
+    """Eq. 6 of the multi-touch paper: under face 6's own load, face 6 carries W_6."""
     W = np.zeros((5, 6, 6))
     W[:, 5] = [1, 2, -8, 0.05, 0, 0.02]
     F, W_tot, W_frame = face_wrenches_from_applied(W, "face", 6, CORE)
-    assert np.allclose(F, 0)
-    assert np.allclose(W_tot, W[:, 5])  # the reference still reads it
+    Fc = _to_core(F)
+    assert np.allclose(Fc[:, 5], W[:, 5]) and np.allclose(Fc[:, :5], 0)
+    assert np.allclose(W_tot, W[:, 5])  # the reference reads it too
 
 
 def test_free_grasp_faces_carry_everything():

@@ -1,0 +1,369 @@
+"""Calibration benchmark: fit time and held-out RMSE against the number of samples.
+
+For every size k and method: ``calibrate`` on an in-memory session and streamed from a
+session file (``CalibrationSession.load(path, lazy=True)``), side by side with a plain
+NumPy fit of the same data (offsets, targets, then ``numpy.linalg.lstsq`` or
+``numpy.linalg.pinv``), and the least-squares cores alone (``StreamedQR`` against
+``lstsq`` on the same ``S``, ``W``). Times are ratios against those baselines, measured
+in the same process; RMSE is on a held-out simulated session. Each fit runs in its own
+subprocess so its peak resident memory is its own.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+
+import numpy as np
+
+from ._data import MOUNT_OF_METHOD, write_session_file
+from ._timing import best_time, peak_rss_mb, run_worker
+
+__all__ = ["METHODS", "run_calibration", "plain_fit", "rmse_summary", "plain_affine_fit", "random_cube_ratios"]
+
+METHODS = ("face_to_face", "quasi_total", "total", "loaded_frame", "unloaded_frame")
+#: Largest k fitted in memory (beyond, only the streamed fit from a file runs).
+MAX_IN_MEMORY = 1_000_000
+#: Largest k for which every method is streamed (beyond: ``unloaded_frame`` only).
+MAX_ALL_METHODS_STREAMED = 1_000_000
+
+
+def _current_rss_mb() -> float:
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("VmRSS:"):
+                    return int(line.split()[1]) * 1024 / 1e6
+    except OSError:  # pragma: no cover - not Linux
+        pass
+    return float("nan")
+
+
+def rmse_summary(ev) -> dict:
+    """Force RMSE (N) and torque RMSE (N·m) over the loaded faces' axes of an ``Evaluation``."""
+    r = np.asarray(ev.rmse_single, dtype=float)
+    return {
+        "rmse_force_N": float(np.sqrt(np.nanmean(r[:, :3] ** 2))),
+        "rmse_torque_Nm": float(np.sqrt(np.nanmean(r[:, 3:] ** 2))),
+    }
+
+
+def _design(session, method, output_faces):
+    """Offset-free counts and targets as ``calibrate`` uses them: list of ``(faces, cols, S, W)``."""
+    from pito_core.calibration import get_method
+    from pito_core.calibration._targets import MountGeometry, block_targets
+
+    spec = get_method(method)
+    counts = np.asarray(session.counts, dtype=float)
+    loaded = np.asarray(session.loaded, dtype=bool)
+    free = ~loaded.any(axis=1)
+    offset = counts[free].mean(axis=0)
+    S = counts - offset
+    targets, carries, usable, _ = block_targets(np.asarray(session.reference, float), loaded, MountGeometry(session),
+                                                spec.output_frame)
+    groups = []
+    if spec.inputs == "own":
+        for f in output_faces:
+            rows = usable & (carries[:, f - 1] | free)
+            cols = np.arange(6 * (f - 1), 6 * f)
+            groups.append(((f,), cols, S[np.ix_(rows, cols)], targets[rows, f - 1, :]))
+    else:
+        idx = [f - 1 for f in output_faces]
+        groups.append((tuple(output_faces), np.arange(36), S[usable], targets[usable][:, idx, :].reshape(-1, 6 * len(idx))))
+    return spec, offset, groups
+
+
+def plain_fit(session, method, output_faces, solver: str = "lstsq"):
+    """The baseline: the same offsets and targets, then one dense NumPy solve.
+
+    Parameters
+    ----------
+    session : CalibrationSession
+        In memory.
+    method : str
+    output_faces : tuple of int
+        Faces to output (those ``calibrate`` chose).
+    solver : {"lstsq", "pinv"}
+        ``numpy.linalg.lstsq(S, W, rcond=None)`` or ``numpy.linalg.pinv(S) @ W``.
+
+    Returns
+    -------
+    Calibration
+    """
+    from pito_core.calibration import Calibration
+
+    spec, offset, groups = _design(session, method, output_faces)
+    matrix = np.zeros((6 * len(output_faces), 36))
+    row_of = {f: r for r, f in enumerate(output_faces)}
+    for faces, cols, S, W in groups:
+        X = np.linalg.lstsq(S, W, rcond=None)[0] if solver == "lstsq" else np.linalg.pinv(S) @ W
+        C = X.T
+        for k, f in enumerate(faces):
+            matrix[6 * row_of[f] : 6 * row_of[f] + 6][:, cols] = C[6 * k : 6 * k + 6]
+    return Calibration(method, matrix, output_faces, spec.output_frame, offset, session.core, session.T_core_ati,
+                       meta={"method": method, "solver": f"numpy.linalg.{solver}"})
+
+
+def _traced_peak_mb(fn) -> float:
+    """Peak memory allocated while ``fn()`` runs (tracemalloc, which numpy reports to), MB."""
+    import tracemalloc
+
+    tracemalloc.start()
+    try:
+        fn()
+        return tracemalloc.get_traced_memory()[1] / 1e6
+    finally:
+        tracemalloc.stop()
+
+
+# ---------------------------------------------------------------- subprocess tasks
+def task_generate(jobs) -> dict:
+    """Write simulated session files: ``jobs`` = list of ``[path, flange, connected_face, n, seed]``."""
+    out = []
+    for path, flange, face, n, seed in jobs:
+        t0 = time.perf_counter()
+        write_session_file(path, flange, face, n, seed)
+        out.append({"path": path, "flange": flange, "n": n, "seconds": time.perf_counter() - t0,
+                    "file_MB": os.path.getsize(path) / 1e6})
+    return {"generated": out}
+
+
+def task_memory(k, train, test, methods, repeat=3) -> dict:
+    """In-memory fits of every method at size k, with the NumPy baselines and the cores."""
+    from pito_core.calibration import CalibrationSession, calibrate, evaluate
+    from pito_core.calibration._lstsq import StreamedQR
+
+    sessions = {fl: CalibrationSession.load(p) for fl, p in train.items()}
+    tests = {fl: CalibrationSession.load(p) for fl, p in test.items()}
+    rows = []
+    for method in methods:
+        flange = MOUNT_OF_METHOD[method][0]
+        s, te = sessions[flange], tests[flange]
+        budget = 20.0
+        t_pito, cal = best_time(lambda: calibrate(s, method), repeat, budget)
+        t_lstsq, cal_l = best_time(lambda: plain_fit(s, method, cal.output_faces, "lstsq"), repeat, budget)
+        t_pinv, cal_p = best_time(lambda: plain_fit(s, method, cal.output_faces, "pinv"), repeat, budget)
+        row = {"method": method, "k": len(s), "mode": "memory", "fit_s": t_pito, "lstsq_fit_s": t_lstsq,
+               "pinv_fit_s": t_pinv, "time_ratio_lstsq": t_pito / t_lstsq, "time_ratio_pinv": t_pito / t_pinv}
+        for name, c in (("", cal), ("lstsq_", cal_l), ("pinv_", cal_p)):
+            for key, v in rmse_summary(evaluate(c, te)).items():
+                row[name + key] = v
+        # memory the fit allocates beyond its input (numpy reports to tracemalloc), pito vs lstsq
+        row["fit_alloc_MB"] = _traced_peak_mb(lambda: calibrate(s, method))
+        row["lstsq_fit_alloc_MB"] = _traced_peak_mb(lambda: plain_fit(s, method, cal.output_faces, "lstsq"))
+        row["alloc_ratio_lstsq"] = row["fit_alloc_MB"] / row["lstsq_fit_alloc_MB"]
+        row["rmse_ratio_lstsq"] = row["rmse_force_N"] / row["lstsq_rmse_force_N"]
+        row["rmse_ratio_pinv"] = row["rmse_force_N"] / row["pinv_rmse_force_N"]
+        row["rmse_torque_ratio_lstsq"] = row["rmse_torque_Nm"] / row["lstsq_rmse_torque_Nm"]
+        # the least-squares cores alone, on the same S and W (methods fitting all 36 gauges at once)
+        _, _, groups = _design(s, method, cal.output_faces)
+        if len(groups) == 1:
+            _, _, S, W = groups[0]
+
+            def core():
+                acc = StreamedQR(S.shape[1], W.shape[1])
+                acc.add(S, W)
+                return acc.solve()
+
+            t_core, _ = best_time(core, repeat, budget)
+            t_core_l, _ = best_time(lambda: np.linalg.lstsq(S, W, rcond=None), repeat, budget)
+            row.update({"core_s": t_core, "lstsq_core_s": t_core_l, "core_time_ratio_lstsq": t_core / t_core_l,
+                        "core_rows": int(S.shape[0]), "core_cols": f"{S.shape[1]}x{W.shape[1]}"})
+        rows.append(row)
+    return {"rows": rows}
+
+
+def task_stream(path, method, test_path, block_size=65536) -> dict:
+    """One streamed fit from a session file (lazy), alone in its process: time and memory."""
+    from pito_core.calibration import CalibrationSession, calibrate, evaluate
+
+    session = CalibrationSession.load(path, lazy=True)
+    rss0 = _current_rss_mb()
+    t0 = time.perf_counter()
+    cal = calibrate(session, method, block_size=block_size)
+    dt = time.perf_counter() - t0
+    peak = peak_rss_mb()
+    row = {"method": method, "k": len(session), "mode": "streamed", "fit_s": dt, "rss_before_MB": rss0,
+           "fit_peak_rss_MB": peak, "fit_extra_MB": peak - rss0, "block_size": block_size}
+    row.update(rmse_summary(evaluate(cal, CalibrationSession.load(test_path))))
+    # baseline: one bare pass over the file (HDF5 read + gzip inflate, float conversion)
+    t0 = time.perf_counter()
+    for _ in session.iter_blocks(block_size):
+        pass
+    row["read_pass_s"] = time.perf_counter() - t0
+    row["ratio_read_pass"] = dt / row["read_pass_s"]
+    return row
+
+
+# ---------------------------------------------------------------- orchestration
+def run_calibration(sizes, workdir, *, quick: bool = False, methods=METHODS, threads: int = 1,
+                    n_test: int = 20_000, progress=print) -> dict:
+    """Run the calibration benchmark (each measurement in a subprocess); returns the JSON section."""
+    os.makedirs(workdir, exist_ok=True)
+    mounts = sorted({MOUNT_OF_METHOD[m] for m in methods})
+    test = {fl: os.path.join(workdir, f"test_{fl}.h5") for fl, _ in mounts}
+    gen_rows = run_worker("cal_generate", {"jobs": [[test[fl], fl, c, n_test, 12345] for fl, c in mounts]},
+                          threads=threads)["generated"]
+    memory_rows, stream_rows = [], []
+    for k in sizes:
+        k = int(k)
+        big = k > MAX_ALL_METHODS_STREAMED
+        ms = [m for m in methods if not big or m == "unloaded_frame"]
+        if big and not ms:
+            continue
+        need = sorted({MOUNT_OF_METHOD[m] for m in ms})
+        train = {fl: os.path.join(workdir, f"train_{fl}_{k}.h5") for fl, _ in need}
+        progress(f"calibration: generating {k:.0e} simulated samples × {len(need)} mount(s)")
+        gen_rows += run_worker("cal_generate", {"jobs": [[train[fl], fl, c, k, 1] for fl, c in need]},
+                               threads=threads)["generated"]
+        if k <= MAX_IN_MEMORY:
+            progress(f"calibration: in-memory fits, k = {k:.0e}")
+            repeat = (2 if k < 100_000 else 1) if quick else (3 if k <= 100_000 else 1)
+            r = run_worker("cal_memory", {"k": k, "train": train, "test": {fl: test[fl] for fl in train},
+                                          "methods": list(ms), "repeat": repeat}, threads=threads)
+            for row in r["rows"]:
+                row["peak_rss_MB"] = r["peak_rss_mb"]
+            memory_rows += r["rows"]
+        stream_methods = ms if not quick else [m for m in ms if m == "unloaded_frame"]
+        for m in stream_methods:
+            progress(f"calibration: streamed fit from file, {m}, k = {k:.0e}")
+            fl = MOUNT_OF_METHOD[m][0]
+            row = run_worker("cal_stream", {"path": train[fl], "method": m, "test_path": test[fl]}, threads=threads)
+            row["peak_rss_MB"] = row.pop("peak_rss_mb")
+            stream_rows.append(row)
+        for p in train.values():
+            os.remove(p)
+    mem_by = {(r["method"], r["k"]): r for r in memory_rows}
+    for row in stream_rows:
+        ref = mem_by.get((row["method"], row["k"]))
+        if ref is not None:
+            row["time_ratio_memory"] = row["fit_s"] / ref["fit_s"]
+            row["time_ratio_lstsq"] = row["fit_s"] / ref["lstsq_fit_s"]
+            row["rmse_ratio_lstsq"] = row["rmse_force_N"] / ref["lstsq_rmse_force_N"]
+    for p in test.values():
+        os.remove(p)
+    return {
+        "data": "simulated (pito_core.sim.VirtualCube seed 0; loads uniform ±15 N, ±0.1 N·m, one face at a time)",
+        "threads": threads,
+        "n_test": n_test,
+        "memory": memory_rows,
+        "streamed": stream_rows,
+        "generation": gen_rows,
+    }
+
+
+# ---------------------------------------------------------------- default vs plain LS on random cubes
+def plain_affine_fit(session, method, output_faces):
+    """The papers' plain affine least squares, independently of ``calibrate``: ``predict(counts) -> (N, 6, 6)``.
+
+    ``[1 | counts − mean] X = W`` by ``numpy.linalg.lstsq`` (centring the columns is an exact
+    re-parametrisation of the affine model), tare samples as zero-wrench rows, the targets
+    of ``block_targets``; face wrenches in face frames, NaN where no output.
+    """
+    from pito_core.calibration import get_method
+    from pito_core.calibration._targets import MountGeometry, block_targets
+    from pito_core.frames import invert_pose, wrench_adjoint
+
+    spec = get_method(method)
+    counts = np.asarray(session.counts, dtype=float)
+    loaded = np.asarray(session.loaded, dtype=bool)
+    free = ~loaded.any(axis=1)
+    T, carries, usable, _ = block_targets(np.asarray(session.reference, float), loaded, MountGeometry(session),
+                                          spec.output_frame)
+    mean = counts.mean(axis=0)
+    Sc = counts - mean
+    models = []
+    if spec.inputs == "own":
+        for f in output_faces:
+            rows = usable & (carries[:, f - 1] | free)
+            cols = slice(6 * (f - 1), 6 * f)
+            X = np.linalg.lstsq(np.c_[np.ones(rows.sum()), Sc[rows, cols]], T[rows, f - 1], rcond=None)[0]
+            models.append(((f,), cols, X))
+    else:
+        idx = [f - 1 for f in output_faces]
+        X = np.linalg.lstsq(np.c_[np.ones(usable.sum()), Sc[usable]], T[usable][:, idx].reshape(-1, 6 * len(idx)),
+                            rcond=None)[0]
+        models.append((tuple(output_faces), slice(0, 36), X))
+    T_ati_core = invert_pose(session.T_core_ati)
+
+    def predict(new_counts):
+        x = np.asarray(new_counts, float) - mean
+        W = np.full((len(x), 6, 6), np.nan)
+        for faces, cols, X in models:
+            Y = X[0] + x[:, cols] @ X[1:]
+            for k, f in enumerate(faces):
+                y = Y[:, 6 * k : 6 * k + 6]
+                if spec.output_frame == "reference":
+                    y = y @ wrench_adjoint(T_ati_core @ session.core.face_pose(f)).T
+                W[:, f - 1] = y
+        return W
+
+    return predict
+
+
+def task_random_cubes(n_cubes, k_choices, seed=0, prior=False) -> dict:
+    """Held-out RMSE of ``calibrate`` (defaults) over the plain affine fit, on random cubes, per method.
+
+    Cubes from ``pito_core.sim.random_sensor`` (condition 1..10³, coupling 0–10 %, noise
+    0.5–5 counts, offsets ±3·10⁷), every connected face in turn, 50–500 tare samples;
+    held-out single-face and squeeze loads (pairs of faces) on the same mount; truth =
+    the simulated face wrenches. With ``prior``, also ``prior="own_gauge"`` where it applies.
+    """
+    import warnings
+
+    from pito_core.calibration import calibrate
+    from pito_core.sim import random_sensor, random_sensor_session
+
+    rng = np.random.default_rng(seed)
+    rows = []
+    for method in METHODS:
+        flange = MOUNT_OF_METHOD[method][0]
+        ratios = {key: [] for key in ("force", "torque", "prior_force", "prior_torque")}
+        t_fit = 0.0
+        for i in range(int(n_cubes)):
+            face = 1 + i % 6
+            sensor = random_sensor(int(rng.integers(2**31)), condition=(1.0, 10 ** rng.uniform(0, 3)),
+                                   coupling=(0.0, rng.uniform(0, 0.1)), noise=tuple(sorted(rng.uniform(0.5, 5, 2))),
+                                   offset=10 ** rng.uniform(0, np.log10(3e7)))
+            faces = [f for f in range(1, 7) if f != face] if method == "unloaded_frame" else None
+            k = int(rng.choice(k_choices))
+            train, _ = random_sensor_session(sensor, flange, face, k, n_tare=int(rng.integers(50, 501)), faces=faces,
+                                             seed=1)
+            loadable = faces or [f for f in range(1, 7) if not (flange == "frame" and f == face)]
+            pairs = [(loadable[j], loadable[(j + 1) % len(loadable)]) for j in range(len(loadable))]
+            test, truth = random_sensor_session(sensor, flange, face, 500, n_tare=20, faces=faces, seed=2,
+                                                squeeze_pairs=pairs)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                t0 = time.perf_counter()
+                cal = calibrate(train, method)
+                t_fit += time.perf_counter() - t0
+                cal_p = calibrate(train, method, prior="own_gauge") if prior and method != "face_to_face" else None
+            Wp = plain_affine_fit(train, method, cal.output_faces)(test.counts)
+            n_loaded = test.loaded.sum(axis=1)
+            for rows_k in (n_loaded == 1, n_loaded == 2):
+                mask = test.loaded & rows_k[:, None] & cal.has_output[None]
+                for name, c in (("", cal), ("prior_", cal_p)):
+                    if c is None:
+                        continue
+                    e = (c.wrenches(test.counts) - truth)[mask]
+                    ep = (Wp - truth)[mask]
+                    ratios[name + "force"].append(np.sqrt(np.mean(e[:, :3] ** 2) / np.mean(ep[:, :3] ** 2)))
+                    ratios[name + "torque"].append(np.sqrt(np.mean(e[:, 3:] ** 2) / np.mean(ep[:, 3:] ** 2)))
+        row = {"method": method, "flange": flange, "n_cubes": int(n_cubes), "n_cases": len(ratios["force"]),
+               "k_per_face": [int(k) for k in k_choices], "fit_s_total": t_fit}
+        for key, v in ratios.items():
+            if v:
+                row[f"{key}_ratio_worst"] = float(np.max(v))
+                row[f"{key}_ratio_median"] = float(np.median(v))
+        rows.append(row)
+    return {"rows": rows}
+
+
+def random_cube_ratios(quick: bool = False, threads: int = 1, progress=print) -> dict:
+    """The section ``calibration.random_cubes`` of ``pito bench`` (in a subprocess)."""
+    n = 6 if quick else 24
+    k_choices = [200, 1000] if quick else [200, 1000, 5000, 20000]
+    progress(f"calibration: default vs plain least squares on {n} random cubes per method")
+    r = run_worker("cal_random", {"n_cubes": n, "k_choices": k_choices, "seed": 0, "prior": True}, threads=threads)
+    return {"data": "simulated: pito_core.sim.random_sensor (not the structured VirtualCube)", "rows": r["rows"]}

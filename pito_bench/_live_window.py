@@ -1,0 +1,230 @@
+"""``pito bench --sections live``: the WHOLE live window as a user sees it.
+
+``python -m pito_bench._live_window [--json] [--quick] [--seconds S]``
+
+What runs: ``pito-app --demo``'s own :class:`app.window.MainWindow` — the simulated devices in
+their child process (a pty and loopback UDP), the real drivers and acquisition, the worker
+thread and its core pipeline, the live tab at 1440×900 px — on a private Xvfb display
+(software OpenGL; ``QT_QPA_PLATFORM`` unset, no off-screen rendering).
+
+How it is measured, from outside the app's process:
+
+- frame stamps (:mod:`pito_bench._stamp`): the app draws the time of the newest sample each
+  view shows (host ``CLOCK_MONOTONIC``; sample times are the device clocks mapped onto it)
+  as the colour of a 10×10 px square in the 3D scene and in the force plot, in the same
+  paint as the data;
+- a grabber in this process reads the scene's and the plots' rectangles with ``XGetImage``
+  ~100 times a second (:mod:`pito_bench._xgrab`);
+- frame rate of a view = new stamps seen per second (frames that showed new data); also the
+  grabs whose pixels changed at all. Both are capped by the grab rate (reported);
+- latency = (time of the first grab showing a stamp) − (the stamped sample's time): from the
+  sample's time on the device clock to the pixels on the X server; it overestimates by up to
+  one grab period (~10 ms, half of it on average).
+
+Figures depend on the machine and on its load: the load average before and after is in the
+result. The app and the grabber share the machine with the simulated devices.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["run", "main"]
+
+SIZE = (1440, 900)
+
+
+def _run_app(regions: str, seconds: float, warmup: float) -> int:
+    """In the app's process: the demo window with frame stamps; writes the regions JSON when warm."""
+    from PySide6.QtCore import QTimer
+    from PySide6.QtWidgets import QApplication
+
+    app = QApplication(sys.argv[:1])
+    from app.theme import STYLE
+    from app.window import MainWindow
+
+    from ._stamp import WindowProbe
+
+    app.setStyleSheet(STYLE)
+    w = MainWindow(demo=True)
+    w.resize(*SIZE)
+    w.move(0, 0)
+    w.show()
+    probe = WindowProbe(w)
+
+    def write_regions():
+        info = probe.regions()
+        info["pid"] = os.getpid()
+        info["renderer"] = _renderer(w.live.scene.plotter)
+        Path(regions).write_text(json.dumps(info))
+
+    QTimer.singleShot(int(warmup * 1000), write_regions)
+    QTimer.singleShot(int((warmup + seconds) * 1000), app.quit)
+    app.exec()
+    w.shutdown()
+    w.release_views()
+    return 0
+
+
+def _renderer(plotter) -> str:
+    try:
+        caps = plotter.ren_win.ReportCapabilities()
+    except Exception:  # noqa: BLE001 - a figure for the report only
+        return "unknown"
+    for line in caps.splitlines():
+        if "renderer string" in line.lower():
+            return line.split(":", 1)[1].strip()
+    return "unknown"
+
+
+def _percentiles(values) -> dict:
+    v = np.asarray(values, dtype=float)
+    if v.size == 0:
+        return {"p50": None, "p95": None, "max": None, "n": 0}
+    return {"p50": float(np.percentile(v, 50)), "p95": float(np.percentile(v, 95)), "max": float(v.max()),
+            "n": int(v.size)}
+
+
+def _grab(display: str, regions_path: Path, seconds: float, rate: float, app_proc) -> dict:
+    from ._stamp import decode
+    from ._xgrab import Grabber
+
+    t_wait = time.monotonic() + 180
+    while not regions_path.exists():
+        if app_proc.poll() is not None:
+            raise RuntimeError(f"the app exited (code {app_proc.returncode}) before showing its window")
+        if time.monotonic() > t_wait:
+            raise RuntimeError("the app did not show its window within 180 s")
+        time.sleep(0.1)
+    time.sleep(0.3)
+    reg = json.loads(regions_path.read_text())
+    g = Grabber(display)
+    keys = ("scene", "plots")
+    stamp_xy = {"scene": reg["scene_stamp"], "plots": reg["plot_stamp"]}
+    prev = dict.fromkeys(keys)
+    changed = dict.fromkeys(keys, 0)
+    last_stamp = dict.fromkeys(keys)
+    lat = {k: [] for k in keys}
+    bad = dict.fromkeys(keys, 0)
+    n = 0
+    period = 1.0 / rate
+    t0 = time.monotonic()
+    t_next, t_end = t0, t0 + seconds
+    while time.monotonic() < t_end:
+        now = time.monotonic()
+        if now < t_next:
+            time.sleep(t_next - now)
+        t_next += period
+        for key in keys:
+            x, y, w, h = reg[key]
+            ta = time.monotonic()
+            img = g.grab(x, y, w, h)
+            t_mid = 0.5 * (ta + time.monotonic())
+            if prev[key] is not None and not np.array_equal(img, prev[key]):
+                changed[key] += 1
+            prev[key] = img
+            sx, sy = stamp_xy[key]
+            b, gg, r = (int(v) for v in img[sy - y, sx - x, :3])  # BGRA
+            if (r, gg, b) == (0, 0, 0):
+                continue  # no data shown yet
+            ts = decode((r, gg, b), t_mid)
+            if ts != last_stamp[key]:
+                if last_stamp[key] is not None:  # the first one may have been on screen for a while
+                    d = t_mid - ts
+                    if 0.0 <= d < 5.0:
+                        lat[key].append(1000.0 * d)
+                    else:
+                        bad[key] += 1
+                last_stamp[key] = ts
+        n += 1
+    dt = time.monotonic() - t0
+    out = {"grabs_per_s": n / dt, "seconds": dt, "renderer": reg.get("renderer"), "size": list(SIZE),
+           "regions": {k: reg[k] for k in keys}}
+    for key in keys:
+        out[key] = {"frames_per_s": len(lat[key]) / dt, "changed_grabs_per_s": changed[key] / dt,
+                    "latency_ms": _percentiles(lat[key]), "bad_stamps": bad[key]}
+    return out
+
+
+def run(quick: bool = False, seconds: float | None = None, rate: float = 100.0, warmup: float = 12.0) -> dict:
+    """Measure the demo window; returns a JSON-able dict (``status`` "ok" or why not)."""
+    if shutil.which("Xvfb") is None:
+        return {"status": "skipped: Xvfb not installed (the window is measured on a private X display)"}
+    seconds = seconds or (8.0 if quick else 20.0)
+    num = 90 + os.getpid() % 400
+    display = f":{num}"
+    xvfb = subprocess.Popen(["Xvfb", display, "-ac", "-nolisten", "tcp", "-screen", "0", "1600x1000x24"],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    regions = Path(f"/tmp/pito_bench_live_{os.getpid()}.json")
+    regions.unlink(missing_ok=True)
+    load0 = os.getloadavg()
+    try:
+        time.sleep(1.5)
+        env = dict(os.environ, DISPLAY=display)
+        env.pop("QT_QPA_PLATFORM", None)
+        env.pop("PYVISTA_OFF_SCREEN", None)
+        app = subprocess.Popen([sys.executable, "-m", "pito_bench._live_window", "--run-app", str(regions),
+                                "--seconds", str(seconds + 3), "--warmup", str(warmup)], env=env,
+                               stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        try:
+            res = _grab(display, regions, seconds, rate, app)
+        except RuntimeError as exc:
+            app.kill()
+            err = " | ".join((app.stderr.read() or "").strip().splitlines()[-3:])
+            return {"status": f"failed: {exc}: {err}"}
+        finally:
+            try:
+                app.wait(timeout=60)
+            except subprocess.TimeoutExpired:
+                app.kill()
+                app.wait()
+    finally:
+        xvfb.terminate()
+        xvfb.wait()
+        regions.unlink(missing_ok=True)
+    res["status"] = "ok"
+    res["loadavg_before"], res["loadavg_after"], res["cpus"] = list(load0), list(os.getloadavg()), os.cpu_count()
+    res["method"] = ("pito-app --demo window (devices in a child process) on Xvfb, grabbed from outside at "
+                     f"{rate:g} Hz; frames = new data stamps seen per s; latency = sample time → first grab showing it")
+    return res
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(prog="python -m pito_bench._live_window", description=__doc__,
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--json", action="store_true", help="print one JSON object (frames/s, latencies in ms)")
+    p.add_argument("--quick", action="store_true", help="8 s of grabbing instead of 20 s")
+    p.add_argument("--seconds", type=float, help="seconds of grabbing (s)")
+    p.add_argument("--rate", type=float, default=100.0, help="grabs per second (Hz, default 100)")
+    p.add_argument("--run-app", metavar="REGIONS", help=argparse.SUPPRESS)
+    p.add_argument("--warmup", type=float, default=12.0, help="seconds from start to measuring (s, default 12)")
+    args = p.parse_args(argv)
+    if args.run_app:
+        return _run_app(args.run_app, args.seconds or 20.0, args.warmup)
+    out = run(args.quick, args.seconds, args.rate, args.warmup)
+    if args.json:
+        print(json.dumps(out))
+    elif out["status"] != "ok":
+        print(out["status"])
+    else:
+        print(f"window {out['size'][0]}×{out['size'][1]} px, renderer {out['renderer']}, {out['grabs_per_s']:.0f} grabs/s, "
+              f"load average {out['loadavg_before'][0]:.1f} → {out['loadavg_after'][0]:.1f} on {out['cpus']} CPUs")
+        for key in ("scene", "plots"):
+            r = out[key]
+            L = r["latency_ms"]
+            print(f"{key}: {r['frames_per_s']:.1f} frames/s with new data ({r['changed_grabs_per_s']:.1f} changed grabs/s); "
+                  f"latency p50 {L['p50']} ms, p95 {L['p95']} ms, max {L['max']} ms (n = {L['n']})")
+    return 0 if out["status"] == "ok" or out["status"].startswith("skipped") else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,297 @@
+"""Tables (plain text, units in every header), the targets summary, and plots (matplotlib Agg)."""
+
+from __future__ import annotations
+
+import math
+import os
+
+__all__ = ["format_report", "targets", "write_plots", "text_table"]
+
+
+def _f(x, digits=3) -> str:
+    if x is None:
+        return "—"
+    try:
+        x = float(x)
+    except (TypeError, ValueError):
+        return str(x)
+    if not math.isfinite(x):
+        return "—"
+    if x != 0 and (abs(x) >= 1e6 or abs(x) < 1e-3):
+        return f"{x:.{digits - 1}e}"
+    return f"{x:.{digits}g}"
+
+
+def _n(x) -> float:
+    """None (a NaN in the JSON) back to NaN, for arithmetic and plots."""
+    return float("nan") if x is None else float(x)
+
+
+def text_table(title, header, rows) -> str:
+    """Right-aligned columns; first column left-aligned."""
+    cols = [list(map(str, header))] + [[str(c) for c in r] for r in rows]
+    w = [max(len(r[k]) for r in cols) for k in range(len(header))]
+    line = lambda r: "  ".join(c.ljust(w[k]) if k == 0 else c.rjust(w[k]) for k, c in enumerate(r))  # noqa: E731
+    return "\n".join([title, line(cols[0]), "  ".join("-" * x for x in w)] + [line(r) for r in cols[1:]])
+
+
+# ---------------------------------------------------------------- targets
+def _nearest(rows, k):
+    return min(rows, key=lambda r: abs(math.log10(r["k"]) - math.log10(k))) if rows else None
+
+
+def targets(result: dict) -> list[dict]:
+    """The issue's targets against this run: ``target``, ``measured``, ``met`` (bool or None)."""
+    out = []
+    cal = result.get("calibration")
+    if cal:
+        mem = [r for r in cal["memory"] if r["method"] in ("unloaded_frame", "total") and "core_s" in r]
+        r = _nearest(mem, 1e5)
+        if r:
+            out.append({"target": "36×36 fit from 10⁵ samples ≤ 50 ms",
+                        "measured": f"calibrate(): {r['fit_s'] * 1e3:.0f} ms, least-squares core: {r['core_s'] * 1e3:.0f} ms "
+                                    f"({r['method']}, k = {r['k']:,})",
+                        "met": r["fit_s"] <= 0.05, "value_s": r["fit_s"], "core_s": r["core_s"]})
+        st = [r for r in cal["streamed"] if r["k"] >= 5e6]
+        if st:
+            r = max(st, key=lambda r: r["k"])
+            out.append({"target": "10⁷ samples streamed ≤ 30 s under 500 MB",
+                        "measured": f"{r['fit_s']:.1f} s, peak RSS {r['fit_peak_rss_MB']:.0f} MB (k = {r['k']:,})",
+                        "met": r["fit_s"] <= 30 and r["fit_peak_rss_MB"] <= 500})
+    con = result.get("contact")
+    if con:
+        rates = {(s["surface"], s["solver"]): s["solves_per_s"] for s in con["speed"]}
+        for kind, goal in (("sphere", 3e6), ("plane", 3e6), ("ellipsoid", 1e6)):
+            v = rates.get((kind, "closed form (soft finger)"))
+            if v is not None:
+                out.append({"target": f"contact {kind} ≥ {goal:.0e} solves/s (one core)", "measured": f"{v:.3g} solves/s",
+                            "met": v >= goal})
+        acc = [a for a in con["accuracy"] if math.isfinite(_n(a["crb_ratio"]))]
+        if acc:
+            worst = max(acc, key=lambda a: a["crb_ratio"])
+            bad = [a for a in acc if a["crb_ratio"] > 1.05]
+            out.append({"target": "contact error ≤ 1.05 × CRB in every scenario",
+                        "measured": f"{len(acc) - len(bad)}/{len(acc)} scenarios; worst {worst['crb_ratio']:.2f} "
+                                    f"({worst['surface']}, {worst['scenario']}, {worst['noise']} noise)",
+                        "met": not bad})
+    pipe = result.get("pipeline")
+    if pipe:
+        rows = pipe["decode"]["rows"]
+        one = next(r for r in rows if "156" in r["decoder"])
+        big = next(r for r in rows if "4 KiB" in r["decoder"])
+        out.append({"target": "serial decoding ≥ 20 × real time at 1 kHz",
+                    "measured": f"{one['realtime_factor_1kHz']:.1f}× (one frame per read), {big['realtime_factor_1kHz']:.0f}× (4 KiB reads)",
+                    "met": one["realtime_factor_1kHz"] >= 20})
+    live = result.get("live")
+    lat_src = live if live and live.get("status") == "ok" and "scene" in live else None
+    if lat_src:
+        sc, pl = live["scene"], live["plots"]
+        worst95 = max(_n(sc["latency_ms"]["p95"]), _n(pl["latency_ms"]["p95"]))
+        out.append({"target": "whole window: scene and plots each ≥ 30 frames/s (software GL, devices in their own process)",
+                    "measured": f"scene {sc['frames_per_s']:.1f}, plots {pl['frames_per_s']:.1f} frames/s with new data "
+                                f"(load average {live['loadavg_before'][0]:.1f} on {live['cpus']} CPUs)",
+                    "met": sc["frames_per_s"] >= 30 and pl["frames_per_s"] >= 30})
+        out.append({"target": "frame → screen latency p95 ≤ 50 ms (sample time → pixels, read off the screen)",
+                    "measured": f"scene p50 {_f(sc['latency_ms']['p50'])} / p95 {_f(sc['latency_ms']['p95'])} ms; "
+                                f"plots p50 {_f(pl['latency_ms']['p50'])} / p95 {_f(pl['latency_ms']['p95'])} ms",
+                    "met": worst95 <= 50})
+    elif pipe and pipe.get("live"):
+        r = pipe["live"][0]
+        out.append({"target": "latency ≤ 20 ms (frame arrival → bundle ready, no scene)",
+                    "measured": f"latest frame p50 {r['latest_latency_ms']['p50']:.1f} ms, p95 {r['latest_latency_ms']['p95']:.1f} ms",
+                    "met": r["latest_latency_ms"]["p95"] <= 20})
+    return out
+
+
+# ---------------------------------------------------------------- text
+def format_report(result: dict) -> str:
+    """Every table of a ``run_bench`` result, as text."""
+    parts = []
+    m = result.get("meta", {})
+    parts.append(f"pito bench — {m.get('date', '')}, {m.get('cpu', '')}, {m.get('cpus', '?')} CPUs, "
+                 f"load average {m.get('loadavg', '?')}, BLAS threads per measurement: {m.get('threads', 1)}"
+                 f"{', QUICK' if m.get('quick') else ''}")
+    parts.append("Times are best of repeats; ratios are against baselines measured in the same process and run.")
+    cal = result.get("calibration")
+    if cal:
+        rows = [[r["method"], f"{r['k']:,}", _f(r["fit_s"] * 1e3), _f(r["lstsq_fit_s"] * 1e3), _f(r["time_ratio_lstsq"]),
+                 _f(r["time_ratio_pinv"]), _f(_n(r.get("core_s")) * 1e3), _f(r.get("core_time_ratio_lstsq")),
+                 _f(r["rmse_force_N"]), _f(r["rmse_torque_Nm"]), _f(r["rmse_ratio_lstsq"], 4), _f(r["rmse_ratio_pinv"], 4),
+                 _f(r.get("fit_alloc_MB")), _f(r.get("alloc_ratio_lstsq"))]
+                for r in cal["memory"]]
+        parts.append(text_table(
+            f"Calibration, in memory ({cal['data']}; held-out RMSE on {cal['n_test']:,} samples; "
+            "fit alloc = peak memory allocated during the fit, tracemalloc)",
+            ["method", "k (samples)", "fit (ms)", "lstsq fit (ms)", "time ratio lstsq", "time ratio pinv",
+             "QR core (ms)", "core ratio lstsq", "RMSE F (N)", "RMSE T (N·m)", "RMSE ratio lstsq", "RMSE ratio pinv",
+             "fit alloc (MB)", "alloc ratio lstsq"], rows))
+        rows = [[r["method"], f"{r['k']:,}", _f(r["fit_s"]), _f(r.get("read_pass_s")), _f(r.get("ratio_read_pass")),
+                 _f(r.get("time_ratio_memory")), _f(r.get("time_ratio_lstsq")),
+                 _f(r["rmse_force_N"]), _f(r.get("rmse_ratio_lstsq"), 4), _f(r["fit_peak_rss_MB"]), _f(r["rss_before_MB"])]
+                for r in cal["streamed"]]
+        parts.append(text_table(
+            "Calibration, streamed from a session file (CalibrationSession.load(path, lazy=True), gzip HDF5)",
+            ["method", "k (samples)", "fit (s)", "one read pass (s)", "ratio read pass", "ratio in-memory",
+             "ratio lstsq", "RMSE F (N)", "RMSE ratio lstsq", "peak RSS (MB)", "RSS before fit (MB)"], rows))
+        rc = cal.get("random_cubes")
+        if rc:
+            rows = [[r["method"], r["flange"], str(r["n_cases"]), _f(r.get("force_ratio_worst"), 4),
+                     _f(r.get("force_ratio_median"), 4), _f(r.get("torque_ratio_worst"), 4),
+                     _f(r.get("torque_ratio_median"), 4), _f(r.get("prior_force_ratio_worst"), 3),
+                     _f(r.get("prior_force_ratio_median"), 3), _f(r.get("prior_torque_ratio_median"), 3)]
+                    for r in rc["rows"]]
+            parts.append(text_table(
+                f"Calibration, default fit against the papers' plain affine least squares ({rc['data']}; held-out "
+                "single-face and squeeze RMSE ratios, every connected face)",
+                ["method", "flange", "cases", "F ratio worst", "F ratio median", "T ratio worst", "T ratio median",
+                 "prior F worst", "prior F median", "prior T median"], rows))
+        rows = [[os.path.basename(g["path"]), f"{g['n']:,}", _f(g["seconds"]), _f(g["file_MB"])] for g in cal["generation"]]
+        parts.append(text_table("Simulated session files (generation, not fit time)",
+                                ["file", "samples", "generation (s)", "size (MB)"], rows))
+    con = result.get("contact")
+    if con:
+        rows = [[s["surface"], s["solver"], _f(s["solves_per_s"]), _f(s["speed_ratio_scipy"]), f"{s['batch']:,}"]
+                for s in con["speed"]]
+        parts.append(text_table(f"Contact speed (one thread; batch of wrenches, mid noise)",
+                                ["surface", "solver", "solves/s", "ratio scipy (same model)", "batch"], rows))
+        rows = []
+        for a in con["accuracy"]:
+            rows.append([a["surface"], a["scenario"], f"{a['noise']} ({a['sigma_force_N']:g} N, {a['sigma_moment_Nm']:g} N·m)",
+                         f"{100 * a['valid_fraction']:.1f}", _f(_n(a["rms_point_error_m"]) * 1e3), _f(_n(a["crb_rms_m"]) * 1e3),
+                         _f(a["crb_ratio"]), _f(a["force_crb_ratio"]), _f(a.get("scipy_crb_ratio")),
+                         _f(a.get("error_ratio_scipy"))])
+        parts.append(text_table(
+            "Contact accuracy: RMS point error over valid estimates vs the Cramér–Rao bound (1.00 = efficient)",
+            ["surface", "scenario", "noise (σF, σM)", "valid (%)", "RMS error (mm)", "CRB (mm)", "error/CRB",
+             "force error/CRB", "scipy error/CRB", "pito/scipy error"], rows))
+        rows = [[p["surface"], p["solver"], _f(p["solves_per_s"]), _f(p["worst_crb_ratio"]), "yes" if p["pareto"] else ""]
+                for p in con["pareto"]]
+        parts.append(text_table("Contact speed vs error (Pareto; error = worst error/CRB over the scenarios the solver handles)",
+                                ["surface", "solver", "solves/s", "worst error/CRB", "Pareto-optimal"], rows))
+    pipe = result.get("pipeline")
+    if pipe:
+        rows = [[r["decoder"], _f(r["frames_per_s"]), _f(r["realtime_factor_1kHz"]), _f(r["ratio_naive"])]
+                for r in pipe["decode"]["rows"]]
+        parts.append(text_table(f"Serial decoding ({pipe['decode']['frames']:,} frames of 156 B)",
+                                ["decoder", "frames/s", "× real time (1 kHz)", "ratio naive"], rows))
+        tc = pipe.get("tick_cost")
+        if tc:
+            parts.append(text_table(
+                f"Per display tick ({tc['per_tick']} new samples; rings of 30 s at 1 kHz), ms",
+                ["step", "p50", "p95", "max"],
+                [[r["step"], _f(r["p50"]), _f(r["p95"]), _f(r["max"])] for r in tc["rows"]]))
+        parts.append(_live_table("Live pipeline, no scene (pty at 1 kHz → PitoSerial → Acquisition → "
+                                 "AcquisitionReader → Pipeline.feed: calibration, six solves)",
+                                 pipe.get("live", [])))
+    live = result.get("live")
+    if live:
+        if live.get("status") != "ok" or "scene" not in live:
+            parts.append(f"Live window: {live.get('status')}")
+        else:
+            rows = [[name, _f(r["frames_per_s"]), _f(r["changed_grabs_per_s"]), _f(r["latency_ms"]["p50"]),
+                     _f(r["latency_ms"]["p95"]), _f(r["latency_ms"]["max"]), str(r["latency_ms"]["n"])]
+                    for name, r in (("3D scene", live["scene"]), ("plots", live["plots"]))]
+            parts.append(text_table(
+                f"Live window, whole (pito-app --demo, {live['size'][0]}×{live['size'][1]} px, {live.get('renderer', '')}; "
+                f"grabbed from outside at {live['grabs_per_s']:.0f} Hz; load average {live['loadavg_before'][0]:.1f} → "
+                f"{live['loadavg_after'][0]:.1f} on {live['cpus']} CPUs)",
+                ["view", "frames/s (new data)", "changed grabs/s", "latency p50 (ms)", "p95 (ms)", "max (ms)", "n"], rows))
+    tg = result.get("targets")
+    if tg:
+        parts.append(text_table("Targets", ["target", "measured", "met"],
+                                [[t["target"], t["measured"], {True: "yes", False: "NO", None: "—"}[t["met"]]] for t in tg]))
+    return "\n\n".join(p for p in parts if p) + "\n"
+
+
+def _live_table(title, runs) -> str:
+    if not runs:
+        return ""
+    rows = []
+    for r in runs:
+        mode = r.get("label") or ("as frames arrive" if not r["tick_hz"] else f"timer {r['tick_hz']:g} Hz")
+        L, Ll = r["latency_ms"], r["latest_latency_ms"]
+        rows.append([mode, f"{r['frames']}/{r['frames_sent']}", _f(Ll["p50"]), _f(Ll["p95"]), _f(L["p50"]), _f(L["p95"]),
+                     _f(L["max"]), _f(r["transport_ms"]["p50"]), _f(r["processing_ms"]["p50"]),
+                     _f(100 * _n(r["cpu_share"])), _f(r["contact_error_mm"])])
+    return text_table(title, ["processing", "frames", "latest p50 (ms)", "latest p95 (ms)", "all p50 (ms)",
+                              "all p95 (ms)", "all max (ms)", "transport p50 (ms)", "processing p50 (ms)",
+                              "CPU share (%)", "contact error (mm)"], rows)
+
+
+# ---------------------------------------------------------------- plots
+def _save(fig, out_dir: str, name: str) -> str:
+    """Write ``fig`` as ``out_dir/name`` (PNG, 120 dpi), close it, return the path."""
+    import matplotlib.pyplot as plt
+
+    path = os.path.join(out_dir, name)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
+
+
+def write_plots(result: dict, out_dir) -> list[str]:
+    """PNG plots of speed against error into ``out_dir``; returns the paths written."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    os.makedirs(out_dir, exist_ok=True)
+    paths = []
+    tag = " (QUICK run)" if result.get("meta", {}).get("quick") else ""
+    cal = result.get("calibration")
+    if cal and cal["memory"]:
+        fig, ax = plt.subplots(figsize=(7, 5))
+        methods = sorted({r["method"] for r in cal["memory"]})
+        for j, m in enumerate(methods):
+            rs = sorted((r for r in cal["memory"] if r["method"] == m), key=lambda r: r["k"])
+            col = f"C{j}"
+            ax.plot([r["fit_s"] for r in rs], [_n(r["rmse_force_N"]) for r in rs], "o-", color=col, label=f"{m} (pito)")
+            ax.plot([r["lstsq_fit_s"] for r in rs], [_n(r["lstsq_rmse_force_N"]) for r in rs], "s--", color=col, mfc="none",
+                    label=f"{m} (numpy lstsq)")
+            for r in rs:
+                ax.annotate(f"k={r['k']:.0e}", (r["fit_s"], _n(r["rmse_force_N"])), fontsize=6, xytext=(3, 3),
+                            textcoords="offset points")
+        st = cal["streamed"]
+        if st:
+            ax.plot([r["fit_s"] for r in st], [_n(r["rmse_force_N"]) for r in st], "k^", mfc="none", label="streamed from file")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("fit time (s)")
+        ax.set_ylabel("held-out force RMSE (N)")
+        ax.set_title("Calibration: speed vs error, simulated data" + tag)
+        ax.legend(fontsize=6, ncol=2)
+        ax.grid(True, which="both", alpha=0.3)
+        paths.append(_save(fig, out_dir, "calibration_speed_vs_error.png"))
+    con = result.get("contact")
+    if con and con["pareto"]:
+        fig, ax = plt.subplots(figsize=(7, 5))
+        kinds = sorted({p["surface"] for p in con["pareto"]})
+        markers = {"closed form (soft finger)": "o", "point contact (weighted LS)": "D",
+                   "scipy least_squares (soft finger)": "s", "scipy least_squares (point contact)": "v"}
+        for j, kind in enumerate(kinds):
+            for p in (q for q in con["pareto"] if q["surface"] == kind):
+                if not math.isfinite(_n(p["worst_crb_ratio"])):
+                    continue
+                ax.plot(p["solves_per_s"], p["worst_crb_ratio"], markers.get(p["solver"], "x"), color=f"C{j}",
+                        mfc=f"C{j}" if p["pareto"] else "none", ms=8, label=f"{kind}: {p['solver']}")
+        ax.axhline(1.05, color="k", lw=0.8, ls=":", label="target 1.05 × CRB")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("solves per second (one core)")
+        ax.set_ylabel("worst RMS point error / Cramér–Rao bound (1)")
+        ax.set_title("Contact: speed vs error (filled: Pareto-optimal)" + tag)
+        ax.legend(fontsize=6)
+        ax.grid(True, which="both", alpha=0.3)
+        paths.append(_save(fig, out_dir, "contact_speed_vs_error.png"))
+        fig, ax = plt.subplots(figsize=(7, 5))
+        labels = [f"{a['surface']}/{a['scenario']}/{a['noise']}" for a in con["accuracy"]]
+        ax.bar(range(len(labels)), [_n(a["crb_ratio"]) for a in con["accuracy"]], color="C0")
+        ax.axhline(1.05, color="k", lw=0.8, ls=":")
+        ax.set_yscale("log")
+        ax.set_xticks(range(len(labels)), labels, rotation=90, fontsize=6)
+        ax.set_ylabel("RMS point error / Cramér–Rao bound (1)")
+        ax.set_title("Contact: error against the bound per scenario" + tag)
+        paths.append(_save(fig, out_dir, "contact_crb_ratio.png"))
+    return paths

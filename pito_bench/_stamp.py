@@ -1,0 +1,123 @@
+"""Frame stamps on pito-app's live window, read back off the screen by the live-window benchmark.
+
+The time of the newest sample a view shows (host monotonic clock, s) is drawn as the colour
+of a small square in that view, in the same paint as the data: a 10x10 px square in the 3D
+scene's lower-left corner (a VTK 2D actor, set at the start of each render) and one in the
+force plot's upper-left corner (set when the curves are given new data). A screen grabber
+reads the colour back (24 bits = milliseconds modulo 2^24 ≈ 4.7 h) and compares it with its
+own clock (CLOCK_MONOTONIC is shared by all processes): latency = when the stamp first shows
+on the screen − when the sample was taken (device clock mapped to the host clock).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+STAMP_PX = 10
+
+
+def encode(t: float) -> tuple[int, int, int]:
+    v = int(round(t * 1000.0)) & 0xFFFFFF
+    return (v >> 16) & 255, (v >> 8) & 255, v & 255
+
+
+def decode(rgb, t_now: float) -> float:
+    """Sample time (s) from a stamp's (r, g, b), the newest time ≤ ``t_now`` with those 24 bits."""
+    r, g, b = (int(x) for x in rgb)
+    v = (r << 16) | (g << 8) | b
+    now_ms = int(t_now * 1000.0)
+    return (now_ms - ((now_ms - v) & 0xFFFFFF)) / 1000.0
+
+
+class WindowProbe:
+    """Stamps on ``window.live``'s scene and force plot.
+
+    The scene's stamp shows ``live.scene_time`` (s), the plot's ``force_plot.last_time`` (s);
+    for a window that has neither (an older app), the probe keeps them itself by wrapping
+    ``live.on_bundle`` and ``force_plot.refresh``.
+    """
+
+    def __init__(self, window):
+        import vtk
+        from PySide6.QtGui import QBrush, QColor, QPen
+        from PySide6.QtWidgets import QGraphicsRectItem
+
+        self._QColor, self._QBrush = QColor, QBrush
+        live = self.live = window.live
+        self.scene_time = float("nan")
+        self.renders = 0
+        # --- the scene: an Actor2D square in display pixels (lower-left corner)
+        pts = vtk.vtkPoints()
+        for x, y in ((0, 0), (STAMP_PX, 0), (STAMP_PX, STAMP_PX), (0, STAMP_PX)):
+            pts.InsertNextPoint(x, y, 0)
+        poly = vtk.vtkPolyData()
+        poly.SetPoints(pts)
+        cells = vtk.vtkCellArray()
+        cells.InsertNextCell(4)
+        for k in range(4):
+            cells.InsertCellPoint(k)
+        poly.SetPolys(cells)
+        mapper = vtk.vtkPolyDataMapper2D()
+        mapper.SetInputData(poly)
+        self.actor = vtk.vtkActor2D()
+        self.actor.SetMapper(mapper)
+        self.actor.GetProperty().SetColor(0, 0, 0)
+        live.scene.plotter.renderer.AddViewProp(self.actor)
+        live.scene.plotter.ren_win.AddObserver("StartEvent", self._before_render)
+        if not hasattr(live, "scene_time"):
+            orig = live.on_bundle
+
+            def on_bundle(b, _orig=orig):
+                _orig(b)
+                if not live.paused and b.time.size:
+                    self.scene_time = float(b.time[-1])
+            live.on_bundle = on_bundle
+            self._own_scene_time = True
+        else:
+            self._own_scene_time = False
+        # --- the force plot: a rect item in the view's scene (view pixels), upper-left corner
+        fp = live.force_plot
+        self.rect = QGraphicsRectItem(0, 0, STAMP_PX, STAMP_PX)
+        self.rect.setPen(QPen(QColor(0, 0, 0, 0)))
+        self.rect.setBrush(QBrush(QColor(0, 0, 0)))
+        self.rect.setZValue(1e9)
+        fp.scene().addItem(self.rect)
+        self.rect.setPos(0, 0)
+        orig_refresh = fp.refresh
+
+        def refresh(*a, _orig=orig_refresh, **k):
+            out = _orig(*a, **k)
+            t = getattr(fp, "last_time", None)
+            if t is None:
+                d = fp.buffer.data()
+                t = float(d[-1, 0]) if d.shape[0] else None
+            if t is not None and np.isfinite(t):
+                self.rect.setBrush(QBrush(QColor(*encode(t))))
+            return out
+        fp.refresh = refresh
+
+    def _before_render(self, *_):
+        self.renders += 1
+        t = self.scene_time if self._own_scene_time else getattr(self.live, "scene_time", float("nan"))
+        if np.isfinite(t):
+            r, g, b = encode(t)
+            self.actor.GetProperty().SetColor(r / 255.0, g / 255.0, b / 255.0)
+
+    def regions(self) -> dict:
+        """Screen rectangles (x, y, w, h) px of the scene and the plots, and the stamps' pixels."""
+        from PySide6.QtCore import QPoint
+
+        live = self.live
+
+        def rect(w):
+            p = w.mapToGlobal(QPoint(0, 0))
+            return [p.x(), p.y(), w.width(), w.height()]
+        scene = rect(live.scene.plotter.interactor)
+        fp = rect(live.force_plot)
+        eq = rect(live.equilibrium)
+        x0, y0 = min(fp[0], eq[0]), min(fp[1], eq[1])
+        x1, y1 = max(fp[0] + fp[2], eq[0] + eq[2]), max(fp[1] + fp[3], eq[1] + eq[3])
+        # stamp centres, screen px (the scene's is at its lower-left corner)
+        dpr = live.scene.plotter.interactor.devicePixelRatioF()
+        return {"scene": scene, "plots": [x0, y0, x1 - x0, y1 - y0],
+                "scene_stamp": [scene[0] + STAMP_PX // 2, scene[1] + scene[3] - int(STAMP_PX / dpr) // 2 - 1],
+                "plot_stamp": [fp[0] + STAMP_PX // 2, fp[1] + STAMP_PX // 2]}

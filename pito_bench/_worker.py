@@ -1,0 +1,42 @@
+"""Entry point of the measuring subprocesses: ``python -m pito_bench._worker TASK JSON``.
+
+Prints one JSON object (the task's result plus ``peak_rss_mb``) on its last line.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+
+
+#: task name -> (module, function)
+TASKS = {
+    "cal_generate": ("_calibration", "task_generate"),
+    "cal_memory": ("_calibration", "task_memory"),
+    "cal_random": ("_calibration", "task_random_cubes"),
+    "cal_stream": ("_calibration", "task_stream"),
+    "contact": ("_contact", "task_contact"),
+    "pipeline": ("_pipeline", "task_pipeline"),
+}
+
+
+def _task(name):
+    import importlib
+
+    module, func = TASKS[name]
+    return getattr(importlib.import_module(f"{__package__}.{module}"), func)
+
+
+def main(argv=None) -> int:
+    from ._timing import peak_rss_mb
+
+    argv = sys.argv[1:] if argv is None else argv
+    task, params = argv[0], json.loads(argv[1]) if len(argv) > 1 else {}
+    out = _task(task)(**params)
+    out["peak_rss_mb"] = peak_rss_mb()
+    print(json.dumps(out, allow_nan=True))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

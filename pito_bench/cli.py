@@ -1,0 +1,93 @@
+"""``pito bench [--quick] [--json] [--out DIR]``, added to ``pito`` through the ``pito.commands`` entry point."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+HELP = """\
+Measure what pito exists for and print tables with units.
+
+  calibration  fit time (ms, s) and held-out RMSE (N, N·m) against k = 10³ … 10⁷
+               samples for each method, in memory and streamed from a session file,
+               side by side with numpy.linalg.lstsq / pinv fits of the same data
+               (time ratio and RMSE ratio), the least-squares cores alone, and the
+               peak resident memory (MB) of each fit's process. Data: simulated
+               (pito_core.sim.VirtualCube); file generation is timed separately.
+  contact      solves per second on batches of 10⁵ wrenches (one core) and RMS
+               contact-point error as a ratio to the Cramér–Rao bound (1.00 =
+               efficient), per surface (plane, sphere, ellipsoid, 5,000-facet mesh),
+               scenario (soft finger, near-tangent force, exact point contact) and
+               wrench noise level (σ in N and N·m), side by side with a per-sample
+               scipy.optimize.least_squares solve of the same model; a speed-vs-error
+               (Pareto) table.
+  pipeline     serial frames decoded per second (× real time at 1 kHz); cost per
+               display tick (ms) of finding the new samples by copying the ring windows
+               vs by write cursor, and of the whole pipeline step; latency (ms) from a
+               frame written into a pseudo-terminal to the bundle of the one pipeline
+               (pito_core.pipeline.Pipeline: calibrated, six contacts solved), CPU
+               share (%) of the pipeline process.
+  live         render frames per second with six contacts (off-screen, anti-aliasing
+               off) and latency including the scene update — needs the app extras
+               (PySide6, pyvista); otherwise reported as skipped.
+
+Every figure is measured in the same run as its baseline and given as a ratio, since
+machines are noisy; each measurement runs in a fresh subprocess limited to --threads
+BLAS threads (default 1: "one core"). A full run takes several minutes (10⁷ samples are
+generated and fitted); --quick takes under a minute on an idle 2-core machine.
+"""
+
+
+def register(sub) -> None:
+    from pito_bench import SECTIONS
+
+    p = sub.add_parser("bench", help="benchmark calibration, contact sensing and the live pipeline",
+                       description=HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--quick", action="store_true", help="small sizes (k ≤ 10⁵ samples, short live runs)")
+    p.add_argument("--json", action="store_true", help="print the results as JSON instead of tables (SI units, s, MB)")
+    p.add_argument("--out", metavar="DIR",
+                   help="also write bench.json, bench.txt (tables) and speed-vs-error plots (PNG) into DIR")
+    p.add_argument("--sections", default=",".join(SECTIONS), metavar="LIST",
+                   help=f"comma-separated sections to run (default: all of {','.join(SECTIONS)}; also: soak = a 10-minute recording soak, 1 min with --quick)")
+    p.add_argument("--sizes", metavar="K,K,...",
+                   help="calibration sizes k in samples (default 1000,…,10000000; quick: up to 100000)")
+    p.add_argument("--threads", type=int, default=1, help="BLAS/OpenMP threads per measurement (default 1)")
+    p.add_argument("--workdir", metavar="DIR", help="where to put the simulated session files (default: a temporary dir)")
+    p.set_defaults(func=run)
+
+
+def run(args) -> int:
+    import os
+
+    from pito_bench import run_bench
+    from ._report import format_report, write_plots
+
+    sections = tuple(s.strip() for s in args.sections.split(",") if s.strip())
+    sizes = None
+    if args.sizes:
+        try:
+            sizes = [int(float(x)) for x in args.sizes.split(",") if x.strip()]
+        except ValueError:
+            raise ValueError(f"--sizes: expected comma-separated sample counts, got {args.sizes!r}") from None
+        if not sizes or min(sizes) < 200:
+            raise ValueError(f"--sizes: expected sample counts of at least 200, got {args.sizes!r}")
+    if args.threads < 1:
+        raise ValueError(f"--threads: expected at least 1, got {args.threads}")
+    progress = (lambda s: print(s, file=sys.stderr, flush=True))
+    result = run_bench(quick=args.quick, sections=sections, sizes=sizes, threads=args.threads,
+                       workdir=args.workdir, progress=progress)
+    text = format_report(result)
+    if args.out:
+        os.makedirs(args.out, exist_ok=True)
+        with open(os.path.join(args.out, "bench.json"), "w") as f:
+            json.dump(result, f, indent=1)
+        with open(os.path.join(args.out, "bench.txt"), "w") as f:
+            f.write(text)
+        for p in write_plots(result, args.out):
+            print(f"wrote {p}", file=sys.stderr)
+    if args.json:
+        print(json.dumps(result, indent=1))
+    else:
+        print(text)
+    return 0

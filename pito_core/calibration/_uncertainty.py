@@ -1,0 +1,221 @@
+"""Uncertainty of a fitted calibration, and its propagation to each sample's face wrenches.
+
+The fit is a linear regression of the targets on the design ``x̃ = [a; s − m]`` (one
+offset column per session, ``a`` its weights, then the counts ``s`` less a centring
+``m``), solved by least squares. With the residual covariance ``Σ_r`` of the outputs
+(from the residuals ``E`` of the fit, ``EᵀE / (n − p)``) and ``P = (XᵀX)⁺`` of the
+design, the fitted coefficients have ``Cov(vec C) = Σ_r ⊗ P`` and a prediction
+``ŵ = C x̃`` has
+
+    Cov(ŵ) = (x̃ᵀ P x̃) Λ^½ Σ_r Λ^½  +  Σ_e(load)
+
+The first term is the calibration's own error (the coefficients' covariance; ``Λ`` ≥ 1
+per output corrects it for residuals that are correlated over consecutive samples, by
+a cluster-robust estimate). The
+second is the error a new sample brings itself — its gauge noise, and whatever the
+linear model misses (nonlinearity, drift), which grows with the load: a sample's
+residual holds exactly these, so ``Σ_e`` is fitted to the residuals of the training
+samples (a second pass over the data): each output's variance as a non-negative
+combination of ``[1, q, q², q_other]`` — ``q = ‖ŵ_face / full scale‖²`` the face's own
+predicted load, ``q_other`` that of the other faces (crosstalk a method does not model)
+— with the residuals' correlation between the six axes of a face. After
+:meth:`Calibration.tare` with n samples the offset is no longer the fitted one: ``x̃``
+is the counts less the new offset (slopes only) and the tare's own noise
+``G / n = C Σ_g Cᵀ / n`` is added (``Σ_g`` the gauge noise at rest). Outputs fitted in
+the reference frame S_A are mapped to each face's frame by the wrench adjoint.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ["CovarianceGroup", "CalibrationCovariance", "load_features", "N_FEATURES", "FULL_SCALE"]
+
+#: Full-scale loads that make a wrench dimensionless, ``[fx … tz]`` in N and N·m.
+FULL_SCALE = np.array([15.0, 15.0, 15.0, 0.1, 0.1, 0.1])
+#: Features of the error-variance model: ``[1, q, q², q_other]``.
+N_FEATURES = 4
+
+
+def load_features(face_wrenches: np.ndarray) -> np.ndarray:
+    """``(N, 6, 4)`` features ``[1, q, q², q_other]`` of each face from ``face_wrenches (N, 6, 6)``.
+
+    ``q = Σ (w / FULL_SCALE)²`` of the face's own predicted wrench (NaN faces count 0),
+    ``q_other`` the sum of the other faces' ``q``.
+    """
+    u = np.nan_to_num(face_wrenches / FULL_SCALE)
+    q = np.einsum("nfi,nfi->nf", u, u)
+    out = np.empty(q.shape + (N_FEATURES,))
+    out[..., 0] = 1.0
+    out[..., 1] = q
+    out[..., 2] = q * q
+    out[..., 3] = q.sum(axis=1, keepdims=True) - q
+    return out
+
+
+@dataclass
+class CovarianceGroup:
+    """One least-squares problem of a fit (six for ``face_to_face``, one otherwise).
+
+    Attributes
+    ----------
+    inputs : ndarray of int, shape (m,)
+        Gauge columns (0..35) of the design.
+    rows : ndarray of int, shape (q,)
+        Rows of ``Calibration.matrix`` this problem fitted.
+    design_pinv : ndarray, shape (n_int + m, n_int + m)
+        ``P = (XᵀX)⁺`` of the design ``[offset columns | counts − center]``, per counts².
+    residual_cov : ndarray, shape (q, q)
+        ``Σ_r``: covariance of the fit's residuals, in the matrix's output frame (N², N²·m, N²·m²).
+    center : ndarray, shape (m,)
+        Counts subtracted from the inputs in the design (mean of the sessions' tares).
+    weights : ndarray, shape (n_int,)
+        Weights of the offset columns that reproduce ``Calibration.offset`` (1/sessions each).
+    dof : int
+        Residual degrees of freedom ``n − rank``.
+    inflation : ndarray, shape (q,)
+        Per output, how much more the coefficients vary than independent residuals would
+        make them (≥ 1): residuals that drift together over consecutive samples (held
+        loads, hysteresis, temperature) inform the fit less. Estimated by clusters of
+        consecutive samples (a cluster-robust "sandwich" covariance, in ratio to ``Σ_r ⊗ P``).
+    """
+
+    inputs: np.ndarray
+    rows: np.ndarray
+    design_pinv: np.ndarray
+    residual_cov: np.ndarray
+    center: np.ndarray
+    weights: np.ndarray
+    dof: int = 0
+    inflation: np.ndarray | None = None
+
+    def __post_init__(self):
+        self.inputs = np.asarray(self.inputs, dtype=np.int64).reshape(-1)
+        self.rows = np.asarray(self.rows, dtype=np.int64).reshape(-1)
+        self.design_pinv = np.asarray(self.design_pinv, dtype=float)
+        self.residual_cov = np.asarray(self.residual_cov, dtype=float)
+        self.center = np.asarray(self.center, dtype=float).reshape(-1)
+        self.weights = np.asarray(self.weights, dtype=float).reshape(-1)
+        m, q, n_int = self.inputs.size, self.rows.size, self.weights.size
+        self.inflation = np.ones(q) if self.inflation is None else np.asarray(self.inflation, dtype=float).reshape(-1)
+        if self.inflation.shape != (q,) or not np.all(self.inflation >= 1.0):
+            raise ValueError(f"inflation: expected {q} values ≥ 1, got {self.inflation!r}")
+        if self.design_pinv.shape != (n_int + m, n_int + m):
+            raise ValueError(f"design_pinv: expected shape ({n_int + m}, {n_int + m}), got {self.design_pinv.shape}")
+        if self.residual_cov.shape != (q, q):
+            raise ValueError(f"residual_cov: expected shape ({q}, {q}), got {self.residual_cov.shape}")
+        if self.center.shape != (m,):
+            raise ValueError(f"center: expected shape ({m},), got {self.center.shape}")
+        for name in ("design_pinv", "residual_cov", "center", "weights"):
+            if not np.all(np.isfinite(getattr(self, name))):
+                raise ValueError(f"{name}: expected finite values")
+
+    def leverage(self, counts: np.ndarray, offset: np.ndarray | None) -> np.ndarray:
+        """``x̃ᵀ P x̃`` per sample ``(N,)``: the fitted offset if ``offset`` is None, else slopes only."""
+        n_int = self.weights.size
+        if offset is None:
+            x = counts[:, self.inputs] - self.center
+            P = self.design_pinv
+            xt = np.concatenate([np.broadcast_to(self.weights, (x.shape[0], n_int)), x], axis=1)
+        else:
+            xt = counts[:, self.inputs] - offset[self.inputs]
+            P = self.design_pinv[n_int:, n_int:]
+        return np.einsum("ni,ij,nj->n", xt, P, xt)
+
+
+@dataclass
+class CalibrationCovariance:
+    """Everything needed to give each sample's face wrenches a covariance.
+
+    Attributes
+    ----------
+    groups : list of CovarianceGroup
+    gauge_cov : ndarray, shape (36, 36)
+        Gauge noise at rest ``Σ_g``, counts² (pooled over the sessions' unloaded samples).
+    n_tare : int or None
+        None: the calibration's offset is the fitted one. n: it was re-tared on n samples.
+    variance_coef : ndarray, shape (6F, 4)
+        Per matrix row, the non-negative coefficients of its error variance on
+        ``load_features`` (output frame units², N² or N²·m²).
+    residual_corr : ndarray, shape (F, 6, 6)
+        Correlation of the residuals between the six outputs of each output face.
+    """
+
+    groups: list = field(default_factory=list)
+    gauge_cov: np.ndarray = field(default_factory=lambda: np.zeros((36, 36)))
+    n_tare: int | None = None
+    variance_coef: np.ndarray | None = None
+    residual_corr: np.ndarray | None = None
+
+    def __post_init__(self):
+        self.gauge_cov = np.asarray(self.gauge_cov, dtype=float)
+        if self.gauge_cov.shape != (36, 36) or not np.all(np.isfinite(self.gauge_cov)):
+            raise ValueError(f"gauge_cov: expected finite values of shape (36, 36), got {self.gauge_cov.shape}")
+        if self.n_tare is not None and int(self.n_tare) < 1:
+            raise ValueError(f"n_tare: expected a number of samples ≥ 1, got {self.n_tare!r}")
+        q = sum(g.rows.size for g in self.groups)
+        if self.variance_coef is None:  # the pooled residual covariance, whatever the load
+            self.variance_coef = np.zeros((q, N_FEATURES))
+            self.residual_corr = np.zeros((q // 6, 6, 6))
+            for g in self.groups:
+                d = np.sqrt(np.clip(np.diag(g.residual_cov), 0, None))
+                self.variance_coef[g.rows, 0] = d**2
+                for k in range(g.rows.size // 6):
+                    blk = slice(6 * k, 6 * k + 6)
+                    dk = np.where(d[blk] > 0, d[blk], 1.0)
+                    self.residual_corr[int(g.rows[6 * k]) // 6] = g.residual_cov[blk, blk] / np.outer(dk, dk)
+        self.variance_coef = np.asarray(self.variance_coef, dtype=float)
+        self.residual_corr = np.asarray(self.residual_corr, dtype=float)
+        if self.variance_coef.shape != (q, N_FEATURES) or np.any(self.variance_coef < 0) or not np.all(np.isfinite(self.variance_coef)):
+            raise ValueError(f"variance_coef: expected finite non-negative values of shape ({q}, {N_FEATURES})")
+        if self.residual_corr.shape != (q // 6, 6, 6) or not np.all(np.isfinite(self.residual_corr)):
+            raise ValueError(f"residual_corr: expected finite values of shape ({q // 6}, 6, 6)")
+
+    def retared(self, n: int) -> "CalibrationCovariance":
+        """The same, for an offset taken as the mean of ``n`` unloaded samples."""
+        return CalibrationCovariance(self.groups, self.gauge_cov, int(n), self.variance_coef, self.residual_corr)
+
+    def face_covariances(self, counts, offset, apply, face_from_output, output_faces, explicit_offset: bool):
+        """``(N, 6, 6, 6)`` covariance of each face's wrench in its frame (NaN where no output).
+
+        Parameters
+        ----------
+        counts : ndarray, shape (N, 36)
+        offset : ndarray, shape (36,)
+            The offset the wrenches were computed with.
+        apply : ndarray, shape (6, 6, 36)
+            Counts → face wrench in face frames (``Calibration._apply``).
+        face_from_output : ndarray, shape (6, 6, 6)
+            Adjoint from each face's output frame to its face frame (identity for ``face``).
+        output_faces : tuple of int
+            Faces (1..6) of the matrix's row blocks, in row order.
+        explicit_offset : bool
+            The caller gave the offset: its uncertainty is not known (slopes only, no tare term).
+        """
+        N = counts.shape[0]
+        out = np.full((N, 6, 6, 6), np.nan)
+        fitted = self.n_tare is None and not explicit_offset
+        for g in self.groups:
+            h = g.leverage(counts, None if fitted else offset)
+            for k in range(g.rows.size // 6):
+                face = output_faces[int(g.rows[6 * k]) // 6] - 1
+                r = np.sqrt(g.inflation[6 * k : 6 * k + 6])
+                Sr = g.residual_cov[6 * k : 6 * k + 6, 6 * k : 6 * k + 6] * np.outer(r, r)
+                X = face_from_output[face]
+                out[:, face] = h[:, None, None] * (X @ Sr @ X.T)
+        W = np.einsum("fij,nj->nfi", apply, counts - offset)
+        feats = load_features(np.where(np.isin(np.arange(6), np.asarray(output_faces) - 1)[None, :, None], W, np.nan))
+        for k, f in enumerate(output_faces):
+            var = feats[:, f - 1] @ self.variance_coef[6 * k : 6 * k + 6].T  # (N, 6) output frame
+            sd = np.sqrt(np.clip(var, 0, None))
+            E = sd[:, :, None] * self.residual_corr[k] * sd[:, None, :]
+            X = face_from_output[f - 1]
+            out[:, f - 1] += np.einsum("ij,njk,lk->nil", X, E, X)
+        if self.n_tare is not None and not explicit_offset:
+            G = np.einsum("fia,ab,fjb->fij", apply, self.gauge_cov, apply)  # gauge noise per face (6, 6, 6)
+            for f in output_faces:
+                out[:, f - 1] += G[f - 1] / self.n_tare
+        out = 0.5 * (out + np.swapaxes(out, -1, -2))
+        return out

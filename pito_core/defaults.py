@@ -1,0 +1,45 @@
+"""User-facing defaults of pito, named by meaning, in one place.
+
+The core, the CLI (``--help`` prints these values) and the app read them from here, so
+the same quantity never carries two defaults in two rooms. Tolerances (numerical slack,
+not user-facing) live in each package's ``_tol`` module instead.
+
+Wrench component order is ``[fx, fy, fz, tx, ty, tz]``: N and N·m.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "FULL_SCALE_FORCE_N",
+    "FULL_SCALE_TORQUE_NM",
+    "FULL_SCALE_FRAME_TORQUE_NM",
+    "FULL_SCALE_FACE",
+    "FULL_SCALE_FRAME",
+    "IDENTIFY_FORCE_N",
+    "SHOW_CONTACT_FORCE_N",
+    "LOADED_FORCE_N",
+    "LOADED_TORQUE_NM",
+]
+
+#: Calibration load range of one face, per force axis, N (the papers' protocol: ±15 N).
+FULL_SCALE_FORCE_N = 15.0
+#: Calibration load range of one face, per torque axis, N·m (the papers' protocol: ±0.1 N·m).
+FULL_SCALE_TORQUE_NM = 0.1
+#: Scale of the moments through the frame's screw joints about the core centre, N·m
+#: (~0.4 N·m for a 15 N force on a face of a 50 mm cube).
+FULL_SCALE_FRAME_TORQUE_NM = 0.4
+#: Full scale of one face, face frame, ``[fx, fy, fz, tx, ty, tz]`` in N and N·m.
+FULL_SCALE_FACE = (FULL_SCALE_FORCE_N,) * 3 + (FULL_SCALE_TORQUE_NM,) * 3
+#: Full scale of the total load through the frame, core frame, N and N·m.
+FULL_SCALE_FRAME = (FULL_SCALE_FORCE_N,) * 3 + (FULL_SCALE_FRAME_TORQUE_NM,) * 3
+
+#: Force (N) below which ``pito_core.contact.solve`` locates no contact (``valid = False``):
+#: the smallest force whose line of action is still worth solving for.
+IDENTIFY_FORCE_N = 0.05
+#: Force (N) below which the live view, the live pipeline and recordings' replays show no
+#: contact on a face (above the noise of a calibrated face at rest).
+SHOW_CONTACT_FORCE_N = 0.3
+#: A face counts as loaded, when evaluating a calibration, if its force norm exceeds this, N …
+LOADED_FORCE_N = 0.5
+#: … or its torque norm exceeds this, N·m.
+LOADED_TORQUE_NM = 0.01

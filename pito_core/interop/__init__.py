@@ -1,0 +1,59 @@
+"""Fit into the lab: LSL live streams, NWB and ROS 2 MCAP files, provenance (docs/interop.md).
+
+``pylsl``, ``pynwb`` and ``mcap``/``mcap_ros2`` (the optional extra ``pito[interop]``) are
+imported only by the functions that need them.
+
+>>> from pito_core.interop import export_data, write_nwb, write_mcap   # doctest: +SKIP
+>>> data = export_data("grasp.pitorec")              # the recording's own calibration
+>>> write_nwb(data, "grasp.nwb", subject_id="S01"); write_mcap(data, "grasp.mcap")
+"""
+
+from ._conventions import (
+    CONTACT_CHANNELS,
+    CONTACT_STREAM,
+    CONTACT_TYPE,
+    CORE_FRAME,
+    ROS_CORE_FRAME,
+    ROS_FACE_FRAME,
+    WRENCH_CHANNELS,
+    WRENCH_STREAM,
+    WRENCH_TYPE,
+)
+from ._data import ExportData, export_data
+from ._lsl import LslPublisher, contact_samples, lsl_stream_infos, wrench_samples
+from ._mcap import write_mcap
+from ._nwb import write_nwb
+from ._provenance import (
+    assembly_record,
+    calibration_from_record,
+    calibration_hash,
+    calibration_record,
+    provenance_meta,
+    recording_calibration,
+)
+
+__all__ = [
+    "CONTACT_CHANNELS",
+    "CONTACT_STREAM",
+    "CONTACT_TYPE",
+    "CORE_FRAME",
+    "ROS_CORE_FRAME",
+    "ROS_FACE_FRAME",
+    "WRENCH_CHANNELS",
+    "WRENCH_STREAM",
+    "WRENCH_TYPE",
+    "ExportData",
+    "LslPublisher",
+    "assembly_record",
+    "calibration_from_record",
+    "calibration_hash",
+    "calibration_record",
+    "contact_samples",
+    "export_data",
+    "lsl_stream_infos",
+    "provenance_meta",
+    "recording_calibration",
+    "wrench_samples",
+    "write_mcap",
+    "write_nwb",
+]

@@ -1,0 +1,127 @@
+"""What every export carries: a recording's samples through the one pipeline, with provenance."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ._provenance import assembly_record, calibration_record, recording_calibration
+
+__all__ = ["ExportData", "export_data"]
+
+#: Samples per block when contacts are solved (and progress reported).
+BLOCK = 20000
+
+
+@dataclass
+class ExportData:
+    """A recording ready to export (cube samples in order, paired reference).
+
+    Attributes
+    ----------
+    time : ndarray, shape (n,)
+        Sample times, s, from the start of the recording (paired cube clock).
+    start_unix : float
+        UNIX time of ``time == 0`` (the recording's creation time), s.
+    tick : ndarray, shape (n,)
+        Cube device clock, µs (unwrapped).
+    counts : ndarray, shape (n, 36)
+        Raw gauge counts.
+    reference : ndarray, shape (n, 6) or None
+        Reference sensor wrench paired with each cube sample, tared, ``[fx, fy, fz, tx, ty, tz]``
+        N, N·m in the reference frame S_A; None without a reference.
+    face_wrenches : ndarray, shape (n, 6, 6) or None
+        Face i at index i − 1: ``[fx, fy, fz, tx, ty, tz]`` N, N·m in face i's frame; None
+        without a calibration.
+    contacts : ObjectContacts or None
+        Per sample and face (core frame): point (m), normal, force (N), torsion (N·m), valid.
+    calibration : dict or None
+        :func:`~pito_core.interop.calibration_record` of the calibration used.
+    assembly : dict or None
+        :func:`~pito_core.interop.assembly_record` of the patch assembly.
+    note : str
+        Which calibration computed the wrenches (``recomputed with ... instead of ...``).
+    meta : dict
+        The recording's own metadata.
+    """
+
+    time: np.ndarray
+    start_unix: float
+    tick: np.ndarray
+    counts: np.ndarray
+    reference: np.ndarray | None
+    face_wrenches: np.ndarray | None
+    contacts: object | None
+    calibration: dict | None
+    assembly: dict | None
+    note: str
+    meta: dict = field(default_factory=dict)
+    simulated: bool = False
+
+    @property
+    def n(self) -> int:
+        return int(self.time.size)
+
+
+def export_data(path, calibration=None, assembly=None, *, calibration_source: str | None = None,
+                contacts: bool = True, progress=None, recover: bool = False) -> ExportData:
+    """Run recording ``path`` through the pipeline (:func:`pito_core.pipeline.replay_recording`).
+
+    Parameters
+    ----------
+    path : str or Path
+        A pito recording.
+    calibration : Calibration, optional
+        Recompute with this one instead of the recording's embedded calibration.
+    assembly : str or Assembly, optional
+        Object for the contacts (default: the recording's ``meta["assembly"]`` name, else ``cube``).
+    contacts : bool
+        Solve contacts (needs a calibration).
+    progress : callable(fraction in [0, 1], text), optional
+    """
+    from ..io import read_recording
+    from ..pipeline import replay_recording
+
+    def report(f, text):
+        if progress is not None:
+            progress(float(f), text)
+
+    rec = read_recording(path, recover=recover) if recover else read_recording(path)
+    meta = dict(rec.meta)
+    cal, note = recording_calibration(meta, calibration, calibration_source)
+    if assembly is None:
+        assembly = (meta.get("assembly") or {}).get("name") or "cube"
+    report(0.05, "pipeline")
+    bundle, pipe = replay_recording(rec, cal, assembly)
+    time = np.asarray(bundle.time, float)
+    t0 = float(time[0]) if time.size else 0.0
+    W = None if cal is None else np.asarray(bundle.face_wrenches, float)
+    cont = None
+    if W is not None and contacts and time.size:
+        from ..contact import ObjectContacts
+
+        parts = []
+        for s in range(0, len(W), BLOCK):
+            parts.append(pipe.contacts(W[s:s + BLOCK]))
+            report(0.1 + 0.6 * min(1.0, (s + BLOCK) / len(W)), "contacts")
+        cont = ObjectContacts(*(np.concatenate([getattr(p, k) for p in parts])
+                                for k in ("point", "normal", "force", "torsion", "valid")))
+    reference = getattr(bundle, "reference", None)
+    if reference is not None and (not pipe.has_reference or np.size(reference) == 0):
+        reference = None
+    report(0.7, "pipeline done")
+    return ExportData(
+        time=time - t0,
+        start_unix=float(meta.get("created_unix", 0.0)),
+        tick=np.asarray(bundle.tick),
+        counts=np.asarray(bundle.counts),
+        reference=None if reference is None else np.asarray(reference, float),
+        face_wrenches=W,
+        contacts=cont,
+        calibration=None if cal is None else calibration_record(cal, calibration_source or "recording"),
+        assembly=assembly_record(pipe.assembly if pipe.assembly is not None else assembly),
+        note=note,
+        meta=meta,
+        simulated=bool(meta.get("simulated", False)),
+    )

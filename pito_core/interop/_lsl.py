@@ -1,0 +1,184 @@
+"""Lab Streaming Layer outlets ``pito-wrenches`` and ``pito-contacts`` (pylsl; docs/interop.md, "LSL").
+
+- ``pito-wrenches``, type ``Force``, 36 float32 channels at the cube's rate: face i
+  (1..6) gives channels ``6(i−1) .. 6(i−1)+5`` = ``F{i}_fx F{i}_fy F{i}_fz F{i}_tx F{i}_ty F{i}_tz``
+  in face i's own frame, N and N·m.
+- ``pito-contacts``, type ``Contact``, 66 float32 channels at the same rate: face i gives
+  11 channels ``C{i}_px py pz`` (m, core frame), ``nx ny nz`` (unit), ``fx fy fz`` (N, core
+  frame), ``torsion`` (N·m), ``valid`` (0/1); NaN where no contact.
+- ``desc``: ``channels/channel`` (``label``, ``unit``, ``type``, ``face``), ``acquisition``
+  (manufacturer, model), ``reference_frame``, ``calibration`` (method, date, hash, source),
+  ``assembly`` (name, patch per face), ``simulated``.
+
+Timestamps: each sample's time from the pairing rule (device clock mapped onto the host's
+``time.monotonic``; :mod:`pito_core.devices._clock`) plus the offset ``local_clock() −
+time.monotonic()`` (measured when the publisher starts; both are CLOCK_MONOTONIC on Linux,
+so it is ~0): LSL time of the sample's *acquisition*, not of its push.
+
+Inside a network namespace with loopback only, liblsl logs "No local network interface
+addresses found": expected there (its streams still resolve on 127.0.0.1).
+
+Safety: liblsl multicasts to find peers unless configured; run under a machine-only
+``LSLAPICFG`` (:func:`machine_only_config`) — the tests run inside a private network namespace.
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from ._conventions import (
+    CONTACT_CHANNELS,
+    CONTACT_STREAM,
+    CONTACT_TYPE,
+    CORE_FRAME,
+    FACE_FRAME,
+    WRENCH_CHANNELS,
+    WRENCH_STREAM,
+    WRENCH_TYPE,
+)
+
+__all__ = ["LslPublisher", "lsl_stream_infos", "wrench_samples", "contact_samples", "machine_only_config",
+           "MACHINE_ONLY_CONFIG"]
+
+#: liblsl configuration that keeps every packet on this machine (write it to a file, point LSLAPICFG at it).
+MACHINE_ONLY_CONFIG = """\
+; pito: Lab Streaming Layer restricted to this machine (docs/interop.md).
+; Keys as liblsl's api_config reads them: [ports] IPv6, [multicast] ResolveScope and the
+; per-scope address sets, AddressesOverride/TTLOverride, ListenAddress, [lab] KnownPeers.
+[ports]
+IPv6 = disable
+[multicast]
+ResolveScope = machine
+ListenAddress = 127.0.0.1
+MachineAddresses = {127.0.0.1}
+LinkAddresses = {}
+SiteAddresses = {}
+OrganizationAddresses = {}
+GlobalAddresses = {}
+AddressesOverride = {127.0.0.1}
+TTLOverride = 0
+[lab]
+KnownPeers = {127.0.0.1}
+"""
+
+
+def machine_only_config(path) -> str:
+    """Write :data:`MACHINE_ONLY_CONFIG` to ``path``; returns the path (for ``LSLAPICFG``)."""
+    from pathlib import Path
+
+    Path(path).write_text(MACHINE_ONLY_CONFIG)
+    return str(Path(path).resolve())
+
+
+def wrench_samples(face_wrenches) -> np.ndarray:
+    """``(n, 6, 6)`` face wrenches → ``(n, 36)`` ``pito-wrenches`` samples (face-major)."""
+    W = np.asarray(face_wrenches, dtype=np.float32)
+    if W.ndim != 3 or W.shape[1:] != (6, 6):
+        raise ValueError(f"face_wrenches: expected shape (n, 6, 6), got {W.shape}")
+    return W.reshape(W.shape[0], 36)
+
+
+def contact_samples(contacts) -> np.ndarray:
+    """``ObjectContacts`` with shapes ``(n, 6, …)`` → ``(n, 66)`` ``pito-contacts`` samples (face-major)."""
+    p = np.asarray(contacts.point, np.float32)
+    if p.ndim != 3 or p.shape[1:] != (6, 3):
+        raise ValueError(f"contacts.point: expected shape (n, 6, 3), got {p.shape}")
+    return np.concatenate([p, np.asarray(contacts.normal, np.float32), np.asarray(contacts.force, np.float32),
+                           np.asarray(contacts.torsion, np.float32)[..., None],
+                           np.asarray(contacts.valid, np.float32)[..., None]], axis=2).reshape(p.shape[0], 66)
+
+
+def _channels(desc, spec, prefix, frames):
+    chans = desc.append_child("channels")
+    for i in range(1, 7):
+        for suffix, unit, kind in spec:
+            ch = chans.append_child("channel")
+            ch.append_child_value("label", f"{prefix}{i}_{suffix}")
+            ch.append_child_value("unit", unit)
+            ch.append_child_value("type", kind)
+            ch.append_child_value("face", str(i))
+            ch.append_child_value("frame", frames(i, kind))
+
+
+def _common(desc, calibration: dict | None, assembly: dict | None, simulated: bool) -> None:
+    acq = desc.append_child("acquisition")
+    acq.append_child_value("manufacturer", "pito")
+    acq.append_child_value("model", "PITO cube (6 faces x 6 gauges)")
+    acq.append_child_value("simulated", "true" if simulated else "false")
+    cal = desc.append_child("calibration")
+    for key in ("method", "date", "hash", "source", "output_frame"):
+        cal.append_child_value(key, "" if not calibration or calibration.get(key) is None else str(calibration[key]))
+    asm = desc.append_child("assembly")
+    asm.append_child_value("name", "" if not assembly else str(assembly.get("name")))
+    if assembly:
+        faces = asm.append_child("faces")
+        for k, v in sorted(assembly.get("faces", {}).items()):
+            faces.append_child_value(f"face{k}", str(v))
+        asm.append_child_value("core_edge_m", repr(assembly.get("core_edge_m")))
+
+
+def lsl_stream_infos(calibration: dict | None, assembly: dict | None, *, rate_hz: float = 1000.0,
+                     source_id: str = "pito", simulated: bool = False):
+    """``(wrench StreamInfo, contact StreamInfo)`` with the full ``desc`` (see the module docstring)."""
+    import pylsl
+
+    wi = pylsl.StreamInfo(WRENCH_STREAM, WRENCH_TYPE, 36, float(rate_hz), "float32", f"{source_id}-wrenches")
+    d = wi.desc()
+    _channels(d, WRENCH_CHANNELS, "F", lambda i, kind: f"pito_face_{i}")
+    d.append_child_value("reference_frame", FACE_FRAME.format(i="i"))
+    _common(d, calibration, assembly, simulated)
+    ci = pylsl.StreamInfo(CONTACT_STREAM, CONTACT_TYPE, 66, float(rate_hz), "float32", f"{source_id}-contacts")
+    d = ci.desc()
+    _channels(d, CONTACT_CHANNELS, "C", lambda i, kind: "pito_core")
+    d.append_child_value("reference_frame", CORE_FRAME)
+    _common(d, calibration, assembly, simulated)
+    return wi, ci
+
+
+class LslPublisher:
+    """A pipeline sink: pushes each :class:`~pito_core.pipeline.LiveBundle`'s samples to the two outlets.
+
+    Parameters
+    ----------
+    pipeline : Pipeline
+        The pipeline producing the bundles (its calibration/assembly go into ``desc``;
+        its :meth:`~pito_core.pipeline.Pipeline.contacts` gives per-sample contacts).
+    rate_hz : float
+        The cube's nominal rate, Hz.
+    calibration_record, assembly_record : dict, optional
+        Provenance for ``desc`` (default: built from the pipeline's).
+    """
+
+    def __init__(self, pipeline, *, rate_hz: float = 1000.0, source_id: str = "pito", simulated: bool = False,
+                 calibration_record: dict | None = None, assembly_record: dict | None = None):
+        import pylsl
+
+        from ._provenance import assembly_record as _asm
+        from ._provenance import calibration_record as _cal
+
+        if pipeline.calibration is None:
+            raise ValueError("calibration: the LSL streams carry wrenches; give a calibration (--calibration FILE)")
+        self.pipeline = pipeline
+        cal = calibration_record or _cal(pipeline.calibration)
+        asm = assembly_record or _asm(pipeline.assembly if pipeline.assembly is not None else "cube")
+        wi, ci = lsl_stream_infos(cal, asm, rate_hz=rate_hz, source_id=source_id, simulated=simulated)
+        self.wrench_outlet = pylsl.StreamOutlet(wi, 0, 30)
+        self.contact_outlet = pylsl.StreamOutlet(ci, 0, 30)
+        self.clock_offset = pylsl.local_clock() - time.monotonic()
+        self.pushed = 0
+        self.names = (WRENCH_STREAM, CONTACT_STREAM)
+
+    def __call__(self, bundle) -> None:
+        W = getattr(bundle, "face_wrenches", None)
+        if W is None or len(W) == 0:
+            return
+        ts = (np.asarray(bundle.time, float) + self.clock_offset).tolist()
+        self.wrench_outlet.push_chunk(wrench_samples(W), ts)
+        self.contact_outlet.push_chunk(contact_samples(self.pipeline.contacts(np.asarray(W))), ts)
+        self.pushed += len(ts)
+
+    def close(self) -> None:
+        """Close both outlets (inlets see the streams end)."""
+        self.wrench_outlet = self.contact_outlet = None

@@ -1,0 +1,129 @@
+"""NWB export (pynwb): one recording → one ``.nwb`` file (docs/interop.md, "NWB").
+
+Layout (all series share the cube's timestamps, s from ``session_start_time``):
+
+- ``acquisition/pito_raw_counts`` — ``TimeSeries`` (n, 36), unit ``counts``, the 36 gauges.
+- ``acquisition/reference_force`` / ``reference_torque`` — ``TimeSeries`` (n, 3), N / N·m,
+  the reference sensor paired with the cube, frame S_A (only with a reference).
+- ``processing/pito_wrenches/face_{i}_force`` / ``face_{i}_torque`` — ``TimeSeries`` (n, 3),
+  N / N·m, ``[x, y, z]`` in face i's own frame (one unit per series).
+- ``processing/pito_contacts/contact_face_{i}`` — ``Position`` holding ``SpatialSeries``
+  ``point`` (m, ``reference_frame`` = the core frame), plus ``TimeSeries``
+  ``contact_face_{i}_normal`` (unit vector), ``_force`` (N), ``_torsion`` (N·m), ``_valid`` (0/1).
+- ``processing/pito_calibration/calibration_matrix`` — ``DynamicTable``, one row per matrix
+  row: ``face``, ``component``, ``unit``, ``coefficients`` (36, N or N·m per count),
+  ``offset_counts`` as its own table; the full provenance record (method, date, hash,
+  assembly) as JSON in the table's description and in ``nwbfile.notes``.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+
+import numpy as np
+
+from ._conventions import CORE_FRAME, FACE_FRAME
+
+__all__ = ["write_nwb"]
+
+_COMPONENTS = ("fx", "fy", "fz", "tx", "ty", "tz")
+
+
+def write_nwb(data, path, *, subject_id: str | None = None, species: str | None = None, sex: str | None = None,
+              age: str | None = None,
+              experimenter: list[str] | None = None, session_description: str | None = None,
+              institution: str | None = None, lab: str | None = None, identifier: str | None = None,
+              progress=None) -> None:
+    """Write :class:`~pito_core.interop.ExportData` ``data`` to the NWB file ``path``."""
+    from hdmf.common import DynamicTable, VectorData
+    from pynwb import NWBHDF5IO, NWBFile, TimeSeries
+    from pynwb.behavior import Position, SpatialSeries
+    from pynwb.file import Subject
+
+    def report(f, text):
+        if progress is not None:
+            progress(float(f), text)
+
+    start = _dt.datetime.fromtimestamp(data.start_unix or 0.0, tz=_dt.timezone.utc)
+    prov = {"calibration": None if data.calibration is None else
+            {k: v for k, v in data.calibration.items() if k not in ("matrix", "offset")},
+            "assembly": data.assembly, "note": data.note, "simulated": data.simulated,
+            "recording_meta": {k: v for k, v in data.meta.items() if k not in ("calibration", "assembly")}}
+    desc = session_description or ("PITO grasp recording" + (" (SIMULATED devices)" if data.simulated else ""))
+    nwb = NWBFile(
+        session_description=desc,
+        identifier=identifier or f"pito-{data.calibration['hash'][7:23] if data.calibration else 'raw'}-{int(data.start_unix)}",
+        session_start_time=start,
+        experimenter=list(experimenter) if experimenter else None,
+        institution=institution, lab=lab,
+        notes=json.dumps(prov, default=str),
+        source_script="pito export (pito_core.interop)",
+        source_script_file_name="pito_core/interop/_nwb.py",
+    )
+    if sex is not None and sex not in ("M", "F", "U", "O"):
+        raise ValueError(f"sex: expected one of M, F, U, O (NWB), got {sex!r}")
+    if age is not None and not str(age).startswith("P"):
+        raise ValueError(f"age: expected an ISO 8601 duration such as 'P30Y', got {age!r}")
+    if subject_id or species or sex or age:
+        nwb.subject = Subject(subject_id=subject_id, species=species, sex=sex, age=age)
+    t = np.asarray(data.time, float)
+    counts = TimeSeries(name="pito_raw_counts", data=np.asarray(data.counts, np.int32), unit="counts",
+                        timestamps=t, description="PITO cube raw gauge counts, 36 channels (6 per face, face-major)",
+                        comments="channel 6(i-1)+g = face i gauge g (1..6)")
+    nwb.add_acquisition(counts)
+    if data.reference is not None:
+        for name, cols, unit in (("reference_force", slice(0, 3), "N"), ("reference_torque", slice(3, 6), "N*m")):
+            nwb.add_acquisition(TimeSeries(name=name, data=np.asarray(data.reference[:, cols]), unit=unit,
+                                           timestamps=counts, description=f"reference sensor (ATI Net F/T) {name.split('_')[1]} "
+                                           "[x, y, z] in the reference frame S_A, paired with the cube samples, tared"))
+    report(0.75, "nwb: wrenches")
+    if data.face_wrenches is not None:
+        mod = nwb.create_processing_module("pito_wrenches", f"face wrenches computed from the counts: {data.note}")
+        for i in range(1, 7):
+            w = data.face_wrenches[:, i - 1]
+            mod.add(TimeSeries(name=f"face_{i}_force", data=w[:, :3], unit="N", timestamps=counts,
+                               description=f"force on face {i}, [fx, fy, fz] in {FACE_FRAME.format(i=i)}"))
+            mod.add(TimeSeries(name=f"face_{i}_torque", data=w[:, 3:], unit="N*m", timestamps=counts,
+                               description=f"torque on face {i} about its frame origin, [tx, ty, tz] in {FACE_FRAME.format(i=i)}"))
+    if data.contacts is not None:
+        c = data.contacts
+        mod = nwb.create_processing_module("pito_contacts", "one point contact per face on the patch assembly "
+                                           f"{(data.assembly or {}).get('name')}; NaN where no contact")
+        for i in range(1, 7):
+            k = i - 1
+            pos = Position(name=f"contact_face_{i}")
+            pos.add_spatial_series(SpatialSeries(name="point", data=c.point[:, k], timestamps=counts, unit="meters",
+                                                 reference_frame=CORE_FRAME,
+                                                 description=f"contact point on face {i}'s patch, m, core frame"))
+            mod.add(pos)
+            mod.add(TimeSeries(name=f"contact_face_{i}_normal", data=c.normal[:, k], unit="1", timestamps=counts,
+                               description="outward unit normal at the contact point, core frame"))
+            mod.add(TimeSeries(name=f"contact_face_{i}_force", data=c.force[:, k], unit="N", timestamps=counts,
+                               description="finger force [x, y, z] at the contact point, core frame"))
+            mod.add(TimeSeries(name=f"contact_face_{i}_torsion", data=c.torsion[:, k], unit="N*m", timestamps=counts,
+                               description="torsion about the normal"))
+            mod.add(TimeSeries(name=f"contact_face_{i}_valid", data=c.valid[:, k].astype(np.uint8), unit="1",
+                               timestamps=counts, description="1 where the face carries a contact, else 0"))
+    if data.calibration is not None:
+        cal = data.calibration
+        M = np.asarray(cal["matrix"], float)
+        faces = [f for f in cal["output_faces"] for _ in range(6)]
+        comps = list(_COMPONENTS) * len(cal["output_faces"])
+        units = ["N/count" if c[0] == "f" else "N*m/count" for c in comps]
+        frame = "own face frame" if cal["output_frame"] == "face" else "reference frame S_A"
+        mod = nwb.create_processing_module("pito_calibration", f"calibration used ({cal['method']}, {cal['hash']})")
+        mod.add(DynamicTable(name="calibration_matrix", description=json.dumps(
+            {k: v for k, v in cal.items() if k not in ("matrix", "offset")}, default=str), columns=[
+            VectorData(name="face", description="output face 1..6", data=faces),
+            VectorData(name="component", description=f"wrench component, in the face's {frame}", data=comps),
+            VectorData(name="unit", description="unit of the coefficients", data=units),
+            VectorData(name="coefficients", description="matrix row: wrench component per count of gauges 1..36 "
+                       "(applied to counts − offset)", data=M)]))
+        mod.add(DynamicTable(name="calibration_offset", description="unloaded counts subtracted before the matrix", columns=[
+            VectorData(name="channel", description="gauge channel 1..36", data=list(range(1, 37))),
+            VectorData(name="offset_counts", description="counts", data=np.asarray(cal["offset"], float))]))
+    report(0.85, "nwb: writing")
+    with NWBHDF5IO(str(path), "w") as io:
+        io.write(nwb)
+    report(1.0, "nwb: done")

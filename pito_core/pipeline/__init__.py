@@ -1,0 +1,34 @@
+"""The one live pipeline (no Qt): new samples → pairing → tare → calibration → face wrenches → contacts.
+
+>>> from pito_core.pipeline import Pipeline, AcquisitionReader       # doctest: +SKIP
+>>> pipe = Pipeline(calibration, "pito_mixed")
+>>> reader = AcquisitionReader(acquisition)
+>>> bundle = pipe.feed(reader.read())      # every tick: a LiveBundle of the new samples
+
+The app's acquisition worker, ``pito record``, ``pito replay``/the app's timeline
+(:class:`RecordingReader`, :func:`replay_recording`) and ``pito bench`` all call
+:meth:`Pipeline.feed`/:meth:`Pipeline.process`; the pairing rule is
+:mod:`pito_core.devices._clock` (docs/devices.md, "Pairing the cube and the reference").
+"""
+
+from ..devices import PAIRING_RULE
+from ._bundle import LiveBundle, face_sums
+from ._pipeline import LIVE_FORCE_THRESHOLD, Pipeline
+from ._open import open_acquisition, open_reader
+from ._readers import AcquisitionReader, NewSamples, RecordingReader, recording_samples
+from ._replay import replay_recording
+
+__all__ = [
+    "AcquisitionReader",
+    "LIVE_FORCE_THRESHOLD",
+    "LiveBundle",
+    "NewSamples",
+    "PAIRING_RULE",
+    "Pipeline",
+    "RecordingReader",
+    "face_sums",
+    "open_acquisition",
+    "open_reader",
+    "recording_samples",
+    "replay_recording",
+]

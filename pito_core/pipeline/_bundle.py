@@ -1,0 +1,113 @@
+"""The pipeline's output: one numpy bundle per read (:class:`LiveBundle`), and the face sums."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..contact import ObjectContacts
+from ..frames import CubeCore
+
+__all__ = ["LiveBundle", "face_sums"]
+
+
+@dataclass
+class LiveBundle:
+    """What the pipeline made of the new samples of one read (numpy arrays, SI units).
+
+    Attributes
+    ----------
+    time : ndarray, shape (n,)
+        Sample times of the new cube samples, s (host clock, by the pairing rule).
+    counts : ndarray, shape (n, 36)
+        Raw gauge counts (not tared), face i in columns ``6(i−1) … 6i−1``.
+    reference : ndarray, shape (n, 6)
+        Reference ``[fx, fy, fz, tx, ty, tz]`` paired to each cube sample and tared, N and
+        N·m in the reference frame; NaN rows where there is no reference.
+    stats : dict
+        Device figures: ``rate_cube``/``rate_reference`` (Hz), ``saturated``, ``dropped``
+        (frames), ``simulated``, ``backlog`` (s).
+    wrenches : ndarray, shape (6, 6) or None
+        Wrench on each face in its frame at the latest sample (mean of the last
+        ``Pipeline.smooth`` samples), tared, ``[fx, fy, fz, tx, ty, tz]`` N and N·m; NaN
+        for faces without output. None without a calibration.
+    contacts : ObjectContacts or None
+        Contacts of ``wrenches`` on the object's patches, core frame, fields of shape
+        ``(6, …)`` (face i at index i−1): ``point`` m, ``normal``, ``force`` N (on the
+        object), ``torsion`` N·m, ``valid``, ``point_cov`` m² or None.
+    sum_force, sum_torque : ndarray, shape (3,) or None
+        Σ of the face loads in the core frame (N; N·m about the object's centre of gravity).
+    recorded : int
+        Cube samples recorded so far in the current recording (0 when not recording).
+    replay_position, replay_duration : float or None
+        Replay: s into the recording, and its length.
+    tick : ndarray of int64, shape (n,) or None
+        The cube's unwrapped device clock, µs (identifies samples across live and replay).
+    face_wrenches : ndarray, shape (n, 6, 6) or None
+        Wrench on each face at every new sample (face frames, tared, N and N·m).
+    """
+
+    time: np.ndarray
+    counts: np.ndarray
+    reference: np.ndarray
+    stats: dict = field(default_factory=dict)
+    wrenches: np.ndarray | None = None
+    contacts: ObjectContacts | None = None
+    sum_force: np.ndarray | None = None
+    sum_torque: np.ndarray | None = None
+    recorded: int = 0
+    replay_position: float | None = None
+    replay_duration: float | None = None
+    tick: np.ndarray | None = None
+    face_wrenches: np.ndarray | None = None
+
+    @property
+    def latest_time(self) -> float:
+        """Time of the newest sample, s (NaN when the bundle has none)."""
+        return float(self.time[-1]) if self.time.size else float("nan")
+
+    def __len__(self) -> int:
+        return int(self.time.size)
+
+    def merged(self, newer: "LiveBundle") -> "LiveBundle":
+        """One bundle with the samples of both (this one first) and the latest derived values.
+
+        For a consumer that fell behind: no sample is lost, the newest state wins.
+        """
+        na, nb = len(self), len(newer)
+
+        def cat(a, b):
+            if a is not None and b is not None:
+                return np.concatenate([a, b])
+            if a is None and na == 0:
+                return b
+            if b is None and nb == 0:
+                return a
+            return None
+
+        out = LiveBundle(np.concatenate([self.time, newer.time]), np.concatenate([self.counts, newer.counts]),
+                         np.concatenate([self.reference, newer.reference]), stats=newer.stats,
+                         recorded=newer.recorded, replay_position=newer.replay_position,
+                         replay_duration=newer.replay_duration, tick=cat(self.tick, newer.tick),
+                         face_wrenches=cat(self.face_wrenches, newer.face_wrenches))
+        src = newer if newer.wrenches is not None else self
+        out.wrenches, out.contacts = src.wrenches, src.contacts
+        out.sum_force, out.sum_torque = src.sum_force, src.sum_torque
+        return out
+
+
+def face_sums(wrenches, core: CubeCore, cog=(0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
+    """Σ of the face wrenches ``(6, 6)`` (face frames) in the core frame: ``(ΣF (3,) N, ΣT (3,) N·m)``.
+
+    Faces with NaN (no output) are left out. Moments about ``cog`` (core frame, m), the
+    object's centre of gravity: in a still grasp ‖ΣF‖ = m·g and ΣT = 0 about it.
+    """
+    W = np.asarray(wrenches, dtype=float)
+    T = core.face_poses()  # (6, 4, 4) T_core_face
+    R, p = T[:, :3, :3], T[:, :3, 3]
+    ok = np.isfinite(W).all(axis=1)
+    f = np.einsum("kij,kj->ki", R, W[:, :3])[ok]
+    m = (np.einsum("kij,kj->ki", R, W[:, 3:]) + np.cross(p, np.einsum("kij,kj->ki", R, W[:, :3])))[ok]
+    force = f.sum(axis=0)
+    return force, m.sum(axis=0) - np.cross(np.asarray(cog, dtype=float), force)

@@ -1,0 +1,328 @@
+"""The one live pipeline: new samples → pairing → tare → calibration → face wrenches → contacts.
+
+:class:`Pipeline` is called by every path that turns device samples into loads: the app's
+acquisition worker, ``pito record``, replay (``pito replay``, the app's timeline),
+``pito bench``; :meth:`Acquisition.to_session` pairs by the same rule
+(:mod:`pito_core.devices._clock`). It holds no thread and no Qt: a caller hands it the new
+rows of both streams (:class:`~pito_core.pipeline.AcquisitionReader` reads them from the
+acquisition's ring buffers by cursor; :class:`~pito_core.pipeline.RecordingReader` from a
+recording) and gets one :class:`LiveBundle`.
+
+Work per call is proportional to the new samples: the reference history and the tails kept
+for the tare and the smoothing are fixed-size rings read as contiguous views.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..contact import Assembly, ObjectContacts, load_assembly, solve_object
+from ..defaults import SHOW_CONTACT_FORCE_N
+from ..devices import pair_reference
+from ..devices._acquisition import CUBE_ADC_LIMIT
+from ..frames import CubeCore
+from ._bundle import LiveBundle, face_sums
+
+__all__ = ["Pipeline", "LIVE_FORCE_THRESHOLD"]
+
+#: Force below which the live view shows no contact on a face, N (``pito_core.defaults``).
+LIVE_FORCE_THRESHOLD = SHOW_CONTACT_FORCE_N
+
+
+class _Window:
+    """The last ``capacity`` rows of named arrays, readable as contiguous views (no copy).
+
+    Each row is written twice (at ``i`` and ``i + capacity``) so that any run of the last
+    ``≤ capacity`` rows is one slice.
+    """
+
+    def __init__(self, capacity: int, fields: dict):
+        self.capacity = int(capacity)
+        self.data = {k: np.full((2 * self.capacity,) + shape, np.nan if dt == np.float64 else 0, dtype=dt)
+                     for k, (dt, shape) in fields.items()}
+        self.count = 0
+
+    def append(self, **arrays) -> None:
+        n = len(next(iter(arrays.values())))
+        if n == 0:
+            return
+        if n > self.capacity:
+            arrays = {k: v[-self.capacity:] for k, v in arrays.items()}
+            self.count += n - self.capacity
+            n = self.capacity
+        cap = self.capacity
+        p = self.count % cap
+        first = min(n, cap - p)
+        for k, v in arrays.items():
+            d = self.data[k]
+            for base in (0, cap):
+                d[base + p : base + p + first] = v[:first]
+                d[base : base + n - first] = v[first:]
+        self.count += n
+
+    def last(self, n: int | None = None) -> dict:
+        """Views of the last ``n`` rows (all kept if None), oldest first."""
+        avail = min(self.count, self.capacity)
+        n = avail if n is None else max(0, min(int(n), avail))
+        end = self.count % self.capacity + self.capacity
+        return {k: v[end - n : end] for k, v in self.data.items()}
+
+    def clear(self) -> None:
+        self.count = 0
+
+
+class Pipeline:
+    """New samples of both devices → one :class:`LiveBundle` (module docstring).
+
+    Parameters
+    ----------
+    calibration : Calibration, optional
+        Applied to every new cube sample (face wrenches); none: no wrenches, no contacts.
+    assembly : Assembly or str, optional
+        The patched object (or a library name); none: the bare cube's flat faces.
+    core : CubeCore, optional
+    has_reference : bool
+        A reference device is connected: cube samples wait for the reference record after
+        them (pairing rule); without one every cube sample passes at once with NaN reference.
+    force_threshold : float
+        Force below which a face shows no contact, N (default :data:`LIVE_FORCE_THRESHOLD`).
+    wrench_cov : array-like, shape (6, 6) or (6, 6, 6), or "calibration", optional
+        Face-wrench noise covariance (N², N²·m, N²·m²) for the contacts' point covariance;
+        ``"calibration"``: each face's covariance from the calibration at the latest counts
+        (``Calibration.wrenches(..., return_cov=True)``: fit and gauge noise), or none when the
+        calibration carries no covariance.
+    smooth : int
+        The latest face wrenches are the mean of this many newest samples (noise).
+    reference_history : float
+        Seconds of reference records kept for pairing (at ``rate_hz``).
+    max_wait : float
+        Seconds (sample time) a cube sample waits for the reference before it passes with
+        NaN (a reference that stopped).
+    rate_hz : float
+        Nominal sample rate, Hz (sizes the histories).
+
+    Attributes
+    ----------
+    counts_offset : ndarray, shape (36,) or None
+        Tare of the counts (None: the calibration's own offset).
+    reference_bias : ndarray, shape (6,)
+        Tare of the reference, N and N·m.
+    cog : ndarray, shape (3,)
+        The object's centre of gravity in the core frame, m (for ``sum_torque``).
+    """
+
+    def __init__(self, calibration=None, assembly=None, *, core: CubeCore | None = None, has_reference: bool = True,
+                 force_threshold: float = LIVE_FORCE_THRESHOLD, wrench_cov=None, smooth: int = 5,
+                 reference_history: float = 4.0, max_wait: float = 1.0, rate_hz: float = 1000.0):
+        if int(smooth) < 1:
+            raise ValueError(f"smooth: expected >= 1 samples, got {smooth!r}")
+        if not force_threshold >= 0:
+            raise ValueError(f"force_threshold: expected >= 0 N, got {force_threshold!r}")
+        self.core = core or CubeCore()
+        self.has_reference = bool(has_reference)
+        self.force_threshold = float(force_threshold)
+        self.smooth = int(smooth)
+        self.max_wait = float(max_wait)
+        self.calibration = None
+        self.counts_offset = None
+        self.reference_bias = np.zeros(6)
+        self.cog = np.zeros(3)
+        self.assembly = None
+        self.wrench_cov = None
+        self._ref = _Window(int(reference_history * rate_hz) + 1, {"time": (np.float64, ()),
+                                                                    "wrench": (np.float64, (6,))})
+        self._tail = _Window(int(2.0 * rate_hz) + 1, {"time": (np.float64, ()), "counts": (np.float64, (36,)),
+                                                      "reference": (np.float64, (6,))})
+        self._wtail = _Window(self.smooth, {"w": (np.float64, (6, 6))})
+        self._pending: dict | None = None
+        self.last_tick: int | None = None
+        self.samples = 0
+        self.set_calibration(calibration)
+        self.set_assembly(assembly, wrench_cov)
+
+    # ------------------------------------------------------------ settings
+    def set_calibration(self, calibration) -> None:
+        """Use ``calibration`` (None: none) with its own offset until the next :meth:`tare`."""
+        self.calibration = calibration
+        self.counts_offset = None
+        self._wtail.clear()
+
+    def set_assembly(self, assembly, wrench_cov=None) -> None:
+        """The object whose patches carry the contacts (an ``Assembly``, a library name, or None: the bare cube)."""
+        if isinstance(assembly, str):
+            assembly = load_assembly(assembly)
+        if assembly is not None and not isinstance(assembly, Assembly):
+            raise ValueError(f"assembly: expected an Assembly, a library name or None, got {type(assembly).__name__}")
+        self.assembly = assembly
+        if isinstance(wrench_cov, str):
+            if wrench_cov != "calibration":
+                raise ValueError(f"wrench_cov: expected an array, 'calibration' or None, got {wrench_cov!r}")
+            self.wrench_cov = wrench_cov
+        else:
+            self.wrench_cov = None if wrench_cov is None else np.asarray(wrench_cov, dtype=float)
+        c = getattr(assembly, "center_of_gravity", None)
+        self.cog = np.zeros(3) if c is None else np.asarray(c, dtype=float)
+
+    # ------------------------------------------------------------ tare
+    def tare(self, duration: float = 0.5) -> dict:
+        """Zero the face wrenches and the reference on the last ``duration`` s of processed samples.
+
+        Returns the tare as an event for a recording (``type`` "tare", ``counts_offset``
+        (36,) counts, ``reference_bias`` (6,) N and N·m, ``from_tick``: the first cube tick
+        (µs) it applies to), which :meth:`apply_tare` replays.
+
+        Raises
+        ------
+        ValueError
+            No sample processed yet, or ``duration`` not > 0.
+        """
+        if not duration > 0:
+            raise ValueError(f"duration: expected > 0 s, got {duration!r}")
+        tail = self._tail.last()
+        if tail["time"].size == 0:
+            raise ValueError("tare: no sample processed yet")
+        sel = tail["time"] >= tail["time"][-1] - duration
+        counts_offset = tail["counts"][sel].mean(axis=0)
+        ref = tail["reference"][sel]
+        finite = np.isfinite(ref).all(axis=1)
+        bias = ref[finite].mean(axis=0) if finite.any() else self.reference_bias.copy()
+        event = {"type": "tare", "counts_offset": counts_offset.tolist(), "reference_bias": bias.tolist(),
+                 "duration": float(duration), "from_tick": None if self.last_tick is None else self.last_tick + 1}
+        self.apply_tare(event)
+        return event
+
+    def apply_tare(self, event: dict) -> None:
+        """Set the tare of an event made by :meth:`tare` (replay)."""
+        self.counts_offset = np.asarray(event["counts_offset"], dtype=float)
+        self.reference_bias = np.asarray(event["reference_bias"], dtype=float)
+        self._wtail.clear()
+
+    def reset(self) -> None:
+        """Forget the samples seen (reference history, waiting samples, tails); keep calibration and tare."""
+        self._ref.clear()
+        self._tail.clear()
+        self._wtail.clear()
+        self._pending = None
+        self.last_tick = None
+
+    # ------------------------------------------------------------ the pipeline
+    def feed(self, samples, *, flush: bool = False) -> LiveBundle:
+        """:meth:`process` one read of a reader (``NewSamples``): restarts, then tare events at their sample.
+
+        A tare event's ``from_tick`` splits the cube rows: the rows before it are processed
+        with the tare in force before, the rest with the event's tare (as live).
+        """
+        if samples.restart:
+            self.reset()
+        cube, ref = samples.cube, samples.reference
+        events = sorted((e for e in samples.events if e.get("from_tick") is not None), key=lambda e: e["from_tick"])
+        if not events or cube is None or "tick" not in cube:
+            return self.process(cube, ref, flush=flush)
+        out = None
+        for ev in events:
+            k = int(np.searchsorted(cube["tick"], int(ev["from_tick"]), side="left"))
+            head = {key: v[:k] for key, v in cube.items()}
+            b = self.process(head, ref, flush=True)
+            ref = None
+            self.apply_tare(ev)
+            cube = {key: v[k:] for key, v in cube.items()}
+            out = b if out is None else out.merged(b)
+        b = self.process(cube, None, flush=flush)
+        return out.merged(b)
+
+    def process(self, cube: dict | None, reference: dict | None = None, *, flush: bool = False) -> LiveBundle:
+        """Turn the new rows of both devices into one bundle.
+
+        Parameters
+        ----------
+        cube : dict or None
+            New cube rows: ``time (n,)`` s (pairing rule), ``counts (n, 36)``, optional
+            ``tick (n,)`` µs. Rows come in order, each once.
+        reference : dict or None
+            New reference rows: ``time (m,)`` s, ``wrench (m, 6)`` N and N·m (raw, not tared).
+        flush : bool
+            Pass every waiting cube sample now (the end of a recording).
+
+        Returns
+        -------
+        LiveBundle
+            The cube samples that became ready (paired), in order.
+        """
+        if reference is not None and len(reference["time"]):
+            self._ref.append(time=np.asarray(reference["time"], dtype=np.float64),
+                             wrench=np.asarray(reference["wrench"], dtype=np.float64))
+        rows = self._take_ready(cube, flush)
+        t, counts = rows["time"], rows["counts"]
+        ref_hist = self._ref.last()
+        if self.has_reference and t.size:
+            raw_ref = pair_reference(t, ref_hist["time"], ref_hist["wrench"])
+        else:
+            raw_ref = np.full((t.size, 6), np.nan)
+        tick = rows.get("tick")
+        if tick is not None and tick.size:
+            self.last_tick = int(tick[-1])
+        self.samples += t.size
+        self._tail.append(time=t, counts=counts, reference=raw_ref)
+        b = LiveBundle(t, counts, raw_ref - self.reference_bias, tick=tick)
+        if self.calibration is not None and t.size:
+            W = self.calibration.wrenches(counts, offset=self.counts_offset)
+            b.face_wrenches = W
+            self._wtail.append(w=W)
+            latest = self._wtail.last()["w"].mean(axis=0)
+            b.wrenches = latest
+            b.sum_force, b.sum_torque = face_sums(latest, self.core, self.cog)
+            b.contacts = self.contacts(latest, self._latest_cov())
+            # issue 13: a gauge at its ADC limit in the samples behind the latest wrenches: no valid contact
+            # (every face's wrench depends on all 36 gauges through the calibration matrix)
+            recent = np.asarray(counts[-self.smooth:])
+            if (np.abs(recent) >= CUBE_ADC_LIMIT).any() and b.contacts is not None:
+                b.contacts.valid[...] = False
+        return b
+
+    def _latest_cov(self):
+        """The wrench covariance for the latest contacts (``wrench_cov``; see the class docstring)."""
+        if not isinstance(self.wrench_cov, str):
+            return self.wrench_cov
+        if getattr(self.calibration, "covariance", None) is None:
+            return None
+        counts = self._tail.last(self.smooth)["counts"].mean(axis=0)
+        return self.calibration.wrenches(counts, offset=self.counts_offset, return_cov=True)[1]
+
+    def contacts(self, wrenches, wrench_cov=None):
+        """Contacts ``ObjectContacts`` (core frame) of face wrenches ``(..., 6, 6)`` on the object's patches.
+
+        ``wrench_cov``: ``(6, 6)`` or ``(6, 6, 6)`` covariance for the point covariance (default none).
+        """
+        assembly = self.assembly if self.assembly is not None else "cube"
+        c = solve_object(assembly, np.asarray(wrenches)[None] if np.ndim(wrenches) == 2 else wrenches,
+                         self.force_threshold, wrench_cov=wrench_cov)
+        if np.ndim(wrenches) == 2:
+            c = ObjectContacts(c.point[0], c.normal[0], c.force[0], c.torsion[0], c.valid[0],
+                               None if c.point_cov is None else c.point_cov[0])
+        return c
+
+    def _take_ready(self, cube: dict | None, flush: bool) -> dict:
+        """The waiting and new cube rows whose reference has arrived (pairing rule: never extrapolate)."""
+        rows = self._pending
+        if cube is not None and len(cube["time"]):
+            new = {k: np.asarray(cube[k]) for k in ("time", "counts", "tick") if k in cube}
+            new["counts"] = np.asarray(new["counts"], dtype=np.float64)
+            rows = new if rows is None else {k: np.concatenate([rows[k], new[k]]) for k in new}
+        if rows is None:
+            return {"time": np.zeros(0), "counts": np.zeros((0, 36))}
+        if not self.has_reference or flush:
+            n = rows["time"].size
+        else:
+            ref_t = self._ref.last(1)["time"]
+            newest = ref_t[0] if ref_t.size else -np.inf
+            n = int(np.searchsorted(rows["time"], newest, side="right"))
+            # a reference that stopped: samples older than max_wait pass with NaN
+            n = max(n, int(np.searchsorted(rows["time"], rows["time"][-1] - self.max_wait, side="right")))
+        ready = {k: v[:n] for k, v in rows.items()}
+        self._pending = {k: v[n:] for k, v in rows.items()} if n < rows["time"].size else None
+        return ready
+
+    @property
+    def waiting(self) -> int:
+        """Cube samples waiting for the reference."""
+        return 0 if self._pending is None else int(self._pending["time"].size)

@@ -1,0 +1,114 @@
+"""What the operator sees: one palette, white contacts, clamped arrows marked, lifted torsion
+rings, plots decimated from rings, the loading page's gates, the wizard's default method."""
+
+import numpy as np
+import pytest
+
+from pito_core.contact import ObjectContacts
+from pito_core.frames import CubeCore
+
+pytestmark = pytest.mark.needs_display
+
+
+def one_contact(force, torsion=0.02):
+    pts = np.full((6, 3), np.nan)
+    nrm = np.zeros((6, 3))
+    frc = np.zeros((6, 3))
+    pts[0], nrm[0], frc[0] = (0.025, 0.003, 0.001), (1, 0, 0), force
+    valid = np.array([True, False, False, False, False, False])
+    return ObjectContacts(pts, nrm, frc, np.array([torsion, 0, 0, 0, 0, 0.0]), valid, None)
+
+
+def test_palette_has_six_distinct_colours_shared_by_scene_and_plots():
+    from app.palette import FACE_COLORS, hex_rgb
+    from app.scene import FACE_COLORS as scene_colors
+    from app.widgets import plots
+
+    assert scene_colors is FACE_COLORS and plots.FACE_COLORS is FACE_COLORS
+    rgb = np.array([hex_rgb(FACE_COLORS[i]) for i in range(1, 7)])
+    d = np.linalg.norm(rgb[:, None] - rgb[None], axis=2) + np.eye(6)
+    assert d.min() > 0.2  # no two faces share a hue (faces 1 and 5 were two blues)
+
+
+@pytest.fixture
+def scene(qtbot):
+    from app.scene import CubeScene
+
+    s = CubeScene(CubeCore())
+    qtbot.addWidget(s)
+    s.resize(640, 480)
+    s.show()
+    qtbot.waitExposed(s)
+    yield s
+    s.close_scene()
+
+
+def test_contact_is_white_on_top_and_the_arrow_ends_on_it(scene):
+    from app.palette import CONTACT_COLOR, FACE_COLORS, hex_rgb
+
+    g = scene.glyphs
+    g.update(one_contact((-6.0, 1.0, 0.5)))
+    assert g.spheres[1].GetVisibility() and np.allclose(g.spheres[1].GetProperty().GetColor(), hex_rgb(CONTACT_COLOR))
+    assert g.overlay.GetLayer() == 1 and g.overlay.GetActiveCamera() is scene.plotter.renderer.GetActiveCamera()
+    assert np.allclose(g.arrows[1].prop.color.float_rgb, hex_rgb(FACE_COLORS[1]), atol=1e-3)
+    M = np.array(g.arrows[1].user_matrix)
+    tip = (M @ np.array([1.0, 0, 0, 1]))[:3]
+    assert np.isclose(np.linalg.norm(tip - np.array([0.025, 0.003, 0.001])), g.radius)  # on the sphere's surface
+    assert not g.collars[1].GetVisibility()
+
+
+def test_arrows_beyond_full_scale_are_clamped_and_marked(scene):
+    g = scene.glyphs
+    g.update(one_contact((-30.0, 0.0, 0.0)))
+    M = np.array(g.arrows[1].user_matrix)
+    assert np.isclose(np.linalg.norm(M[:3, 0]), g.full_scale * g.force_scale)
+    assert g.clamped[0] and g.collars[1].GetVisibility()
+
+
+def test_torsion_ring_floats_above_the_surface(scene):
+    g = scene.glyphs
+    g.update(one_contact((-6.0, 0.0, 0.0), torsion=0.05))
+    centre = np.array(g.rings[1].user_matrix)[:3, 3]
+    assert g.rings[1].GetVisibility() and centre[0] - 0.025 == pytest.approx(g.lift)  # along the normal (+x)
+
+
+def test_camera_holds_full_scale_arrows(scene):
+    scene.frame_contacts()
+    cam = scene.plotter.camera
+    d = np.linalg.norm(np.array(cam.position) - np.array(cam.focal_point))
+    reach = scene.object_radius() + scene.glyphs.reach()
+    assert d * np.tan(np.radians(cam.view_angle / 2)) >= reach * 0.999
+
+
+def test_ring_buffer_view_and_minmax_decimation_keep_peaks():
+    from app.widgets.plots import RingBuffer, minmax_decimate
+
+    rb = RingBuffer(100, 2)
+    for k in range(7):
+        rb.append(np.column_stack([np.arange(30) + 30 * k, np.arange(30) + 30 * k]))
+    v = rb.view()
+    assert v.shape == (100, 2) and np.array_equal(v[:, 0], np.arange(110, 210)) and v.base is not None
+    t = np.linspace(0, 10, 10_000)
+    y = np.zeros((t.size, 2))
+    y[5000, 0] = 9.0  # one-sample spike
+    y[7000, 1] = -4.0
+    td, yd = minmax_decimate(t, y, 0.0, 10.0, 100)
+    assert td.size <= 200 and yd[:, 0].max() == 9.0 and yd[:, 1].min() == -4.0
+
+
+def test_load_page_progress_follows_the_gate_that_holds_the_face():
+    from app.wizard.capture import CaptureRules, FaceCaptures
+    from app.wizard.load_page import face_gates
+
+    fc = FaceCaptures(1, CaptureRules(k=100))
+    gates = face_gates(fc)
+    assert [g[0] for g in gates] == [0.0, 0.0, 0.0, 0.0]
+    assert gates[0][1].startswith("κ ∞")
+
+
+def test_wizard_defaults_to_the_recommended_method():
+    from app.wizard.model import RECOMMENDED_METHOD, RECOMMENDED_WHY, WizardModel
+
+    m = WizardModel()
+    assert m.method == RECOMMENDED_METHOD == "unloaded_frame" and m.flange == "face"
+    assert "PITO" in RECOMMENDED_WHY and "face_to_face" in RECOMMENDED_WHY

@@ -1,0 +1,79 @@
+"""NWB export round trip: written by `pito export --nwb`, read back with pynwb (and nwbinspector when installed)."""
+
+import numpy as np
+import pytest
+
+pynwb = pytest.importorskip("pynwb", reason="the interop extra (pip install -e '.[interop]') is not installed")
+
+from pito_core.interop import export_data, write_nwb  # noqa: E402
+
+from .conftest import pito  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def nwb_file(interop_files):
+    d, _, rec, _ = interop_files
+    out = d / "grasp.nwb"
+    r = pito("export", rec, "--nwb", out, "--subject-id", "S01", "--species", "Homo sapiens", "--sex", "F", "--age", "P30Y",
+             "--experimenter", "Doe, Jane", "--lab", "Grasp lab")
+    assert "recording's own calibration" in r.stdout
+    return out, export_data(rec)
+
+
+def test_nwb_round_trip(nwb_file):
+    path, data = nwb_file
+    with pynwb.NWBHDF5IO(str(path), "r") as io:
+        f = io.read()
+        assert f.subject.subject_id == "S01" and f.subject.species == "Homo sapiens"
+        assert f.subject.sex == "F" and f.subject.age == "P30Y"
+        assert tuple(f.experimenter) == ("Doe, Jane",) and f.lab == "Grasp lab"
+        assert "SIMULATED" in f.session_description
+        counts = f.acquisition["pito_raw_counts"]
+        assert counts.unit == "counts" and counts.data.shape == (data.n, 36)
+        np.testing.assert_array_equal(counts.data[:], data.counts)
+        np.testing.assert_allclose(counts.timestamps[:], data.time)
+        assert np.all(np.diff(counts.timestamps[:]) >= 0)
+        assert f.acquisition["reference_force"].unit == "N" and f.acquisition["reference_torque"].unit == "N*m"
+        w = f.processing["pito_wrenches"]
+        for i in range(1, 7):
+            F, T = w[f"face_{i}_force"], w[f"face_{i}_torque"]
+            assert F.unit == "N" and T.unit == "N*m" and f"face {i}" in F.description
+            np.testing.assert_allclose(F.data[:], data.face_wrenches[:, i - 1, :3])
+            np.testing.assert_allclose(T.data[:], data.face_wrenches[:, i - 1, 3:])
+            np.testing.assert_allclose(F.timestamps[:], data.time)  # linked to the counts' timestamps
+        c = f.processing["pito_contacts"]
+        valid_any = False
+        for i in range(1, 7):
+            pt = c[f"contact_face_{i}"]["point"]
+            assert pt.reference_frame.startswith("pito_core") and pt.unit == "meters"
+            np.testing.assert_array_equal(np.isnan(pt.data[:]), np.isnan(data.contacts.point[:, i - 1]))
+            valid = c[f"contact_face_{i}_valid"].data[:]
+            np.testing.assert_array_equal(valid, data.contacts.valid[:, i - 1])
+            valid_any |= bool(valid.any())
+        assert valid_any, "the simulated grasp touches at least one face"
+        cm = f.processing["pito_calibration"]["calibration_matrix"].to_dataframe()
+        np.testing.assert_allclose(np.stack(cm["coefficients"].to_numpy()), np.asarray(data.calibration["matrix"]))
+        assert list(cm["component"][:6]) == ["fx", "fy", "fz", "tx", "ty", "tz"]
+        assert data.calibration["hash"] in f.processing["pito_calibration"]["calibration_matrix"].description
+        off = f.processing["pito_calibration"]["calibration_offset"].to_dataframe()
+        np.testing.assert_allclose(off["offset_counts"], data.calibration["offset"])
+        assert data.calibration["hash"] in f.notes and "pito_mixed" in f.notes
+
+
+def test_nwb_without_calibration_has_counts_and_reference_only(interop_files, tmp_path):
+    _, _, _, raw = interop_files
+    data = export_data(raw)
+    write_nwb(data, tmp_path / "raw.nwb")
+    with pynwb.NWBHDF5IO(str(tmp_path / "raw.nwb"), "r") as io:
+        f = io.read()
+        assert set(f.acquisition) == {"pito_raw_counts", "reference_force", "reference_torque"}
+        assert len(f.processing) == 0
+
+
+def test_nwbinspector_finds_no_critical_issue(nwb_file):
+    nwbinspector = pytest.importorskip("nwbinspector", reason="nwbinspector not installed")
+    from nwbinspector import Importance, inspect_nwbfile
+
+    path, _ = nwb_file
+    issues = [m for m in inspect_nwbfile(nwbfile_path=str(path)) if m.importance == Importance.CRITICAL]
+    assert not issues, "\n".join(f"{m.object_name}: {m.message}" for m in issues)

@@ -1,0 +1,111 @@
+"""The one pipeline: a recording replayed gives the face wrenches and contacts the live path produced."""
+
+import time
+
+import numpy as np
+import pytest
+
+from pito_core.calibration import Calibration
+from pito_core.devices import Acquisition, NetFT, PitoSerial
+from pito_core.io import RecordingWriter, read_recording
+from pito_core.pipeline import AcquisitionReader, LiveBundle, Pipeline, replay_recording
+from pito_core.sim import SimulatedDevices, VirtualCube
+
+
+def ideal_calibration():
+    cube = VirtualCube()
+    return Calibration("ideal", cube.ideal_calibration(), range(1, 7), "face", cube.offset, cube.core, np.eye(4),
+                       meta={"simulated": True})
+
+
+@pytest.fixture(scope="module")
+def live_run(tmp_path_factory):
+    """~3 s of the simulated grasp (devices in their own process) through the live path, recorded."""
+    path = tmp_path_factory.mktemp("live") / "grasp.pitorec"
+    cal = ideal_calibration()
+    with SimulatedDevices(seed=3) as sim:
+        sim.set_assembly("pito_mixed")
+        writer = RecordingWriter(path, {"simulated": True}, fsync=False)
+        netft = NetFT(sim.host, sim.ati_port, http_port=sim.ati_port, buffered=True)
+        acq = Acquisition(PitoSerial(sim.port), netft, recorder=writer, buffer_seconds=10.0)
+        reader = AcquisitionReader(acq, simulated=True, history=0.0)
+        pipe = Pipeline(cal, "pito_mixed", has_reference=True)
+        bundles, tared = [], False
+        acq.start()
+        try:
+            t0 = time.monotonic()
+            while time.monotonic() - t0 < 3.0:
+                time.sleep(1 / 60)
+                b = pipe.feed(reader.read())
+                if len(b):
+                    bundles.append(b)
+                if not tared and time.monotonic() - t0 > 1.2 and pipe.samples > 500:
+                    writer.append_event(pipe.tare())
+                    tared = True
+        finally:
+            acq.close()
+            writer.close()
+    assert tared and len(bundles) > 20
+    return path, cal, bundles
+
+
+def test_replay_gives_the_live_face_wrenches_and_contacts(live_run):
+    path, cal, bundles = live_run
+    live = bundles[0]
+    for b in bundles[1:]:
+        live = live.merged(b)
+    rep, pipe = replay_recording(path, cal, "pito_mixed")
+    assert isinstance(rep, LiveBundle)
+    # every live sample is in the replay, at the same tick, with the same time, pairing, tare and wrenches
+    idx = np.searchsorted(rep.tick, live.tick)
+    assert np.array_equal(rep.tick[idx], live.tick)
+    assert np.array_equal(rep.time[idx], live.time)  # the same clock, bitwise
+    paired = np.isfinite(live.reference).all(axis=1)
+    assert paired.mean() > 0.95
+    np.testing.assert_allclose(rep.reference[idx], live.reference, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(rep.face_wrenches[idx], live.face_wrenches, rtol=0, atol=1e-12)
+    # the tare was applied from the same sample: the wrenches differ before and after it
+    tare = [e for e in read_recording(path).events if e["type"] == "tare"][0]
+    k_tare = int(np.searchsorted(rep.tick, tare["from_tick"]))
+    assert 0 < k_tare < rep.tick.size
+    # contacts of the latest (smoothed) sample of each live bundle, recomputed from the replay
+    checked = 0
+    for b in bundles:
+        k = int(np.searchsorted(rep.tick, b.tick[-1]))
+        if k - (pipe.smooth - 1) <= k_tare <= k or k < pipe.smooth:  # smoothing window across the tare / start
+            continue
+        W = rep.face_wrenches[k - pipe.smooth + 1 : k + 1].mean(axis=0)
+        np.testing.assert_allclose(W, b.wrenches, rtol=0, atol=1e-12)
+        c = pipe.contacts(W)
+        assert np.array_equal(c.valid, b.contacts.valid)
+        for name in ("point", "normal", "force", "torsion"):
+            np.testing.assert_allclose(getattr(c, name), getattr(b.contacts, name), rtol=0, atol=1e-12)
+        checked += 1
+    assert checked > 10
+    assert any(b.contacts.valid.any() for b in bundles)  # the grasp touched the object
+
+
+def test_replay_reader_in_chunks_equals_replay_at_once(live_run):
+    from pito_core.pipeline import RecordingReader
+
+    path, cal, _ = live_run
+    whole, _ = replay_recording(path, cal)
+    reader = RecordingReader(path, speed=float("inf"), loop=False)
+    pipe = Pipeline(cal, has_reference=True)
+    # cut the recording into reads of ~17 samples, as a 60 Hz tick would
+    cube, ref = reader.cube, reader.reference
+    out = None
+    from pito_core.pipeline import NewSamples
+
+    edges = np.arange(0, cube["time"].size + 17, 17)
+    for a, b in zip(edges[:-1], edges[1:]):
+        hi = cube["host_time"][min(b, cube["time"].size) - 1]
+        j0 = 0 if a == 0 else int(np.searchsorted(ref["host_time"], cube["host_time"][a - 1], side="right"))
+        j1 = int(np.searchsorted(ref["host_time"], hi, side="right"))
+        c = {k: v[a:b] for k, v in cube.items()}
+        ev = [e for e in reader.events if c["tick"].size and c["tick"][0] <= e["from_tick"] <= c["tick"][-1]]
+        bnd = pipe.feed(NewSamples(c, {k: v[j0:j1] for k, v in ref.items()}, ev), flush=b >= cube["time"].size)
+        out = bnd if out is None else out.merged(bnd)
+    assert np.array_equal(out.tick, whole.tick)
+    np.testing.assert_allclose(out.reference, whole.reference, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(out.face_wrenches, whole.face_wrenches, rtol=0, atol=1e-12)
