@@ -9,7 +9,7 @@ the simulator at startup. No Qt here.
 
 from __future__ import annotations
 
-from pito_core.pipeline import AcquisitionReader, open_acquisition
+from pito_core.pipeline import PipelineProcess
 from pito_core.sim import SimulatedDevices
 
 __all__ = ["DemoDevices", "demo_calibration", "DEMO_METHOD"]
@@ -19,7 +19,7 @@ DEMO_METHOD = "loaded_frame"
 
 
 class DemoDevices:
-    """The simulated cube and reference in a child process, with a running acquisition on them.
+    """The simulated cube and reference in a child process, read and processed in another (``PipelineProcess``).
 
     Parameters
     ----------
@@ -35,9 +35,9 @@ class DemoDevices:
     def __init__(self, seed: int = 0, speed: float = 1.0, period: float = 1.5):
         self.sim = SimulatedDevices(seed=seed, speed=speed, period=period)
         try:
+            # the drivers and the pipeline in a process of their own, as for hardware (MainWindow.connect_devices);
             # buffered RDT (10 records per packet), as a real box allows: a tenth of the packets
-            self.acquisition = open_acquisition(self.sim.port, self.sim.ati, buffered=True, buffer_seconds=30.0,
-                                                meta={"simulated": True})
+            self.process = PipelineProcess(self.sim.port, self.sim.ati, simulated=True, buffered=True)
         except BaseException:
             self.sim.close()
             raise
@@ -46,9 +46,9 @@ class DemoDevices:
     def describe(self) -> str:
         return self.sim.describe()
 
-    def open_source(self) -> AcquisitionReader:
-        """A worker source on the demo's acquisition (the demo keeps the devices)."""
-        return AcquisitionReader(self.acquisition, simulated=True, owns=False)
+    def open_source(self):
+        """A worker source on the demo's pipeline process (the demo keeps it: the source's close leaves it running)."""
+        return self.process.borrowed()
 
     def set_scenario(self, name: str) -> None:
         self.sim.set_scenario(name)
@@ -65,7 +65,7 @@ class DemoDevices:
 
     def close(self) -> None:
         try:
-            self.acquisition.close()
+            self.process.close()
         finally:
             self.sim.close()
 

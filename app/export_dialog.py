@@ -149,7 +149,7 @@ class ExportDialog(QDialog):
         self.export_button.setEnabled(False)
         self.status.setText("Exporting…")
         self.task = run_task(lambda progress: export_recording(rec, progress=progress, **args), "Exporting",
-                             on_done=self._done, on_failed=self._failed, bar=self.bar)
+                             on_done=self._done, on_failed=self._failed, bar=self.bar, owner=self)
         return self.task
 
     def _done(self, paths) -> None:

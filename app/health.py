@@ -55,14 +55,15 @@ class HealthIndicator(QLabel):
             self.stalls += 1
         self._stalled = stalled
         if self.stats is None:
-            self.setText("devices: –")
-            self.setStyleSheet("")
+            text, style = "devices: –", ""
         elif words:
-            self.setText("devices: " + "; ".join(words) + f"  (stalls: {self.stalls})")
-            self.setStyleSheet("color: #d55e00; font-weight: bold;")
+            text, style = "devices: " + "; ".join(words) + f"  (stalls: {self.stalls})", "color: #d55e00; font-weight: bold;"
         else:
-            self.setText(f"devices ok (stalls: {self.stalls})")
-            self.setStyleSheet("")
+            text, style = f"devices ok (stalls: {self.stalls})", ""
+        if text != self.text():  # 20 times a second: touch the widget (a relayout, a repolish) only on a change
+            self.setText(text)
+        if style != self.styleSheet():
+            self.setStyleSheet(style)
 
 
 def install_health_indicator(window) -> HealthIndicator:

@@ -7,6 +7,7 @@ Usage::
     pito-app --calibration CAL.h5  # live view with a calibration file
     pito-app --pito PORT --ati HOST[:PORT]   # devices at these addresses (e.g. printed by `pito sim-devices`)
     pito-app --demo --screenshot live.png --page live   # render one screen to a PNG and exit
+    pito-app --demo --record run.pitorec --duration 3600   # record for an hour with the window open, then quit
 """
 
 from __future__ import annotations
@@ -37,12 +38,22 @@ def build_parser() -> argparse.ArgumentParser:
                    help="samples per face for the startup calibration of the virtual cube (default 1500)")
     p.add_argument("--screenshot", metavar="FILE.png", help="render --page to this PNG and exit")
     p.add_argument("--page", choices=PAGES, default="live", help="screen for --screenshot (default live)")
+    p.add_argument("--record", metavar="FILE.pitorec",
+                   help="start recording both devices to FILE once the live view shows data (as the Record button)")
+    p.add_argument("--duration", type=float, metavar="S",
+                   help="quit after S seconds, closing any recording first (s; default: run until closed)")
     p.add_argument("--size", default="1440x900", help="window size for --screenshot, WxH pixels (at least 1280x800)")
     return p
 
 
 def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
+    if args.duration is not None and not args.duration > 0:
+        print(f"pito-app: --duration: expected seconds > 0, got {args.duration}", file=sys.stderr)
+        return 2
+    if args.record and args.screenshot:
+        print("pito-app: --record and --screenshot exclude each other", file=sys.stderr)
+        return 2
     if args.screenshot and not args.demo:
         print("pito-app: --screenshot needs --demo (screens are rendered on the simulated devices)", file=sys.stderr)
         return 2
@@ -72,10 +83,32 @@ def main(argv=None) -> int:
         window.release_views()
         return 0 if ok else 1
     window.show()
+    if args.record:
+        _record_when_live(window, args.record)
+    if args.duration:
+        from PySide6.QtCore import QTimer
+
+        QTimer.singleShot(int(args.duration * 1000), window.close)
     code = app.exec()
     window.shutdown()
     window.release_views()
     return code
+
+
+def _record_when_live(window, path) -> None:
+    """Press Record (to ``path``) as soon as the live view has shown a bundle."""
+    from PySide6.QtCore import QTimer
+
+    def check():
+        if window.live.bundles_shown > 0:
+            window.live.record.blockSignals(True)
+            window.live.record.setChecked(True)
+            window.live.record.blockSignals(False)
+            window.toggle_recording(True, path)
+        else:
+            QTimer.singleShot(100, check)
+
+    check()
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -6,18 +6,25 @@ reports how far the work is (``fraction`` 0..1, or ``None`` when unknown) and is
 cancellation point: after :meth:`Task.cancel` the next call raises :class:`Cancelled`, the
 work stops there and its result is never delivered. A :class:`TaskBar` shows a task's
 progress with a Cancel button.
+
+A task may have an *owner* (the widget whose callbacks it calls): closing the owner cancels
+its tasks (:func:`cancel_tasks`, called by the window when it closes), and a task whose owner
+is gone (deleted) delivers nothing — no ``done``, no ``failed`` — so no callback ever reaches
+a deleted widget.
 """
 
 from __future__ import annotations
 
 import threading
 import traceback
+import weakref
 from typing import Callable
 
-from PySide6.QtCore import QObject, QRunnable, QThreadPool, Signal
+import shiboken6
+from PySide6.QtCore import QObject, QRunnable, QThreadPool, QTimer, Signal, Slot
 from PySide6.QtWidgets import QHBoxLayout, QLabel, QProgressBar, QPushButton, QWidget
 
-__all__ = ["Task", "Cancelled", "run_task", "run_in_process", "TaskBar"]
+__all__ = ["Task", "Cancelled", "run_task", "run_in_process", "cancel_tasks", "TaskBar"]
 
 _alive: set = set()  # tasks are kept alive until they end
 
@@ -46,6 +53,31 @@ class Task(QObject):
         self._cancel = threading.Event()
         self.running = True
         self.thread_name = None  # the thread that ran ``fn`` (for tests and logs)
+        self._owner = None  # weak reference to the owner, if any
+
+    # ------------------------------------------------------------ owner
+    @property
+    def owner(self):
+        """The owner given to :func:`run_task` (None if none, or once it is gone)."""
+        owner = self._owner() if self._owner is not None else None
+        return owner if owner is not None and shiboken6.isValid(owner) else None
+
+    def owner_alive(self) -> bool:
+        """True without an owner; else whether the owner still exists (its C++ object too)."""
+        return self._owner is None or self.owner is not None
+
+    def set_owner(self, owner: QObject) -> None:
+        """Bind the task to ``owner``: when the owner is destroyed the task is cancelled, delivering nothing."""
+        self._owner = weakref.ref(owner)
+        owner.destroyed.connect(self._owner_destroyed)
+
+    @Slot()
+    def _owner_destroyed(self) -> None:
+        # The owner is being destroyed (its children may be gone already): stop the work now,
+        # but emit ``ended`` only once the destruction is over, so that it reaches no part of it.
+        if self.running:
+            self._cancel.set()
+            QTimer.singleShot(0, self._finish)
 
     @property
     def cancelled(self) -> bool:
@@ -90,18 +122,20 @@ class Task(QObject):
     _failure_ready = Signal(str)
 
     def _on_result(self, result) -> None:  # GUI thread
-        if self.running and not self._cancel.is_set():
+        if self.running and not self._cancel.is_set() and self.owner_alive():
             self.done.emit(result)
         self._finish()
 
     def _on_failure(self, message: str) -> None:  # GUI thread
-        if self.running and not self._cancel.is_set():
+        if self.running and not self._cancel.is_set() and self.owner_alive():
             self.failed.emit(message)
         self._finish()
 
     def _finish(self) -> None:
         if self.running:
             self.running = False
+            if self._owner is not None and not self.owner_alive():
+                self._cancel.set()  # the owner is gone: nothing of it may be called any more
             self.ended.emit()
         _alive.discard(self)
 
@@ -116,7 +150,7 @@ class _Runnable(QRunnable):
 
 
 def run_task(fn: Callable, label: str, on_done: Callable | None = None, on_failed: Callable | None = None,
-             bar: "TaskBar | None" = None) -> Task:
+             bar: "TaskBar | None" = None, owner: QObject | None = None) -> Task:
     """Run ``fn(progress)`` in the thread pool; ``on_done(result)`` / ``on_failed(message)`` run in the GUI thread.
 
     Parameters
@@ -127,8 +161,14 @@ def run_task(fn: Callable, label: str, on_done: Callable | None = None, on_faile
         What the operator sees ("Fitting the calibration").
     bar : TaskBar, optional
         Shows the task's progress and its Cancel button.
+    owner : QObject, optional
+        The widget ``on_done`` / ``on_failed`` belong to. :func:`cancel_tasks` on it (or on
+        an ancestor) cancels the task; once the owner is destroyed the task is cancelled and
+        delivers nothing. Give it whenever the callbacks touch a widget.
     """
     task = Task(fn, label)
+    if owner is not None:
+        task.set_owner(owner)
     task._result_ready.connect(task._on_result)
     task._failure_ready.connect(task._on_failure)
     if on_done is not None:
@@ -140,6 +180,29 @@ def run_task(fn: Callable, label: str, on_done: Callable | None = None, on_faile
     _alive.add(task)
     QThreadPool.globalInstance().start(_Runnable(task))
     return task
+
+
+def _within(obj: QObject, root: QObject) -> bool:
+    while obj is not None:
+        if obj is root:
+            return True
+        obj = obj.parent()
+    return False
+
+
+def cancel_tasks(root: QObject) -> list[Task]:
+    """Cancel every running task owned by ``root`` or by a descendant of it; returns them.
+
+    A window calls it when it closes: the work stops (a child process is terminated) and
+    none of the callbacks run.
+    """
+    cancelled = []
+    for task in list(_alive):
+        owner = task.owner
+        if task.running and owner is not None and _within(owner, root):
+            task.cancel()
+            cancelled.append(task)
+    return cancelled
 
 
 def _in_process(fn, args, progress):
@@ -196,10 +259,10 @@ def _in_process(fn, args, progress):
 
 
 def run_in_process(fn, args: tuple, label: str, on_done: Callable | None = None, on_failed: Callable | None = None,
-                   bar: "TaskBar | None" = None) -> Task:
+                   bar: "TaskBar | None" = None, owner: QObject | None = None) -> Task:
     """Like :func:`run_task`, but ``fn(*args, progress=...)`` runs in a child Python process
     (``fn`` importable by name, ``args`` picklable). Cancel terminates the child at once."""
-    return run_task(lambda progress: _in_process(fn, args, progress), label, on_done, on_failed, bar)
+    return run_task(lambda progress: _in_process(fn, args, progress), label, on_done, on_failed, bar, owner)
 
 
 class TaskBar(QWidget):
@@ -224,8 +287,9 @@ class TaskBar(QWidget):
         self.task = task
         self.label.setText(task.label + "…")
         self.bar.setRange(0, 0)  # busy until the first figure
+        # bound methods of this widget (not lambdas): Qt drops the connections when the bar is deleted
         task.progressed.connect(self._progress)
-        task.ended.connect(lambda t=task: self._ended(t))
+        task.ended.connect(self._task_ended)
         self.setVisible(True)
 
     def _progress(self, fraction: float, text: str) -> None:
@@ -241,7 +305,8 @@ class TaskBar(QWidget):
         if self.task is not None:
             self.task.cancel()
 
-    def _ended(self, task: Task) -> None:
-        if task is self.task:
+    @Slot()
+    def _task_ended(self) -> None:
+        if self.task is not None and not self.task.running:  # the task shown has ended (not an older one)
             self.task = None
             self.setVisible(False)

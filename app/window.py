@@ -5,18 +5,18 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from PySide6.QtCore import Qt
+from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import QFileDialog, QLabel, QMainWindow, QMessageBox, QTabWidget, QWidget, QHBoxLayout
 
 from pito_core.frames import CubeCore
 
 from pito_core.contact import DEFAULT_WRENCH_COV
-from pito_core.pipeline import RecordingReader, open_reader
+from pito_core.pipeline import PipelineProcess, RecordingReader
 from pito_core.sim import reference_pose
 
 from .demo import DEMO_METHOD, DemoDevices, demo_calibration
 from .live import LiveView
-from .tasks import TaskBar, run_in_process, run_task
+from .tasks import TaskBar, cancel_tasks, run_in_process, run_task
 from .objects import display_meshes, list_assemblies, load_assembly, weight
 from .wizard.model import WizardModel
 from .wizard.wizard import CalibrationWizard
@@ -44,7 +44,13 @@ class MainWindow(QMainWindow):
         calibrated at startup.
     rate : float
         Display ticks per second (Hz).
+
+    Signals: ``recording_saved(str, int)`` — a recording was closed and is complete on disk
+    (path, cube samples written); ``recording_failed(str)`` — starting or closing one failed.
     """
+
+    recording_saved = Signal(str, int)
+    recording_failed = Signal(str)
 
     def __init__(self, demo: bool = False, calibration_path=None, rate: float = 60.0, seed: int = 0,
                  demo_k: int = 1500, wizard_k: int = 1000, demo_speed: float = 1.0, demo_period: float = 1.5):
@@ -82,6 +88,8 @@ class MainWindow(QMainWindow):
         self.worker_thread = WorkerThread(self.worker)
         self.worker.bundle.connect(self.on_bundle)
         self.worker.error.connect(self.on_worker_error)
+        self.worker.recording_closed.connect(self._recording_closed)
+        self.worker.recording_failed.connect(self._recording_failed)
         from .export_dialog import install_export_menu  # File → Export; the live view's LSL toggle (docs/interop.md)
         from .live.lsl_toggle import install_lsl_toggle
 
@@ -96,6 +104,7 @@ class MainWindow(QMainWindow):
         self.recording_path = None
         self.rig = None  # demo: the simulated devices and their scenarios
         self.calibration = None
+        self.calibration_task = None  # the demo's startup calibration, while it runs
         self.assembly = None
 
         self.tabs.currentChanged.connect(self._tab_changed)
@@ -149,8 +158,9 @@ class MainWindow(QMainWindow):
                 )
 
             # in a child process (the fit's LAPACK holds the GIL): the window shows the raw demo meanwhile
-            run_in_process(_demo_calibration_job, (k, seed), f"Calibrating the virtual cube ({m}, SIMULATED)", done,
-                           self.on_worker_error, bar=self.taskbar)
+            self.calibration_task = run_in_process(
+                _demo_calibration_job, (k, seed), f"Calibrating the virtual cube ({m}, SIMULATED)", done,
+                self.on_worker_error, bar=self.taskbar, owner=self)
 
     def _tab_changed(self, index: int) -> None:
         if self.rig is None:
@@ -180,7 +190,7 @@ class MainWindow(QMainWindow):
                 self.badge.setVisible(True)
                 text = f"✔ SIMULATED: {self.rig.describe()}"
             else:
-                source = open_reader(port, host)
+                source = PipelineProcess(port, host or None)  # the drivers and the pipeline in their own process
                 self.model.simulated = False
                 text = f"✔ cube on {port}, reference at {host}"
         except Exception as exc:  # noqa: BLE001 - shown to the operator
@@ -214,7 +224,7 @@ class MainWindow(QMainWindow):
             QMessageBox.warning(self, "Calibration", f"Could not load {path}:\n{message}")
 
         task = run_task(lambda progress: load_calibration(path), f"Loading {Path(path).name}", done, failed,
-                        bar=self.taskbar)
+                        bar=self.taskbar, owner=self)
         task.ended.connect(lambda: setattr(self, "_loading_calibration", False))
         return task
 
@@ -247,10 +257,16 @@ class MainWindow(QMainWindow):
 
     # ------------------------------------------------------------ record / replay
     def toggle_recording(self, on: bool, path=None) -> None:
-        """Start recording (asks for the file unless ``path``) or stop it."""
+        """Start recording (asks for the file unless ``path``) or stop it.
+
+        Stopping is done by the worker, which closes the file (end marker written, flushed to
+        disk) and then emits ``recording_closed``: :attr:`recording_saved` follows, once the
+        file is complete.
+        """
         if not on:
             self.worker.post(self.worker.stop_recording)
-            self.statusBar().showMessage(f"Recording saved to {self.recording_path}", 8000)
+            if self.recording_path is not None:
+                self.statusBar().showMessage(f"Closing the recording {self.recording_path}…")
             return
         if path is None:
             path, _ = QFileDialog.getSaveFileName(self, "Record to", "pito-recording.pitorec",
@@ -265,6 +281,19 @@ class MainWindow(QMainWindow):
         simulated = self.model.simulated or self.demo
         self.worker.post(lambda: self.worker.start_recording(path, simulated))
         self.statusBar().showMessage(f"Recording both devices to {path}" + (" (SIMULATED)" if simulated else ""))
+
+    def _recording_closed(self, path: str, rows: int) -> None:
+        self.statusBar().showMessage(f"Recording saved to {path} ({rows} cube samples)", 8000)
+        self.recording_saved.emit(path, rows)
+
+    def _recording_failed(self, message: str) -> None:
+        self.statusBar().showMessage(f"recording: {message}", 8000)
+        if self.live.record.isChecked():  # the recording did not start (or is over): the button says so
+            self.live.record.blockSignals(True)
+            self.live.record.setChecked(False)
+            self.live.record.setText("● Record")
+            self.live.record.blockSignals(False)
+        self.recording_failed.emit(message)
 
     def open_replay(self, path=None) -> None:
         if path is None:
@@ -283,7 +312,7 @@ class MainWindow(QMainWindow):
 
         # reading a recording (checksums, pairing) can take seconds: in the background
         return run_task(lambda progress: RecordingReader(path), f"Opening {Path(path).name}", done, failed,
-                        bar=self.taskbar)
+                        bar=self.taskbar, owner=self)
 
     def seek(self, t: float) -> None:
         self.worker.post(lambda: getattr(self.worker.source, "seek", lambda _t: None)(t))
@@ -317,7 +346,12 @@ class MainWindow(QMainWindow):
         super().closeEvent(event)
 
     def shutdown(self) -> None:
-        """Stop the worker and the devices, release the 3D views (idempotent)."""
+        """Cancel the window's background tasks, stop the worker and the devices (idempotent).
+
+        A task still running (the demo's startup calibration, a file load, the wizard's fit)
+        is cancelled here, so none of its callbacks reaches the window once it is gone.
+        """
+        cancel_tasks(self)
         self.worker_thread.stop()
         if self.rig is not None:
             self.rig.close()

@@ -1,12 +1,15 @@
-"""The acquisition worker: runs the core's one pipeline in a thread, emits one bundle per display tick.
+"""The acquisition worker: takes the core's one pipeline's bundles in a thread, emits one per display tick.
 
 The worker lives in its own ``QThread``. A timer in that thread ticks at the display rate
-(default 60 Hz): each tick reads the new samples from the source (a running acquisition,
-by its ring buffers' write cursors, or a recording) and hands them to
-:class:`pito_core.pipeline.Pipeline` — pairing with the reference by the device clocks,
-tare, calibration of every new sample, contacts of the latest — and emits the one
-:class:`~pito_core.pipeline.LiveBundle` it returns. Recording runs beside it, in the
-acquisition's collecting thread, so a slow screen never loses samples (STYLE.md item 10).
+(default 60 Hz). Devices (real or simulated) are a :class:`pito_core.pipeline.PipelineProcess`:
+the drivers, :class:`pito_core.pipeline.Pipeline` — pairing with the reference by the device
+clocks, tare, calibration of every new sample, contacts of the latest — and the recorder run
+in a child process, and each tick takes the bundles it sent since the last (so the drawing
+never waits for the devices' interpreter lock, nor they for it). A recording (replay) is
+read in this process: each tick reads its new rows (:class:`~pito_core.pipeline.RecordingReader`)
+and runs the same :class:`~pito_core.pipeline.Pipeline` here. Recording runs beside the
+pipeline, in the acquisition's collecting thread, so a slow screen never loses samples
+(STYLE.md item 10).
 
 Commands from the GUI thread (set calibration, tare, record, ...) are posted as callables
 to a thread-safe queue the worker runs at the start of its next tick.
@@ -19,7 +22,7 @@ import threading
 from typing import Callable, Protocol
 
 import numpy as np
-from PySide6.QtCore import QObject, QThread, QTimer, Signal, Slot
+from PySide6.QtCore import QObject, Qt, QThread, QTimer, Signal, Slot
 
 from pito_core.frames import CubeCore
 from pito_core.pipeline import LiveBundle, NewSamples, Pipeline, face_sums
@@ -62,10 +65,18 @@ class DeviceWorker(QObject):
     rate : float
         Display ticks per second (Hz).
     core : CubeCore, optional
+
+    Signals: ``bundle(object)``, ``error(str)``; ``recording_closed(str, int)`` once a
+    recording's file is closed and complete on disk (path, cube samples written), whoever
+    stopped it (the Record button, a change of source, the shutdown);
+    ``recording_failed(str)`` when starting or closing a recording failed.
     """
 
     bundle = Signal(object)
     error = Signal(str)
+    recording_closed = Signal(str, int)
+    recording_failed = Signal(str)
+    _wake = Signal()  # posted commands are waiting (queued to the worker's thread)
 
     def __init__(self, rate: float = 60.0, core: CubeCore | None = None):
         super().__init__()
@@ -75,12 +86,15 @@ class DeviceWorker(QObject):
         self.source: Source | None = None
         self._commands: queue.Queue = queue.Queue()
         self._timer: QTimer | None = None
-        self._recording = None  # (acquisition, writer, cube cursor at start) while recording
+        self._recording = None  # (acquisition, cube cursor at start) while recording
         self.ticks = 0
         self.emitted = 0
         self._pending: Bundle | None = None
         self._consumed = threading.Event()
         self._consumed.set()
+        self._recording_path: str | None = None
+        # a posted command runs as soon as the worker's thread is free, not at the next tick
+        self._wake.connect(self._run_commands, Qt.ConnectionType.QueuedConnection)
 
     # ------------------------------------------------------------ compatibility views
     @property
@@ -118,9 +132,11 @@ class DeviceWorker(QObject):
             self.source = None
 
     def post(self, fn: Callable[[], None]) -> None:
-        """Run ``fn()`` in the worker thread before its next tick (thread-safe)."""
+        """Run ``fn()`` in the worker thread as soon as it is free, at the latest before its next tick (thread-safe)."""
         self._commands.put(fn)
+        self._wake.emit()
 
+    @Slot()
     def _run_commands(self) -> None:
         while True:
             try:
@@ -139,15 +155,20 @@ class DeviceWorker(QObject):
         if self.source is None:
             return
         try:
-            b = self.pipeline.feed(self.source.read())
-            b.stats = self.source.stats()
+            if self._remote:  # the pipeline ran in the source's own process: take its bundles
+                b = self.source.take()
+                if b is None:
+                    return
+            else:
+                b = self.pipeline.feed(self.source.read())
+                b.stats = self.source.stats()
+                b.recorded = self.recorded()
         except Exception as exc:  # noqa: BLE001 - shown to the operator, the worker keeps running
             self.error.emit(f"{type(exc).__name__}: {exc}")
             return
         if "position" in b.stats:
             b.replay_position = b.stats["position"]
             b.replay_duration = b.stats.get("duration")
-        b.recorded = self.recorded()
         self.ticks += 1
         self._pending = b if self._pending is None else self._pending.merged(b)
         if self._consumed.is_set():  # the GUI is done with the previous bundle: send the next
@@ -169,29 +190,46 @@ class DeviceWorker(QObject):
         return self.pipeline.feed(samples)
 
     # ------------------------------------------------------------ commands (run in the thread)
+    @property
+    def _remote(self) -> bool:
+        """The source runs the pipeline itself (``PipelineProcess``): this worker only takes its bundles."""
+        return bool(getattr(self.source, "runs_pipeline", False))
+
     def set_source(self, source) -> None:
+        """Read ``source`` from now on (a reader, or a ``PipelineProcess`` that runs the pipeline itself)."""
         if self.source is not None and self.source is not source:
             self.stop_recording()
             self.source.close()
         self.source = source
         self.pipeline.has_reference = bool(getattr(source, "has_reference", True))
         self.pipeline.reset()
+        if self._remote:  # the settings shown in this process hold in the source's process too
+            source.reset()
+            source.set_calibration(self.pipeline.calibration)
+            source.set_assembly(self.pipeline.assembly, self.pipeline.wrench_cov)
 
     def set_calibration(self, calibration) -> None:
         self.pipeline.set_calibration(calibration)
+        if self._remote:
+            self.source.set_calibration(calibration)
 
     def set_assembly(self, assembly, wrench_cov=None) -> None:
         """Contacts on this object's patches (``Assembly``, library name or None); covariance with ``wrench_cov``."""
         self.pipeline.set_assembly(assembly, wrench_cov)
+        if self._remote:
+            self.source.set_assembly(self.pipeline.assembly, self.pipeline.wrench_cov)
 
     def tare(self) -> None:
         """Zero the face wrenches and the reference on the last ~0.5 s (recorded as an event when recording)."""
         try:
+            if self._remote:  # tared where the samples are (and recorded there)
+                self.pipeline.apply_tare(self.source.tare())
+                return
             event = self.pipeline.tare()
         except ValueError:
             return  # nothing seen yet: nothing to zero
         if self._recording is not None:
-            self._recording[1].append_event(event)
+            self._recording[0].record_event(event)
 
     def start_recording(self, path, simulated: bool = False, meta: dict | None = None) -> None:
         """Record every raw sample of both devices to ``path`` (``pito-recording`` format).
@@ -201,37 +239,46 @@ class DeviceWorker(QObject):
         ValueError
             The source is not a running acquisition (e.g. a replay).
         """
-        from pito_core.io import RecordingWriter
-
-        acq = getattr(self.source, "acq", None)
+        acq = self.source if self._remote else getattr(self.source, "acq", None)
         if acq is None:
-            raise ValueError("recording: the source is not a device acquisition (a replay cannot be recorded)")
+            message = "recording: the source is not a device acquisition (a replay cannot be recorded)"
+            self.recording_failed.emit(message)
+            raise ValueError(message)
         self.stop_recording()
         from pito_core.interop import provenance_meta
 
         info = {"simulated": bool(simulated), "source": "pito-app"}
         info.update(provenance_meta(self.pipeline))  # the calibration and object shown (docs/interop.md)
         info.update(meta or {})
-        writer = RecordingWriter(path, meta=info)
-        acq.start_recording(writer)
-        self._recording = (acq, writer, acq.cursors()[0])
+        try:
+            acq.open_recording(path, info)  # written where the devices are read (their own process in the app)
+        except Exception as exc:
+            self.recording_failed.emit(f"{path}: {type(exc).__name__}: {exc}")
+            raise
+        self._recording = (acq, None if self._remote else acq.cursors()[0])
+        self._recording_path = str(path)
 
     def recorded(self) -> int:
         """Cube samples recorded so far in the current recording (0 when not recording)."""
-        if self._recording is None:
-            return 0
-        acq, _, c0 = self._recording
+        if self._recording is None or self._recording[1] is None:
+            return 0  # (a pipeline process counts them itself: LiveBundle.recorded)
+        acq, c0 = self._recording
         return acq.cursors()[0] - c0
 
     def stop_recording(self) -> int:
-        """Close the recording; returns the cube samples written."""
+        """Close the recording (returns once the file is closed); returns the cube samples written."""
         rec, self._recording = self._recording, None
         if rec is None:
             return 0
-        acq, writer, _ = rec
-        acq.stop_recording()
-        writer.close()
-        return writer.rows_written["pito"]
+        path, self._recording_path = self._recording_path, None
+        try:
+            closed = rec[0].close_recording()
+        except Exception as exc:
+            self.recording_failed.emit(f"closing {path}: {type(exc).__name__}: {exc}")
+            raise
+        rows = int(closed.get("rows", {}).get("pito", 0))
+        self.recording_closed.emit(str(closed.get("path", path)), rows)  # the file is complete now
+        return rows
 
 
 class WorkerThread:

@@ -16,10 +16,11 @@ import time
 
 import numpy as np
 
+from ._baseline import plain_affine_lstsq
 from ._data import MOUNT_OF_METHOD, write_session_file
 from ._timing import best_time, peak_rss_mb, run_worker
 
-__all__ = ["METHODS", "run_calibration", "plain_fit", "rmse_summary", "plain_affine_fit", "random_cube_ratios"]
+__all__ = ["METHODS", "run_calibration", "plain_fit", "rmse_summary", "random_cube_ratios"]
 
 METHODS = ("face_to_face", "quasi_total", "total", "loaded_frame", "unloaded_frame")
 #: Largest k fitted in memory (beyond, only the streamed fit from a file runs).
@@ -253,56 +254,8 @@ def run_calibration(sizes, workdir, *, quick: bool = False, methods=METHODS, thr
 
 
 # ---------------------------------------------------------------- default vs plain LS on random cubes
-def plain_affine_fit(session, method, output_faces):
-    """The papers' plain affine least squares, independently of ``calibrate``: ``predict(counts) -> (N, 6, 6)``.
-
-    ``[1 | counts − mean] X = W`` by ``numpy.linalg.lstsq`` (centring the columns is an exact
-    re-parametrisation of the affine model), tare samples as zero-wrench rows, the targets
-    of ``block_targets``; face wrenches in face frames, NaN where no output.
-    """
-    from pito_core.calibration import get_method
-    from pito_core.calibration._targets import MountGeometry, block_targets
-    from pito_core.frames import invert_pose, wrench_adjoint
-
-    spec = get_method(method)
-    counts = np.asarray(session.counts, dtype=float)
-    loaded = np.asarray(session.loaded, dtype=bool)
-    free = ~loaded.any(axis=1)
-    T, carries, usable, _ = block_targets(np.asarray(session.reference, float), loaded, MountGeometry(session),
-                                          spec.output_frame)
-    mean = counts.mean(axis=0)
-    Sc = counts - mean
-    models = []
-    if spec.inputs == "own":
-        for f in output_faces:
-            rows = usable & (carries[:, f - 1] | free)
-            cols = slice(6 * (f - 1), 6 * f)
-            X = np.linalg.lstsq(np.c_[np.ones(rows.sum()), Sc[rows, cols]], T[rows, f - 1], rcond=None)[0]
-            models.append(((f,), cols, X))
-    else:
-        idx = [f - 1 for f in output_faces]
-        X = np.linalg.lstsq(np.c_[np.ones(usable.sum()), Sc[usable]], T[usable][:, idx].reshape(-1, 6 * len(idx)),
-                            rcond=None)[0]
-        models.append((tuple(output_faces), slice(0, 36), X))
-    T_ati_core = invert_pose(session.T_core_ati)
-
-    def predict(new_counts):
-        x = np.asarray(new_counts, float) - mean
-        W = np.full((len(x), 6, 6), np.nan)
-        for faces, cols, X in models:
-            Y = X[0] + x[:, cols] @ X[1:]
-            for k, f in enumerate(faces):
-                y = Y[:, 6 * k : 6 * k + 6]
-                if spec.output_frame == "reference":
-                    y = y @ wrench_adjoint(T_ati_core @ session.core.face_pose(f)).T
-                W[:, f - 1] = y
-        return W
-
-    return predict
-
-
 def task_random_cubes(n_cubes, k_choices, seed=0, prior=False) -> dict:
-    """Held-out RMSE of ``calibrate`` (defaults) over the plain affine fit, on random cubes, per method.
+    """Held-out RMSE of ``calibrate`` (defaults) over the plain affine fit (``_baseline``), on random cubes, per method.
 
     Cubes from ``pito_core.sim.random_sensor`` (condition 1..10³, coupling 0–10 %, noise
     0.5–5 counts, offsets ±3·10⁷), every connected face in turn, 50–500 tare samples;
@@ -339,7 +292,7 @@ def task_random_cubes(n_cubes, k_choices, seed=0, prior=False) -> dict:
                 cal = calibrate(train, method)
                 t_fit += time.perf_counter() - t0
                 cal_p = calibrate(train, method, prior="own_gauge") if prior and method != "face_to_face" else None
-            Wp = plain_affine_fit(train, method, cal.output_faces)(test.counts)
+            Wp = plain_affine_lstsq(train, method, cal.output_faces)(test.counts)
             n_loaded = test.loaded.sum(axis=1)
             for rows_k in (n_loaded == 1, n_loaded == 2):
                 mask = test.loaded & rows_k[:, None] & cal.has_output[None]

@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["run", "main"]
+__all__ = ["run", "main", "start_xvfb", "display_env"]
 
 SIZE = (1440, 900)
 
@@ -155,23 +155,34 @@ def _grab(display: str, regions_path: Path, seconds: float, rate: float, app_pro
     return out
 
 
+def start_xvfb(screen: str = "1600x1000x24") -> tuple[str, subprocess.Popen]:
+    """A private Xvfb display for a window to be watched from outside: ``(":N", process)`` (terminate it after)."""
+    display = f":{90 + os.getpid() % 400}"
+    xvfb = subprocess.Popen(["Xvfb", display, "-ac", "-nolisten", "tcp", "-screen", "0", screen],
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    time.sleep(1.5)
+    return display, xvfb
+
+
+def display_env(display: str) -> dict:
+    """The environment of an app on ``display``: a real window (no off-screen Qt or pyvista)."""
+    env = dict(os.environ, DISPLAY=display)
+    env.pop("QT_QPA_PLATFORM", None)
+    env.pop("PYVISTA_OFF_SCREEN", None)
+    return env
+
+
 def run(quick: bool = False, seconds: float | None = None, rate: float = 100.0, warmup: float = 12.0) -> dict:
     """Measure the demo window; returns a JSON-able dict (``status`` "ok" or why not)."""
     if shutil.which("Xvfb") is None:
         return {"status": "skipped: Xvfb not installed (the window is measured on a private X display)"}
     seconds = seconds or (8.0 if quick else 20.0)
-    num = 90 + os.getpid() % 400
-    display = f":{num}"
-    xvfb = subprocess.Popen(["Xvfb", display, "-ac", "-nolisten", "tcp", "-screen", "0", "1600x1000x24"],
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    display, xvfb = start_xvfb()
     regions = Path(f"/tmp/pito_bench_live_{os.getpid()}.json")
     regions.unlink(missing_ok=True)
     load0 = os.getloadavg()
     try:
-        time.sleep(1.5)
-        env = dict(os.environ, DISPLAY=display)
-        env.pop("QT_QPA_PLATFORM", None)
-        env.pop("PYVISTA_OFF_SCREEN", None)
+        env = display_env(display)
         app = subprocess.Popen([sys.executable, "-m", "pito_bench._live_window", "--run-app", str(regions),
                                 "--seconds", str(seconds + 3), "--warmup", str(warmup)], env=env,
                                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)

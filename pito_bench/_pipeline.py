@@ -98,32 +98,15 @@ def tick_cost(ticks: int = 600, per_tick: int = 17, buffer_seconds: float = 30.0
     the last 4,000 cube + 20,000 reference rows each tick) against reading by write cursor
     (``AcquisitionReader``), and the whole pipeline step (pairing, tare, calibration, six contacts).
     Synthetic 1 kHz rows pushed straight into an ``Acquisition``, ``per_tick`` new per tick."""
-    from pito_core.devices import Acquisition, NetFTBatch, PitoBatch
+    from pito_core.devices import Acquisition
     from pito_core.pipeline import AcquisitionReader
-
-    class _Idle:
-        def start(self):
-            return self
-
-        def read(self, timeout=0):
-            return None
-
-        def stats(self):
-            return {}
-
-        def close(self):
-            pass
+    from pito_core.sim import IdleDevice, push_samples
 
     def push(acq, k, n):
-        idx = np.arange(k, k + n)
-        host = 1000.0 + idx * 1e-3 + 0.002
-        acq._add_pito(PitoBatch(idx.astype(np.uint32), (idx * 1000).astype(np.uint32),
-                                np.zeros((n, 36), np.int32), host))
-        acq._add_netft(NetFTBatch((idx + 1).astype(np.uint32), idx.astype(np.uint32), np.zeros(n, np.uint32),
-                                  np.zeros((n, 6)), host + 0.001, np.zeros(n, bool)))
+        push_samples(acq, k, n, host0=1000.0, counts=np.zeros((n, 36), np.int32), wrench=np.zeros((n, 6)))
 
     def run(step):
-        acq = Acquisition(_Idle(), _Idle(), buffer_seconds=buffer_seconds)
+        acq = Acquisition(IdleDevice(), IdleDevice(), buffer_seconds=buffer_seconds)
         k = 25_000
         push(acq, 0, k)
         fn = step(acq)

@@ -17,7 +17,7 @@ __all__ = ["SECTIONS", "FULL_SIZES", "QUICK_SIZES", "run_bench", "live_available
 
 #: Sections in run order; ``live`` needs the app extras (PySide6, pyvista).
 SECTIONS = ("calibration", "contact", "pipeline", "live")
-#: Sections run only when named (long): ``soak`` = 10 min recording from the simulated devices (1 min with --quick).
+#: Sections run only when named (long): ``soak`` = 10 min recording by pito-app --demo (1 min with --quick).
 EXTRA_SECTIONS = ("soak",)
 #: Calibration sizes k (samples per session) of a full and of a quick run.
 FULL_SIZES = (1_000, 10_000, 100_000, 1_000_000, 10_000_000)
@@ -141,8 +141,11 @@ def run_bench(*, quick: bool = False, sections=SECTIONS, sizes=None, threads: in
             from ._soak import run_soak
 
             minutes = 1.0 if quick else 10.0
-            progress(f"soak: recording {minutes:g} min from the simulated devices (pito record --pito sim --ati sim)")
-            result["soak"] = run_soak(minutes, workdir=workdir, progress=progress)
+            app = live_available() and shutil.which("Xvfb") is not None
+            progress(f"soak: recording {minutes:g} min from the simulated devices "
+                     + ("(pito-app --demo --record, window on Xvfb)" if app else
+                        "(headless pito record --pito sim --ati sim: the app extras or Xvfb are missing)"))
+            result["soak"] = run_soak(minutes, app=app, workdir=workdir, progress=progress)
     finally:
         if own_dir:
             shutil.rmtree(workdir, ignore_errors=True)

@@ -1,13 +1,21 @@
 """The soak benchmark (issue 13 item 3): record from the simulated devices for minutes, then verify.
 
-Runs ``pito record --pito sim --ati sim`` (the devices in their own child process, the same
-acquisition + pipeline + recorder as the app's demo mode, without the window) for ``minutes``,
-samples the recorder's and the device child's memory (RSS) and CPU time from /proc every
-second, then reads the recording back and checks it: complete (end marker, every chunk's CRC),
-cube frames lost (gaps in the device sequence) and Net F/T records lost.
+Two ways, for ``minutes``:
 
-Run: ``python -m pito_bench._soak --minutes 10`` (or ``pito bench --sections soak``).
-Figures depend on the machine's load; the result records the load average.
+- ``--app`` (the issue's soak): ``pito-app --demo --record FILE --duration S`` on a private
+  Xvfb display — the window drawing live, the simulated devices and the pipeline process
+  (drivers, pipeline, recorder) each a child process of the app;
+- default (headless): ``pito record --pito sim --ati sim`` (the simulated devices in a child
+  process, the same acquisition + pipeline + recorder, no window).
+
+Every second it samples the memory (RSS) and CPU time of the recorder process (the app or
+``pito record``) and of all its descendants from /proc, then reads the recording back and
+checks it: complete (end marker, every chunk's CRC), cube frames lost (gaps in the device
+sequence), Net F/T records lost, and no child process left behind.
+
+Run: ``python -m pito_bench._soak --minutes 60 --app`` (or ``pito bench --sections soak``:
+10 min with the app; 1 min with ``--quick``). Figures depend on the machine's load; the
+result records the load average.
 """
 
 from __future__ import annotations
@@ -47,18 +55,40 @@ def _children(pid: int) -> list[int]:
         return []
 
 
-def run_soak(minutes: float = 10.0, *, workdir=None, progress=print) -> dict:
-    """Record ``minutes`` from the simulated devices, sample memory/CPU, verify the file. Returns a JSON-able dict."""
+def _descendants(pid: int) -> list[int]:
+    out, todo = [], _children(pid)
+    while todo:
+        c = todo.pop()
+        out.append(c)
+        todo.extend(_children(c))
+    return out
+
+
+def run_soak(minutes: float = 10.0, *, app: bool = False, workdir=None, progress=print) -> dict:
+    """Record ``minutes`` from the simulated devices (the app's window open with ``app``), sample memory/CPU,
+    verify the file. Returns a JSON-able dict."""
     from pito_core.io import Recording
 
     workdir = Path(workdir or tempfile.mkdtemp(prefix="pito-soak-"))
+    workdir.mkdir(parents=True, exist_ok=True)
     out = workdir / "soak.rec"
     seconds = float(minutes) * 60.0
-    cmd = [sys.executable, "-c", "import sys; from pito_core.cli import main; sys.exit(main(sys.argv[1:]))", "record", "--pito", "sim", "--ati", "sim", "-o", str(out),
-           "--duration", str(seconds), "--progress", "10"]
+    xvfb = None
+    env = None
+    if app:
+        from ._live_window import display_env, start_xvfb
+
+        display, xvfb = start_xvfb()
+        env = display_env(display)
+        cmd = [sys.executable, "-c", "import sys; from app.main import main; sys.exit(main(sys.argv[1:]))", "--demo",
+               "--record", str(out), "--duration", str(seconds)]
+    else:
+        cmd = [sys.executable, "-c", "import sys; from pito_core.cli import main; sys.exit(main(sys.argv[1:]))",
+               "record", "--pito", "sim", "--ati", "sim", "-o", str(out), "--duration", str(seconds), "--progress", "10"]
     log = open(workdir / "record.log", "w")
+    load0 = os.getloadavg()
     t_start = time.monotonic()
-    proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT)
+    proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, env=env)
     samples = []  # (t, rss_recorder, rss_children, cpu_recorder, cpu_children)
     child_pids: set[int] = set()
     while proc.poll() is None:
@@ -66,7 +96,7 @@ def run_soak(minutes: float = 10.0, *, workdir=None, progress=print) -> dict:
         me = _proc(proc.pid)
         if me is None or me[0] == 0 or proc.poll() is not None:  # gone or a zombie: no more samples
             continue
-        kids = _children(proc.pid)
+        kids = _descendants(proc.pid)
         child_pids.update(kids)
         ks = [k for k in (_proc(c) for c in kids) if k is not None and k[0] > 0]
         samples.append((time.monotonic() - t_start, me[0], sum(k[0] for k in ks), me[1], sum(k[1] for k in ks)))
@@ -74,8 +104,12 @@ def run_soak(minutes: float = 10.0, *, workdir=None, progress=print) -> dict:
             progress(f"soak: {samples[-1][0] / 60:.1f} min, recorder RSS {me[0] / 2**20:.1f} MB")
     wall = time.monotonic() - t_start
     log.close()
+    if xvfb is not None:
+        xvfb.terminate()
+        xvfb.wait()
     orphans = [c for c in child_pids if _proc(c) is not None]
-    result = {"minutes": minutes, "wall_s": wall, "exit_code": proc.returncode, "loadavg": os.getloadavg(),
+    result = {"minutes": minutes, "mode": "app window" if app else "headless", "wall_s": wall,
+              "exit_code": proc.returncode, "loadavg_before": list(load0), "loadavg": os.getloadavg(),
               "cpus": os.cpu_count(), "orphan_device_processes": len(orphans)}
     try:
         rec = Recording(out)
@@ -113,8 +147,11 @@ def run_soak(minutes: float = 10.0, *, workdir=None, progress=print) -> dict:
         "recording_verified": bool(result["recording"].get("verified")) and bool(result["recording"].get("complete")),
         "no_orphans": not orphans,
     }
-    result["note"] = ("headless: `pito record --pito sim --ati sim` (simulated devices in their own process, the app's "
-                      "acquisition + pipeline + recorder, no window); machine shared and loaded when measured")
+    result["note"] = ("`pito-app --demo --record` on Xvfb: the window drawing live, the simulated devices and the "
+                      "pipeline process (drivers, pipeline, recorder) each a child process of the app; 'recorder' = "
+                      "the app process, 'devices' = all its descendants" if app else
+                      "headless: `pito record --pito sim --ati sim` (simulated devices in their own process, the app's "
+                      "acquisition + pipeline + recorder, no window)")
     return result
 
 
@@ -123,9 +160,11 @@ def main(argv=None) -> int:
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--minutes", type=float, default=10.0, help="recording length, minutes (default 10)")
     ap.add_argument("--workdir", help="where the recording and its log go (default: a new temporary folder)")
+    ap.add_argument("--app", action="store_true", help="soak the desktop app (window on a private Xvfb display) "
+                    "instead of the headless `pito record`")
     ap.add_argument("--json", action="store_true", help="print only the JSON result")
     args = ap.parse_args(argv)
-    res = run_soak(args.minutes, workdir=args.workdir, progress=None if args.json else print)
+    res = run_soak(args.minutes, app=args.app, workdir=args.workdir, progress=None if args.json else print)
     print(json.dumps(res, indent=None if args.json else 2, default=float))
     return 0
 

@@ -201,7 +201,7 @@ class ResultsPage(WizardPage):
                 self._show_images(images)
 
         self.figure_task = run_task(lambda progress: render_figures(ev, sizes), "Drawing the figures", done,
-                                    lambda msg: self.values["status"].setText(f"✘ figures: {msg}"))
+                                    lambda msg: self.values["status"].setText(f"✘ figures: {msg}"), owner=self)
 
     def _show_images(self, images: dict) -> None:
         for name, w in (("rmse", self.canvas_rmse), ("ident", self.canvas_ident), ("comp", self.canvas_comp)):
@@ -236,7 +236,8 @@ class ResultsPage(WizardPage):
         sizes = self._figure_sizes()
         # in a child process: the fit's LAPACK calls hold the GIL for long stretches
         self.task = run_in_process(fit_job, (session, method, sizes),
-                             f"Fitting {method} on {session.counts.shape[0]} samples", done, failed, bar=self.taskbar)
+                                   f"Fitting {method} on {session.counts.shape[0]} samples", done, failed,
+                                   bar=self.taskbar, owner=self)
         self.task.ended.connect(self.refresh)
 
     def refresh(self) -> None:
@@ -348,7 +349,8 @@ class ResultsPage(WizardPage):
             self.values["status"].setText(f"report exported to {path}")
 
         self.export_task = run_task(work, "Exporting the report", done,
-                                    lambda msg: self.values["status"].setText(f"✘ export failed: {msg}"), bar=self.taskbar)
+                                    lambda msg: self.values["status"].setText(f"✘ export failed: {msg}"),
+                                    bar=self.taskbar, owner=self)
         self.export_task.ended.connect(self.refresh)
         self.refresh()
         return Path(folder) / "report.md"

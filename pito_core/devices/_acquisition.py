@@ -23,6 +23,7 @@ import time
 
 import numpy as np
 
+from ..io import RecordingWriter
 from ._clock import PAIRING_RULE, StreamClock, TickUnwrapper, pair_reference
 from ._frame import N_CHANNELS
 from ._netft import NetFTBatch
@@ -32,6 +33,14 @@ from ._serial import PitoBatch
 #: A cube sample with a gauge at or beyond these counts is saturated (24-bit ADC of the cube's boards).
 CUBE_ADC_LIMIT = 2**23 - 1
 __all__ = ["Acquisition"]
+
+#: The rows of the cube's ring: name -> (dtype, shape of one row).
+PITO_ROWS = {"seq": (np.uint32, ()), "time_us": (np.uint32, ()), "tick": (np.int64, ()),
+             "counts": (np.int32, (N_CHANNELS,)), "host_time": (np.float64, ()), "time": (np.float64, ())}
+#: The rows of the reference's ring.
+NETFT_ROWS = {"rdt_seq": (np.uint32, ()), "ft_seq": (np.uint32, ()), "tick": (np.int64, ()),
+              "status": (np.uint32, ()), "wrench": (np.float64, (6,)), "host_time": (np.float64, ()),
+              "saturated": (bool, ()), "time": (np.float64, ())}
 
 
 class _Ring:
@@ -87,7 +96,36 @@ class _Ring:
         return {k: v[idx] for k, v in self.data.items()}
 
 
-class Acquisition:
+class RingReader:
+    """Reading both streams' rings by write cursor (shared by :class:`Acquisition` and its remote twin).
+
+    Subclasses own ``_pito_ring``, ``_ft_ring`` (:class:`_Ring` of :data:`PITO_ROWS`,
+    :data:`NETFT_ROWS`), ``_lock`` and ``has_reference``.
+    """
+
+    def cursors(self) -> tuple[int, int]:
+        """The write cursors ``(cube, reference)``: rows appended so far to each ring."""
+        with self._lock:
+            return self._pito_ring.count, self._ft_ring.count
+
+    def read_since(self, cube_cursor: int, reference_cursor: int, limit: int | None = None):
+        """Rows appended after the cursors: ``(cube rows, reference rows or None, new cursors, lost)``.
+
+        Rows are dicts of arrays: cube ``seq, time_us, tick, counts (n, 36), host_time, time``;
+        reference ``rdt_seq, ft_seq, tick, status, wrench (m, 6), host_time, saturated, time``
+        (``time``: sample time by the pairing rule, s). Work is proportional to the new rows.
+        ``lost`` ``(cube, reference)`` counts rows overwritten before they were read.
+        """
+        with self._lock:
+            p, pc, pl = self._pito_ring.since(cube_cursor, limit)
+            if self.has_reference:
+                f, fc, fl = self._ft_ring.since(reference_cursor, limit)
+            else:
+                f, fc, fl = None, reference_cursor, 0
+        return p, f, (pc, fc), (pl, fl)
+
+
+class Acquisition(RingReader):
     """Collect the cube and the reference in a thread, with host timestamps.
 
     Parameters
@@ -125,13 +163,8 @@ class Acquisition:
         self.pito, self.netft, self.recorder = pito, netft, recorder
         self.meta = dict(meta or {})
         cap = int(buffer_seconds * rate_hz * 1.2) + 1
-        self._pito_ring = _Ring(cap, {"seq": (np.uint32, ()), "time_us": (np.uint32, ()), "tick": (np.int64, ()),
-                                      "counts": (np.int32, (N_CHANNELS,)), "host_time": (np.float64, ()),
-                                      "time": (np.float64, ())})
-        self._ft_ring = _Ring(cap, {"rdt_seq": (np.uint32, ()), "ft_seq": (np.uint32, ()), "tick": (np.int64, ()),
-                                    "status": (np.uint32, ()), "wrench": (np.float64, (6,)),
-                                    "host_time": (np.float64, ()), "saturated": (bool, ()),
-                                    "time": (np.float64, ())})
+        self._pito_ring = _Ring(cap, PITO_ROWS)
+        self._ft_ring = _Ring(cap, NETFT_ROWS)
         self._unwrap = {"pito": TickUnwrapper(), "netft": TickUnwrapper()}
         self._clock = {"pito": StreamClock(), "netft": StreamClock()}
         self._lock = threading.Lock()
@@ -147,6 +180,11 @@ class Acquisition:
     def now() -> float:
         """The host clock used for every timestamp (``time.monotonic()``, s)."""
         return time.monotonic()
+
+    @property
+    def has_reference(self) -> bool:
+        """A reference device (Net F/T) is connected."""
+        return self.netft is not None
 
     def start(self) -> "Acquisition":
         """Start the devices (if needed) and the collecting thread."""
@@ -230,6 +268,11 @@ class Acquisition:
         with self._collect_lock:
             writer.meta.setdefault("reference_rate_hz", self.reference_rate_hz)
             with self._lock:
+                # the clocks' state before the first recorded sample: the replay's times and pairing
+                # are then the live ones from the first sample on (pipeline.recording_samples)
+                writer.append_event({"type": "clock", "host_time": self.now(),
+                                     **{name: {"clock": self._clock[name].state(), "ticks": self._unwrap[name].state()}
+                                        for name in ("pito", "netft")}})
                 self.recorder = writer
 
     def stop_recording(self):
@@ -241,27 +284,27 @@ class Acquisition:
             rec.flush()
         return rec
 
-    # ------------------------------------------------------------------ reading by cursor
-    def cursors(self) -> tuple[int, int]:
-        """The write cursors ``(cube, reference)``: rows appended so far to each ring."""
-        with self._lock:
-            return self._pito_ring.count, self._ft_ring.count
+    def open_recording(self, path, meta: dict | None = None) -> None:
+        """Record every sample from now on to a new ``pito-recording`` file at ``path`` (see :meth:`start_recording`).
 
-    def read_since(self, cube_cursor: int, reference_cursor: int, limit: int | None = None):
-        """Rows appended after the cursors: ``(cube rows, reference rows or None, new cursors, lost)``.
-
-        Rows are dicts of arrays: cube ``seq, time_us, tick, counts (n, 36), host_time, time``;
-        reference ``rdt_seq, ft_seq, tick, status, wrench (m, 6), host_time, saturated, time``
-        (``time``: sample time by the pairing rule, s). Work is proportional to the new rows.
-        ``lost`` ``(cube, reference)`` counts rows overwritten before they were read.
+        The same call on :class:`~pito_core.devices.RemoteAcquisition` opens the file in the
+        acquisition's own process.
         """
-        with self._lock:
-            p, pc, pl = self._pito_ring.since(cube_cursor, limit)
-            if self.netft is not None:
-                f, fc, fl = self._ft_ring.since(reference_cursor, limit)
-            else:
-                f, fc, fl = None, reference_cursor, 0
-        return p, f, (pc, fc), (pl, fl)
+        self.start_recording(RecordingWriter(path, meta=dict(meta or {})))
+
+    def record_event(self, event: dict) -> None:
+        """Append ``event`` (a JSON-able dict, e.g. a pipeline's ``tare``) to the recording, if recording."""
+        with self._collect_lock:
+            if self.recorder is not None:
+                self.recorder.append_event(event)
+
+    def close_recording(self) -> dict:
+        """Stop recording and close the file: ``{"rows": {"pito": n, "netft": m}, "path": str}`` (empty if none)."""
+        rec = self.stop_recording()
+        if rec is None:
+            return {}
+        rec.close()
+        return {"rows": dict(rec.rows_written), "path": str(rec.path)}
 
     # ------------------------------------------------------------------ views
     def latest(self, n: int | None = None, *, tared: bool = False):

@@ -17,8 +17,12 @@ The rule
        minimum of its block up to k. The minimum follows a drift of the device clock
        (it is renewed every 2 s) and, being causal and keyed by device time, gives the
        same times however the stream is cut into reads — live, in a recording, or all at
-       once (so a replay reproduces the live pairing exactly). Times never decrease. A
-       device restart (the counter goes back) starts the window over at that sample.
+       once (so a replay reproduces the live pairing exactly). Times never decrease: a
+       sample is never stamped before the sample that came before it in its stream (in
+       exact arithmetic the rule guarantees it; in floating point ``device + (host −
+       device)`` can come out one unit in the last place below an earlier sample that
+       arrived in the same batch, and such a time is held at the earlier one). A device
+       restart (the counter goes back) starts the window over at that sample.
     3. **Pairing.** The reference is interpolated linearly at each cube sample's time
        between the two reference records around it. A cube sample newer than the newest
        reference record waits (never extrapolated); one older than the reference history
@@ -76,6 +80,18 @@ class TickUnwrapper:
         self.last = (int(r[-1]), int(ticks[-1]))
         return ticks
 
+    def state(self) -> dict:
+        """What the next call depends on, JSON-able (a recording that starts mid-stream stores it)."""
+        return {"last": None if self.last is None else list(self.last)}
+
+    @classmethod
+    def from_state(cls, state: dict) -> "TickUnwrapper":
+        """An unwrapper that continues where the one that gave ``state`` stood."""
+        u = cls()
+        last = state.get("last")
+        u.last = None if last is None else (int(last[0]), int(last[1]))
+        return u
+
 
 class StreamClock:
     """Sample times on the host clock for one stream (rule step 2, module docstring).
@@ -97,6 +113,7 @@ class StreamClock:
         self.n_blocks = int(round(window / block))
         self._done: deque = deque()  # (block index, min offset) of finished blocks, in order
         self._cur = None  # [block index, running min] of the block being filled
+        self._last = -np.inf  # the latest time returned: times never decrease (kept across restarts)
 
     def __call__(self, device_time, host_time, restarts=()) -> np.ndarray:
         """Times ``(n,)`` s (host clock) of samples taken at ``device_time (n,)`` s, arrived at ``host_time (n,)`` s.
@@ -142,7 +159,32 @@ class StreamClock:
             cur[1] = float(rm[-1])
             self._cur = cur
             out[s:e] = dev[s:e] + np.minimum(rm, prior)
+        # Never decrease. In exact arithmetic the times above already do not (a new smallest offset
+        # gives the sample its arrival time, which no earlier sample's time exceeds), but
+        # ``dev + (host - dev)`` is rounded twice and can land one ulp below the time of an earlier
+        # sample of the same batch. Causal, so still the same however the stream is cut into reads.
+        np.maximum.accumulate(np.maximum(out, self._last, out=out), out=out)
+        self._last = float(out[-1])
         return out
+
+    def state(self) -> dict:
+        """What the next call depends on (the window's block minima, the latest time), JSON-able.
+
+        A recording that starts mid-stream stores it (an event of type ``clock``), so that its
+        replay gives every sample the time the live acquisition gave it, from the first one.
+        """
+        return {"block": self.block, "n_blocks": self.n_blocks, "done": [[int(b), float(m)] for b, m in self._done],
+                "cur": None if self._cur is None else [int(self._cur[0]), float(self._cur[1])],
+                "last": None if not np.isfinite(self._last) else float(self._last)}
+
+    @classmethod
+    def from_state(cls, state: dict) -> "StreamClock":
+        """A clock that continues where the one that gave ``state`` stood."""
+        c = cls(window=float(state["block"]) * int(state["n_blocks"]), block=float(state["block"]))
+        c._done = deque((int(b), float(m)) for b, m in state["done"])
+        c._cur = None if state["cur"] is None else [int(state["cur"][0]), float(state["cur"][1])]
+        c._last = -np.inf if state["last"] is None else float(state["last"])
+        return c
 
 
 def pair_reference(t, t_ref, wrench) -> np.ndarray:

@@ -15,6 +15,7 @@ from ..devices import PAIRING_RULE
 from ._bundle import LiveBundle, face_sums
 from ._pipeline import LIVE_FORCE_THRESHOLD, Pipeline
 from ._open import open_acquisition, open_reader
+from ._process import PipelineProcess, PipelineProcessError
 from ._readers import AcquisitionReader, NewSamples, RecordingReader, recording_samples
 from ._replay import replay_recording
 
@@ -25,6 +26,8 @@ __all__ = [
     "NewSamples",
     "PAIRING_RULE",
     "Pipeline",
+    "PipelineProcess",
+    "PipelineProcessError",
     "RecordingReader",
     "face_sums",
     "open_acquisition",

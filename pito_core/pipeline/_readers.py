@@ -98,7 +98,7 @@ class AcquisitionReader:
 
     @property
     def has_reference(self) -> bool:
-        return self.acq.netft is not None
+        return self.acq.has_reference
 
     def read(self) -> NewSamples:
         """Rows appended since the previous read (work ∝ new rows)."""
@@ -141,18 +141,26 @@ def recording_samples(recording) -> tuple[dict, dict]:
 
     Returns ``(cube, reference)`` dicts: cube ``time, tick, counts (float), host_time, seq``;
     reference ``time, tick, wrench, host_time, rdt_seq``. The same clock as the live
-    acquisition, computed from the recording's first row.
+    acquisition: continued from the state it had when the recording began (the recording's
+    ``clock`` event), or started at the recording's first row (recordings without one).
     """
     p, a = recording.pito, recording.netft
     rate = float(recording.meta.get("reference_rate_hz", 1000.0))
-    unwrap = TickUnwrapper()
+    start = next((e for e in recording.events if e.get("type") == "clock"), None)
+
+    def clocks(name):  # where the live acquisition's clocks stood at the first recorded sample, if it says
+        if start is None:
+            return TickUnwrapper(), StreamClock()
+        return TickUnwrapper.from_state(start[name]["ticks"]), StreamClock.from_state(start[name]["clock"])
+
+    unwrap, clock = clocks("pito")
     tick = unwrap(p["time_us"])
-    cube = {"tick": tick, "time": StreamClock()(tick * 1e-6, p["host_time"], unwrap.restarts),
+    cube = {"tick": tick, "time": clock(tick * 1e-6, p["host_time"], unwrap.restarts),
             "counts": np.asarray(p["counts"], dtype=np.float64), "host_time": np.asarray(p["host_time"]),
             "seq": np.asarray(p["seq"])}
-    unwrap = TickUnwrapper()
+    unwrap, clock = clocks("netft")
     rtick = unwrap(a["rdt_seq"])
-    ref = {"tick": rtick, "time": StreamClock()(rtick / rate, a["host_time"], unwrap.restarts),
+    ref = {"tick": rtick, "time": clock(rtick / rate, a["host_time"], unwrap.restarts),
            "wrench": np.asarray(a["wrench"], dtype=np.float64), "host_time": np.asarray(a["host_time"]),
            "rdt_seq": np.asarray(a["rdt_seq"])}
     return cube, ref

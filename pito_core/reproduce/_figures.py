@@ -155,38 +155,58 @@ def _comparison(res, out):
 
 
 # ---------------------------------------------------------------------- RMSE
+def squeeze_rmse(ev):
+    """Force RMSE (N) and torque RMSE (N·m) of the squeeze resultant, over its 3 axes each."""
+    sq = ev.rmse_squeeze
+    return float(np.sqrt(np.nanmean(sq[:3] ** 2))), float(np.sqrt(np.nanmean(sq[3:] ** 2)))
+
+
+def _force_torque_bars(path, x, series, width, *, ylabel, title, xlabel, xticklabels=None, figsize):
+    """Grouped bars, force RMSE (N) on the left and torque RMSE (N·m) on the right, saved to ``path``.
+
+    ``series``: ``(method, force values, torque values)``, one bar per ``x`` each, centred
+    as a group on ``x``; ``ylabel`` and ``title`` are formatted with ``what`` ("force" or
+    "torque") and ``unit``.
+    """
+    fig, axs = _plt().subplots(1, 2, figsize=figsize)
+    for j, (m, f, t) in enumerate(series):
+        dx = (j - (len(series) - 1) / 2) * width
+        axs[0].bar(x + dx, f, width, label=m, color=_COLORS[m])
+        axs[1].bar(x + dx, t, width, label=m, color=_COLORS[m])
+    for ax, unit, what in ((axs[0], "N", "force"), (axs[1], "N·m", "torque")):
+        ax.set_xticks(x, xticklabels)
+        ax.set_xlabel(xlabel)
+        ax.set_ylabel(ylabel.format(what=what, unit=unit))
+        ax.set_title(title.format(what=what, unit=unit) + _SIM, fontsize=9)
+    axs[0].legend(fontsize=7)
+    fig.tight_layout()
+    _save(fig, path)
+
+
 def _rmse_methods(res, out):
-    plt = _plt()
     rows = []
     for m in METHOD_ORDER:
         ev = res.evaluations[m]
         for i in range(6):
             rows.append([m, i + 1, float(ev.rmse_force()[i]), float(ev.rmse_torque()[i])])
-        sq = ev.rmse_squeeze
-        rows.append([m, "squeeze", float(np.sqrt(np.nanmean(sq[:3] ** 2))), float(np.sqrt(np.nanmean(sq[3:] ** 2)))])
+        rows.append([m, "squeeze", *squeeze_rmse(ev)])
     _write_csv(os.path.join(out, "rmse_methods.csv"), ["method", "face", "rmse_force_N", "rmse_torque_Nm"], rows)
-    fig, axs = plt.subplots(1, 2, figsize=(12, 4.2))
-    labels = [f"face {i}" for i in range(1, 7)] + ["squeeze"]
-    x = np.arange(7)
-    w = 0.8 / len(METHOD_ORDER)
-    for j, m in enumerate(METHOD_ORDER):
-        f = [r[2] for r in rows if r[0] == m]
-        t = [r[3] for r in rows if r[0] == m]
-        axs[0].bar(x + (j - 2) * w, f, w, label=m, color=_COLORS[m])
-        axs[1].bar(x + (j - 2) * w, t, w, label=m, color=_COLORS[m])
-    for ax, unit, what in ((axs[0], "N", "force"), (axs[1], "N·m", "torque")):
-        ax.set_xticks(x, labels)
-        ax.set_ylabel(f"RMSE, {what} [{unit}]")
-        ax.set_xlabel("loaded face (single-face loads) / squeeze resultant")
-        ax.set_title(f"{what} RMSE per face and method{_SIM}", fontsize=9)
-    axs[0].legend(fontsize=7)
-    fig.tight_layout()
-    _save(fig, os.path.join(out, "rmse_methods.png"))
+    series = [(m, [r[2] for r in rows if r[0] == m], [r[3] for r in rows if r[0] == m]) for m in METHOD_ORDER]
+    _force_torque_bars(os.path.join(out, "rmse_methods.png"), np.arange(7), series, 0.8 / len(METHOD_ORDER),
+                       ylabel="RMSE, {what} [{unit}]", title="{what} RMSE per face and method",
+                       xlabel="loaded face (single-face loads) / squeeze resultant",
+                       xticklabels=[f"face {i}" for i in range(1, 7)] + ["squeeze"], figsize=(12, 4.2))
     return ["rmse_methods.csv", "rmse_methods.png"]
 
 
+def _per_connected_bars(path, rows, *, ylabel, title):
+    """``rows`` = ``[connected_face, method, force, torque, ...]``: bars per connected face, one per calibration."""
+    series = [(m, [r[2] for r in rows if r[1] == m], [r[3] for r in rows if r[1] == m]) for m in _PER_CONNECTED]
+    _force_torque_bars(path, np.arange(1, 7), series, 0.27, ylabel=ylabel, title=title,
+                       xlabel="connected face (flange)", figsize=(10, 3.8))
+
+
 def _rmse_connected(res, out):
-    plt = _plt()
     rows = []
     for c in range(1, 7):
         for m in _PER_CONNECTED:
@@ -194,48 +214,21 @@ def _rmse_connected(res, out):
             rows.append([c, m, float(np.nanmean(ev.rmse_force())), float(np.nanmean(ev.rmse_torque()))])
     _write_csv(os.path.join(out, "rmse_connected_face.csv"),
                ["connected_face", "method", "rmse_force_N", "rmse_torque_Nm"], rows)
-    fig, axs = plt.subplots(1, 2, figsize=(10, 3.8))
-    x = np.arange(1, 7)
-    for j, m in enumerate(_PER_CONNECTED):
-        f = [r[2] for r in rows if r[1] == m]
-        t = [r[3] for r in rows if r[1] == m]
-        axs[0].bar(x + (j - 1) * 0.27, f, 0.27, label=m, color=_COLORS[m])
-        axs[1].bar(x + (j - 1) * 0.27, t, 0.27, label=m, color=_COLORS[m])
-    for ax, unit, what in ((axs[0], "N", "force"), (axs[1], "N·m", "torque")):
-        ax.set_xticks(x)
-        ax.set_xlabel("connected face (flange)")
-        ax.set_ylabel(f"mean RMSE, {what} [{unit}]")
-        ax.set_title(f"loaded vs unloaded frame, {what}{_SIM}", fontsize=9)
-    axs[0].legend(fontsize=7)
-    fig.tight_layout()
-    _save(fig, os.path.join(out, "rmse_connected_face.png"))
+    _per_connected_bars(os.path.join(out, "rmse_connected_face.png"), rows, ylabel="mean RMSE, {what} [{unit}]",
+                        title="loaded vs unloaded frame, {what}")
     return ["rmse_connected_face.csv", "rmse_connected_face.png"]
 
 
 def _squeeze_connected(res, out):
-    plt = _plt()
     rows = []
     for c in range(1, 7):
         for m in _PER_CONNECTED:
             ev = res.squeeze_per_connected[(m, c)]
-            sq = ev.rmse_squeeze
-            rows.append([c, m, float(np.sqrt(np.nanmean(sq[:3] ** 2))), float(np.sqrt(np.nanmean(sq[3:] ** 2))),
-                         ev.n_squeeze])
+            rows.append([c, m, *squeeze_rmse(ev), ev.n_squeeze])
     _write_csv(os.path.join(out, "squeeze_connected_face.csv"),
                ["connected_face", "method", "squeeze_rmse_force_N", "squeeze_rmse_torque_Nm", "samples"], rows)
-    fig, axs = plt.subplots(1, 2, figsize=(10, 3.8))
-    x = np.arange(1, 7)
-    for j, m in enumerate(_PER_CONNECTED):
-        axs[0].bar(x + (j - 1) * 0.27, [r[2] for r in rows if r[1] == m], 0.27, label=m, color=_COLORS[m])
-        axs[1].bar(x + (j - 1) * 0.27, [r[3] for r in rows if r[1] == m], 0.27, label=m, color=_COLORS[m])
-    for ax, unit, what in ((axs[0], "N", "force"), (axs[1], "N·m", "torque")):
-        ax.set_xticks(x)
-        ax.set_xlabel("connected face (flange)")
-        ax.set_ylabel(f"squeeze resultant RMSE, {what} [{unit}]")
-        ax.set_title(f"squeeze pairs vs reference, {what}{_SIM}", fontsize=9)
-    axs[0].legend(fontsize=7)
-    fig.tight_layout()
-    _save(fig, os.path.join(out, "squeeze_connected_face.png"))
+    _per_connected_bars(os.path.join(out, "squeeze_connected_face.png"), rows,
+                        ylabel="squeeze resultant RMSE, {what} [{unit}]", title="squeeze pairs vs reference, {what}")
     return ["squeeze_connected_face.csv", "squeeze_connected_face.png"]
 
 

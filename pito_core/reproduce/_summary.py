@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._experiments import METHOD_MOUNTS, METHOD_ORDER, Results
-from ._figures import FIGURES, table1_rows
+from ._figures import FIGURES, squeeze_rmse, table1_rows
 
 __all__ = ["Finding", "findings", "write_summary"]
 
@@ -35,7 +35,7 @@ def _torque(ev) -> float:
 
 
 def _squeeze_force(ev) -> float:
-    return float(np.sqrt(np.nanmean(ev.rmse_squeeze[:3] ** 2)))
+    return squeeze_rmse(ev)[0]
 
 
 def findings(res: Results) -> list[Finding]:
@@ -179,9 +179,9 @@ def write_summary(res: Results, out_dir, files: list[str], elapsed: float, quick
     for m in METHOD_ORDER:
         ev = res.evaluations[m]
         fl, cs = METHOD_MOUNTS[m]
-        sq = ev.rmse_squeeze
+        sq_force, sq_torque = squeeze_rmse(ev)
         L.append(f"| {m} | {fl} on face {', '.join(map(str, cs))} | {_fmt(_force(ev))} | {_fmt(_torque(ev))} | "
-                 f"{_fmt(_squeeze_force(ev))} | {_fmt(float(np.sqrt(np.nanmean(sq[3:] ** 2))))} | "
+                 f"{_fmt(sq_force)} | {_fmt(sq_torque)} | "
                  f"{res.calibrations[m].inverse_condition_number:.2e} |")
     L.append("")
     L.append("## Table I: inverse condition numbers per connected face (SIMULATED)")

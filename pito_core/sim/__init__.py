@@ -6,6 +6,7 @@ calibration code.
 """
 
 from ._grasp import FINGER_LAYOUTS, GRAVITY, GraspRun, GraspScenario, GraspState, simulate_free_grasp
+from ._handfed import IdleDevice, push_samples
 from ._live import CalibrationLiveSource, GraspLiveSource, LiveSource, default_live_source
 from ._model import VirtualCube, hub_sensitivity
 from ._mount import MOUNTS, face_wrenches_from_applied
@@ -59,6 +60,7 @@ __all__ = [
     "GraspRun",
     "GraspScenario",
     "GraspState",
+    "IdleDevice",
     "KeypointTrajectory",
     "MOUNTS",
     "PATCH_HEIGHT",
@@ -76,6 +78,7 @@ __all__ = [
     "face_wrenches_from_applied",
     "hub_sensitivity",
     "play_operator",
+    "push_samples",
     "reference_pose",
     "simulate_calibration",
     "simulate_free_grasp",

@@ -13,7 +13,7 @@ import numpy as np
 from ..frames import check_face
 from ._grasp import GraspScenario, GraspState
 from ._model import VirtualCube
-from ._mount import check_mount, core_from_face_adjoints, face_wrenches_from_applied
+from ._mount import check_flanged_mount, core_from_face_adjoints, face_wrenches_from_applied
 from ._params import FULL_SCALE_FACE, FULL_SCALE_FRAME
 from ._reference import ReferenceSensor, reference_pose
 from ._signals import hashed_normal, hashed_uniform, smoothstep
@@ -178,9 +178,7 @@ class CalibrationLiveSource(LiveSource):
 
     def __init__(self, flange: str = "face", connected_face: int = 6, seed: int = 0, model: VirtualCube | None = None,
                  *, period: float = 1.5, ramp: float = 0.5, reference="delta"):
-        flange, connected_face = check_mount(flange, connected_face)
-        if flange is None:
-            raise ValueError("flange: expected one of ('frame', 'frame_hole', 'face'), got None")
+        flange, connected_face = check_flanged_mount(flange, connected_face)
         model = VirtualCube() if model is None else model
         super().__init__(model, seed, reference_pose(flange, connected_face, model.core), reference)
         if not period > 0:

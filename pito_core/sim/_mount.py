@@ -6,7 +6,8 @@ import numpy as np
 
 from ..frames import FACES, CubeCore, check_face, invert_pose, wrench_adjoint
 
-__all__ = ["MOUNTS", "check_mount", "face_wrenches_from_applied", "core_from_face_adjoints", "face_from_core_adjoints"]
+__all__ = ["MOUNTS", "check_mount", "check_flanged_mount", "face_wrenches_from_applied", "core_from_face_adjoints",
+           "face_from_core_adjoints"]
 
 #: Flanges (SPEC "Calibration mounts") plus ``None`` for a free grasp.
 MOUNTS = ("frame", "frame_hole", "face", None)
@@ -19,6 +20,17 @@ def check_mount(flange, connected_face):
     if flange is None:
         return None, None
     return flange, check_face(connected_face, "connected_face")
+
+
+def check_flanged_mount(flange, connected_face, run: str = ""):
+    """Validated ``(flange, connected_face)`` of a run that needs a flange (not a free grasp).
+
+    ``run`` names the run in the error (e.g. ``"calibration run"``).
+    """
+    flange, connected_face = check_mount(flange, connected_face)
+    if flange is None:
+        raise ValueError(f"flange: expected one of {MOUNTS[:-1]}{' for a ' + run if run else ''}, got None")
+    return flange, connected_face
 
 
 def face_from_core_adjoints(core: CubeCore) -> np.ndarray:

@@ -35,37 +35,24 @@ No orphans
 from __future__ import annotations
 
 import contextlib
-import ctypes
 import json
 import os
 import select
-import signal
 import socket
 import subprocess
 import sys
 import threading
 import time
 
+from ..devices._lifetime import die_with_parent, install_stop_signals
 from ._transport_netft import SimulatedNetFT
 from ._transport_pito import SimulatedPitoPort
 from ._world import DemoWorld
 
 __all__ = ["SimulatedDevices", "SimulatorError", "run_devices"]
 
-_PR_SET_PDEATHSIG = 1
-
-
 class SimulatorError(RuntimeError):
     """The simulated devices refused a control request or could not start."""
-
-
-def _die_with_parent() -> None:
-    """Linux: SIGTERM this process when the parent dies (no-op elsewhere)."""
-    if not sys.platform.startswith("linux"):
-        return
-    with contextlib.suppress(OSError, AttributeError):
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0)
 
 
 class _Control:
@@ -173,7 +160,7 @@ def run_devices(*, seed: int = 0, speed: float = 1.0, period: float = 1.5, scena
     """
     stop = stop or threading.Event()
     if watch_parent and pdeathsig:
-        _die_with_parent()
+        die_with_parent()
     epoch = time.monotonic()
     world = DemoWorld(seed=seed, speed=speed, period=period, epoch=epoch)
     world.set_scenario(scenario)
@@ -185,14 +172,13 @@ def run_devices(*, seed: int = 0, speed: float = 1.0, period: float = 1.5, scena
                                                    records_per_packet=records_per_packet, same_port=True))
         control = _Control(world, {"pito": pito, "netft": netft}, stop)
         stack.callback(control.close)
-        if threading.current_thread() is threading.main_thread():
-            for sig in (signal.SIGTERM, signal.SIGINT):
-                signal.signal(sig, lambda *_: stop.set())
+        signalled = install_stop_signals()
         info = {"pito": pito.port, "ati": f"{netft.host}:{netft.port}", "control": control.address,
                 "pid": os.getpid(), "label": "simulated cube and Net F/T (pito_core.sim)", "simulated": True}
         (announce or (lambda i: print(json.dumps(i), flush=True)))(info)
         parent = os.getppid()
-        while not stop.wait(0.2):
+        while not (stop.is_set() or signalled()):
+            time.sleep(0.2)
             # the transports log every sequence number for tests; a long-running device keeps none
             pito.log["sent"].clear()
             netft.log["sent"].clear()

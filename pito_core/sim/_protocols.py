@@ -14,7 +14,7 @@ import numpy as np
 
 from ..frames import FACES, check_face
 from ._model import VirtualCube
-from ._mount import check_mount, core_from_face_adjoints, face_wrenches_from_applied
+from ._mount import check_flanged_mount, core_from_face_adjoints, face_wrenches_from_applied
 from ._params import FULL_SCALE_FACE
 from ._reference import ReferenceSensor, reference_pose
 from ._signals import KeypointTrajectory
@@ -266,9 +266,7 @@ def simulate_calibration(
     starts from and returns to zero at the ends of the face's block (short rests between
     faces are unloaded samples).
     """
-    flange, connected_face = check_mount(flange, connected_face)
-    if flange is None:
-        raise ValueError("flange: expected one of ('frame', 'frame_hole', 'face') for a calibration run, got None")
+    flange, connected_face = check_flanged_mount(flange, connected_face, "calibration run")
     k = _check_k(k)
     segment_samples = _check_k(segment_samples, "segment_samples", minimum=2)
     model = _model_or_default(model)
@@ -336,9 +334,7 @@ def simulate_squeeze(
     the face), sheared (``fx, fy`` within ±5 N) and twisted (torques within ±0.1 N·m),
     independently of the other.
     """
-    flange, connected_face = check_mount(flange, connected_face)
-    if flange is None:
-        raise ValueError("flange: expected one of ('frame', 'frame_hole', 'face') for a squeeze run, got None")
+    flange, connected_face = check_flanged_mount(flange, connected_face, "squeeze run")
     k = _check_k(k)
     model = _model_or_default(model)
     run_pairs = []

@@ -8,7 +8,7 @@ import numpy as np
 
 from ..frames import check_face
 from ._model import VirtualCube
-from ._mount import check_mount, core_from_face_adjoints
+from ._mount import check_flanged_mount, core_from_face_adjoints
 from ._protocols import (
     _PROTOCOL_STREAM,
     PATCH_HEIGHT,
@@ -122,9 +122,7 @@ def simulate_touches(
     force 2–8 N pressing into the patch, a tangential force under 0.3 of it and a torsion
     within ±2 mN·m.
     """
-    flange, connected_face = check_mount(flange, connected_face)
-    if flange is None:
-        raise ValueError("flange: expected one of ('frame', 'frame_hole', 'face') for a touch run, got None")
+    flange, connected_face = check_flanged_mount(flange, connected_face, "touch run")
     face = check_face(face, "face")
     if face == connected_face:
         raise ValueError(f"face: expected a free face, got the connected face {face}")

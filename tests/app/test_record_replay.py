@@ -25,10 +25,12 @@ def test_record_then_replay(qtbot, styled, tmp_path):
         live.record.setChecked(True)
         live.record.blockSignals(False)
         process_for(2.0)
-        window.toggle_recording(False)
-        live.record.setChecked(False)
-        assert wait_until(lambda: path.exists() and path.stat().st_size > 10000, timeout=10)
-        process_for(0.3)
+        # stopping is asynchronous (the worker closes the file): the window says when it is complete
+        with qtbot.waitSignal(window.recording_saved, timeout=15_000) as saved:
+            window.toggle_recording(False)
+            live.record.setChecked(False)
+        assert saved.args[0] == str(path) and saved.args[1] > 1000
+        assert path.exists() and path.stat().st_size > 10000
         rec = read_recording(path)
         assert rec.complete and rec.simulated
         assert rec.pito.size > 1000 and rec.netft.size > 500  # ~2 s at 1 kHz, both devices

@@ -8,21 +8,19 @@ gauge noise 0.5–5 counts, offsets up to ±3·10⁷ counts, k = 200..10⁵ samp
 and connected face, the held-out force and torque RMSE of ``calibrate(...)`` (defaults)
 on single-face and squeeze loads (two faces at once) must be ≤ 1.02× that of the plain
 affine least-squares fit ``C = W S⁺`` with an offset column, tare samples as zero-wrench
-rows, on the same training data — computed here independently with
-``numpy.linalg.lstsq``.
+rows, on the same training data — computed independently of pito's fitting code with
+LAPACK least squares (``pito_bench._baseline``, which the benchmark also reports).
 """
 
 import warnings
 
 import numpy as np
 import pytest
-import scipy.linalg
-from threadpoolctl import threadpool_limits
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
-from pito_core.calibration import CalibrationSession, calibrate, get_method
-from pito_core.frames import invert_pose, wrench_adjoint
+from pito_bench._baseline import plain_affine_lstsq
+from pito_core.calibration import CalibrationSession, calibrate
 from pito_core.sim import VirtualCube, random_sensor, random_sensor_session, simulate_calibration, simulate_squeeze
 
 MOUNT = {"face_to_face": "frame_hole", "quasi_total": "frame", "total": "face", "loaded_frame": "frame_hole",
@@ -31,68 +29,6 @@ RATIO = 1.02
 
 SETTINGS = dict(derandomize=True, deadline=None, database=None, max_examples=24,
                 suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
-
-
-def _targets(session, output_frame):
-    """Wrench on each face (N, 6, 6) from the reference by the load paths (docs/conventions.md), and usable rows."""
-    ref = np.asarray(session.reference, float)
-    loaded = np.asarray(session.loaded, bool)
-    usable = loaded.sum(axis=1) <= 1
-    c = session.connected_face - 1
-    T_ati_core = invert_pose(session.T_core_ati)
-    T = np.zeros((len(ref), 6, 6))
-    for i in range(6):
-        X = wrench_adjoint(T_ati_core @ session.core.face_pose(i + 1)) if output_frame == "face" else np.eye(6)
-        w = ref @ X.T
-        sign = loaded[:, i].astype(float)
-        if session.flange == "face" and i == c:
-            sign = np.where(loaded[:, c], 1.0, np.where(loaded.any(axis=1), -1.0, 0.0))  # eq. 6
-        T[:, i] = w * sign[:, None]
-    carries = np.abs(T).sum(axis=2) > 0
-    return T, carries, usable
-
-
-def _lstsq(A, B):
-    with threadpool_limits(limits=1):
-        return scipy.linalg.lstsq(A, B, lapack_driver="gelsy", check_finite=False)[0]
-
-
-def plain_affine_lstsq(session, method, output_faces):
-    """``predict(counts) -> (N, 6, 6)`` of the plain affine least-squares fit (NaN where no output)."""
-    spec = get_method(method)
-    counts = np.asarray(session.counts, float)
-    T, carries, usable = _targets(session, spec.output_frame)
-    unloaded = ~np.asarray(session.loaded).any(axis=1)
-    mean = counts.mean(axis=0)  # centring the columns is an exact reparametrisation of the affine model
-    Sc = counts - mean
-    models = []
-    if spec.inputs == "own":
-        for f in output_faces:
-            rows = usable & (carries[:, f - 1] | unloaded)
-            cols = slice(6 * (f - 1), 6 * f)
-            A = np.c_[np.ones(rows.sum()), Sc[rows, cols]]
-            X = _lstsq(A, T[rows, f - 1])
-            models.append(((f,), cols, X))
-    else:
-        idx = [f - 1 for f in output_faces]
-        A = np.c_[np.ones(usable.sum()), Sc[usable]]
-        X = _lstsq(A, T[usable][:, idx].reshape(-1, 6 * len(idx)))
-        models.append((tuple(output_faces), slice(0, 36), X))
-    T_ati_core = invert_pose(session.T_core_ati)
-
-    def predict(new_counts):
-        x = np.asarray(new_counts, float) - mean
-        W = np.full((len(x), 6, 6), np.nan)
-        for faces, cols, X in models:
-            Y = X[0] + x[:, cols] @ X[1:]
-            for k, f in enumerate(faces):
-                y = Y[:, 6 * k : 6 * k + 6]
-                if spec.output_frame == "reference":
-                    y = y @ wrench_adjoint(T_ati_core @ session.core.face_pose(f)).T
-                W[:, f - 1] = y
-        return W
-
-    return predict
 
 
 def _rmse(W, truth, mask):

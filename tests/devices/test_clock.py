@@ -43,6 +43,27 @@ def test_stream_clock_removes_jitter_follows_drift_never_decreases():
     assert raw_err.std() > 4 * err.std()  # arrival times jitter far more
 
 
+def test_stream_clock_never_decreases_in_floating_point():
+    # two samples of one batch (host 61.501088 s), each the least delayed so far: both get their arrival
+    # time, but device + (host - device) rounds to one ulp below it for the second (a device clock faster
+    # than the host's, e.g. `pito record --sim-speed 4`, makes every sample of a batch the least delayed)
+    dev = np.array([1153000, 1154000]) * 1e-6
+    host = np.full(2, 61.501088)
+    assert dev[1] + (host[1] - dev[1]) < dev[0] + (host[0] - dev[0])  # the rounding this guards against
+    t = StreamClock()(dev, host)
+    assert t[1] >= t[0] and np.all(t <= host)
+    clock = StreamClock()
+    assert np.array_equal(np.concatenate([clock(dev[:1], host[:1]), clock(dev[1:], host[1:])]), t)  # across reads
+    # batches of a device clock 4x faster than the host clock, at the magnitudes of time.monotonic()
+    rng = np.random.default_rng(4)
+    for base in (61.5, 986.05, 11700.05, 486413.7):
+        dev = (rng.integers(0, 10**6) + np.arange(6000) * 1000) * 1e-6
+        arrive = base + (dev - dev[0]) / 4
+        last = np.r_[np.sort(rng.choice(np.arange(1, dev.size), 800, replace=False)), dev.size] - 1
+        host = arrive[last[np.searchsorted(last, np.arange(dev.size))]] + 0.001  # a batch arrives with its last sample
+        assert np.all(np.diff(StreamClock()(dev, host)) >= 0)
+
+
 def test_stream_clock_restarts_when_the_device_clock_goes_back():
     clock = StreamClock()
     t1 = clock(np.arange(3000) * 1e-3, 50.0 + np.arange(3000) * 1e-3 + 0.001)

@@ -1,0 +1,385 @@
+"""The devices and the one pipeline in a process of their own; the caller receives bundles.
+
+Reading a serial port frame by frame and a Net F/T packet by packet costs a few thousand
+Python wake-ups a second, and the pipeline (calibration of every sample, contacts on six
+patches) a few milliseconds per read. In the desktop app all of that would share one
+interpreter lock with the drawing: the window would wait for the lock on every paint call
+and the devices would wait for the window. So :class:`PipelineProcess` runs the drivers, the
+collecting thread, :class:`~pito_core.pipeline.Pipeline` and the recorder in a child process
+(``python -m pito_core.pipeline._process_child CONFIG FD``) and sends the caller one
+:class:`~pito_core.pipeline.LiveBundle` every ``push_interval`` s over a socket pair; a
+receiving thread (blocked in ``recv`` without the lock) merges them until :meth:`take`.
+It is the same pipeline, with the same pairing rule, as ``pito record``, replay and
+``pito bench``; sample times are made in the child (``CLOCK_MONOTONIC`` is one clock for
+both processes).
+
+Protocol (``multiprocessing.connection.Connection`` on a socket pair, pickled tuples)
+    child → parent: ``("ready", info)`` or ``("failed", message)`` once; then ``("bundle",
+    LiveBundle)`` with its ``stats`` and ``recorded`` filled, and ``("reply", id, ok, value)``
+    to each request (``value`` is ``(exception type name, message)`` when ``ok`` is false).
+    parent → child: ``(request, id, *args)``, requests ``set_calibration`` (Calibration or
+    None), ``set_assembly`` (library name, Assembly or None; wrench covariance), ``tare``
+    (duration), ``reset``, ``open_recording`` (path, meta), ``close_recording``,
+    ``record_event`` (event) and ``close``.
+
+No orphans
+    The child stops when the socket reaches end of file (the parent exited or was killed),
+    when its parent process changes, or on SIGTERM, which the kernel sends it when the parent
+    dies (``PR_SET_PDEATHSIG``, :mod:`pito_core.devices._lifetime`). A recording it holds is
+    closed on the way out (a SIGKILL of the child itself loses at most the last flush interval).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import os
+import socket
+import subprocess
+import sys
+import threading
+import time
+from multiprocessing.connection import Connection
+
+import numpy as np
+
+from ..devices._lifetime import die_with_parent, install_stop_signals
+from ..frames import CubeCore
+from ._bundle import LiveBundle
+from ._open import open_acquisition
+from ._pipeline import Pipeline
+from ._readers import AcquisitionReader
+
+__all__ = ["PipelineProcess", "PipelineProcessError"]
+
+
+class PipelineProcessError(RuntimeError):
+    """The pipeline process could not start, refused a request, or ended."""
+
+
+class PipelineProcess:
+    """The cube on ``pito`` and the Net F/T at ``ati``, read and processed in a child process.
+
+    Parameters
+    ----------
+    pito : str
+        Serial port of the cube (as :class:`~pito_core.devices.PitoSerial`).
+    ati : str, optional
+        Net F/T address ``HOST``, ``HOST:PORT`` (RDT and configuration page on PORT), or None.
+    simulated : bool
+        The devices are simulated (``stats["simulated"]``, recordings' metadata).
+    buffered : bool
+        Ask the Net F/T for buffered RDT (several records per packet).
+    reference_rate_hz : float
+        The Net F/T's RDT output rate, Hz.
+    edge : float
+        The cube's edge, m (:class:`~pito_core.frames.CubeCore`).
+    push_interval : float
+        Seconds between bundles sent by the child (adds at most this to the latency).
+    startup_timeout : float
+        Seconds to wait for the devices to open.
+
+    Raises
+    ------
+    PipelineProcessError
+        The child could not open the devices (its message says why).
+
+    Notes
+    -----
+    A worker uses it in place of a reader and a pipeline: :meth:`take` returns the bundles
+    made since the previous call, merged (or None); the settings of
+    :class:`~pito_core.pipeline.Pipeline` are requests (:meth:`set_calibration`,
+    :meth:`set_assembly`, :meth:`tare`, :meth:`reset`), and so is recording
+    (:meth:`open_recording`, :meth:`close_recording`, :meth:`record_event`).
+    """
+
+    #: Tells a worker that this source runs the pipeline itself (``take()`` gives bundles).
+    runs_pipeline = True
+
+    def __init__(self, pito: str, ati: str | None = None, *, simulated: bool = False, buffered: bool = False,
+                 reference_rate_hz: float = 1000.0, edge: float | None = None, push_interval: float = 0.008,
+                 startup_timeout: float = 30.0):
+        if not push_interval > 0:
+            raise ValueError(f"push_interval: expected > 0 s, got {push_interval!r}")
+        self.simulated = bool(simulated)
+        self._pending: LiveBundle | None = None
+        self._latest_stats: dict = {}
+        self._lock = threading.Lock()
+        self._replies: dict = {}
+        self._reply_ready = threading.Condition()
+        self._next_id = 0
+        self._send_lock = threading.Lock()
+        self.ended: str | None = None  # why the child ended, once it has
+        self.bundles_received = 0
+        cfg = {"pito": pito, "ati": ati, "buffered": bool(buffered), "reference_rate_hz": float(reference_rate_hz),
+               "simulated": self.simulated, "edge": None if edge is None else float(edge),
+               "push_interval": float(push_interval),
+               "pdeathsig": threading.current_thread() is threading.main_thread()}
+        mine, theirs = socket.socketpair()
+        try:
+            self._proc = subprocess.Popen([sys.executable, "-m", "pito_core.pipeline._process_child", json.dumps(cfg),
+                                           str(theirs.fileno())], pass_fds=(theirs.fileno(),), stdin=subprocess.DEVNULL)
+        finally:
+            theirs.close()
+        self.pid = self._proc.pid
+        self._conn = Connection(mine.detach())
+        try:
+            if not self._conn.poll(startup_timeout):
+                raise PipelineProcessError(f"the pipeline process did not start within {startup_timeout} s")
+            msg = self._conn.recv()
+            if msg[0] != "ready":
+                raise PipelineProcessError(f"opening the devices: {msg[1]}")
+        except (EOFError, OSError) as exc:
+            self._kill()
+            raise PipelineProcessError(f"the pipeline process ended while starting ({exc!r})") from None
+        except BaseException:
+            self._kill()
+            raise
+        self.info = msg[1]
+        self.has_reference = bool(self.info["reference"])
+        self._receiver = threading.Thread(target=self._receive, name="PipelineProcess", daemon=True)
+        self._receiver.start()
+
+    # ------------------------------------------------------------------ receiving
+    def _receive(self) -> None:
+        while True:
+            try:
+                msg = self._conn.recv()  # blocks without the interpreter lock
+            except (EOFError, OSError):
+                break
+            if msg[0] == "bundle":
+                b = msg[1]
+                with self._lock:
+                    self._pending = b if self._pending is None else self._pending.merged(b)
+                    self._latest_stats = b.stats
+                    self.bundles_received += 1
+            elif msg[0] == "reply":
+                with self._reply_ready:
+                    self._replies[msg[1]] = (msg[2], msg[3])
+                    self._reply_ready.notify_all()
+        self.ended = self.ended or f"the pipeline process (pid {self.pid}) ended"
+        with self._reply_ready:
+            self._reply_ready.notify_all()
+
+    def take(self) -> LiveBundle | None:
+        """The bundles received since the previous call, merged (every sample once, the latest state), or None."""
+        with self._lock:
+            b, self._pending = self._pending, None
+        if b is None and self.ended:
+            b = LiveBundle(np.zeros(0), np.zeros((0, 36)), np.zeros((0, 6)), stats=self.stats())
+        return b
+
+    def stats(self) -> dict:
+        """The latest device figures (as ``AcquisitionReader.stats``), plus ``process`` (pid, alive, why ended)."""
+        with self._lock:
+            s = dict(self._latest_stats)
+        s["process"] = {"pid": self.pid, "alive": self.ended is None, "ended": self.ended}
+        if self.ended:
+            s["connected"] = False
+        return s
+
+    def _request(self, name: str, *args, timeout: float = 10.0):
+        if self.ended:
+            raise PipelineProcessError(f"{name}: {self.ended}")
+        with self._reply_ready:
+            self._next_id += 1
+            rid = self._next_id
+        with self._send_lock:
+            try:
+                self._conn.send((name, rid, *args))
+            except OSError as exc:
+                raise PipelineProcessError(f"{name}: the pipeline process is gone ({exc})") from None
+        deadline = time.monotonic() + timeout
+        with self._reply_ready:
+            while rid not in self._replies:
+                left = deadline - time.monotonic()
+                if self.ended or left <= 0:
+                    raise PipelineProcessError(f"{name}: no answer from the pipeline process"
+                                               + (f" ({self.ended})" if self.ended else f" within {timeout} s"))
+                self._reply_ready.wait(left)
+            ok, value = self._replies.pop(rid)
+        if not ok:
+            kind, message = value
+            raise ValueError(message) if kind == "ValueError" else PipelineProcessError(f"{name}: {message}")
+        return value
+
+    # ------------------------------------------------------------------ settings of the pipeline
+    def set_calibration(self, calibration) -> None:
+        """:meth:`Pipeline.set_calibration` in the child (the calibration is sent pickled)."""
+        self._request("set_calibration", calibration)
+
+    def set_assembly(self, assembly, wrench_cov=None) -> None:
+        """:meth:`Pipeline.set_assembly` in the child (a library assembly goes by name)."""
+        self._request("set_assembly", assembly, wrench_cov)
+
+    def tare(self, duration: float = 0.5) -> dict:
+        """:meth:`Pipeline.tare` in the child; the event is recorded there when recording. Returns the event."""
+        return self._request("tare", float(duration))
+
+    def reset(self) -> None:
+        """:meth:`Pipeline.reset` in the child."""
+        self._request("reset")
+
+    # ------------------------------------------------------------------ recording
+    def open_recording(self, path, meta: dict | None = None) -> None:
+        """Record every sample of both devices from now on to ``path`` (``pito-recording``), written in the child."""
+        self._request("open_recording", os.fspath(path), dict(meta or {}))
+
+    def close_recording(self) -> dict:
+        """Stop recording and close the file (returns when it is closed): ``{"rows": {...}, "path": ...}`` or {}."""
+        return self._request("close_recording", timeout=30.0)
+
+    def record_event(self, event: dict) -> None:
+        """Append ``event`` (JSON-able dict) to the recording, if recording."""
+        self._request("record_event", dict(event))
+
+    # ------------------------------------------------------------------ lifetime
+    def close(self) -> None:
+        """Close the recording (if any) and the devices, and end the child process."""
+        if self._proc.poll() is None and not self.ended:
+            with contextlib.suppress(PipelineProcessError, ValueError):
+                self._request("close", timeout=10.0)
+        self.ended = self.ended or "closed"
+        try:
+            self._proc.wait(timeout=5.0)
+        except subprocess.TimeoutExpired:
+            self._kill()
+        with contextlib.suppress(OSError):
+            self._conn.close()
+
+    def _kill(self) -> None:
+        with contextlib.suppress(OSError):
+            self._proc.kill()
+        with contextlib.suppress(subprocess.TimeoutExpired):
+            self._proc.wait(timeout=5.0)
+
+    def __enter__(self) -> "PipelineProcess":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def borrowed(self) -> "_Borrowed":
+        """The same process as a source whose ``close()`` leaves it running (its owner closes it)."""
+        return _Borrowed(self)
+
+
+class _Borrowed:
+    """A :class:`PipelineProcess` lent to a worker: everything but :meth:`close` goes to the process."""
+
+    def __init__(self, process: PipelineProcess):
+        self._process = process
+
+    def __getattr__(self, name):
+        return getattr(self._process, name)
+
+    def close(self) -> None:
+        """Leave the process running; a recording it holds is closed (a worker closes its source on a switch)."""
+        with contextlib.suppress(PipelineProcessError, ValueError):
+            self._process.close_recording()
+
+
+# ---------------------------------------------------------------------- the child
+class _Child:
+    """The child's state: the acquisition, its reader, the pipeline; one method per request."""
+
+    def __init__(self, cfg: dict):
+        self.acq = open_acquisition(cfg["pito"], cfg.get("ati"), buffered=cfg["buffered"], buffer_seconds=10.0,
+                                    reference_rate_hz=cfg["reference_rate_hz"], meta={"simulated": cfg["simulated"]})
+        self.reader = AcquisitionReader(self.acq, simulated=cfg["simulated"], owns=True)
+        core = CubeCore() if cfg.get("edge") is None else CubeCore(edge=cfg["edge"])
+        self.pipeline = Pipeline(core=core, has_reference=self.reader.has_reference)
+        self.recording_from: int | None = None  # cube cursor where the recording began
+
+    def handle(self, name: str, args: tuple):
+        p, acq = self.pipeline, self.acq
+        if name == "set_calibration":
+            return p.set_calibration(*args)
+        if name == "set_assembly":
+            return p.set_assembly(*args)
+        if name == "tare":
+            event = p.tare(*args)
+            acq.record_event(event)
+            return event
+        if name == "reset":
+            return p.reset()
+        if name == "open_recording":
+            path, meta = args
+            meta.setdefault("simulated", bool(acq.meta.get("simulated", False)))
+            acq.open_recording(path, meta)
+            self.recording_from = acq.cursors()[0]
+            return None
+        if name == "close_recording":
+            self.recording_from = None
+            return acq.close_recording()
+        if name == "record_event":
+            return acq.record_event(*args)
+        raise ValueError(f"request: unknown {name!r}")
+
+    def bundle(self) -> LiveBundle:
+        b = self.pipeline.feed(self.reader.read())
+        b.stats = _plain(self.reader.stats())
+        b.recorded = 0 if self.recording_from is None else self.acq.cursors()[0] - self.recording_from
+        return b
+
+    def close(self) -> None:
+        with contextlib.suppress(Exception):
+            self.acq.close_recording()
+        self.reader.close()
+
+
+def _serve(conn: Connection, cfg: dict) -> None:
+    try:
+        child = _Child(cfg)
+    except Exception as exc:  # noqa: BLE001 - every failure to open goes back to the parent, in words
+        conn.send(("failed", f"{type(exc).__name__}: {exc}"))
+        return
+    signalled = install_stop_signals()
+    conn.send(("ready", {"reference": child.reader.has_reference, "pid": os.getpid()}))
+    parent = os.getppid()
+    interval = cfg["push_interval"]
+    last_sent = 0.0
+    try:
+        while not signalled():
+            deadline = time.monotonic() + interval
+            while conn.poll(max(0.0, deadline - time.monotonic())):
+                name, rid, *args = conn.recv()
+                if name == "close":
+                    conn.send(("reply", rid, True, None))
+                    return
+                try:
+                    conn.send(("reply", rid, True, child.handle(name, tuple(args))))
+                except (ValueError, OSError) as exc:  # a bad argument, or a file that cannot be written
+                    conn.send(("reply", rid, False, (type(exc).__name__, str(exc))))
+            b = child.bundle()
+            now = time.monotonic()
+            if len(b) or now - last_sent >= 0.1:  # samples, or at least the device figures 10 times a second
+                conn.send(("bundle", b))
+                last_sent = now
+            if os.getppid() != parent:
+                break
+    except (EOFError, OSError):
+        pass  # the parent is gone
+    finally:
+        child.close()
+
+
+def _plain(d):
+    """Stats with numpy scalars as Python numbers (picklable anywhere, JSON-able)."""
+    if isinstance(d, dict):
+        return {k: _plain(v) for k, v in d.items()}
+    if isinstance(d, (list, tuple)):
+        return [_plain(v) for v in d]
+    if isinstance(d, np.generic):
+        return d.item()
+    return d
+
+
+def main(argv=None) -> int:
+    """The child's entry point (:mod:`pito_core.pipeline._process_child`)."""
+    argv = sys.argv[1:] if argv is None else argv
+    cfg = json.loads(argv[0])
+    if cfg.get("pdeathsig"):
+        die_with_parent()
+    _serve(Connection(int(argv[1])), cfg)
+    return 0
