@@ -101,10 +101,24 @@ class FigureImage(QLabel):
         return (w, h) if w > 250 and h > 180 else self._default
 
     def set_image(self, rgba) -> None:
+        """Show ``rgba`` ``(h, w, 4) uint8``, scaled down (aspect kept) if the label is smaller: never clipped."""
         self.image = np.ascontiguousarray(rgba)
         h, w = self.image.shape[:2]
         qimg = QImage(self.image.data, w, h, 4 * w, QImage.Format.Format_RGBA8888).copy()
-        self.setPixmap(QPixmap.fromImage(qimg))
+        self._pixmap = QPixmap.fromImage(qimg)
+        self._fit()
+
+    def _fit(self) -> None:
+        pm = getattr(self, "_pixmap", None)
+        if pm is None:
+            return
+        if pm.width() > self.width() or pm.height() > self.height():
+            pm = pm.scaled(self.size(), Qt.AspectRatioMode.KeepAspectRatio, Qt.TransformationMode.SmoothTransformation)
+        self.setPixmap(pm)
+
+    def resizeEvent(self, event):  # noqa: N802
+        super().resizeEvent(event)
+        self._fit()
 
 
 class ResultsPage(WizardPage):
