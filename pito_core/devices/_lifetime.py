@@ -15,7 +15,7 @@ import sys
 import threading
 from typing import Callable
 
-__all__ = ["die_with_parent", "install_stop_signals"]
+__all__ = ["die_with_parent", "install_stop_signals", "process_alive"]
 
 _PR_SET_PDEATHSIG = 1
 
@@ -47,3 +47,12 @@ def install_stop_signals(signals=(signal.SIGTERM, signal.SIGINT)) -> Callable[[]
         for sig in signals:
             signal.signal(sig, handler)
     return lambda: flag[0]
+
+
+def process_alive(pid: int) -> bool:
+    """Linux: ``pid`` runs (exists and is not a zombie); used to check that no child outlived its parent."""
+    try:
+        with open(f"/proc/{int(pid)}/stat") as fh:
+            return fh.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except (OSError, IndexError):
+        return False

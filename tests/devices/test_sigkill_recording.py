@@ -13,6 +13,8 @@ import time
 
 import pytest
 
+from pito_core.devices._lifetime import process_alive as _alive
+
 from pito_core.io import FileFormatError, Recording
 
 
@@ -24,12 +26,6 @@ def _children(pid):
         return []
 
 
-def _alive(pid):
-    try:
-        with open(f"/proc/{pid}/stat") as fh:
-            return fh.read().rsplit(")", 1)[1].split()[0] != "Z"
-    except OSError:
-        return False
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="uses /proc and PR_SET_PDEATHSIG")

@@ -10,6 +10,8 @@ import time
 import numpy as np
 import pytest
 
+from pito_core.devices._lifetime import process_alive as _alive
+
 from pito_core.io import read_recording
 from pito_core.pipeline import Pipeline, PipelineProcess, PipelineProcessError
 from pito_core.sim import SimulatedDevices, simulate_calibration
@@ -17,12 +19,6 @@ from pito_core.sim import SimulatedDevices, simulate_calibration
 pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="pty, /proc")
 
 
-def _alive(pid):
-    try:
-        with open(f"/proc/{pid}/stat") as fh:
-            return fh.read().rsplit(")", 1)[1].split()[0] != "Z"
-    except OSError:
-        return False
 
 
 def _take_for(proc, seconds):
