@@ -147,6 +147,9 @@ class LiveView(QWidget):
         self.assembly.currentTextChanged.connect(self.assembly_requested)
         self.timeline.sliderReleased.connect(self._seek)
         self._last_contacts = None
+        self._new_contacts = None  # (contacts, sample time) not yet drawn
+        self._n_shown = 0
+        self._sums = None  # (‖ΣF‖ N, ‖ΣT‖ N·m) of the latest bundle
         #: Hz: most frames a second (scene and plots); the pacer draws only when data are new
         self.display_rate = 60.0
         self.readout_rate = 5.0  # Hz: text that a person reads
@@ -214,7 +217,7 @@ class LiveView(QWidget):
         return self.scene.glyphs.update(c)
 
     def on_bundle(self, b) -> None:
-        """Take one bundle: glyphs moved in place, samples into the plots' rings; a frame is requested."""
+        """Take one bundle: samples into the plots' rings, the latest contacts kept; a frame is requested (no drawing)."""
         if b.replay_position is not None and b.replay_duration:
             if not self.timeline.isSliderDown():
                 self.timeline.blockSignals(True)
@@ -228,12 +231,7 @@ class LiveView(QWidget):
         t = b.latest_time
         self.latency = time.monotonic() - t  # s from the newest sample's time to its display
         if b.contacts is not None:
-            self._last_contacts = b.contacts
-            shown = self._show_contacts(b.contacts)
-            n_shown = int(shown.sum())
-            self.scene_time = t
-        else:
-            n_shown = 0
+            self._new_contacts = (b.contacts, t)  # the glyphs move when a frame is drawn, not per bundle
         if b.wrenches is not None:
             fw = getattr(b, "face_wrenches", None)
             if fw is not None and fw.shape[0] == b.time.size:
@@ -241,10 +239,8 @@ class LiveView(QWidget):
             else:
                 self.force_plot.append(t, np.linalg.norm(b.wrenches[:, :3], axis=1))
             if b.sum_force is not None:
-                fs, ts = float(np.linalg.norm(b.sum_force)), float(np.linalg.norm(b.sum_torque))
-                self.equilibrium.append(t, fs, ts)
-                self._readout_text = (f"{n_shown} contact{'s' if n_shown != 1 else ''}   ‖ΣF‖ {fs:5.2f} N   "
-                                      f"‖ΣT‖ {ts * 1000:5.1f} mN·m")
+                self._sums = (float(np.linalg.norm(b.sum_force)), float(np.linalg.norm(b.sum_torque)))
+                self.equilibrium.append(t, *self._sums)
         self.bundles_shown += 1
         self.request_display()
 
@@ -257,9 +253,19 @@ class LiveView(QWidget):
         self._pacer.start(max(0, int(round(wait * 1000))))
 
     def display(self) -> None:
-        """One frame: plots from their rings (decimated to pixels), a repaint of the 3D view."""
+        """One frame: the glyphs at the latest contacts, plots from their rings (decimated to pixels), a repaint."""
         now = time.monotonic()
         self._last_display = now
+        if self._new_contacts is not None:
+            contacts, t = self._new_contacts
+            self._new_contacts = None
+            self._last_contacts = contacts
+            self._n_shown = int(self._show_contacts(contacts).sum())
+            self.scene_time = t
+        if self._sums is not None:
+            fs, ts = self._sums
+            n = self._n_shown
+            self._readout_text = f"{n} contact{'s' if n != 1 else ''}   ‖ΣF‖ {fs:5.2f} N   ‖ΣT‖ {ts * 1000:5.1f} mN·m"
         if self.force_plot.isVisible():
             self.force_plot.refresh()
             self.equilibrium.refresh()

@@ -50,6 +50,7 @@ def test_glyphs_move_in_place_and_hide_under_threshold(live):
     for k in range(20):
         f = (-8.0 + 0.2 * k, 1.0, 2.0)
         live.on_bundle(bundle(0.02 * k, contacts(f)))
+        live.display()  # the glyphs move when a frame is drawn (at most display_rate a second), not per bundle
         shown.append(g.shown.copy())
         if k == 0:
             m0 = np.array(g.arrows[1].user_matrix)
@@ -96,6 +97,7 @@ def test_torsion_and_uncertainty_toggles(live):
     g = live.scene.glyphs
     live.show_uncertainty.setChecked(True)
     live.on_bundle(bundle(0.0, contacts()))
+    live.display()
     assert g.ellipsoids[1].GetVisibility() and g.rings[1].GetVisibility()
     live.show_torsion.setChecked(False)
     assert not g.rings[1].GetVisibility()
