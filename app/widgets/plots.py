@@ -115,6 +115,14 @@ def _style_plot(plot: pg.PlotItem, left: str, bottom: str = "time (s)") -> None:
     plot.getViewBox().disableAutoRange()
 
 
+def _curve(plot: pg.PlotItem, color: str, name: str) -> pg.PlotCurveItem:
+    """A bare ``PlotCurveItem`` in ``plot`` (and its legend): the data are decimated here already, so
+    ``PlotDataItem``'s own dataset, bounds and downsampling pass would only repeat work on every refresh."""
+    c = pg.PlotCurveItem(pen=pg.mkPen(color, width=1), name=name)
+    plot.addItem(c)
+    return c
+
+
 class _YRange:
     """A y range ``[0, top]`` that grows at once and shrinks only when the data fall well under it."""
 
@@ -146,7 +154,7 @@ class FaceForcePlot(pg.PlotWidget):
         _style_plot(self.getPlotItem(), "force norm ‖F‖ (N)")
         self.addLegend(offset=(6, 4), colCount=6, labelTextSize="8pt")
         self.curves = [
-            self.plot([], [], pen=pg.mkPen(FACE_COLORS[i], width=1), name=f"face {i}") for i in range(1, 7)
+            _curve(self.getPlotItem(), FACE_COLORS[i], f"face {i}") for i in range(1, 7)
         ]
         self._y = _YRange(2.0)
         self.setXRange(-self.window, 0, padding=0)
@@ -208,12 +216,11 @@ class EquilibriumPlot(QWidget):
         _style_plot(self.torque_plot.getPlotItem(), "‖ΣT‖ (mN·m)")
         self.torque_plot.addLegend(offset=(6, 4), labelTextSize="8pt")
         self.force_plot.addLegend(offset=(6, 4), labelTextSize="8pt")
-        self.force_curve = self.force_plot.plot([], [], pen=pg.mkPen("#e8edf2", width=1), name="‖ΣF‖ of the six faces")
+        self.force_curve = _curve(self.force_plot.getPlotItem(), "#e8edf2", "‖ΣF‖ of the six faces")
         self.weight_line = pg.InfiniteLine(angle=0, pen=pg.mkPen("#f0a030", width=1, style=pg.QtCore.Qt.PenStyle.DashLine),
                                            label="weight m·g = {value:.2f} N", labelOpts={"color": "#f0a030", "position": 0.15})
         self.force_plot.addItem(self.weight_line)
-        self.torque_curve = self.torque_plot.plot([], [], pen=pg.mkPen("#56B4E9", width=1),
-                                                  name="‖ΣT‖ about the centre of gravity (0 when still)")
+        self.torque_curve = _curve(self.torque_plot.getPlotItem(), "#56B4E9", "‖ΣT‖ about the centre of gravity (0 when still)")
         self._fy = _YRange(1.0)
         self._ty = _YRange(20.0)  # mN·m
         for p in (self.force_plot, self.torque_plot):
