@@ -12,13 +12,21 @@ import sys
 import numpy as np
 
 
-def main(rec_path: str, cal_path: str, assembly: str) -> None:
-    assert os.environ.get("LSLAPICFG"), "LSLAPICFG must point at the machine-only config"
+def open_inlet(name: str, timeout: float):
+    """An inlet on the stream called ``name`` on this machine (SystemExit if it is not found within ``timeout`` s)."""
     import pylsl
 
+    found = pylsl.resolve_byprop("name", name, timeout=timeout)
+    if not found:
+        raise SystemExit(f"stream {name} not resolved")
+    return pylsl.StreamInlet(found[0], max_buflen=60, processing_flags=0)
+
+
+def main(rec_path: str, cal_path: str, assembly: str) -> None:
+    assert os.environ.get("LSLAPICFG"), "LSLAPICFG must point at the machine-only config"
     from pito_core.calibration import load_calibration
     from pito_core.interop import LslPublisher
-    from pito_core.pipeline import NewSamples, Pipeline, RecordingReader
+    from pito_core.pipeline import Pipeline, RecordingReader
 
     cal = load_calibration(cal_path)
     reader = RecordingReader(rec_path, speed=float("inf"), loop=False)
@@ -26,12 +34,8 @@ def main(rec_path: str, cal_path: str, assembly: str) -> None:
     pub = LslPublisher(pipe, simulated=True)
     inlets = {}
     for name in ("pito-wrenches", "pito-contacts"):
-        found = pylsl.resolve_byprop("name", name, timeout=10.0)
-        if not found:
-            raise SystemExit(f"stream {name} not resolved")
-        inlet = pylsl.StreamInlet(found[0], max_buflen=60, processing_flags=0)
-        inlet.open_stream(timeout=10.0)
-        inlets[name] = inlet
+        inlets[name] = open_inlet(name, timeout=10.0)
+        inlets[name].open_stream(timeout=10.0)
     infos = {}
     for name, inlet in inlets.items():
         info = inlet.info(timeout=10.0)
@@ -102,10 +106,7 @@ def receive(seconds: str) -> None:
 
     out = {}
     for name in ("pito-wrenches", "pito-contacts"):
-        found = pylsl.resolve_byprop("name", name, timeout=30.0)
-        if not found:
-            raise SystemExit(f"stream {name} not resolved")
-        inlet = pylsl.StreamInlet(found[0], max_buflen=60, processing_flags=0)
+        inlet = open_inlet(name, timeout=30.0)
         info = inlet.info(timeout=10.0)
         t_end = pylsl.local_clock() + float(seconds)
         ts, data = [], []
