@@ -13,8 +13,8 @@ How it is measured, from outside the app's process:
   view shows (host ``CLOCK_MONOTONIC``; sample times are the device clocks mapped onto it)
   as the colour of a 10×10 px square in the 3D scene and in the force plot, in the same
   paint as the data;
-- a grabber in this process reads the scene's and the plots' rectangles with ``XGetImage``
-  ~100 times a second (:mod:`pito_bench._xgrab`);
+- a grabber in this process reads the scene's and the plots' rectangles ~100 times a second
+  through shared memory (``XShmGetImage``; :mod:`pito_bench._xgrab`);
 - frame rate of a view = new stamps seen per second (frames that showed new data); also the
   grabs whose pixels changed at all. Both are capped by the grab rate (reported);
 - latency = (time of the first grab showing a stamp) − (the stamped sample's time): from the
@@ -129,9 +129,11 @@ def _grab(display: str, regions_path: Path, seconds: float, rate: float, app_pro
             ta = time.monotonic()
             img = g.grab(x, y, w, h)
             t_mid = 0.5 * (ta + time.monotonic())
-            if prev[key] is not None and not np.array_equal(img, prev[key]):
+            if prev[key] is None:
+                prev[key] = img.copy()
+            elif not np.array_equal(img, prev[key]):
                 changed[key] += 1
-            prev[key] = img
+                np.copyto(prev[key], img)  # a shared-memory grab is overwritten by the next one
             sx, sy = stamp_xy[key]
             b, gg, r = (int(v) for v in img[sy - y, sx - x, :3])  # BGRA
             if (r, gg, b) == (0, 0, 0):
@@ -147,7 +149,8 @@ def _grab(display: str, regions_path: Path, seconds: float, rate: float, app_pro
                 last_stamp[key] = ts
         n += 1
     dt = time.monotonic() - t0
-    out = {"grabs_per_s": n / dt, "seconds": dt, "renderer": reg.get("renderer"), "size": list(SIZE),
+    g.close()
+    out = {"grabs_per_s": n / dt, "grab": "XShmGetImage (MIT-SHM)" if g.uses_shm else "XGetImage", "seconds": dt, "renderer": reg.get("renderer"), "size": list(SIZE),
            "regions": {k: reg[k] for k in keys}}
     for key in keys:
         out[key] = {"frames_per_s": len(lat[key]) / dt, "changed_grabs_per_s": changed[key] / dt,

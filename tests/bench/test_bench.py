@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import math
 
 import numpy as np
@@ -197,3 +198,52 @@ def test_cli_help_and_bad_sizes(capsys):
     assert "solves per second" in capsys.readouterr().out
     assert main(["bench", "--sizes", "12"]) == 1
     assert "--sizes" in capsys.readouterr().err
+
+
+@pytest.mark.skipif(not os.environ.get("DISPLAY"), reason="needs an X server (the suite runs under xvfb-run)")
+def test_shared_memory_grabs_equal_xgetimage_grabs():
+    """The live-window benchmark's MIT-SHM grabs show the same pixels as plain XGetImage."""
+    from pito_bench._xgrab import Grabber, _x
+
+    shm, plain = Grabber(os.environ["DISPLAY"]), Grabber(os.environ["DISPLAY"], shm=False)
+    win = _draw_test_window(plain.dpy)  # known pixels on the screen (an empty root is all black)
+    try:
+        if not shm.uses_shm:
+            pytest.skip("this X server has no MIT-SHM")
+        assert len(np.unique(shm.grab(0, 0, 320, 240).reshape(-1, 4), axis=0)) >= 3
+        for rect in ((0, 0, 64, 48), (10, 20, 300, 200), (5, 5, 300, 200)):  # two of one size share a segment
+            a = shm.grab(*rect).copy()
+            b = plain.grab(*rect)
+            assert a.shape == b.shape == (rect[3], rect[2], 4)
+            assert np.array_equal(a, b)
+    finally:
+        _x.XDestroyWindow(plain.dpy, win)
+        shm.close()
+        plain.close()
+
+
+def _draw_test_window(dpy):
+    """A 300×200 window at (10, 20) in grey with a red and a blue rectangle (Xlib through ctypes)."""
+    import ctypes
+
+    from pito_bench._xgrab import _x
+
+    _x.XCreateSimpleWindow.restype = ctypes.c_ulong
+    _x.XCreateSimpleWindow.argtypes = [ctypes.c_void_p, ctypes.c_ulong] + [ctypes.c_int] * 2 + [ctypes.c_uint] * 3 + [ctypes.c_ulong] * 2
+    _x.XCreateGC.restype = ctypes.c_void_p
+    _x.XCreateGC.argtypes = [ctypes.c_void_p, ctypes.c_ulong, ctypes.c_ulong, ctypes.c_void_p]
+    _x.XSetForeground.argtypes = [ctypes.c_void_p, ctypes.c_void_p, ctypes.c_ulong]
+    _x.XFillRectangle.argtypes = [ctypes.c_void_p, ctypes.c_ulong, ctypes.c_void_p] + [ctypes.c_int] * 2 + [ctypes.c_uint] * 2
+    _x.XMapWindow.argtypes = [ctypes.c_void_p, ctypes.c_ulong]
+    _x.XDestroyWindow.argtypes = [ctypes.c_void_p, ctypes.c_ulong]
+    _x.XFreeGC.argtypes = [ctypes.c_void_p, ctypes.c_void_p]
+    win = _x.XCreateSimpleWindow(dpy, _x.XDefaultRootWindow(dpy), 10, 20, 300, 200, 0, 0, 0x808080)
+    _x.XMapWindow(dpy, win)
+    _x.XSync(dpy, 0)
+    gc = _x.XCreateGC(dpy, win, 0, None)
+    for color, rect in ((0xFF0000, (5, 5, 50, 30)), (0x0000FF, (100, 60, 120, 90))):
+        _x.XSetForeground(dpy, gc, color)
+        _x.XFillRectangle(dpy, win, gc, *rect)
+    _x.XFreeGC(dpy, gc)
+    _x.XSync(dpy, 0)
+    return win
