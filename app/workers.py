@@ -4,8 +4,10 @@ The worker lives in its own ``QThread``. A timer in that thread ticks at the dis
 (default 60 Hz). Devices (real or simulated) are a :class:`pito_core.pipeline.PipelineProcess`:
 the drivers, :class:`pito_core.pipeline.Pipeline` — pairing with the reference by the device
 clocks, tare, calibration of every new sample, contacts of the latest — and the recorder run
-in a child process, and each tick takes the bundles it sent since the last (so the drawing
-never waits for the devices' interpreter lock, nor they for it). A recording (replay) is
+in a child process; the worker takes each bundle as it arrives (the process calls back from
+its receiving thread) and hands it to the GUI at once, or merged with the next if the GUI is
+still drawing (so the drawing never waits for the devices' interpreter lock, nor they for
+it, and no tick period is added to the latency). A recording (replay) is
 read in this process: each tick reads its new rows (:class:`~pito_core.pipeline.RecordingReader`)
 and runs the same :class:`~pito_core.pipeline.Pipeline` here. Recording runs beside the
 pipeline, in the acquisition's collecting thread, so a slow screen never loses samples
@@ -77,6 +79,8 @@ class DeviceWorker(QObject):
     recording_closed = Signal(str, int)
     recording_failed = Signal(str)
     _wake = Signal()  # posted commands are waiting (queued to the worker's thread)
+    _arrived = Signal()  # a pipeline process sent a bundle (emitted in its receiving thread)
+    _acked = Signal()  # the GUI has shown the last bundle (emitted in the GUI thread)
 
     def __init__(self, rate: float = 60.0, core: CubeCore | None = None):
         super().__init__()
@@ -95,6 +99,10 @@ class DeviceWorker(QObject):
         self._recording_path: str | None = None
         # a posted command runs as soon as the worker's thread is free, not at the next tick
         self._wake.connect(self._run_commands, Qt.ConnectionType.QueuedConnection)
+        # a pipeline process's bundle is taken when it arrives, not at the next tick (the ticks
+        # remain for replays and as a fallback); an unsent bundle goes as soon as the GUI is free
+        self._arrived.connect(self.tick, Qt.ConnectionType.QueuedConnection)
+        self._acked.connect(self._emit_pending, Qt.ConnectionType.QueuedConnection)
 
     # ------------------------------------------------------------ compatibility views
     @property
@@ -124,6 +132,7 @@ class DeviceWorker(QObject):
             self._timer.stop()
         self._run_commands()
         self.stop_recording()
+        self._listen(None)
         if self.source is not None:
             try:
                 self.source.close()
@@ -171,19 +180,30 @@ class DeviceWorker(QObject):
             b.replay_duration = b.stats.get("duration")
         self.ticks += 1
         self._pending = b if self._pending is None else self._pending.merged(b)
-        if self._consumed.is_set():  # the GUI is done with the previous bundle: send the next
+        self._emit_pending()
+
+    @Slot()
+    def _emit_pending(self) -> None:
+        """Emit the unsent bundle if the GUI is done with the previous one."""
+        if self._pending is not None and self._consumed.is_set():
             self._consumed.clear()
             pending, self._pending = self._pending, None
             self.emitted += 1
             self.bundle.emit(pending)
 
     def ack(self) -> None:
-        """The GUI has shown the last bundle (thread-safe): the next tick may emit again.
+        """The GUI has shown the last bundle (thread-safe): the unsent one, if any, goes now.
 
         Without it a slow screen would queue bundles without end; with it, samples that
         arrive meanwhile are merged into the next bundle (none is lost).
         """
         self._consumed.set()
+        self._acked.emit()
+
+    def _listen(self, listener) -> None:
+        """Have the source call ``listener`` on each new bundle (sources that can: ``PipelineProcess``)."""
+        if self.source is not None and hasattr(self.source, "set_listener"):
+            self.source.set_listener(listener)
 
     def process(self, samples: NewSamples) -> Bundle:
         """Run the pipeline on one read (also usable without a thread, e.g. in tests)."""
@@ -199,6 +219,7 @@ class DeviceWorker(QObject):
         """Read ``source`` from now on (a reader, or a ``PipelineProcess`` that runs the pipeline itself)."""
         if self.source is not None and self.source is not source:
             self.stop_recording()
+            self._listen(None)
             self.source.close()
         self.source = source
         self.pipeline.has_reference = bool(getattr(source, "has_reference", True))
@@ -207,6 +228,7 @@ class DeviceWorker(QObject):
             source.reset()
             source.set_calibration(self.pipeline.calibration)
             source.set_assembly(self.pipeline.assembly, self.pipeline.wrench_cov)
+            self._listen(self._arrived.emit)
 
     def set_calibration(self, calibration) -> None:
         self.pipeline.set_calibration(calibration)

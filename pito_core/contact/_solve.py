@@ -8,7 +8,7 @@ import numpy as np
 
 from ..defaults import IDENTIFY_FORCE_N
 from ..frames import check_vectors
-from ._crb import check_wrench_cov, covariance_from_jacobian, wrench_jacobian
+from ._crb import ContactCovariance, check_wrench_cov, covariance_from_jacobian, wrench_jacobian
 from ._pointcontact import DEFAULT_WRENCH_COV, refine_point_contact
 from ._quadric import solve_ellipsoid, solve_plane, solve_sphere
 from ._surfaces import Ellipsoid, MeshSurface, Plane, Sphere, Surface
@@ -155,6 +155,11 @@ def solve(
     f2 = np.einsum("ij,ij->i", f_all, f_all)
     strong = f2 >= max(thr * thr, 1e-300)  # NaN rows are False
     all_strong = bool(strong.all())
+    if N and not strong.any():  # nobody pushes on this patch (most faces, most of the time): nothing to solve
+        out = _assemble(N, strong, False, *_NO_ROWS, np.empty(0, bool),
+                        np.empty(0, np.intp) if isinstance(surface, MeshSurface) else None,
+                        None if S is None else ContactCovariance(*_NO_COV))
+        return out if len(lead) == 1 else out._reshape(lead)
     f = f_all if all_strong else f_all[strong]
     m = m_all if all_strong else m_all[strong]
 
@@ -195,6 +200,11 @@ def solve(
     if len(lead) == 1:
         return out
     return out._reshape(lead)
+
+
+#: ``c, n, force, tau`` of no rows; a :class:`ContactCovariance` of no rows
+_NO_ROWS = (np.empty((0, 3)), np.empty((0, 3)), np.empty((0, 3)), np.empty(0))
+_NO_COV = (np.empty((0, 3, 3)), np.empty((0, 3, 3)), np.empty(0), np.empty((0, 6, 6)), np.empty((0, 3, 2)))
 
 
 def _assemble(N, strong, all_strong, c, n, force, tau, ok, facet, cov) -> ContactEstimate:

@@ -111,6 +111,7 @@ class PipelineProcess:
         self._send_lock = threading.Lock()
         self.ended: str | None = None  # why the child ended, once it has
         self.bundles_received = 0
+        self._listener = None
         cfg = {"pito": pito, "ati": ati, "buffered": bool(buffered), "reference_rate_hz": float(reference_rate_hz),
                "simulated": self.simulated, "edge": None if edge is None else float(edge),
                "push_interval": float(push_interval),
@@ -153,6 +154,12 @@ class PipelineProcess:
                     self._pending = b if self._pending is None else self._pending.merged(b)
                     self._latest_stats = b.stats
                     self.bundles_received += 1
+                    listener = self._listener
+                if listener is not None:
+                    try:
+                        listener()
+                    except Exception:  # noqa: BLE001 - a gone listener must not end the receiving
+                        self._listener = None
             elif msg[0] == "reply":
                 with self._reply_ready:
                     self._replies[msg[1]] = (msg[2], msg[3])
@@ -160,6 +167,13 @@ class PipelineProcess:
         self.ended = self.ended or f"the pipeline process (pid {self.pid}) ended"
         with self._reply_ready:
             self._reply_ready.notify_all()
+
+    def set_listener(self, listener) -> None:
+        """Call ``listener()`` each time a bundle arrives (None: stop), so a consumer can :meth:`take`
+        it at once instead of polling. It runs in the receiving thread: keep it short (e.g. emit a
+        queued Qt signal); if it raises, it is dropped."""
+        with self._lock:
+            self._listener = listener
 
     def take(self) -> LiveBundle | None:
         """The bundles received since the previous call, merged (every sample once, the latest state), or None."""

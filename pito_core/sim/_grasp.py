@@ -183,6 +183,7 @@ class GraspScenario:
         self.inertia = np.eye(3) * mass * (0.06**2) / 6.0
         self._motion_phase = rng.uniform(0, 2 * np.pi, 6)
         self.table_point = poses[5, :3, 3] + poses[5, :3, 2] * PATCH_HEIGHT
+        self._face_from_core = face_from_core_adjoints(self.core)  # (6, 6, 6), fixed with the core
 
     # ------------------------------------------------------------------ timeline
     def _phases(self, t):
@@ -262,8 +263,7 @@ class GraspScenario:
             applied[:, j, 3:] += np.cross(self.points[k], f[:, k]) + tors[:, k : k + 1] * self.normals[k]
         # the table supports face 6: its force at the patch centre, plus the moment it needs
         applied[:, 5] += W_table
-        X = face_from_core_adjoints(self.core)
-        F = np.einsum("fab,nfb->nfa", X, applied)
+        F = np.einsum("fab,nfb->nfa", self._face_from_core, applied)
         return GraspState(applied, F, f, tors, active, W_table, g_b, a_b, table > 1e-9)
 
 

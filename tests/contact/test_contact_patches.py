@@ -252,3 +252,27 @@ def test_patch_solve_single_wrench_with_covariance():
     assert est.point.shape == (3,) and est.point_cov.shape == (3, 3) and est.force_cov.shape == (3, 3)
     assert est.point[2] > p.boundary.z_min
     assert np.all(np.linalg.eigvalsh(est.point_cov) > -1e-18)
+
+
+@pytest.mark.parametrize("name", ["flat_46mm", "sphere_cap_r45", "semi_ellipsoid_top", "faceted_dome"])
+@pytest.mark.parametrize("with_cov", [False, True])
+def test_a_patch_nobody_pushes_on_gives_what_the_full_solve_gives_such_rows(name, with_cov):
+    """Rows under the force threshold skip the solver; their fields equal those of the same
+    rows solved beside a real contact (NaN, not valid, facet −1, NaN covariances)."""
+    patch = load_patch(name)
+    rng = np.random.default_rng(3)
+    weak = np.column_stack([rng.normal(scale=0.05, size=(4, 3)), rng.normal(scale=1e-3, size=(4, 3))])
+    weak[1] = np.nan  # a face without output
+    strong = np.r_[0.0, 0.0, -5.0, 0.0, 0.0, 0.0]  # pushing in the middle (patch frame)
+    cov = np.eye(6) * 1e-4 if with_cov else None
+    alone = solve(patch, weak, 0.3, wrench_cov=cov)
+    beside = solve(patch, np.vstack([strong, weak]), 0.3, wrench_cov=cov)
+    assert beside.valid[0] and not alone.valid.any()
+    for f in ("point", "normal", "force", "torsion", "valid", "facet", "point_cov", "force_cov", "torsion_var"):
+        a, b = getattr(alone, f, None), getattr(beside, f, None)
+        if b is None:
+            assert a is None, f
+            continue
+        assert a.shape == b[1:].shape and a.dtype == b.dtype, f
+        np.testing.assert_array_equal(a, b[1:], err_msg=f)
+    np.testing.assert_array_equal(solve(patch, weak.reshape(2, 2, 6), 0.3).point, alone.point.reshape(2, 2, 3))
