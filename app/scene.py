@@ -11,6 +11,8 @@ All geometry is in the core frame, metres.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pyvista as pv
 from PySide6.QtGui import QImage, QPainter
@@ -42,13 +44,22 @@ pv.global_theme.multi_samples = 0  # MSAA halves the frame rate in software GL
 
 
 def _rotation_from_x(direction: np.ndarray) -> np.ndarray:
-    """``(3, 3)`` rotation taking +x onto the unit vector ``direction``."""
-    x = direction / np.linalg.norm(direction)
-    helper = np.array([0.0, 0.0, 1.0]) if abs(x[2]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    y = np.cross(helper, x)
-    y /= np.linalg.norm(y)
-    z = np.cross(x, y)
-    return np.column_stack([x, y, z])
+    """``(3, 3)`` rotation taking +x onto the unit vector ``direction``.
+
+    Scalar arithmetic: called for every glyph on every drawn frame, where ``np.cross`` and
+    ``np.linalg.norm`` on 3-vectors cost more in call overhead than in arithmetic.
+    """
+    x0, x1, x2 = (float(v) for v in direction)
+    n = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+    x0, x1, x2 = x0 / n, x1 / n, x2 / n
+    if abs(x2) < 0.9:  # y = (0, 0, 1) × x
+        y0, y1, y2 = -x1, x0, 0.0
+    else:  # y = (0, 1, 0) × x
+        y0, y1, y2 = x2, 0.0, -x0
+    m = math.sqrt(y0 * y0 + y1 * y1 + y2 * y2)
+    y0, y1, y2 = y0 / m, y1 / m, y2 / m
+    z0, z1, z2 = x1 * y2 - x2 * y1, x2 * y0 - x0 * y2, x0 * y1 - x1 * y0  # z = x × y
+    return np.array([[x0, y0, z0], [x1, y1, z1], [x2, y2, z2]])
 
 
 def arrow_matrix(tip, force, scale: float, width: float, max_length: float = np.inf, gap: float = 0.0) -> np.ndarray:
@@ -70,7 +81,7 @@ def arrow_matrix(tip, force, scale: float, width: float, max_length: float = np.
         The arrow ends this far before ``tip``, m (on the surface of the contact sphere).
     """
     force = np.asarray(force, dtype=float)
-    length = min(float(np.linalg.norm(force)) * scale, max_length)
+    length = min(math.sqrt(float(force @ force)) * scale, max_length)
     R = _rotation_from_x(force)
     M = np.eye(4)
     M[:3, :3] = R @ np.diag([length, width, width])
@@ -165,6 +176,7 @@ class ContactGlyphs:
         self.shown = np.zeros(6, dtype=bool)
         self.clamped = np.zeros(6, dtype=bool)
         self.updates = 0
+        self._ring_sign: dict[int, int] = {}
         self._ring_colors = {i: (hex_rgb(FACE_COLORS[i]), tuple(0.45 * v for v in hex_rgb(FACE_COLORS[i]))) for i in FACES}
         self.actors = [a for d in (self.spheres, self.arrows, self.rings, self.ellipsoids, self.collars) for a in d.values()]
         self.hide()
@@ -230,7 +242,10 @@ class ContactGlyphs:
                 centre = points[k] + (self.lift * n / n_norm if n_norm > 0 else 0.0)
                 self.rings[i].user_matrix = _normal_frame_matrix(centre, normals[k], abs(tor) * self.torque_scale)
                 # the sign of the torsion: full colour counter-clockwise (τ > 0), dimmed clockwise
-                self.rings[i].prop.color = self._ring_colors[i][0 if tor > 0 else 1]
+                sign = 0 if tor > 0 else 1
+                if self._ring_sign.get(i) != sign:  # (a colour set costs a pyvista round trip)
+                    self._ring_sign[i] = sign
+                    self.rings[i].prop.color = self._ring_colors[i][sign]
             if cov_on:
                 self.ellipsoids[i].user_matrix = ellipsoid_matrix(points[k], covariances[k])
         self.shown = shown

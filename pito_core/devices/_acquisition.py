@@ -174,6 +174,9 @@ class Acquisition(RingReader):
         self.counts_offset = np.zeros(N_CHANNELS)
         self.reference_bias = np.zeros(6)
         self.tared_at: float | None = None
+        #: called (no arguments, in the collecting thread) after new rows reached the rings, so a
+        #: consumer can wait for data instead of polling; keep it short, it must not raise
+        self.listener = None
 
     # ------------------------------------------------------------------ lifecycle
     @staticmethod
@@ -237,6 +240,9 @@ class Acquisition(RingReader):
                 self._add_netft(f)
             if self.recorder is not None:
                 self.recorder.maybe_flush()
+        listener = self.listener
+        if listener is not None and (b is not None or f is not None):
+            listener()
 
     def _add_pito(self, b: PitoBatch) -> None:
         with self._lock:

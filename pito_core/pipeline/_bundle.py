@@ -107,7 +107,12 @@ def face_sums(wrenches, core: CubeCore, cog=(0.0, 0.0, 0.0)) -> tuple[np.ndarray
     T = core.face_poses()  # (6, 4, 4) T_core_face
     R, p = T[:, :3, :3], T[:, :3, 3]
     ok = np.isfinite(W).all(axis=1)
-    f = np.einsum("kij,kj->ki", R, W[:, :3])[ok]
-    m = (np.einsum("kij,kj->ki", R, W[:, 3:]) + np.cross(p, np.einsum("kij,kj->ki", R, W[:, :3])))[ok]
+    fm = np.einsum("kij,klj->kli", R, W.reshape(6, 2, 3))[ok]  # (k, 2, 3): forces and moments, core frame
+    f, pk = fm[:, 0], p[ok]
     force = f.sum(axis=0)
-    return force, m.sum(axis=0) - np.cross(np.asarray(cog, dtype=float), force)
+    # Σ p × f by components (np.cross on small arrays costs more in overhead than in arithmetic)
+    pxf = np.array([(pk[:, 1] * f[:, 2] - pk[:, 2] * f[:, 1]).sum(), (pk[:, 2] * f[:, 0] - pk[:, 0] * f[:, 2]).sum(),
+                    (pk[:, 0] * f[:, 1] - pk[:, 1] * f[:, 0]).sum()])
+    c = np.asarray(cog, dtype=float)
+    cxF = np.array([c[1] * force[2] - c[2] * force[1], c[2] * force[0] - c[0] * force[2], c[0] * force[1] - c[1] * force[0]])
+    return force, fm[:, 1].sum(axis=0) + pxf - cxF

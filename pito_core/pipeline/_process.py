@@ -7,8 +7,10 @@ interpreter lock with the drawing: the window would wait for the lock on every p
 and the devices would wait for the window. So :class:`PipelineProcess` runs the drivers, the
 collecting thread, :class:`~pito_core.pipeline.Pipeline` and the recorder in a child process
 (``python -m pito_core.pipeline._process_child CONFIG FD``) and sends the caller one
-:class:`~pito_core.pipeline.LiveBundle` every ``push_interval`` s over a socket pair; a
-receiving thread (blocked in ``recv`` without the lock) merges them until :meth:`take`.
+:class:`~pito_core.pipeline.LiveBundle` over a socket pair as soon as new rows arrive (the
+collecting thread wakes the child's loop through a pipe; at most one bundle per
+``push_interval`` s); a receiving thread (blocked in ``recv`` without the lock) merges them
+until :meth:`take` and can call a listener on each (:meth:`set_listener`).
 It is the same pipeline, with the same pairing rule, as ``pito record``, replay and
 ``pito bench``; sample times are made in the child (``CLOCK_MONOTONIC`` is one clock for
 both processes).
@@ -39,7 +41,7 @@ import subprocess
 import sys
 import threading
 import time
-from multiprocessing.connection import Connection
+from multiprocessing.connection import Connection, wait
 
 import numpy as np
 
@@ -75,7 +77,9 @@ class PipelineProcess:
     edge : float
         The cube's edge, m (:class:`~pito_core.frames.CubeCore`).
     push_interval : float
-        Seconds between bundles sent by the child (adds at most this to the latency).
+        Shortest time between two bundles, s: the child runs the pipeline as soon as rows arrive,
+        but not more often than this (a cube that delivers every frame alone would otherwise
+        cost one pipeline run per frame).
     startup_timeout : float
         Seconds to wait for the devices to open.
 
@@ -97,7 +101,7 @@ class PipelineProcess:
     runs_pipeline = True
 
     def __init__(self, pito: str, ati: str | None = None, *, simulated: bool = False, buffered: bool = False,
-                 reference_rate_hz: float = 1000.0, edge: float | None = None, push_interval: float = 0.008,
+                 reference_rate_hz: float = 1000.0, edge: float | None = None, push_interval: float = 0.005,
                  startup_timeout: float = 30.0):
         if not push_interval > 0:
             raise ValueError(f"push_interval: expected > 0 s, got {push_interval!r}")
@@ -304,6 +308,19 @@ class _Child:
         core = CubeCore() if cfg.get("edge") is None else CubeCore(edge=cfg["edge"])
         self.pipeline = Pipeline(core=core, has_reference=self.reader.has_reference)
         self.recording_from: int | None = None  # cube cursor where the recording began
+        # the collecting thread writes a byte here when rows arrive: the serving loop waits on it
+        # and on the parent's requests at once (no polling period in the latency)
+        self.wake_r, self._wake_w = os.pipe2(os.O_NONBLOCK | os.O_CLOEXEC)
+        self.acq.listener = self._rows_arrived
+
+    def _rows_arrived(self) -> None:
+        with contextlib.suppress(BlockingIOError, OSError):  # a full pipe is already a wake-up
+            os.write(self._wake_w, b"\0")
+
+    def drain_wakes(self) -> None:
+        with contextlib.suppress(BlockingIOError, OSError):
+            while os.read(self.wake_r, 4096):
+                pass
 
     def handle(self, name: str, args: tuple):
         p, acq = self.pipeline, self.acq
@@ -337,9 +354,13 @@ class _Child:
         return b
 
     def close(self) -> None:
+        self.acq.listener = None
         with contextlib.suppress(Exception):
             self.acq.close_recording()
         self.reader.close()
+        for fd in (self.wake_r, self._wake_w):
+            with contextlib.suppress(OSError):
+                os.close(fd)
 
 
 def _serve(conn: Connection, cfg: dict) -> None:
@@ -351,12 +372,13 @@ def _serve(conn: Connection, cfg: dict) -> None:
     signalled = install_stop_signals()
     conn.send(("ready", {"reference": child.reader.has_reference, "pid": os.getpid()}))
     parent = os.getppid()
-    interval = cfg["push_interval"]
-    last_sent = 0.0
+    gap = cfg["push_interval"]  # shortest time between two bundles (a cube that sends every frame
+    last_fed = last_sent = 0.0  # alone would otherwise cost a pipeline run per frame)
     try:
         while not signalled():
-            deadline = time.monotonic() + interval
-            while conn.poll(max(0.0, deadline - time.monotonic())):
+            # wake when rows arrive or the parent asks something (at least 10 times a second)
+            ready = wait([conn, child.wake_r], timeout=0.1)
+            while conn.poll(0):
                 name, rid, *args = conn.recv()
                 if name == "close":
                     conn.send(("reply", rid, True, None))
@@ -365,6 +387,10 @@ def _serve(conn: Connection, cfg: dict) -> None:
                     conn.send(("reply", rid, True, child.handle(name, tuple(args))))
                 except (ValueError, OSError) as exc:  # a bad argument, or a file that cannot be written
                     conn.send(("reply", rid, False, (type(exc).__name__, str(exc))))
+            if child.wake_r in ready:
+                time.sleep(max(0.0, last_fed + gap - time.monotonic()))
+                child.drain_wakes()
+            last_fed = time.monotonic()
             b = child.bundle()
             now = time.monotonic()
             if len(b) or now - last_sent >= 0.1:  # samples, or at least the device figures 10 times a second
