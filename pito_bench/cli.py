@@ -28,9 +28,12 @@ Measure what pito exists for and print tables with units.
                frame written into a pseudo-terminal to the bundle of the one pipeline
                (pito_core.pipeline.Pipeline: calibrated, six contacts solved), CPU
                share (%) of the pipeline process.
-  live         render frames per second with six contacts (off-screen, anti-aliasing
-               off) and latency including the scene update — needs the app extras
-               (PySide6, pyvista); otherwise reported as skipped.
+  live         the whole pito-app --demo window (devices and pipeline in their child
+               processes, 1440×900 px) on a private Xvfb display, grabbed from outside
+               ~100 times a second: frames per second that showed new data, for the 3D
+               scene and for the plots, and latency (ms, p50/p95/max) from a sample's
+               time to the first grab showing it — needs the app extras (PySide6,
+               pyvista) and Xvfb; otherwise reported as skipped.
 
 Every figure is measured in the same run as its baseline and given as a ratio, since
 machines are noisy; each measurement runs in a fresh subprocess limited to --threads
