@@ -230,7 +230,10 @@ class RecordingReader:
             self._pos = min(self._pos, self.duration)
         end = self.t0 + self._pos
         i1 = max(self._i, int(np.searchsorted(self.cube["host_time"], end, side="right")))
-        j1 = max(self._j, int(np.searchsorted(self.reference["host_time"], end, side="right")))
+        if self._pos >= self.duration:  # the end: every reference row too (the last Net F/T packet
+            j1 = self.reference["host_time"].size  # may have arrived after the last cube frame)
+        else:
+            j1 = max(self._j, int(np.searchsorted(self.reference["host_time"], end, side="right")))
         cube = {k: v[self._i : i1] for k, v in self.cube.items()}
         ref = {k: v[self._j : j1] for k, v in self.reference.items()} if self.has_reference else None
         events = []

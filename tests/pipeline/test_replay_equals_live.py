@@ -85,6 +85,31 @@ def test_replay_gives_the_live_face_wrenches_and_contacts(live_run):
     assert any(b.contacts.valid.any() for b in bundles)  # the grasp touched the object
 
 
+def test_the_replay_reader_reads_every_row_by_the_end(tmp_path):
+    """Reference rows that arrived after the last cube frame are read too: they pair its last samples."""
+    from pito_core.pipeline import RecordingReader
+
+    path = tmp_path / "tail.pitorec"
+    rng = np.random.default_rng(0)
+    with RecordingWriter(path, {"simulated": True}, fsync=False) as w:
+        n = 1000  # 1 s of cube frames; the Net F/T's records arrive 10 at a time, the last 8 ms after the cube's
+        w.append_pito(np.arange(n), np.arange(n) * 1000, 10.0 + np.arange(n) * 1e-3, rng.integers(-9, 9, (n, 36)))
+        k = np.arange(n + 10)
+        w.append_netft(k + 1, 7 * k + 1, np.zeros(k.size, int), 10.0 + (k // 10 * 10 + 8) * 1e-3,
+                       rng.normal(size=(k.size, 6)))
+    # at once, and a read landing at the last cube frame (after a seek to the end, time nearly still)
+    for speed, seek in ((float("inf"), None), (1e-6, 1.0)):
+        reader = RecordingReader(path, speed=speed, loop=False)
+        ref_t = reader.reference["host_time"]
+        assert ref_t[-1] > reader.cube["host_time"][-1]  # the case: the last packet after the last frame
+        before = 0
+        if seek is not None:
+            reader.seek(seek * reader.duration)
+            before = int(np.searchsorted(ref_t - reader.t0, seek * reader.duration, side="right"))
+        got = reader.read()
+        assert reader.finished and got.reference["time"].size == ref_t.size - before, (speed, seek)
+
+
 def test_replay_reader_in_chunks_equals_replay_at_once(live_run):
     from pito_core.pipeline import RecordingReader
 
@@ -101,10 +126,13 @@ def test_replay_reader_in_chunks_equals_replay_at_once(live_run):
     for a, b in zip(edges[:-1], edges[1:]):
         hi = cube["host_time"][min(b, cube["time"].size) - 1]
         j0 = 0 if a == 0 else int(np.searchsorted(ref["host_time"], cube["host_time"][a - 1], side="right"))
-        j1 = int(np.searchsorted(ref["host_time"], hi, side="right"))
+        last = b >= cube["time"].size
+        # the reference rows that had arrived by then; the last read has the whole file (the
+        # final Net F/T packet may arrive after the last cube frame)
+        j1 = ref["host_time"].size if last else int(np.searchsorted(ref["host_time"], hi, side="right"))
         c = {k: v[a:b] for k, v in cube.items()}
         ev = [e for e in reader.events if c["tick"].size and c["tick"][0] <= e["from_tick"] <= c["tick"][-1]]
-        bnd = pipe.feed(NewSamples(c, {k: v[j0:j1] for k, v in ref.items()}, ev), flush=b >= cube["time"].size)
+        bnd = pipe.feed(NewSamples(c, {k: v[j0:j1] for k, v in ref.items()}, ev), flush=last)
         out = bnd if out is None else out.merged(bnd)
     assert np.array_equal(out.tick, whole.tick)
     np.testing.assert_allclose(out.reference, whole.reference, rtol=0, atol=1e-12)
