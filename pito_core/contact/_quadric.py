@@ -34,21 +34,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..frames import cross_rows as _cross
+
 __all__ = ["solve_plane", "solve_ellipsoid", "solve_sphere"]
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Row-wise cross product of two ``(N, 3)`` arrays (faster than ``np.cross``)."""
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    np.multiply(a1, b2, out=out[..., 0])
-    out[..., 0] -= a2 * b1
-    np.multiply(a2, b0, out=out[..., 1])
-    out[..., 1] -= a0 * b2
-    np.multiply(a0, b1, out=out[..., 2])
-    out[..., 2] -= a1 * b0
-    return out
 
 
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -3,6 +3,7 @@
 from ._checks import ROTATION_TOL, check_face, check_pose, check_vectors
 from ._cube import DEFAULT_EDGE, FACE_NORMALS, FACES, OPPOSITE_FACE, CubeCore
 from ._transforms import (
+    cross_rows,
     invert_pose,
     pose_from_rotation_translation,
     transform_directions,
@@ -22,6 +23,7 @@ __all__ = [
     "check_face",
     "check_pose",
     "check_vectors",
+    "cross_rows",
     "invert_pose",
     "pose_from_rotation_translation",
     "transform_directions",

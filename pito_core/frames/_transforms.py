@@ -15,6 +15,7 @@ import numpy as np
 from ._checks import check_pose, check_vectors
 
 __all__ = [
+    "cross_rows",
     "pose_from_rotation_translation",
     "invert_pose",
     "wrench_adjoint",
@@ -23,6 +24,20 @@ __all__ = [
     "transform_points",
     "transform_directions",
 ]
+
+
+def cross_rows(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise cross product of ``(..., 3)`` arrays (broadcast), without ``np.cross``'s call overhead."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    np.multiply(a1, b2, out=out[..., 0])
+    out[..., 0] -= a2 * b1
+    np.multiply(a2, b0, out=out[..., 1])
+    out[..., 1] -= a0 * b2
+    np.multiply(a0, b1, out=out[..., 2])
+    out[..., 2] -= a1 * b0
+    return out
 
 
 def pose_from_rotation_translation(R, p) -> np.ndarray:

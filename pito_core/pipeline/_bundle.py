@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..contact import ObjectContacts
-from ..frames import CubeCore
+from ..frames import CubeCore, cross_rows
 
 __all__ = ["LiveBundle", "face_sums"]
 
@@ -108,11 +108,7 @@ def face_sums(wrenches, core: CubeCore, cog=(0.0, 0.0, 0.0)) -> tuple[np.ndarray
     R, p = T[:, :3, :3], T[:, :3, 3]
     ok = np.isfinite(W).all(axis=1)
     fm = np.einsum("kij,klj->kli", R, W.reshape(6, 2, 3))[ok]  # (k, 2, 3): forces and moments, core frame
-    f, pk = fm[:, 0], p[ok]
+    f = fm[:, 0]
     force = f.sum(axis=0)
-    # Σ p × f by components (np.cross on small arrays costs more in overhead than in arithmetic)
-    pxf = np.array([(pk[:, 1] * f[:, 2] - pk[:, 2] * f[:, 1]).sum(), (pk[:, 2] * f[:, 0] - pk[:, 0] * f[:, 2]).sum(),
-                    (pk[:, 0] * f[:, 1] - pk[:, 1] * f[:, 0]).sum()])
-    c = np.asarray(cog, dtype=float)
-    cxF = np.array([c[1] * force[2] - c[2] * force[1], c[2] * force[0] - c[0] * force[2], c[0] * force[1] - c[1] * force[0]])
-    return force, fm[:, 1].sum(axis=0) + pxf - cxF
+    moment = fm[:, 1].sum(axis=0) + cross_rows(p[ok], f).sum(axis=0)
+    return force, moment - cross_rows(np.asarray(cog, dtype=float), force)
