@@ -238,8 +238,11 @@ class RecordingReader:
         ref = {k: v[self._j : j1] for k, v in self.reference.items()} if self.has_reference else None
         events = []
         if cube["tick"].size:
-            lo, hi = int(cube["tick"][0]), int(cube["tick"][-1])
-            events = [e for e in self.events if lo <= int(e["from_tick"]) <= hi]
+            # a tare takes effect from the first sample at or after its from_tick (the tick after
+            # the last one seen when it was made: it may lie between two reads' samples)
+            lo = int(self.cube["tick"][self._i - 1]) if self._i > 0 else -np.inf
+            hi = int(cube["tick"][-1])
+            events = [e for e in self.events if lo < int(e["from_tick"]) <= hi]
         self._i, self._j = i1, j1
         self._restart = False
         self._rate.add(cube["time"].size, now)

@@ -110,6 +110,29 @@ def test_the_replay_reader_reads_every_row_by_the_end(tmp_path):
         assert reader.finished and got.reference["time"].size == ref_t.size - before, (speed, seek)
 
 
+def test_the_replay_reader_hands_over_a_tare_made_between_two_reads(tmp_path):
+    """A tare's from_tick is the tick after the last sample seen; a read that starts just after
+    that sample gets the event (it takes effect from the read's first sample)."""
+    from pito_core.pipeline import RecordingReader
+
+    path = tmp_path / "tare.pitorec"
+    rng = np.random.default_rng(1)
+    n = 1000
+    with RecordingWriter(path, {"simulated": True}, fsync=False) as w:
+        w.append_pito(np.arange(n), np.arange(n) * 1000, 10.0 + np.arange(n) * 1e-3, rng.integers(-9, 9, (n, 36)))
+        w.append_netft(np.arange(n) + 1, np.arange(n), np.zeros(n, int), 10.0 + np.arange(n) * 1e-3,
+                       rng.normal(size=(n, 6)))
+        w.append_event({"type": "tare", "time": 10.5, "counts_offset": [0.0] * 36, "reference_bias": [0.0] * 6,
+                        "duration": 0.5, "from_tick": 499 * 1000 + 1})  # made after sample 499 was seen
+    reader = RecordingReader(path, speed=float("inf"), loop=False)
+    assert len(reader.events) == 1
+    reader.seek(reader.cube["host_time"][499] - reader.t0)  # the next read starts at sample 500
+    got = reader.read()
+    assert got.cube["tick"][0] == 500 * 1000 and [e["from_tick"] for e in got.events] == [499 * 1000 + 1]
+    whole = RecordingReader(path, speed=float("inf"), loop=False).read()  # and once when read at once
+    assert len(whole.events) == 1
+
+
 def test_replay_reader_in_chunks_equals_replay_at_once(live_run):
     from pito_core.pipeline import RecordingReader
 
@@ -131,7 +154,8 @@ def test_replay_reader_in_chunks_equals_replay_at_once(live_run):
         # final Net F/T packet may arrive after the last cube frame)
         j1 = ref["host_time"].size if last else int(np.searchsorted(ref["host_time"], hi, side="right"))
         c = {k: v[a:b] for k, v in cube.items()}
-        ev = [e for e in reader.events if c["tick"].size and c["tick"][0] <= e["from_tick"] <= c["tick"][-1]]
+        lo = cube["tick"][a - 1] if a > 0 else -np.inf  # as RecordingReader: from the first sample at or after from_tick
+        ev = [e for e in reader.events if c["tick"].size and lo < e["from_tick"] <= c["tick"][-1]]
         bnd = pipe.feed(NewSamples(c, {k: v[j0:j1] for k, v in ref.items()}, ev), flush=last)
         out = bnd if out is None else out.merged(bnd)
     assert np.array_equal(out.tick, whole.tick)
