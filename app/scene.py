@@ -1,20 +1,23 @@
 """The 3D scene: the cube (or a patched object), the calibration mount, contact glyphs.
 
 Everything is built once; per-frame updates only move actors (``user_matrix``) and toggle
-their visibility, then ask the GL widget for a repaint (``QWidget.update``), which Qt
-coalesces to the display rate. No mesh is rebuilt per frame (STYLE.md item 10). The
+their visibility, then ask for a frame. No mesh is rebuilt per frame (STYLE.md item 10). The
 plotter draws into a native child window (:func:`native_plotter`), not a ``QOpenGLWidget``;
-:func:`grab_window` puts its frame into window grabs (screenshots, tests).
+:func:`grab_window` puts its frame into window grabs (screenshots, tests). A scene made with
+``threaded=True`` (the live view) draws in a thread of its own (:mod:`app.render_thread`);
+otherwise a frame is a Qt repaint, which Qt coalesces.
 
 All geometry is in the core frame, metres.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
 import pyvista as pv
+from PySide6.QtCore import QTimer
 from PySide6.QtGui import QImage, QPainter
 from PySide6.QtWidgets import QVBoxLayout, QWidget
 from vtkmodules.qt.QVTKRenderWindowInteractor import QVTKRenderWindowInteractor
@@ -22,6 +25,7 @@ from vtkmodules.qt.QVTKRenderWindowInteractor import QVTKRenderWindowInteractor
 from pito_core.frames import FACES, CubeCore
 
 from .palette import CONTACT_COLOR, FACE_COLORS, hex_rgb
+from .render_thread import RenderThread
 
 __all__ = ["CubeScene", "ContactGlyphs", "native_plotter", "grab_window", "grab_scene", "FACE_COLORS", "arrow_matrix", "ellipsoid_matrix", "FULL_SCALE_FORCE"]
 
@@ -200,6 +204,12 @@ class ContactGlyphs:
         """Contacts on screen after the last update."""
         return int(self.shown.sum())
 
+    def visible(self, contacts) -> np.ndarray:
+        """Which faces' glyphs :meth:`update` shows for ``contacts`` (6,): valid, finite, at least ``threshold``."""
+        points = np.asarray(contacts.point, dtype=float)
+        fnorm = np.linalg.norm(np.asarray(contacts.force, dtype=float), axis=1)
+        return np.asarray(contacts.valid, dtype=bool) & np.isfinite(fnorm) & (fnorm >= self.threshold) & np.isfinite(points).all(axis=1)
+
     def update(self, contacts) -> np.ndarray:
         """Move the glyphs to the latest contacts and return the shown mask (6,).
 
@@ -211,12 +221,11 @@ class ContactGlyphs:
             (N), ``torsion`` about the normal (N·m), ``valid``, ``point_cov`` (m², or None).
         """
         points = np.asarray(contacts.point, dtype=float)
-        normals, torsions, valid = contacts.normal, contacts.torsion, contacts.valid
+        normals, torsions = contacts.normal, contacts.torsion
         covariances = contacts.point_cov
         forces = np.asarray(contacts.force, dtype=float)
-        fnorm = np.linalg.norm(forces, axis=1)
-        shown = np.asarray(valid, dtype=bool) & np.isfinite(fnorm) & (fnorm >= self.threshold) & np.isfinite(points).all(axis=1)
-        clamped = shown & (fnorm > self.full_scale)
+        shown = self.visible(contacts)
+        clamped = shown & (np.linalg.norm(forces, axis=1) > self.full_scale)
         for k, i in enumerate(FACES):
             on = bool(shown[k])
             self.spheres[i].SetVisibility(on)
@@ -254,6 +263,57 @@ class ContactGlyphs:
         return shown
 
 
+class _SceneWidget(QVTKRenderWindowInteractor):
+    """VTK's Qt widget whose event handlers hold ``render_lock`` when a :class:`RenderThread` draws the window.
+
+    The handlers change VTK objects (the camera, the window's size) in the GUI thread; the
+    lock keeps them out of a frame the render thread is drawing.
+    """
+
+    render_lock = None
+
+    def _locked(self, handler, ev):
+        lock = self.render_lock
+        if lock is None:
+            return handler(self, ev)
+        with lock:
+            return handler(self, ev)
+
+    def resizeEvent(self, ev):  # noqa: N802 - Qt's names
+        self._locked(QVTKRenderWindowInteractor.resizeEvent, ev)
+
+    def mousePressEvent(self, ev):  # noqa: N802
+        self._locked(QVTKRenderWindowInteractor.mousePressEvent, ev)
+
+    def mouseReleaseEvent(self, ev):  # noqa: N802
+        self._locked(QVTKRenderWindowInteractor.mouseReleaseEvent, ev)
+
+    def mouseMoveEvent(self, ev):  # noqa: N802
+        self._locked(QVTKRenderWindowInteractor.mouseMoveEvent, ev)
+
+    def wheelEvent(self, ev):  # noqa: N802
+        self._locked(QVTKRenderWindowInteractor.wheelEvent, ev)
+
+    def keyPressEvent(self, ev):  # noqa: N802
+        self._locked(QVTKRenderWindowInteractor.keyPressEvent, ev)
+
+    def keyReleaseEvent(self, ev):  # noqa: N802
+        self._locked(QVTKRenderWindowInteractor.keyReleaseEvent, ev)
+
+    def enterEvent(self, ev):  # noqa: N802
+        self._locked(QVTKRenderWindowInteractor.enterEvent, ev)
+
+    def leaveEvent(self, ev):  # noqa: N802
+        self._locked(QVTKRenderWindowInteractor.leaveEvent, ev)
+
+    def TimerEvent(self):  # noqa: N802 - VTK's name
+        lock = self.render_lock
+        if lock is None:
+            return QVTKRenderWindowInteractor.TimerEvent(self)
+        with lock:
+            return QVTKRenderWindowInteractor.TimerEvent(self)
+
+
 def native_plotter(parent) -> pv.Plotter:
     """A pyvista plotter drawing straight into a native Qt child window.
 
@@ -270,7 +330,7 @@ def native_plotter(parent) -> pv.Plotter:
     # (a full-window shader pass, for GL drawn after VTK's, which this window has none of);
     # in software GL that pass was 2.5 of the 12 ms an idle frame took (679×740 px)
     plotter.ren_win.SetFrameBlitModeToBlitToCurrent()
-    widget = QVTKRenderWindowInteractor(parent, rw=plotter.ren_win, iren=plotter.iren.interactor)
+    widget = _SceneWidget(parent, rw=plotter.ren_win, iren=plotter.iren.interactor)
     plotter.iren.interactor.Enable()  # the Qt widget drives it: no VTK event loop is started
     pv.set_new_attribute(plotter, "interactor", widget)
     return plotter
@@ -281,14 +341,18 @@ def grab_scene(scene) -> QImage:
     from vtkmodules.util.numpy_support import vtk_to_numpy
     import vtk
 
-    rw = scene.plotter.ren_win
-    f = vtk.vtkWindowToImageFilter()
-    f.SetInput(rw)
-    f.SetInputBufferTypeToRGB()
-    f.ReadFrontBufferOff()
-    f.ShouldRerenderOn()
-    f.Update()
-    img = f.GetOutput()
+    def read():  # a render and a read-back: GL calls, made where the scene draws
+        f = vtk.vtkWindowToImageFilter()
+        f.SetInput(scene.plotter.ren_win)
+        f.SetInputBufferTypeToRGB()
+        f.ReadFrontBufferOff()
+        f.ShouldRerenderOn()
+        f.Update()
+        out = vtk.vtkImageData()
+        out.DeepCopy(f.GetOutput())
+        return out
+
+    img = scene.call(read)
     w, h, _ = img.GetDimensions()
     arr = vtk_to_numpy(img.GetPointData().GetScalars()).reshape(h, w, 3)[::-1].copy()
     return QImage(arr.data, w, h, 3 * w, QImage.Format.Format_RGB888).copy()
@@ -312,6 +376,16 @@ def grab_window(widget):
     return pix
 
 
+def _in_scene_thread(method):
+    """Run a :class:`CubeScene` method where its VTK objects may be changed (:meth:`CubeScene.call`)."""
+
+    @functools.wraps(method)
+    def run(self, *args, **kwargs):
+        return self.call(lambda: method(self, *args, **kwargs))
+
+    return run
+
+
 class CubeScene(QWidget):
     """A 3D view of the PITO cube (pyvista in a native VTK widget): face plates, mount, patches, contact glyphs.
 
@@ -319,11 +393,21 @@ class CubeScene(QWidget):
     ----------
     core : CubeCore, optional
     parent : QWidget, optional
+    threaded : bool
+        Draw in a thread of its own (:class:`app.render_thread.RenderThread`, started when the
+        view is first shown), so that a frame's wait for software GL overlaps the GUI thread's
+        work: the live view. The methods below then run their VTK changes in that thread
+        (waiting for them), :meth:`show_contacts` queues the glyphs' move for the next frame,
+        and :meth:`sync` waits until everything queued has been applied.
     """
 
-    def __init__(self, core: CubeCore | None = None, parent=None):
+    def __init__(self, core: CubeCore | None = None, parent=None, threaded: bool = False):
         super().__init__(parent)
         self.core = core or CubeCore()
+        self.threaded = bool(threaded)
+        self.render_thread: RenderThread | None = None
+        #: s: time of the newest sample the contact glyphs show (set when they move, in the drawing thread)
+        self.contacts_time = float("nan")
         self.plotter = native_plotter(self)
         self.plotter.set_background(BACKGROUND)
         # one headlight, not pyvista's five-light kit: software GL shades every pixel once per light
@@ -369,10 +453,63 @@ class CubeScene(QWidget):
         self.plotter.add_axes(line_width=2, labels_off=False)
         self.reset_camera()
 
-    # ------------------------------------------------------------------ state
+    # ------------------------------------------------------------------ the drawing thread
     def _count_frame(self, *_):
         self.frames_rendered += 1
 
+    def showEvent(self, event):  # noqa: N802 - Qt's name
+        super().showEvent(event)
+        rt = self.render_thread
+        if rt is not None:
+            rt.visible = True
+            rt.request()
+        elif self.threaded and not getattr(self, "_closed_scene", False):
+            QTimer.singleShot(0, self._start_render_thread)
+
+    def hideEvent(self, event):  # noqa: N802
+        super().hideEvent(event)
+        if self.render_thread is not None:
+            self.render_thread.visible = False  # no frames for a hidden view
+
+    def _start_render_thread(self) -> None:
+        if self.render_thread is not None or getattr(self, "_closed_scene", False) or not self.isVisible():
+            return
+        self.plotter.ren_win.Render()  # the GL context exists (made here) before it is handed over
+        rt = RenderThread(self.plotter.ren_win, self.plotter.iren.interactor, name="pito-render")
+        self.plotter.interactor.render_lock = rt.lock
+        rt.start()
+        self.render_thread = rt
+
+    def call(self, fn):
+        """``fn()`` where this scene's VTK objects may be changed (the drawing thread, if any); returns its result."""
+        rt = self.render_thread
+        return fn() if rt is None else rt.call(fn)
+
+    def sync(self) -> None:
+        """Wait until every queued change (:meth:`show_contacts`) has been applied."""
+        if self.render_thread is not None:
+            self.render_thread.sync()
+
+    def show_contacts(self, contacts, time: float = float("nan")) -> np.ndarray:
+        """Move the glyphs to ``contacts`` (sample time ``time``, s) in the next frame; returns the shown mask (6,).
+
+        With a drawing thread the move is queued (the caller does not wait) and
+        :attr:`contacts_time` changes with it, so a frame never shows one without the other.
+        """
+        shown = self.glyphs.visible(contacts)
+
+        def move():
+            self.glyphs.update(contacts)
+            self.contacts_time = time
+
+        if self.render_thread is None:
+            move()
+        else:
+            self.render_thread.post(move)
+        return shown
+
+    # ------------------------------------------------------------------ state
+    @_in_scene_thread
     def reset_camera(self, distance: float = 4.6) -> None:
         e = self.core.edge
         d = np.array([0.4, -1.0, 0.55])
@@ -380,6 +517,7 @@ class CubeScene(QWidget):
         self.plotter.camera_position = [tuple(d), (0, 0, 0), (0, 0, 1)]
         self.plotter.camera.view_angle = 30.0
 
+    @_in_scene_thread
     def look_at_mount(self, connected_face: int | None, active_face: int | None = None, distance: float = 4.8,
                       elevation: float | None = None) -> None:
         """Camera with the flange's face down (as on the bench), the active face towards the viewer."""
@@ -406,15 +544,20 @@ class CubeScene(QWidget):
         self.redraw()
 
     def redraw(self) -> None:
-        """Ask for a repaint; Qt coalesces repaints to the display rate."""
-        self.plotter.interactor.update()
+        """Ask for a frame: from the drawing thread, else a repaint (Qt coalesces repaints)."""
+        if self.render_thread is not None:
+            self.render_thread.request()
+        else:
+            self.plotter.interactor.update()
 
+    @_in_scene_thread
     def set_face_colors(self, colors: dict[int, str]) -> None:
         """Colour the face plates (face -> colour); faces not given get the neutral colour."""
         for i in FACES:
             self._plates[i].prop.color = colors.get(i, PLATE_COLOR)
         self.redraw()
 
+    @_in_scene_thread
     def highlight(self, connected_face: int | None = None, active_face: int | None = None) -> None:
         """The flange's face in orange, the face to load in green."""
         colors = {}
@@ -424,6 +567,7 @@ class CubeScene(QWidget):
             colors[active_face] = ACTIVE_COLOR
         self.set_face_colors(colors)
 
+    @_in_scene_thread
     def set_mount(self, flange: str | None, connected_face: int | None, flange_opacity: float = 1.0) -> None:
         """Draw the calibration flange and the reference sensor on ``connected_face`` (or none)."""
         for name in list(self._mount_actors):
@@ -460,6 +604,7 @@ class CubeScene(QWidget):
             self._mount_actors.append(actor_name)
         self.redraw()
 
+    @_in_scene_thread
     def set_patches(self, meshes: dict[int, pv.PolyData] | None, opacity: float = 1.0) -> None:
         """Show patch display meshes (core frame, m) on the faces; ``None`` shows the bare cube."""
         for i in list(self._patches):
@@ -479,6 +624,7 @@ class CubeScene(QWidget):
             self.frame_contacts()
         self.redraw()
 
+    @_in_scene_thread
     def set_caption(self, text: str) -> None:
         """A line of text in the view's top-left corner (replaced, not added, on each call)."""
         self.plotter.add_text(text, position="upper_left", font_size=11, color="#f0c060", name="caption")
@@ -489,6 +635,10 @@ class CubeScene(QWidget):
         in another GL widget's paint and crash)."""
         if not getattr(self, "_closed_scene", False):
             self._closed_scene = True
+            rt, self.render_thread = self.render_thread, None
+            if rt is not None:
+                rt.stop()  # the GL context is this thread's again
+                self.plotter.interactor.render_lock = None
             try:
                 self.plotter.interactor.Finalize()
             finally:
@@ -514,9 +664,12 @@ class CubeScene(QWidget):
         the view's narrower field of view, from the usual viewing direction. Called when the
         object or the arrow scale changes, so the framing follows the object.
         """
+        w, h = self.plotter.interactor.width(), self.plotter.interactor.height()  # (Qt: in the GUI thread)
+        self.call(lambda: self._frame_contacts(w, h))
+
+    def _frame_contacts(self, w: int, h: int) -> None:
         radius = self.object_radius() + self.glyphs.reach()
         half_v = np.radians(30.0) / 2
-        w, h = self.plotter.interactor.width(), self.plotter.interactor.height()
         aspect = min(1.0, max(0.6, w / h)) if w > 0 and h > 0 else 1.0
         half = min(half_v, np.arctan(np.tan(half_v) * aspect))
         distance = radius / np.sin(half)

@@ -61,8 +61,13 @@ class WindowProbe:
         self.actor = vtk.vtkActor2D()
         self.actor.SetMapper(mapper)
         self.actor.GetProperty().SetColor(0, 0, 0)
-        live.scene.plotter.renderer.AddViewProp(self.actor)
-        live.scene.plotter.ren_win.AddObserver("StartEvent", self._before_render)
+
+        def attach():  # where the scene's VTK objects may be changed (its drawing thread, if any)
+            live.scene.plotter.renderer.AddViewProp(self.actor)
+            live.scene.plotter.ren_win.AddObserver("StartEvent", self._before_render)
+
+        call = getattr(live.scene, "call", None)
+        call(attach) if call is not None else attach()
         if not hasattr(live, "scene_time"):
             orig = live.on_bundle
 

@@ -4,9 +4,10 @@ The view only *shows* bundles from the worker (:class:`app.workers.DeviceWorker`
 moves the contact glyphs in place and appends its samples to the plots' ring buffers — no
 drawing. Drawing is paced by the display, not by the data: a single-shot timer fires at most
 ``display_rate`` times a second (and only when something new arrived), refreshes the plots
-from their rings and asks the 3D view for a repaint (``QWidget.update``, which Qt coalesces).
-A frame is drawn as soon as data arrive if the previous one is older than a display period,
-so pacing adds no latency beyond it.
+from their rings and asks the 3D view for a frame. The 3D view draws in a thread of its own
+(:mod:`app.render_thread`): the glyphs' move is queued to it with the sample time it shows, and
+its frame overlaps the plots' paint in the GUI thread. A frame is drawn as soon as data arrive
+if the previous one is older than a display period, so pacing adds no latency beyond it.
 
 ``scene_time`` and ``force_plot.last_time`` are the times (s, host clock) of the newest sample
 the scene and the force plot show (the live-window benchmark reads them back off the screen).
@@ -50,13 +51,12 @@ class LiveView(QWidget):
     def __init__(self, core=None, assemblies=(), parent=None):
         super().__init__(parent)
         self.paused = False
-        self.scene = CubeScene(core)
+        self.scene = CubeScene(core, threaded=True)  # drawn in a thread of its own (app/render_thread.py)
         self.scene.setMinimumSize(640, 480)
         self.force_plot = FaceForcePlot()
         self.equilibrium = EquilibriumPlot()
         self.bundles_shown = 0
         self.latency = float("nan")
-        self.scene_time = float("nan")  # s: newest sample the glyphs show
         self.frames = 0  # display ticks that drew something
         self.scene.glyphs.force_scale = 0.0035  # m/N: 12 N (full scale) -> 4.2 cm
         self.scene.frame_glyphs = True  # the camera holds full-scale arrows, for every object
@@ -185,7 +185,7 @@ class LiveView(QWidget):
         g.show_torsion = self.show_torsion.isChecked()
         g.show_uncertainty = self.show_uncertainty.isChecked()
         if self._last_contacts is not None:
-            self._show_contacts(self._last_contacts)
+            self._show_contacts(self._last_contacts, self.scene_time)
         if self.sender() is self.force_scale:
             self.scene.frame_contacts()  # full-scale arrows stay in view
         self.scene.redraw()
@@ -213,8 +213,13 @@ class LiveView(QWidget):
         self.equilibrium.clear_data()
 
     # ------------------------------------------------------------ data
-    def _show_contacts(self, c) -> np.ndarray:
-        return self.scene.glyphs.update(c)
+    @property
+    def scene_time(self) -> float:
+        """s: time of the newest sample the contact glyphs show (changes with them, in the drawing thread)."""
+        return self.scene.contacts_time
+
+    def _show_contacts(self, c, t: float = float("nan")) -> np.ndarray:
+        return self.scene.show_contacts(c, t)
 
     def on_bundle(self, b) -> None:
         """Take one bundle: samples into the plots' rings, the latest contacts kept; a frame is requested (no drawing)."""
@@ -260,8 +265,7 @@ class LiveView(QWidget):
             contacts, t = self._new_contacts
             self._new_contacts = None
             self._last_contacts = contacts
-            self._n_shown = int(self._show_contacts(contacts).sum())
-            self.scene_time = t
+            self._n_shown = int(self._show_contacts(contacts, t).sum())
         if self._sums is not None:
             fs, ts = self._sums
             n = self._n_shown

@@ -254,5 +254,5 @@ class LoadPage(WizardPage):
         valid[k] = True
         tors = np.zeros(6)
         tors[k] = wrench_face[5]
-        self.scene.glyphs.update(ObjectContacts(pts, normals, forces, tors, valid))
+        self.scene.show_contacts(ObjectContacts(pts, normals, forces, tors, valid))
         self.scene.redraw()

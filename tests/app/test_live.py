@@ -51,6 +51,7 @@ def test_glyphs_move_in_place_and_hide_under_threshold(live):
         f = (-8.0 + 0.2 * k, 1.0, 2.0)
         live.on_bundle(bundle(0.02 * k, contacts(f)))
         live.display()  # the glyphs move when a frame is drawn (at most display_rate a second), not per bundle
+        live.scene.sync()  # ... in the scene's drawing thread, before its next frame
         shown.append(g.shown.copy())
         if k == 0:
             m0 = np.array(g.arrows[1].user_matrix)
@@ -65,6 +66,7 @@ def test_glyphs_move_in_place_and_hide_under_threshold(live):
     assert np.allclose(g.spheres[1].position, (0.027, 0.004, 0.002))
     # raising the threshold hides face 1 as well, still without adding actors
     live.threshold.setValue(20.0)
+    live.scene.sync()
     assert g.threshold == 20.0 and g.shown_count() == 0 and not g.arrows[1].GetVisibility()
     assert dict(renderer.actors).keys() == actors_before.keys()
 
@@ -111,8 +113,10 @@ def test_torsion_and_uncertainty_toggles(live):
     live.show_uncertainty.setChecked(True)
     live.on_bundle(bundle(0.0, contacts()))
     live.display()
+    live.scene.sync()
     assert g.ellipsoids[1].GetVisibility() and g.rings[1].GetVisibility()
     live.show_torsion.setChecked(False)
+    live.scene.sync()
     assert not g.rings[1].GetVisibility()
 
 
@@ -184,3 +188,46 @@ def test_merge_keeps_every_sample():
     m = merge_bundles(a, b)
     assert m.time.tolist() == [0, 1, 2, 3, 4] and m.counts.shape == (5, 36)
     assert m.wrenches is not None
+
+
+def test_the_live_scene_draws_in_its_own_thread(live, qtbot):
+    """Frames are rendered by the scene's drawing thread, the glyphs move there, and a grab still works."""
+    import threading
+
+    scene = live.scene
+    qtbot.waitUntil(lambda: scene.render_thread is not None, timeout=5000)
+    rt = scene.render_thread
+    assert rt.running and rt._thread is not threading.current_thread()
+    rendered_in = []
+    obs = scene.plotter.ren_win.AddObserver("StartEvent", lambda *_: rendered_in.append(threading.current_thread().name))
+    try:
+        n0 = rt.frames
+        live.on_bundle(bundle(0.5, contacts()))
+        live.display()
+        qtbot.waitUntil(lambda: rt.frames > n0 and scene.contacts_time == 0.5, timeout=5000)
+        assert set(rendered_in) == {"pito-render"}  # no frame was drawn by the GUI thread
+        assert live.scene_time == 0.5 and scene.glyphs.spheres[1].GetVisibility()
+        # a rotation with the mouse moves the camera (under the drawing thread's lock) and asks for a frame
+        from PySide6.QtCore import QPoint, Qt
+
+        view = scene.plotter.interactor
+        cam0 = np.array(scene.plotter.camera.position)
+        c = view.rect().center()
+        n1 = rt.frames
+        qtbot.mousePress(view, Qt.MouseButton.LeftButton, pos=c)
+        for dx in range(0, 120, 20):
+            qtbot.mouseMove(view, QPoint(c.x() + dx, c.y()))
+        qtbot.mouseRelease(view, Qt.MouseButton.LeftButton, pos=QPoint(c.x() + 120, c.y()))
+        scene.sync()
+        qtbot.waitUntil(lambda: rt.frames > n1, timeout=5000)
+        assert not np.allclose(np.array(scene.plotter.camera.position), cam0)
+        # a grab renders and reads back in the drawing thread: the contact's white sphere is in it
+        from app.scene import grab_scene
+
+        img = grab_scene(scene)
+        assert (img.width(), img.height()) == (view.width(), view.height())
+        assert rt.errors == []
+    finally:
+        scene.plotter.ren_win.RemoveObserver(obs)
+    scene.close_scene()  # stops the thread; the context is the GUI thread's again
+    assert scene.render_thread is None and not rt.running
