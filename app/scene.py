@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import functools
 import math
+import threading
 
 import numpy as np
 import pyvista as pv
@@ -408,6 +409,8 @@ class CubeScene(QWidget):
         self.render_thread: RenderThread | None = None
         #: s: time of the newest sample the contact glyphs show (set when they move, in the drawing thread)
         self.contacts_time = float("nan")
+        self._queued_contacts = None  # (contacts, time) waiting for the drawing thread's next frame
+        self._queued_lock = threading.Lock()
         self.plotter = native_plotter(self)
         self.plotter.set_background(BACKGROUND)
         # one headlight, not pyvista's five-light kit: software GL shades every pixel once per light
@@ -497,16 +500,23 @@ class CubeScene(QWidget):
         :attr:`contacts_time` changes with it, so a frame never shows one without the other.
         """
         shown = self.glyphs.visible(contacts)
-
-        def move():
+        if self.render_thread is None:
             self.glyphs.update(contacts)
             self.contacts_time = time
-
-        if self.render_thread is None:
-            move()
-        else:
-            self.render_thread.post(move)
+            return shown
+        with self._queued_lock:  # only the latest waits for the frame: one move per frame
+            first = self._queued_contacts is None
+            self._queued_contacts = (contacts, time)
+        if first:
+            self.render_thread.post(self._move_queued_contacts)
         return shown
+
+    def _move_queued_contacts(self) -> None:
+        with self._queued_lock:
+            queued, self._queued_contacts = self._queued_contacts, None
+        if queued is not None:
+            self.glyphs.update(queued[0])
+            self.contacts_time = queued[1]
 
     # ------------------------------------------------------------------ state
     @_in_scene_thread

@@ -147,7 +147,6 @@ class LiveView(QWidget):
         self.assembly.currentTextChanged.connect(self.assembly_requested)
         self.timeline.sliderReleased.connect(self._seek)
         self._last_contacts = None
-        self._new_contacts = None  # (contacts, sample time) not yet drawn
         self._n_shown = 0
         self._sums = None  # (‖ΣF‖ N, ‖ΣT‖ N·m) of the latest bundle
         #: Hz: most frames a second (scene and plots); the pacer draws only when data are new
@@ -222,7 +221,7 @@ class LiveView(QWidget):
         return self.scene.show_contacts(c, t)
 
     def on_bundle(self, b) -> None:
-        """Take one bundle: samples into the plots' rings, the latest contacts kept; a frame is requested (no drawing)."""
+        """Take one bundle: samples into the plots' rings, the contacts to the 3D view's next frame; a plot frame is requested (no drawing)."""
         if b.replay_position is not None and b.replay_duration:
             if not self.timeline.isSliderDown():
                 self.timeline.blockSignals(True)
@@ -236,7 +235,11 @@ class LiveView(QWidget):
         t = b.latest_time
         self.latency = time.monotonic() - t  # s from the newest sample's time to its display
         if b.contacts is not None:
-            self._new_contacts = (b.contacts, t)  # the glyphs move when a frame is drawn, not per bundle
+            # to the scene's drawing thread at once (it keeps only the latest for its next frame):
+            # the 3D view is not held back by the plots' pacing
+            self._last_contacts = b.contacts
+            self._n_shown = int(self._show_contacts(b.contacts, t).sum())
+            self.scene.redraw()
         if b.wrenches is not None:
             fw = getattr(b, "face_wrenches", None)
             if fw is not None and fw.shape[0] == b.time.size:
@@ -258,14 +261,9 @@ class LiveView(QWidget):
         self._pacer.start(max(0, int(round(wait * 1000))))
 
     def display(self) -> None:
-        """One frame: the glyphs at the latest contacts, plots from their rings (decimated to pixels), a repaint."""
+        """One frame of the plots: from their rings (decimated to pixels), and the readout (the 3D view draws on its own)."""
         now = time.monotonic()
         self._last_display = now
-        if self._new_contacts is not None:
-            contacts, t = self._new_contacts
-            self._new_contacts = None
-            self._last_contacts = contacts
-            self._n_shown = int(self._show_contacts(contacts, t).sum())
         if self._sums is not None:
             fs, ts = self._sums
             n = self._n_shown
@@ -283,7 +281,6 @@ class LiveView(QWidget):
             rec = getattr(self, "_record_text", None)
             if rec and self.record.isChecked():
                 self.record.setText(rec)
-        self.scene.redraw()
         self.frames += 1
 
     def showEvent(self, event):  # noqa: N802
