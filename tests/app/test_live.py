@@ -226,6 +226,17 @@ def test_the_live_scene_draws_in_its_own_thread(live, qtbot):
 
         img = grab_scene(scene)
         assert (img.width(), img.height()) == (view.width(), view.height())
+        # a hidden view draws nothing (its queued changes still apply); shown again, it draws
+        live.hide()
+        assert not rt.visible
+        scene.sync()
+        n2 = rt.frames
+        live.on_bundle(bundle(0.7, contacts()))
+        scene.sync()
+        scene.sync()
+        assert rt.frames == n2 and scene.contacts_time == 0.7
+        live.show()
+        qtbot.waitUntil(lambda: rt.frames > n2, timeout=5000)
         assert rt.errors == []
     finally:
         scene.plotter.ren_win.RemoveObserver(obs)
