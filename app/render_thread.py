@@ -73,6 +73,7 @@ class RenderThread:
         self._jobs: collections.deque = collections.deque()
         self._wake = threading.Event()
         self._stop = False
+        self._stopped = False  # stop() has run: no more changes
         self._thread: threading.Thread | None = None
         self._observer: int | None = None
 
@@ -103,6 +104,7 @@ class RenderThread:
         th = self._thread
         if th is None:
             return
+        self._stopped = True
         self._stop = True
         self._wake.set()
         th.join(timeout)
@@ -124,9 +126,12 @@ class RenderThread:
     def post(self, fn: Callable[[], Any]) -> None:
         """Run ``fn()`` in the render thread before the next frame, and ask for that frame.
 
-        Without a running thread it runs now, in the caller's thread.
+        Before :meth:`start` it runs now, in the caller's thread; after :meth:`stop` it is
+        dropped (the view is closing; another thread must not change its objects then).
         """
-        if not self.running or self.in_thread():
+        if self._stopped:
+            return
+        if self._thread is None or self.in_thread():
             fn()
             return
         self._jobs.append(fn)

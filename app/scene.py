@@ -493,14 +493,19 @@ class CubeScene(QWidget):
         if self.render_thread is not None:
             self.render_thread.sync()
 
-    def show_contacts(self, contacts, time: float = float("nan")) -> np.ndarray:
+    def show_contacts(self, contacts, time: float = float("nan"), queue_only: bool = False) -> np.ndarray:
         """Move the glyphs to ``contacts`` (sample time ``time``, s) in the next frame; returns the shown mask (6,).
 
         With a drawing thread the move is queued (the caller does not wait) and
-        :attr:`contacts_time` changes with it, so a frame never shows one without the other.
+        :attr:`contacts_time` changes with it, so a frame never shows one without the other;
+        this is thread-safe. ``queue_only``: do nothing without a drawing thread (a caller
+        outside the GUI thread must not change VTK objects itself).
         """
         shown = self.glyphs.visible(contacts)
-        if self.render_thread is None:
+        rt = self.render_thread
+        if rt is None:
+            if queue_only:
+                return shown
             self.glyphs.update(contacts)
             self.contacts_time = time
             return shown
@@ -508,7 +513,7 @@ class CubeScene(QWidget):
             first = self._queued_contacts is None
             self._queued_contacts = (contacts, time)
         if first:
-            self.render_thread.post(self._move_queued_contacts)
+            rt.post(self._move_queued_contacts)
         return shown
 
     def _move_queued_contacts(self) -> None:

@@ -87,6 +87,8 @@ class MainWindow(QMainWindow):
         self.worker = DeviceWorker(rate=rate, core=self.core)
         self.worker_thread = WorkerThread(self.worker)
         self.worker.bundle.connect(self.on_bundle)
+        self.worker.contacts_sink = self.live.take_contacts  # the 3D view's contacts skip the GUI thread
+        self.live.direct_contacts = True
         self.worker.error.connect(self.on_worker_error)
         self.worker.recording_closed.connect(self._recording_closed)
         self.worker.recording_failed.connect(self._recording_failed)
@@ -163,6 +165,7 @@ class MainWindow(QMainWindow):
                 self.on_worker_error, bar=self.taskbar, owner=self)
 
     def _tab_changed(self, index: int) -> None:
+        self.live.direct_contacts = self.tabs.widget(index) is self.live  # (bundles go to the wizard otherwise)
         if self.rig is None:
             return
         if self.tabs.widget(index) is self.wizard:

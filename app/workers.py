@@ -97,6 +97,10 @@ class DeviceWorker(QObject):
         self._consumed = threading.Event()
         self._consumed.set()
         self._recording_path: str | None = None
+        #: ``fn(contacts, sample_time)`` called in the worker's thread with each bundle's contacts,
+        #: before the bundle goes to the GUI thread (the live view's drawing thread takes them
+        #: from here, so the 3D view does not wait for a busy GUI thread); must be thread-safe
+        self.contacts_sink: Callable | None = None
         # a posted command runs as soon as the worker's thread is free, not at the next tick
         self._wake.connect(self._run_commands, Qt.ConnectionType.QueuedConnection)
         # a pipeline process's bundle is taken when it arrives, not at the next tick (the ticks
@@ -178,6 +182,12 @@ class DeviceWorker(QObject):
         if "position" in b.stats:
             b.replay_position = b.stats["position"]
             b.replay_duration = b.stats.get("duration")
+        sink = self.contacts_sink
+        if sink is not None and b.contacts is not None and b.time.size:
+            try:
+                sink(b.contacts, b.latest_time)
+            except Exception as exc:  # noqa: BLE001 - shown to the operator, the worker keeps running
+                self.error.emit(f"showing contacts: {type(exc).__name__}: {exc}")
         self.ticks += 1
         self._pending = b if self._pending is None else self._pending.merged(b)
         self._emit_pending()

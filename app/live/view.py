@@ -147,6 +147,9 @@ class LiveView(QWidget):
         self.assembly.currentTextChanged.connect(self.assembly_requested)
         self.timeline.sliderReleased.connect(self._seek)
         self._last_contacts = None
+        #: the worker hands contacts to the drawing thread itself (:meth:`take_contacts`, set by
+        #: the main window while this view is the current tab); on_bundle then only counts them
+        self.direct_contacts = False
         self._n_shown = 0
         self._sums = None  # (‖ΣF‖ N, ‖ΣT‖ N·m) of the latest bundle
         #: Hz: most frames a second (scene and plots); the pacer draws only when data are new
@@ -220,6 +223,16 @@ class LiveView(QWidget):
     def _show_contacts(self, c, t: float = float("nan")) -> np.ndarray:
         return self.scene.show_contacts(c, t)
 
+    def take_contacts(self, contacts, t: float) -> None:
+        """Contacts (sample time ``t``, s) straight from the worker's thread to the 3D view's next frame.
+
+        Thread-safe; does nothing while paused, when not :attr:`direct_contacts`, or when the
+        scene draws in the GUI thread (it is not drawing in a thread of its own yet).
+        """
+        if self.direct_contacts and not self.paused and self.scene.render_thread is not None:
+            self.scene.show_contacts(contacts, t, queue_only=True)
+            self.scene.redraw()
+
     def on_bundle(self, b) -> None:
         """Take one bundle: samples into the plots' rings, the contacts to the 3D view's next frame; a plot frame is requested (no drawing)."""
         if b.replay_position is not None and b.replay_duration:
@@ -238,8 +251,11 @@ class LiveView(QWidget):
             # to the scene's drawing thread at once (it keeps only the latest for its next frame):
             # the 3D view is not held back by the plots' pacing
             self._last_contacts = b.contacts
-            self._n_shown = int(self._show_contacts(b.contacts, t).sum())
-            self.scene.redraw()
+            if self.direct_contacts and self.scene.render_thread is not None:
+                self._n_shown = int(self.scene.glyphs.visible(b.contacts).sum())  # (already queued by the worker)
+            else:
+                self._n_shown = int(self._show_contacts(b.contacts, t).sum())
+                self.scene.redraw()
         if b.wrenches is not None:
             fw = getattr(b, "face_wrenches", None)
             if fw is not None and fw.shape[0] == b.time.size:

@@ -242,3 +242,43 @@ def test_the_live_scene_draws_in_its_own_thread(live, qtbot):
         scene.plotter.ren_win.RemoveObserver(obs)
     scene.close_scene()  # stops the thread; the context is the GUI thread's again
     assert scene.render_thread is None and not rt.running
+
+
+def test_contacts_go_from_the_worker_thread_to_the_drawing_thread(live, qtbot):
+    """The worker hands each bundle's contacts to the 3D view itself (not through the GUI thread)."""
+    import threading
+
+    scene = live.scene
+    qtbot.waitUntil(lambda: scene.render_thread is not None, timeout=5000)
+    # the worker calls its sink with every bundle's contacts and newest sample time
+    worker = DeviceWorker(rate=60)
+    worker.set_source(FakeSource())
+    worker.set_calibration(FakeCalibration())
+    worker.set_assembly("cube")
+    seen = []
+    worker.contacts_sink = lambda c, t: seen.append((c, t))
+    worker.tick()
+    assert len(seen) == 1 and np.isclose(seen[0][1], 0.016) and seen[0][0].valid[0]
+    # from another thread, the live view queues them for the next frame; paused, it does not
+    live.direct_contacts = True
+
+    def from_worker(t, c):
+        th = threading.Thread(target=live.take_contacts, args=(c, t))
+        th.start()
+        th.join()
+
+    from_worker(1.5, contacts())
+    scene.sync()
+    assert scene.contacts_time == 1.5 and scene.glyphs.spheres[1].GetVisibility()
+    live.pause.setChecked(True)
+    from_worker(2.5, contacts((-3.0, 0.0, 0.0)))
+    scene.sync()
+    assert scene.contacts_time == 1.5
+    live.pause.setChecked(False)
+    # the GUI's on_bundle then only counts them (no second move)
+    live.on_bundle(bundle(1.5, contacts()))
+    assert scene._queued_contacts is None and live._n_shown == 1
+    live.direct_contacts = False  # (another tab current: the view's on_bundle moves them itself)
+    from_worker(3.5, contacts())
+    scene.sync()
+    assert scene.contacts_time == 1.5
