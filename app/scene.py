@@ -12,6 +12,7 @@ All geometry is in the core frame, metres.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import math
 import threading
@@ -273,46 +274,23 @@ class _SceneWidget(QVTKRenderWindowInteractor):
 
     render_lock = None
 
-    def _locked(self, handler, ev):
-        lock = self.render_lock
-        if lock is None:
-            return handler(self, ev)
-        with lock:
-            return handler(self, ev)
 
-    def resizeEvent(self, ev):  # noqa: N802 - Qt's names
-        self._locked(QVTKRenderWindowInteractor.resizeEvent, ev)
+def _under_render_lock(name: str):
+    """``QVTKRenderWindowInteractor.<name>``, run holding the widget's ``render_lock`` when it has one."""
+    base = getattr(QVTKRenderWindowInteractor, name)
 
-    def mousePressEvent(self, ev):  # noqa: N802
-        self._locked(QVTKRenderWindowInteractor.mousePressEvent, ev)
+    def handler(self, *args):
+        with self.render_lock or contextlib.nullcontext():
+            return base(self, *args)
 
-    def mouseReleaseEvent(self, ev):  # noqa: N802
-        self._locked(QVTKRenderWindowInteractor.mouseReleaseEvent, ev)
+    handler.__name__ = handler.__qualname__ = name
+    return handler
 
-    def mouseMoveEvent(self, ev):  # noqa: N802
-        self._locked(QVTKRenderWindowInteractor.mouseMoveEvent, ev)
 
-    def wheelEvent(self, ev):  # noqa: N802
-        self._locked(QVTKRenderWindowInteractor.wheelEvent, ev)
-
-    def keyPressEvent(self, ev):  # noqa: N802
-        self._locked(QVTKRenderWindowInteractor.keyPressEvent, ev)
-
-    def keyReleaseEvent(self, ev):  # noqa: N802
-        self._locked(QVTKRenderWindowInteractor.keyReleaseEvent, ev)
-
-    def enterEvent(self, ev):  # noqa: N802
-        self._locked(QVTKRenderWindowInteractor.enterEvent, ev)
-
-    def leaveEvent(self, ev):  # noqa: N802
-        self._locked(QVTKRenderWindowInteractor.leaveEvent, ev)
-
-    def TimerEvent(self):  # noqa: N802 - VTK's name
-        lock = self.render_lock
-        if lock is None:
-            return QVTKRenderWindowInteractor.TimerEvent(self)
-        with lock:
-            return QVTKRenderWindowInteractor.TimerEvent(self)
+for _name in ("resizeEvent", "mousePressEvent", "mouseReleaseEvent", "mouseMoveEvent", "wheelEvent",
+              "keyPressEvent", "keyReleaseEvent", "enterEvent", "leaveEvent", "TimerEvent"):
+    setattr(_SceneWidget, _name, _under_render_lock(_name))
+del _name
 
 
 def native_plotter(parent) -> pv.Plotter:
