@@ -183,9 +183,9 @@ class DeviceWorker(QObject):
             b.replay_position = b.stats["position"]
             b.replay_duration = b.stats.get("duration")
         sink = self.contacts_sink
-        if sink is not None and b.contacts is not None and b.time.size:
+        if sink is not None and b.contacts is not None and np.isfinite(b.contacts_time):
             try:
-                sink(b.contacts, b.latest_time)
+                sink(b.contacts, b.contacts_time)
             except Exception as exc:  # noqa: BLE001 - shown to the operator, the worker keeps running
                 self.error.emit(f"showing contacts: {type(exc).__name__}: {exc}")
         self.ticks += 1

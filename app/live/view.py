@@ -243,10 +243,18 @@ class LiveView(QWidget):
             self._replay_text = f"replay {b.replay_position:6.2f} / {b.replay_duration:.2f} s"
         if self.record.isChecked():
             self._record_text = f"■ Stop recording ({b.recorded / 1000:.1f} k samples)"
-        if self.paused or b.time.size == 0:
+        if self.paused:
             return
-        t = b.latest_time
-        self.latency = time.monotonic() - t  # s from the newest sample's time to its display
+        arrived = b.arrived_time
+        if arrived is None:  # a bundle made before arrivals were separate: its records are the new samples
+            arrived, fw = b.time, b.face_wrenches
+        else:
+            fw = b.arrived_face_wrenches
+        if arrived.size == 0 and b.time.size == 0:
+            return
+        t = b.contacts_time if np.isfinite(b.contacts_time) else b.latest_time
+        if np.isfinite(t):
+            self.latency = time.monotonic() - t  # s from the newest sample's time to its display
         if b.contacts is not None:
             # to the scene's drawing thread at once (it keeps only the latest for its next frame):
             # the 3D view is not held back by the plots' pacing
@@ -257,9 +265,9 @@ class LiveView(QWidget):
                 self._n_shown = int(self._show_contacts(b.contacts, t).sum())
                 self.scene.redraw()
         if b.wrenches is not None:
-            fw = getattr(b, "face_wrenches", None)
-            if fw is not None and fw.shape[0] == b.time.size:
-                self.force_plot.append(b.time, np.linalg.norm(fw[:, :, :3], axis=2))  # every sample
+            if fw is not None and fw.shape[0] == arrived.size:
+                # every sample as it arrives (its record, paired with the reference, comes later)
+                self.force_plot.append(arrived, np.linalg.norm(fw[:, :, :3], axis=2))
             else:
                 self.force_plot.append(t, np.linalg.norm(b.wrenches[:, :3], axis=1))
             if b.sum_force is not None:

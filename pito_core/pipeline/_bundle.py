@@ -46,6 +46,16 @@ class LiveBundle:
         The cube's unwrapped device clock, µs (identifies samples across live and replay).
     face_wrenches : ndarray, shape (n, 6, 6) or None
         Wrench on each face at every new sample (face frames, tared, N and N·m).
+    arrived_time : ndarray, shape (m,) or None
+        The cube samples that arrived in this read, s. Their face wrenches and the contacts
+        are made at once; their records (``time`` … ``face_wrenches``) follow when their
+        reference has arrived (pairing rule), in this bundle or a later one. For a display:
+        each cube sample arrives exactly once.
+    arrived_face_wrenches : ndarray, shape (m, 6, 6) or None
+        Face wrenches of the arrived samples (the same values their records will carry).
+    contacts_time : float
+        Time of the newest sample behind ``wrenches``, ``contacts`` and the sums, s (NaN when
+        the bundle has none).
     """
 
     time: np.ndarray
@@ -61,6 +71,9 @@ class LiveBundle:
     replay_duration: float | None = None
     tick: np.ndarray | None = None
     face_wrenches: np.ndarray | None = None
+    arrived_time: np.ndarray | None = None
+    arrived_face_wrenches: np.ndarray | None = None
+    contacts_time: float = float("nan")
 
     @property
     def latest_time(self) -> float:
@@ -90,11 +103,20 @@ class LiveBundle:
                          np.concatenate([self.reference, newer.reference]), stats=newer.stats,
                          recorded=newer.recorded, replay_position=newer.replay_position,
                          replay_duration=newer.replay_duration, tick=cat(self.tick, newer.tick),
-                         face_wrenches=cat(self.face_wrenches, newer.face_wrenches))
+                         face_wrenches=cat(self.face_wrenches, newer.face_wrenches),
+                         arrived_time=_cat_arrived(self.arrived_time, newer.arrived_time),
+                         arrived_face_wrenches=_cat_arrived(self.arrived_face_wrenches, newer.arrived_face_wrenches))
         src = newer if newer.wrenches is not None else self
-        out.wrenches, out.contacts = src.wrenches, src.contacts
+        out.wrenches, out.contacts, out.contacts_time = src.wrenches, src.contacts, src.contacts_time
         out.sum_force, out.sum_torque = src.sum_force, src.sum_torque
         return out
+
+
+def _cat_arrived(a, b):
+    """Arrived rows of two bundles, in order (a bundle without arrivals has None)."""
+    if a is None or b is None:
+        return b if a is None else a
+    return np.concatenate([a, b])
 
 
 def face_sums(wrenches, core: CubeCore, cog=(0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:

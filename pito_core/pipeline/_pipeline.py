@@ -8,6 +8,11 @@ rows of both streams (:class:`~pito_core.pipeline.AcquisitionReader` reads them 
 acquisition's ring buffers by cursor; :class:`~pito_core.pipeline.RecordingReader` from a
 recording) and gets one :class:`LiveBundle`.
 
+The cube's side runs as each cube sample arrives: tare, calibration, face wrenches, and the
+contacts of the newest samples. The pairing rule only decides when a sample's *record* (with
+its reference) is complete, so the reference device never holds back what the live view shows
+(a cube sample waits up to one reference packet, ~10 ms, for its reference).
+
 Work per call is proportional to the new samples: the reference history and the tails kept
 for the tare and the smoothing are fixed-size rings read as contiguous views.
 """
@@ -82,8 +87,11 @@ class Pipeline:
         The patched object (or a library name); none: the bare cube's flat faces.
     core : CubeCore, optional
     has_reference : bool
-        A reference device is connected: cube samples wait for the reference record after
-        them (pairing rule); without one every cube sample passes at once with NaN reference.
+        A reference device is connected: a cube sample's record (``LiveBundle.time``,
+        ``counts``, ``reference``, ``face_wrenches``) waits for the reference record after it
+        (pairing rule); without one every record passes at once with NaN reference. Its face
+        wrenches and the contacts are made when it arrives, with the tare and calibration in
+        force then (``LiveBundle.arrived_time``, ``contacts_time``).
     force_threshold : float
         Force below which a face shows no contact, N (default :data:`LIVE_FORCE_THRESHOLD`).
     wrench_cov : array-like, shape (6, 6) or (6, 6, 6), or "calibration", optional
@@ -133,7 +141,8 @@ class Pipeline:
                                                                     "wrench": (np.float64, (6,))})
         self._tail = _Window(int(2.0 * rate_hz) + 1, {"time": (np.float64, ()), "counts": (np.float64, (36,)),
                                                       "reference": (np.float64, (6,))})
-        self._wtail = _Window(self.smooth, {"w": (np.float64, (6, 6))})
+        # the newest arrived samples behind the latest wrenches (smoothing, covariance, ADC limit)
+        self._wtail = _Window(self.smooth, {"w": (np.float64, (6, 6)), "counts": (np.float64, (36,))})
         self._pending: dict | None = None
         self.last_tick: int | None = None
         self.samples = 0
@@ -142,10 +151,19 @@ class Pipeline:
 
     # ------------------------------------------------------------ settings
     def set_calibration(self, calibration) -> None:
-        """Use ``calibration`` (None: none) with its own offset until the next :meth:`tare`."""
+        """Use ``calibration`` (None: none) with its own offset until the next :meth:`tare`.
+
+        Samples still waiting for their reference are given it too (their face wrenches are
+        made again), so every record passed after this call has the new calibration.
+        """
         self.calibration = calibration
         self.counts_offset = None
         self._wtail.clear()
+        rows = self._pending
+        if rows is not None:
+            rows.pop("w", None)
+            if calibration is not None:
+                rows["w"] = calibration.wrenches(rows["counts"])
 
     def set_assembly(self, assembly, wrench_cov=None) -> None:
         """The object whose patches carry the contacts (an ``Assembly``, a library name, or None: the bare cube)."""
@@ -246,12 +264,15 @@ class Pipeline:
         Returns
         -------
         LiveBundle
-            The cube samples that became ready (paired), in order.
+            The cube samples whose records became complete (paired), in order; the cube
+            samples that arrived (``arrived_time``, ``arrived_face_wrenches``) and the wrenches
+            and contacts of the newest of them (``contacts_time``).
         """
         if reference is not None and len(reference["time"]):
             self._ref.append(time=np.asarray(reference["time"], dtype=np.float64),
                              wrench=np.asarray(reference["wrench"], dtype=np.float64))
-        rows = self._take_ready(cube, flush)
+        arrived = self._arrive(cube)
+        rows = self._take_ready(arrived, flush)
         t, counts = rows["time"], rows["counts"]
         ref_hist = self._ref.last()
         if self.has_reference and t.size:
@@ -259,33 +280,51 @@ class Pipeline:
         else:
             raw_ref = np.full((t.size, 6), np.nan)
         tick = rows.get("tick")
-        if tick is not None and tick.size:
-            self.last_tick = int(tick[-1])
         self.samples += t.size
         self._tail.append(time=t, counts=counts, reference=raw_ref)
-        b = LiveBundle(t, counts, raw_ref - self.reference_bias, tick=tick)
-        if self.calibration is not None and t.size:
-            W = self.calibration.wrenches(counts, offset=self.counts_offset)
-            b.face_wrenches = W
-            self._wtail.append(w=W)
-            latest = self._wtail.last()["w"].mean(axis=0)
-            b.wrenches = latest
-            b.sum_force, b.sum_torque = face_sums(latest, self.core, self.cog)
-            b.contacts = self.contacts(latest, self._latest_cov())
-            # issue 13: a gauge at its ADC limit in the samples behind the latest wrenches: no valid contact
-            # (every face's wrench depends on all 36 gauges through the calibration matrix)
-            recent = np.asarray(counts[-self.smooth:])
-            if (np.abs(recent) >= CUBE_ADC_LIMIT).any() and b.contacts is not None:
-                b.contacts.valid[...] = False
+        b = LiveBundle(t, counts, raw_ref - rows["bias"], tick=tick)
+        if "w" in rows and t.size:
+            b.face_wrenches = rows["w"]
+        if arrived is not None:
+            b.arrived_time = arrived["time"]
+            W = arrived.get("w")
+            if W is not None:
+                b.arrived_face_wrenches = W
+                self._wtail.append(w=W, counts=arrived["counts"])
+                tail = self._wtail.last()
+                latest = tail["w"].mean(axis=0)
+                b.wrenches = latest
+                b.contacts_time = float(arrived["time"][-1])
+                b.sum_force, b.sum_torque = face_sums(latest, self.core, self.cog)
+                b.contacts = self.contacts(latest, self._latest_cov(tail["counts"]))
+                # issue 13: a gauge at its ADC limit in the samples behind the latest wrenches: no valid
+                # contact (every face's wrench depends on all 36 gauges through the calibration matrix)
+                if (np.abs(tail["counts"]) >= CUBE_ADC_LIMIT).any() and b.contacts is not None:
+                    b.contacts.valid[...] = False
         return b
 
-    def _latest_cov(self):
-        """The wrench covariance for the latest contacts (``wrench_cov``; see the class docstring)."""
+    def _arrive(self, cube: dict | None) -> dict | None:
+        """New cube rows with what the cube alone gives: the tare in force, face wrenches (if calibrated)."""
+        if cube is None or not len(cube["time"]):
+            return None
+        new = {k: np.asarray(cube[k]) for k in ("time", "counts", "tick") if k in cube}
+        new["counts"] = np.asarray(new["counts"], dtype=np.float64)
+        n = new["time"].size
+        new["bias"] = np.broadcast_to(self.reference_bias, (n, 6))  # the reference's tare, applied when paired
+        if self.calibration is not None:
+            new["w"] = self.calibration.wrenches(new["counts"], offset=self.counts_offset)
+        tick = new.get("tick")
+        if tick is not None and tick.size:
+            self.last_tick = int(tick[-1])
+        return new
+
+    def _latest_cov(self, counts):
+        """The wrench covariance for the latest contacts (``wrench_cov``; see the class docstring) at ``counts (k, 36)``."""
         if not isinstance(self.wrench_cov, str):
             return self.wrench_cov
         if getattr(self.calibration, "covariance", None) is None:
             return None
-        counts = self._tail.last(self.smooth)["counts"].mean(axis=0)
+        counts = counts.mean(axis=0)
         return self.calibration.wrenches(counts, offset=self.counts_offset, return_cov=True)[1]
 
     def contacts(self, wrenches, wrench_cov=None):
@@ -301,15 +340,13 @@ class Pipeline:
                                None if c.point_cov is None else c.point_cov[0])
         return c
 
-    def _take_ready(self, cube: dict | None, flush: bool) -> dict:
+    def _take_ready(self, new: dict | None, flush: bool) -> dict:
         """The waiting and new cube rows whose reference has arrived (pairing rule: never extrapolate)."""
         rows = self._pending
-        if cube is not None and len(cube["time"]):
-            new = {k: np.asarray(cube[k]) for k in ("time", "counts", "tick") if k in cube}
-            new["counts"] = np.asarray(new["counts"], dtype=np.float64)
+        if new is not None:
             rows = new if rows is None else {k: np.concatenate([rows[k], new[k]]) for k in new}
         if rows is None:
-            return {"time": np.zeros(0), "counts": np.zeros((0, 36))}
+            return {"time": np.zeros(0), "counts": np.zeros((0, 36)), "bias": np.zeros((0, 6))}
         if not self.has_reference or flush:
             n = rows["time"].size
         else:

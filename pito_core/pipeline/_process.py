@@ -393,7 +393,8 @@ def _serve(conn: Connection, cfg: dict) -> None:
             last_fed = time.monotonic()
             b = child.bundle()
             now = time.monotonic()
-            if len(b) or now - last_sent >= 0.1:  # samples, or at least the device figures 10 times a second
+            fresh = len(b) or b.arrived_time is not None
+            if fresh or now - last_sent >= 0.1:  # samples, or at least the device figures 10 times a second
                 conn.send(("bundle", b))
                 last_sent = now
             if os.getppid() != parent:

@@ -61,3 +61,54 @@ def test_tare_event_applies_from_its_sample(calibration):
     rep = Pipeline(calibration, has_reference=False).feed(NewSamples(rows, None, [event], restart=True))
     np.testing.assert_allclose(rep.face_wrenches, np.concatenate([b1.face_wrenches, b2.face_wrenches]), atol=1e-12)
     assert not np.allclose(b2.face_wrenches[0], live.calibration.wrenches(rest["counts"][:1])[0])  # the tare acted
+
+
+def _reference(t, seed=0):
+    return {"time": np.asarray(t, dtype=float), "wrench": np.random.default_rng(seed).normal(size=(len(t), 6))}
+
+
+def test_contacts_do_not_wait_for_the_reference(calibration):
+    """The cube's side runs on arrival; the reference only completes each sample's record."""
+    rows = _grasp(300, t0=4.0)
+    pipe = Pipeline(calibration, "pito_mixed", has_reference=True)
+    pipe.process(None, _reference(rows["time"][:100]))  # the reference covers the first 100 samples
+    b = pipe.process({k: v[:150] for k, v in rows.items()})
+    # records: the 100 samples up to the newest reference; arrivals: all 150, contacts of the newest
+    assert len(b) == 100 and pipe.waiting == 50
+    np.testing.assert_array_equal(b.arrived_time, rows["time"][:150])
+    assert b.contacts_time == rows["time"][149] > b.latest_time
+    assert b.contacts.valid.any()
+    # the contacts are those of the newest arrived samples, as without a reference
+    alone = Pipeline(calibration, "pito_mixed", has_reference=False).process({k: v[:150] for k, v in rows.items()})
+    np.testing.assert_array_equal(b.wrenches, alone.wrenches)
+    np.testing.assert_array_equal(b.contacts.point, alone.contacts.point)
+    # a tare now applies to the samples arriving after it; the waiting ones keep the tare they arrived with
+    event = pipe.tare(duration=0.05)
+    assert event["from_tick"] == rows["tick"][149] + 1
+    held = pipe.process({k: v[150:] for k, v in rows.items()}, _reference(rows["time"][100:] + 0.0005, seed=1))
+    np.testing.assert_array_equal(held.time, rows["time"][100:])
+    np.testing.assert_array_equal(held.face_wrenches[:50], b.arrived_face_wrenches[100:])  # as they arrived
+    ref_raw = pipe._tail.last()["reference"][-200:]
+    np.testing.assert_allclose(held.reference[:50], ref_raw[:50])  # no reference bias before the tare
+    np.testing.assert_allclose(held.reference[50:], ref_raw[50:] - np.asarray(event["reference_bias"]))
+    # the same rows in one read with the event at its tick (a replay) give the same records
+    rep = Pipeline(calibration, "pito_mixed", has_reference=True)
+    from pito_core.pipeline import NewSamples
+
+    ref_all = {k: np.concatenate([a[k], c[k]]) for k, a, c in
+               [(k, _reference(rows["time"][:100]), _reference(rows["time"][100:] + 0.0005, seed=1))
+                for k in ("time", "wrench")]}
+    r = rep.feed(NewSamples(rows, ref_all, [event]), flush=True)
+    np.testing.assert_array_equal(r.face_wrenches, np.concatenate([b.face_wrenches, held.face_wrenches]))
+    np.testing.assert_allclose(r.reference, np.concatenate([b.reference, held.reference]), rtol=0, atol=1e-12)
+
+
+def test_a_new_calibration_reaches_the_samples_waiting_for_their_reference(calibration):
+    rows = _grasp(50)
+    pipe = Pipeline(None, has_reference=True)
+    b = pipe.process(rows)
+    assert b.arrived_time.size == 50 and b.wrenches is None and b.arrived_face_wrenches is None
+    pipe.set_calibration(calibration)
+    done = pipe.process(None, _reference(rows["time"] + 0.0005))
+    assert len(done) == 50 and done.arrived_time is None and done.contacts is None
+    np.testing.assert_array_equal(done.face_wrenches, calibration.wrenches(np.asarray(rows["counts"], float)))

@@ -30,13 +30,15 @@ def live_run(tmp_path_factory):
         acq = Acquisition(PitoSerial(sim.port), netft, recorder=writer, buffer_seconds=10.0)
         reader = AcquisitionReader(acq, simulated=True, history=0.0)
         pipe = Pipeline(cal, "pito_mixed", has_reference=True)
-        bundles, tared = [], False
+        bundles, arrivals, tared = [], [], False
         acq.start()
         try:
             t0 = time.monotonic()
             while time.monotonic() - t0 < 3.0:
                 time.sleep(1 / 60)
                 b = pipe.feed(reader.read())
+                if b.arrived_time is not None:
+                    arrivals.append(b)
                 if len(b):
                     bundles.append(b)
                 if not tared and time.monotonic() - t0 > 1.2 and pipe.samples > 500:
@@ -46,11 +48,11 @@ def live_run(tmp_path_factory):
             acq.close()
             writer.close()
     assert tared and len(bundles) > 20
-    return path, cal, bundles
+    return path, cal, bundles, arrivals
 
 
 def test_replay_gives_the_live_face_wrenches_and_contacts(live_run):
-    path, cal, bundles = live_run
+    path, cal, bundles, arrivals = live_run
     live = bundles[0]
     for b in bundles[1:]:
         live = live.merged(b)
@@ -68,10 +70,20 @@ def test_replay_gives_the_live_face_wrenches_and_contacts(live_run):
     tare = [e for e in read_recording(path).events if e["type"] == "tare"][0]
     k_tare = int(np.searchsorted(rep.tick, tare["from_tick"]))
     assert 0 < k_tare < rep.tick.size
-    # contacts of the latest (smoothed) sample of each live bundle, recomputed from the replay
+    # each sample arrived once, before or with its record, with the face wrenches its record carries
+    arrived_t = np.concatenate([b.arrived_time for b in arrivals])
+    arrived_w = np.concatenate([b.arrived_face_wrenches for b in arrivals])
+    n = live.time.size  # the records are the arrivals in order, but for the last few, still waiting
+    assert n <= arrived_t.size < n + 100
+    assert np.array_equal(arrived_t[:n], live.time)
+    np.testing.assert_array_equal(arrived_w[:n], live.face_wrenches)
+    # the contacts were not held back by the reference: some bundles' are newer than their last record
+    assert any(b.contacts_time > b.latest_time for b in arrivals if len(b))
+    # contacts of the newest arrived (smoothed) sample of each live bundle, recomputed from the replay
     checked = 0
-    for b in bundles:
-        k = int(np.searchsorted(rep.tick, b.tick[-1]))
+    for b in arrivals:
+        k = int(np.searchsorted(rep.time, b.contacts_time, side="right")) - 1  # (the newest sample of that time)
+        assert rep.time[k] == b.contacts_time
         if k - (pipe.smooth - 1) <= k_tare <= k or k < pipe.smooth:  # smoothing window across the tare / start
             continue
         W = rep.face_wrenches[k - pipe.smooth + 1 : k + 1].mean(axis=0)
@@ -136,7 +148,7 @@ def test_the_replay_reader_hands_over_a_tare_made_between_two_reads(tmp_path):
 def test_replay_reader_in_chunks_equals_replay_at_once(live_run):
     from pito_core.pipeline import RecordingReader
 
-    path, cal, _ = live_run
+    path, cal, _, _ = live_run
     whole, _ = replay_recording(path, cal)
     reader = RecordingReader(path, speed=float("inf"), loop=False)
     pipe = Pipeline(cal, has_reference=True)
