@@ -115,12 +115,42 @@ def _style_plot(plot: pg.PlotItem, left: str, bottom: str = "time (s)") -> None:
     plot.getViewBox().disableAutoRange()
 
 
-def _curve(plot: pg.PlotItem, color: str, name: str) -> pg.PlotCurveItem:
-    """A bare ``PlotCurveItem`` in ``plot`` (and its legend): the data are decimated here already, so
+class _Curve(pg.PlotCurveItem):
+    """A ``PlotCurveItem`` told its data bounds with its data (:meth:`set_curve`).
+
+    pyqtgraph finds a curve's bounds with ``nanmin``/``nanmax`` over its data each time the
+    data change, per curve and axis; here the decimation has them for all curves in one pass.
+    """
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._bounds = None  # ((x0, x1), (y0, y1)) of the current data, or None: pyqtgraph's own
+
+    def set_curve(self, x, y, y_lo: float, y_hi: float) -> None:
+        """New data ``x`` (sorted), ``y`` whose finite values lie in ``[y_lo, y_hi]`` (NaN: none)."""
+        xb = (float(x[0]), float(x[-1])) if x.size else (None, None)
+        yb = (float(y_lo), float(y_hi)) if x.size and np.isfinite(y_lo) and np.isfinite(y_hi) else (None, None)
+        self._bounds = (xb, yb)
+        self.setData(x, y, connect="finite")
+
+    def dataBounds(self, ax, frac=1.0, orthoRange=None):  # noqa: N802 - pyqtgraph's name
+        if self._bounds is None or frac < 1.0 or orthoRange is not None or ax not in (0, 1):
+            return super().dataBounds(ax, frac, orthoRange)
+        return self._bounds[ax]
+
+
+def _curve(plot: pg.PlotItem, color: str, name: str) -> _Curve:
+    """A bare curve in ``plot`` (and its legend): the data are decimated here already, so
     ``PlotDataItem``'s own dataset, bounds and downsampling pass would only repeat work on every refresh."""
-    c = pg.PlotCurveItem(pen=pg.mkPen(color, width=1), name=name)
+    c = _Curve(pen=pg.mkPen(color, width=1), name=name)
     plot.addItem(c)
     return c
+
+
+def _column_bounds(y):
+    """Per column of ``y (m, k)``: the smallest and largest finite value (NaN for a column without)."""
+    with np.errstate(invalid="ignore"):
+        return np.fmin.reduce(y, axis=0), np.fmax.reduce(y, axis=0)
 
 
 class _YRange:
@@ -183,9 +213,11 @@ class FaceForcePlot(pg.PlotWidget):
         px = max(50, int(self.getPlotItem().getViewBox().width()))
         t, y = minmax_decimate(d[:, 0], d[:, 1:], t_end - self.window, t_end, px)
         t = t - t_end
+        lo, hi = _column_bounds(y)
         for k, c in enumerate(self.curves):
-            c.setData(t, y[:, k], connect="finite")
-        if self._y.fit(float(np.nanmax(y)) if np.isfinite(y).any() else np.nan):
+            c.set_curve(t, y[:, k], lo[k], hi[k])
+        peak = np.fmax.reduce(hi)  # NaN only if no finite value
+        if self._y.fit(float(peak)):
             self.setYRange(0, self._y.top, padding=0)
         self.last_time = float(t_end)
         self.refreshes += 1
@@ -255,11 +287,12 @@ class EquilibriumPlot(QWidget):
         t_end = d[-1, 0]
         d = d[int(np.searchsorted(d[:, 0], t_end - self.window)):]
         t = d[:, 0] - t_end
-        self.force_curve.setData(t, d[:, 1], connect="finite")
-        self.torque_curve.setData(t, d[:, 2] * 1000, connect="finite")
-        if self._fy.fit(float(np.nanmax(d[:, 1])) if np.isfinite(d[:, 1]).any() else np.nan):
+        lo, hi = _column_bounds(d[:, 1:])
+        self.force_curve.set_curve(t, d[:, 1], lo[0], hi[0])
+        self.torque_curve.set_curve(t, d[:, 2] * 1000, lo[1] * 1000, hi[1] * 1000)
+        if self._fy.fit(float(hi[0])):
             self.force_plot.setYRange(0, self._fy.top, padding=0)
-        if self._ty.fit(1000 * float(np.nanmax(d[:, 2])) if np.isfinite(d[:, 2]).any() else np.nan):
+        if self._ty.fit(1000 * float(hi[1])):
             self.torque_plot.setYRange(0, self._ty.top, padding=0)
         self.last_time = float(t_end)
         return True

@@ -96,6 +96,33 @@ def test_ring_buffer_view_and_minmax_decimation_keep_peaks():
     assert td.size <= 200 and yd[:, 0].max() == 9.0 and yd[:, 1].min() == -4.0
 
 
+def test_plot_curves_carry_the_bounds_pyqtgraph_would_find(qtbot):
+    import pyqtgraph as pg
+
+    from app.widgets.plots import EquilibriumPlot, FaceForcePlot
+
+    fp, eq = FaceForcePlot(), EquilibriumPlot()
+    for w in (fp, eq):
+        qtbot.addWidget(w)
+    t = 100 + np.arange(3000) * 1e-3
+    norms = np.abs(np.sin(t[:, None] * np.arange(1, 7))) * np.arange(1, 7)
+    norms[:, 2] = np.nan  # a face without output: no bounds
+    norms[100:200, 4] = np.nan  # a gap
+    fp.append(t, norms)
+    for k in range(0, t.size, 10):
+        eq.append(t[k], 2.0 + np.sin(t[k]), 0.003 * np.cos(t[k]) ** 2)
+    assert fp.refresh() and eq.refresh()
+    for c in fp.curves + [eq.force_curve, eq.torque_curve]:
+        for ax in (0, 1):
+            mine = c.dataBounds(ax)
+            c._boundsCache = [None, None]
+            theirs = pg.PlotCurveItem.dataBounds(c, ax)
+            if theirs[0] is None or not np.isfinite(theirs[0]):
+                assert mine == (None, None)
+            else:
+                assert mine == theirs, (ax, mine, theirs)
+
+
 def test_load_page_progress_follows_the_gate_that_holds_the_face():
     from app.wizard.capture import CaptureRules, FaceCaptures
     from app.wizard.load_page import face_gates
