@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import collections
 import threading
+import time
 import traceback
 from typing import Any, Callable
 
@@ -56,6 +57,12 @@ class RenderThread:
         False skips rendering (queued changes still run): set it when the view is hidden.
     frames : int
         Frames rendered by the thread.
+    max_rate : float or None
+        Most frames a second (Hz; None: no limit). A request sooner after the last frame's
+        start waits for its turn; then the frame waits for the next request (new data), at
+        most half a frame period, so that it starts as data arrive and shows them at their
+        freshest. Each frame draws the newest data, so a lower rate does not make the view
+        older: it saves the CPU of frames nobody could tell apart.
     errors : list of str
         Exceptions raised by queued changes or renders (the thread keeps running); ``on_error``
         (a callable taking the message, called in this thread) is told of each too.
@@ -68,6 +75,8 @@ class RenderThread:
         self.lock = threading.RLock()
         self.visible = True
         self.frames = 0
+        self.max_rate: float | None = None
+        self._last_start = -1e9
         self.errors: list[str] = []
         self.on_error: Callable[[str], None] | None = None
         self._jobs: collections.deque = collections.deque()
@@ -195,6 +204,14 @@ class RenderThread:
         try:
             while True:
                 self._wake.wait()
+                rate = self.max_rate
+                if rate:
+                    wait = self._last_start + 1.0 / rate - time.monotonic()
+                    if wait > 0 and not self._stop:
+                        time.sleep(wait)  # (changes and requests keep coming in meanwhile)
+                        # what was asked meanwhile is up to a period old: start with the next request
+                        self._wake.clear()
+                        self._wake.wait(0.5 / rate)
                 self._wake.clear()
                 if self._stop:
                     break
@@ -202,6 +219,7 @@ class RenderThread:
                     self._run_jobs()
                     if not self.visible:
                         continue
+                    self._last_start = time.monotonic()
                     try:
                         self.ren_win.Render()
                         self.frames += 1

@@ -29,7 +29,7 @@ from pito_core.frames import FACES, CubeCore
 from .palette import CONTACT_COLOR, FACE_COLORS, hex_rgb
 from .render_thread import RenderThread
 
-__all__ = ["CubeScene", "ContactGlyphs", "native_plotter", "grab_window", "grab_scene", "FACE_COLORS", "arrow_matrix", "ellipsoid_matrix", "FULL_SCALE_FORCE"]
+__all__ = ["CubeScene", "ContactGlyphs", "native_plotter", "grab_window", "grab_scene", "FACE_COLORS", "arrow_matrix", "ellipsoid_matrix", "FULL_SCALE_FORCE", "MAX_FRAME_RATE", "is_software_gl"]
 
 #: N: arrows are drawn up to this force (a firm grasp, the arrows' full scale) and clamped beyond it
 #: (marked by a white collar at the tail); the live view frames its camera to hold them
@@ -47,6 +47,21 @@ ATI_COLOR = "#3a3f45"
 BACKGROUND = "#1e2329"
 
 pv.global_theme.multi_samples = 0  # MSAA halves the frame rate in software GL
+
+#: Most frames a second a threaded scene draws, Hz (``RenderThread.max_rate``). With a GPU: a
+#: display's refresh rate. In software OpenGL (Mesa's llvmpipe) a frame of the live view costs
+#: ~14 ms of CPU at 680×740 px; unlimited frames took that CPU from the data path and the
+#: plots and made every view later, not fresher (docs/performance.md §6).
+MAX_FRAME_RATE = {"hardware": 60.0, "software": 50.0}
+
+
+def is_software_gl(ren_win) -> bool:
+    """True when ``ren_win``'s OpenGL renderer is a software rasterizer (llvmpipe, softpipe, swrast)."""
+    try:
+        caps = ren_win.ReportCapabilities().lower()
+    except Exception:  # noqa: BLE001 - unknown: treat as hardware (no lower limit)
+        return False
+    return any(name in caps for name in ("llvmpipe", "softpipe", "swrast", "software rasterizer"))
 
 
 def _rotation_from_x(direction: np.ndarray) -> np.ndarray:
@@ -385,6 +400,8 @@ class CubeScene(QWidget):
         self.core = core or CubeCore()
         self.threaded = bool(threaded)
         self.render_thread: RenderThread | None = None
+        #: the OpenGL renderer is a software rasterizer (known once the drawing thread starts)
+        self.software_gl: bool | None = None
         #: s: time of the newest sample the contact glyphs show (set when they move, in the drawing thread)
         self.contacts_time = float("nan")
         self._queued_contacts = None  # (contacts, time) waiting for the drawing thread's next frame
@@ -457,6 +474,8 @@ class CubeScene(QWidget):
             return
         self.plotter.ren_win.Render()  # the GL context exists (made here) before it is handed over
         rt = RenderThread(self.plotter.ren_win, self.plotter.iren.interactor, name="pito-render")
+        self.software_gl = is_software_gl(self.plotter.ren_win)
+        rt.max_rate = MAX_FRAME_RATE["software" if self.software_gl else "hardware"]
         self.plotter.interactor.render_lock = rt.lock
         rt.start()
         self.render_thread = rt
