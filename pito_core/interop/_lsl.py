@@ -140,6 +140,10 @@ def lsl_stream_infos(calibration: dict | None, assembly: dict | None, *, rate_hz
 class LslPublisher:
     """A pipeline sink: pushes each :class:`~pito_core.pipeline.LiveBundle`'s samples to the two outlets.
 
+    Samples go out as they arrive (``arrived_time``, ``arrived_face_wrenches``: each cube
+    sample once, in order, not held back for the reference); a bundle without arrivals
+    (an older producer) sends its records.
+
     Parameters
     ----------
     pipeline : Pipeline
@@ -171,10 +175,13 @@ class LslPublisher:
         self.names = (WRENCH_STREAM, CONTACT_STREAM)
 
     def __call__(self, bundle) -> None:
-        W = getattr(bundle, "face_wrenches", None)
+        # each cube sample as it arrives (its face wrenches do not wait for the reference)
+        W, t = getattr(bundle, "arrived_face_wrenches", None), getattr(bundle, "arrived_time", None)
+        if W is None or t is None or len(W) != len(t):  # (a bundle of records only)
+            W, t = getattr(bundle, "face_wrenches", None), bundle.time
         if W is None or len(W) == 0:
             return
-        ts = (np.asarray(bundle.time, float) + self.clock_offset).tolist()
+        ts = (np.asarray(t, float) + self.clock_offset).tolist()
         self.wrench_outlet.push_chunk(wrench_samples(W), ts)
         self.contact_outlet.push_chunk(contact_samples(self.pipeline.contacts(np.asarray(W))), ts)
         self.pushed += len(ts)
