@@ -245,11 +245,7 @@ class LiveView(QWidget):
             self._record_text = f"■ Stop recording ({b.recorded / 1000:.1f} k samples)"
         if self.paused:
             return
-        arrived = b.arrived_time
-        if arrived is None:  # a bundle made before arrivals were separate: its records are the new samples
-            arrived, fw = b.time, b.face_wrenches
-        else:
-            fw = b.arrived_face_wrenches
+        arrived = b.arrived_time if b.arrived_time is not None else np.zeros(0)
         if arrived.size == 0 and b.time.size == 0:
             return
         t = b.contacts_time if np.isfinite(b.contacts_time) else b.latest_time
@@ -265,6 +261,7 @@ class LiveView(QWidget):
                 self._n_shown = int(self._show_contacts(b.contacts, t).sum())
                 self.scene.redraw()
         if b.wrenches is not None:
+            fw = b.arrived_face_wrenches
             if fw is not None and fw.shape[0] == arrived.size:
                 # every sample as it arrives (its record, paired with the reference, comes later)
                 self.force_plot.append(arrived, np.linalg.norm(fw[:, :, :3], axis=2))

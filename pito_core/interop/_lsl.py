@@ -141,8 +141,7 @@ class LslPublisher:
     """A pipeline sink: pushes each :class:`~pito_core.pipeline.LiveBundle`'s samples to the two outlets.
 
     Samples go out as they arrive (``arrived_time``, ``arrived_face_wrenches``: each cube
-    sample once, in order, not held back for the reference); a bundle without arrivals
-    (an older producer) sends its records.
+    sample once, in order, not held back for the reference).
 
     Parameters
     ----------
@@ -175,11 +174,10 @@ class LslPublisher:
         self.names = (WRENCH_STREAM, CONTACT_STREAM)
 
     def __call__(self, bundle) -> None:
-        # each cube sample as it arrives (its face wrenches do not wait for the reference)
-        W, t = getattr(bundle, "arrived_face_wrenches", None), getattr(bundle, "arrived_time", None)
-        if W is None or t is None or len(W) != len(t):  # (a bundle of records only)
-            W, t = getattr(bundle, "face_wrenches", None), bundle.time
-        if W is None or len(W) == 0:
+        # each cube sample once, as it arrives (its face wrenches do not wait for the reference);
+        # a bundle of records only (their samples went out when they arrived) sends nothing
+        W, t = bundle.arrived_face_wrenches, bundle.arrived_time
+        if W is None or t is None or len(t) == 0 or len(W) != len(t):
             return
         ts = (np.asarray(t, float) + self.clock_offset).tolist()
         self.wrench_outlet.push_chunk(wrench_samples(W), ts)
