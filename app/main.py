@@ -4,7 +4,7 @@ Usage::
 
     pito-app                       # real devices (choose them in the wizard's Devices step)
     pito-app --demo                # simulated cube and reference, a looping grasp
-    pito-app --calibration CAL.h5  # live view with a calibration file
+    pito-app --calibration CAL.pitocal  # live view with a calibration file
     pito-app --pito PORT --ati HOST[:PORT]   # devices at these addresses (e.g. printed by `pito sim-devices`)
     pito-app --demo --screenshot live.png --page live   # render one screen to a PNG and exit
     pito-app --demo --record run.pitorec --duration 3600   # record for an hour with the window open, then quit

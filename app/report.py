@@ -141,7 +141,7 @@ def comparison_figure(evaluation, fig: Figure | None = None, dark: bool = True) 
     return fig
 
 
-def export_report(folder, calibration, evaluation, info: dict | None = None) -> Path:
+def export_report(folder, calibration, evaluation, info: dict | None = None, progress=None) -> Path:
     """Write ``folder/``: ``report.md``, ``numbers.json`` and the three figures as PNG.
 
     Parameters
@@ -152,6 +152,8 @@ def export_report(folder, calibration, evaluation, info: dict | None = None) -> 
     evaluation : Evaluation
     info : dict, optional
         Extra facts for the report (mount, devices, samples, simulated).
+    progress : callable, optional
+        ``progress(fraction 0..1, text)`` after each file written.
 
     Returns
     -------
@@ -160,13 +162,15 @@ def export_report(folder, calibration, evaluation, info: dict | None = None) -> 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     info = dict(info or {})
-    figs = {
-        "rmse.png": rmse_figure(evaluation, dark=False),
-        "identification.png": identification_figure(evaluation, dark=False),
-        "comparison.png": comparison_figure(evaluation, dark=False),
-    }
-    for name, fig in figs.items():
-        fig.savefig(folder / name, dpi=150)
+    def step(k: int, text: str) -> None:
+        if progress is not None:
+            progress(k / 5, text)
+
+    draw = {"rmse.png": rmse_figure, "identification.png": identification_figure, "comparison.png": comparison_figure}
+    for k, (name, figure) in enumerate(draw.items()):
+        step(k, f"drawing {folder / name}")
+        figure(evaluation, dark=False).savefig(folder / name, dpi=150)
+    step(3, f"writing {folder / 'numbers.json'}")
     numbers = {
         "generated": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
         "info": info,
@@ -218,7 +222,9 @@ def export_report(folder, calibration, evaluation, info: dict | None = None) -> 
         "",
     ]
     path = folder / "report.md"
+    step(4, f"writing {path}")
     path.write_text("\n".join(lines))
+    step(5, f"report written to {folder}")
     return path
 
 

@@ -10,10 +10,10 @@ from PySide6.QtWidgets import QFileDialog, QLabel, QMainWindow, QMessageBox, QTa
 
 from pito_core.frames import CubeCore
 
-from pito_core.contact import DEFAULT_WRENCH_COV
 from pito_core.pipeline import PipelineProcess, RecordingReader
 from pito_core.sim import reference_pose
 
+from .filetypes import CALIBRATION_FILTER
 from .demo import DEMO_METHOD, DemoDevices, demo_calibration
 from .live import LiveView
 from .tasks import TaskBar, cancel_tasks, run_in_process, run_task
@@ -232,7 +232,7 @@ class MainWindow(QMainWindow):
         return task
 
     def ask_calibration(self) -> None:
-        path, _ = QFileDialog.getOpenFileName(self, "Load a calibration", "", "PITO calibration (*.h5 *.hdf5);;All files (*)")
+        path, _ = QFileDialog.getOpenFileName(self, "Load a calibration", "", CALIBRATION_FILTER)
         if path:
             self.load_calibration(path)
 
@@ -253,8 +253,12 @@ class MainWindow(QMainWindow):
             self.rig.set_assembly(self.assembly)
 
     def _install_solver(self, *_) -> None:
-        """Contact solver for the worker; the Cramér–Rao covariance only while it is displayed (~4× the cost)."""
-        cov = DEFAULT_WRENCH_COV if self.live.show_uncertainty.isChecked() else None
+        """Contact solver for the worker; the Cramér–Rao covariance only while it is displayed (~4× the cost).
+
+        The face wrenches' covariance is the calibration's own (fit and gauge noise, at the
+        latest counts): the ellipsoids show how well this calibration places the contact.
+        """
+        cov = "calibration" if self.live.show_uncertainty.isChecked() else None
         assembly = self.assembly
         self.worker.post(lambda: self.worker.set_assembly(assembly, cov))
 
