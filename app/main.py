@@ -61,9 +61,11 @@ def main(argv=None) -> int:
 
     app = QApplication.instance() or QApplication(sys.argv[:1])
     app.setApplicationName("pito-app")
+    from .fonts import install_app_font
     from .theme import STYLE
     from .window import MainWindow
 
+    install_app_font(app)  # one font with every glyph used (‖ · ± σ), for Qt and matplotlib
     app.setStyleSheet(STYLE)
     # screenshots: a brisker simulated operator (0.6 s per move-and-hold) so the wizard fills quickly
     window = MainWindow(demo=args.demo, calibration_path=args.calibration, rate=args.rate, seed=args.seed,

@@ -20,7 +20,7 @@ from PySide6.QtWidgets import QVBoxLayout, QWidget
 
 from ..palette import FACE_COLORS
 
-__all__ = ["RingBuffer", "TimeRing", "FaceForcePlot", "EquilibriumPlot", "minmax_decimate", "break_gaps", "GAP"]
+__all__ = ["RingBuffer", "TimeRing", "FaceForcePlot", "EquilibriumPlot", "minmax_decimate", "break_gaps", "GAP", "legend_html"]
 
 #: s: a stretch without samples longer than this is a break in the curves (not a line across it)
 GAP = 0.5
@@ -191,11 +191,25 @@ class _Curve(pg.PlotCurveItem):
 
 
 def _curve(plot: pg.PlotItem, color: str, name: str) -> _Curve:
-    """A bare curve in ``plot`` (and its legend): the data are decimated here already, so
-    ``PlotDataItem``'s own dataset, bounds and downsampling pass would only repeat work on every refresh."""
+    """A bare curve in ``plot``: the data are decimated here already, so ``PlotDataItem``'s own
+    dataset, bounds and downsampling pass would only repeat work on every refresh."""
     c = _Curve(pen=pg.mkPen(color, width=1), name=name)
     plot.addItem(c)
     return c
+
+
+def legend_html(entries) -> str:
+    """A one-line legend (``(colour, text, dashed)`` entries) as HTML for a plot's title row.
+
+    The legend sits above the plot area, not in it: curves never run over it.
+    """
+    parts = [f'<span style="color:{color}">{"┄┄" if dashed else "━━"}</span>&nbsp;{text}'
+             for color, text, dashed in entries]
+    return "&nbsp;&nbsp;&nbsp;".join(parts)
+
+
+def _set_legend(plot: pg.PlotItem, entries) -> None:
+    plot.setTitle(legend_html(entries), size="9pt", color="#c9d1d9")
 
 
 def _column_bounds(y):
@@ -233,10 +247,10 @@ class FaceForcePlot(pg.PlotWidget):
         self.window = float(window)
         self.buffer = TimeRing(int(window * rate * 1.25), 7)  # t, |F1|..|F6|
         _style_plot(self.getPlotItem(), "force norm ‖F‖ (N)")
-        self.addLegend(offset=(6, 4), colCount=6, labelTextSize="8pt")
         self.curves = [
             _curve(self.getPlotItem(), FACE_COLORS[i], f"face {i}") for i in range(1, 7)
         ]
+        _set_legend(self.getPlotItem(), [(FACE_COLORS[i], f"face {i}", False) for i in range(1, 7)])
         self._y = _YRange(2.0)
         self.setXRange(-self.window, 0, padding=0)
         self.setYRange(0, self._y.top, padding=0)
@@ -286,7 +300,8 @@ class EquilibriumPlot(QWidget):
     """‖ΣF‖ (N) against the object's weight m·g, and ‖ΣT‖ (N·m), over time.
 
     For an object held still, the face loads balance its weight: ‖ΣF‖ ≈ m·g and
-    ‖ΣT‖ ≈ 0 about its centre of mass.
+    ‖ΣT‖ ≈ 0 about its centre of mass — up to the calibration's error, which leaves a residual
+    of a few mN·m at rest; the legend says so.
     """
 
     def __init__(self, weight: float = 0.0, window: float = 10.0, rate: float = 120.0, parent=None):
@@ -300,13 +315,15 @@ class EquilibriumPlot(QWidget):
         self.torque_plot = pg.PlotWidget()
         _style_plot(self.force_plot.getPlotItem(), "‖ΣF‖ (N)", bottom="")
         _style_plot(self.torque_plot.getPlotItem(), "‖ΣT‖ (mN·m)")
-        self.torque_plot.addLegend(offset=(6, 4), labelTextSize="8pt")
-        self.force_plot.addLegend(offset=(6, 4), labelTextSize="8pt")
         self.force_curve = _curve(self.force_plot.getPlotItem(), "#e8edf2", "‖ΣF‖ of the six faces")
         self.weight_line = pg.InfiniteLine(angle=0, pen=pg.mkPen("#f0a030", width=1, style=pg.QtCore.Qt.PenStyle.DashLine),
-                                           label="weight m·g = {value:.2f} N", labelOpts={"color": "#f0a030", "position": 0.15})
+                                           label="m·g = {value:.2f} N", labelOpts={"color": "#f0a030", "position": 0.92})
         self.force_plot.addItem(self.weight_line)
-        self.torque_curve = _curve(self.torque_plot.getPlotItem(), "#56B4E9", "‖ΣT‖ about the centre of gravity (0 when still)")
+        self.torque_curve = _curve(self.torque_plot.getPlotItem(), "#56B4E9", "‖ΣT‖ about the centre of gravity")
+        _set_legend(self.force_plot.getPlotItem(), [("#e8edf2", "‖ΣF‖ of the six faces", False),
+                                                    ("#f0a030", "the object's weight m·g (at rest)", True)])
+        _set_legend(self.torque_plot.getPlotItem(), [
+            ("#56B4E9", "‖ΣT‖ about the centre of gravity: 0 at rest, up to the calibration's error", False)])
         self._fy = _YRange(1.0)
         self._ty = _YRange(20.0)  # mN·m
         for p in (self.force_plot, self.torque_plot):

@@ -78,7 +78,7 @@ def render_figures(evaluation, sizes: dict) -> dict:
     draw = {"rmse": report.rmse_figure, "ident": report.identification_figure, "comp": report.comparison_figure}
     out = {}
     for name, (w, h) in sizes.items():
-        fig = Figure(figsize=(w / 90, h / 90), dpi=90)
+        fig = Figure(figsize=(w / report.SCREEN_DPI, h / report.SCREEN_DPI), dpi=report.SCREEN_DPI)  # 9 pt = 12 px
         canvas = FigureCanvasAgg(fig)
         draw[name](evaluation, fig)
         canvas.draw()
