@@ -210,6 +210,8 @@ class MainWindow(QMainWindow):
 
         h = short_hash(calibration_hash(calibration))  # the calibration's identity (issue 13)
         self.cal_label.setText(f"calibration: {label or calibration.method} [{h}]")
+        self.cal_label.setStyleSheet("")
+        self.live.set_notice(None)
         base = self.windowTitle().split("  — calibration")[0]
         self.setWindowTitle(f"{base}  — calibration {label or calibration.method} [{h}]")
 
@@ -224,12 +226,29 @@ class MainWindow(QMainWindow):
             self.statusBar().showMessage(f"Loaded calibration {path} ({cal.method})", 8000)
 
         def failed(message):
-            QMessageBox.warning(self, "Calibration", f"Could not load {path}:\n{message}")
+            self.calibration_failed(path, message)
 
         task = run_task(lambda progress: load_calibration(path), f"Loading {Path(path).name}", done, failed,
                         bar=self.taskbar, owner=self)
         task.ended.connect(lambda: setattr(self, "_loading_calibration", False))
         return task
+
+    def calibration_failed(self, path, message: str) -> None:
+        """A calibration file could not be loaded: say so in a dialog, the header and over the live view.
+
+        The window goes on without a calibration (raw counts only: no forces, no contacts), and
+        says that prominently until a calibration is loaded.
+        """
+        if self.calibration is None:
+            self.cal_label.setText("NO CALIBRATION")
+            self.cal_label.setStyleSheet("color: #ff6b6b; font-weight: bold;")
+            self.live.set_notice(
+                f"No calibration: {Path(path).name} could not be loaded ({message}). The view runs without "
+                "one: no forces, no contacts, empty plots. Load a calibration file with “Load calibration…”.")
+        self.statusBar().showMessage(f"calibration {Path(path).name} not loaded", 15000)
+        QMessageBox.warning(self, "Calibration", f"Could not load {path}:\n{message}\n\n"
+                            + ("The live view runs without a calibration." if self.calibration is None
+                               else "The calibration in use is kept."))
 
     def ask_calibration(self) -> None:
         path, _ = QFileDialog.getOpenFileName(self, "Load a calibration", "", CALIBRATION_FILTER)

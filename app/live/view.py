@@ -82,6 +82,14 @@ class LiveView(QWidget):
         self.readout.setObjectName("value")
         bar.addWidget(self.readout)
 
+        # --- a notice over the view: what is wrong and what to do (e.g. no calibration)
+        self.notice = QLabel("")
+        self.notice.setObjectName("notice")
+        self.notice.setWordWrap(True)
+        self.notice.setStyleSheet("QLabel#notice { background: #5a2a22; color: #ffffff; font-size: 11pt;"
+                                  " font-weight: bold; border: 1px solid #e74c3c; border-radius: 5px; padding: 8px; }")
+        self.notice.setVisible(False)
+
         # --- timeline (replay)
         tl = QHBoxLayout()
         self.timeline = QSlider(Qt.Orientation.Horizontal)
@@ -134,6 +142,7 @@ class LiveView(QWidget):
         lay = QVBoxLayout(self)
         lay.setContentsMargins(6, 6, 6, 6)
         lay.addLayout(bar)
+        lay.addWidget(self.notice)
         lay.addWidget(split, 1)
         lay.addLayout(tl)
 
@@ -169,6 +178,11 @@ class LiveView(QWidget):
         self._last_readout = -np.inf
         self._readout_text = ""
         self.scene.frame_contacts()
+
+    def set_notice(self, text: str | None) -> None:
+        """Show ``text`` prominently above the view (``None`` or empty: hide it)."""
+        self.notice.setText(text or "")
+        self.notice.setVisible(bool(text))
 
     # ------------------------------------------------------------ options (glyphs are the model)
     def sync_options(self) -> None:
