@@ -659,6 +659,7 @@ class CubeScene(QWidget):
             self._patches[i] = self.plotter.add_mesh(
                 mesh, color=FACE_COLORS[i], opacity=opacity, name=f"patch_{i}", smooth_shading=True, reset_camera=False
             )
+        self._place_labels()
         if self.frame_glyphs:
             self.frame_contacts()
         self.redraw()
@@ -668,6 +669,24 @@ class CubeScene(QWidget):
         """A line of text in the view's top-left corner (replaced, not added, on each call)."""
         self.plotter.add_text(text, position="upper_left", font_size=11, color="#f0c060", name="caption")
         self.redraw()
+
+    def label_offset(self, face: int) -> float:
+        """How far out along ``face``'s normal its number is drawn, m: past the patch on it (the
+        number stays clear of the patch and of contacts on it)."""
+        c = np.asarray(self.core.face_pose(face)[:3, 3], dtype=float)  # the face centre: along its normal
+        n = c / np.linalg.norm(c)
+        reach = 0.5 * self.core.edge
+        actor = self._patches.get(face)
+        if actor is not None and actor.mapper is not None and actor.mapper.dataset is not None:
+            pts = np.asarray(actor.mapper.dataset.points)
+            if pts.size:
+                reach = max(reach, float((pts @ n).max()))
+        return reach + 0.3 * self.core.edge
+
+    def _place_labels(self) -> None:
+        for i, lab in self.face_labels.items():
+            c = np.asarray(self.core.face_pose(i)[:3, 3], dtype=float)
+            lab.SetPosition(*(c / np.linalg.norm(c) * self.label_offset(i)))
 
     def close_scene(self) -> None:
         """Release the GL resources now (not at some later garbage collection, which may fall

@@ -124,3 +124,18 @@ def test_ellipsoid_axes_are_two_sigma():
     cov = A @ A.T * 1e-6
     axes = ContactGlyphs.ellipsoid_axes(None, cov)
     np.testing.assert_allclose(axes, 2 * np.sqrt(np.linalg.eigvalsh(cov)))
+
+
+def test_face_numbers_stand_clear_of_the_patches(scene):
+    """A face's number is placed past its patch (not inside a dome, under its contact sphere)."""
+    from app.objects import display_meshes, load_assembly
+
+    scene.set_patches(display_meshes(load_assembly("pito_mixed")))
+    for i, lab in scene.face_labels.items():
+        c = np.array(scene.core.face_pose(i)[:3, 3])
+        n = c / np.linalg.norm(c)
+        pts = np.asarray(scene._patches[i].mapper.dataset.points) if i in scene._patches else np.zeros((1, 3))
+        outer = max(0.5 * scene.core.edge, float((pts @ n).max()))
+        pos = np.array(lab.GetPosition())
+        assert pos @ n >= outer + scene.glyphs.radius * 2
+        assert np.allclose(pos - (pos @ n) * n, 0, atol=1e-12)
