@@ -14,6 +14,7 @@ from PySide6.QtWidgets import (
     QVBoxLayout, QWidget,
 )
 
+from .filetypes import CALIBRATION_FILTER
 from .tasks import TaskBar, run_task
 
 __all__ = ["ExportDialog", "export_recording", "install_export_menu", "FORMATS"]
@@ -127,7 +128,7 @@ class ExportDialog(QDialog):
             self.recording.setText(path)
 
     def _pick_calibration(self) -> None:
-        path, _ = QFileDialog.getOpenFileName(self, "Calibration", "", "PITO calibration (*.h5 *.hdf5);;All files (*)")
+        path, _ = QFileDialog.getOpenFileName(self, "Calibration", "", CALIBRATION_FILTER)
         if path:
             self.calibration.setText(path)
 

@@ -4,7 +4,7 @@ Usage::
 
     pito-app                       # real devices (choose them in the wizard's Devices step)
     pito-app --demo                # simulated cube and reference, a looping grasp
-    pito-app --calibration CAL.h5  # live view with a calibration file
+    pito-app --calibration CAL.pitocal  # live view with a calibration file
     pito-app --pito PORT --ati HOST[:PORT]   # devices at these addresses (e.g. printed by `pito sim-devices`)
     pito-app --demo --screenshot live.png --page live   # render one screen to a PNG and exit
     pito-app --demo --record run.pitorec --duration 3600   # record for an hour with the window open, then quit
@@ -61,9 +61,11 @@ def main(argv=None) -> int:
 
     app = QApplication.instance() or QApplication(sys.argv[:1])
     app.setApplicationName("pito-app")
+    from .fonts import install_app_font
     from .theme import STYLE
     from .window import MainWindow
 
+    install_app_font(app)  # one font with every glyph used (‖ · ± σ), for Qt and matplotlib
     app.setStyleSheet(STYLE)
     # screenshots: a brisker simulated operator (0.6 s per move-and-hold) so the wizard fills quickly
     window = MainWindow(demo=args.demo, calibration_path=args.calibration, rate=args.rate, seed=args.seed,

@@ -15,15 +15,23 @@ from matplotlib.figure import Figure
 
 from .scene import FACE_COLORS
 
-__all__ = ["rmse_figure", "identification_figure", "comparison_figure", "export_report", "style_figure"]
+__all__ = ["rmse_figure", "identification_figure", "comparison_figure", "export_report", "style_figure", "SMALL", "SCREEN_DPI"]
 
 AXES = ("fx", "fy", "fz", "tx", "ty", "tz")
 UNITS = ("N", "N", "N", "N·m", "N·m", "N·m")
 DARK = {"bg": "#252b32", "fg": "#d5dde5", "grid": "#3d4650"}
+#: pt: the smallest text in a figure (tick labels, annotations, legends): readable at screen DPI
+SMALL = 9.0
+#: pt: panel titles
+TITLE = 10.0
+#: dots per inch the app draws its figures at (a screen's; 9 pt = 12 px)
+SCREEN_DPI = 96
 
 
 def style_figure(fig: Figure, dark: bool = True) -> None:
-    """Dark colours for the app, default (white) for the exported report."""
+    """Tick labels of :data:`SMALL` pt; dark colours for the app, default (white) for the exported report."""
+    for ax in fig.axes:
+        ax.tick_params(labelsize=SMALL)
     if not dark:
         return
     fig.patch.set_facecolor(DARK["bg"])
@@ -31,7 +39,7 @@ def style_figure(fig: Figure, dark: bool = True) -> None:
         ax.set_facecolor(DARK["bg"])
         for s in ax.spines.values():
             s.set_color(DARK["grid"])
-        ax.tick_params(colors=DARK["fg"], labelsize=8)
+        ax.tick_params(colors=DARK["fg"])
         ax.xaxis.label.set_color(DARK["fg"])
         ax.yaxis.label.set_color(DARK["fg"])
         ax.title.set_color(DARK["fg"])
@@ -50,14 +58,14 @@ def rmse_figure(evaluation, fig: Figure | None = None, dark: bool = True) -> Fig
         ok = np.isfinite(v)
         ax.bar(faces[ok], v[ok], color=np.array(colors)[ok], width=0.7)
         for x, y in zip(faces[ok], v[ok]):
-            ax.annotate(f"{y:.3g}", (x, y), ha="center", va="bottom", fontsize=7,
+            ax.annotate(f"{y:.3g}", (x, y), ha="center", va="bottom", fontsize=SMALL,
                         color=DARK["fg"] if dark else "black")
         for x in faces[~ok]:
-            ax.annotate("n/a", (x, 0), ha="center", va="bottom", fontsize=7, color="#888888")
+            ax.annotate("n/a", (x, 0), ha="center", va="bottom", fontsize=SMALL, color="#888888")
         ax.set_xticks(faces)
-        ax.set_xlabel("loaded face")
-        ax.set_ylabel(f"{title} ({unit})")
-        ax.set_title(f"held-out {title} ({unit})", fontsize=9)
+        ax.set_xlabel("loaded face", fontsize=SMALL)
+        ax.set_ylabel(f"{title} ({unit})", fontsize=SMALL)
+        ax.set_title(f"held-out {title} ({unit})", fontsize=TITLE)
         top = np.nanmax(v) if ok.any() else 1.0
         unc = getattr(evaluation, "uncertainty95", None)  # (6, 6) half-widths of the 95 % intervals, or None
         if unc is not None:
@@ -67,13 +75,17 @@ def rmse_figure(evaluation, fig: Figure | None = None, dark: bool = True) -> Fig
             okU = np.isfinite(u)
             if okU.any():
                 ax.scatter(faces[okU], u[okU], marker="_", s=250, linewidths=2,
-                           color=DARK["fg"] if dark else "black", label="± 95 % (calibration's own, RMS of axes)")
-                ax.legend(fontsize=6, loc="upper left")
+                           color=DARK["fg"] if dark else "black", label="± 95 % (calibration's own)")
+                leg = ax.legend(fontsize=SMALL, loc="upper left", framealpha=0.6)
+                if dark:
+                    leg.get_frame().set_facecolor(DARK["bg"])
+                    for text in leg.get_texts():
+                        text.set_color(DARK["fg"])
                 top = max(top, float(np.nanmax(u)))
-        ax.set_ylim(0, top * 1.25 if top > 0 else 1.0)
+        ax.set_ylim(0, top * 1.45 if top > 0 else 1.0)  # room for the values and the legend
         ax.grid(axis="y", alpha=0.25)
-    fig.tight_layout()
     style_figure(fig, dark)
+    fig.tight_layout()
     return fig
 
 
@@ -92,19 +104,20 @@ def identification_figure(evaluation, fig: Figure | None = None, dark: bool = Tr
     im = ax.imshow(M, cmap="magma", origin="upper", vmin=0)
     ax.set_xticks(range(6), [str(i) for i in range(1, 7)])
     ax.set_yticks(range(6), [str(i) for i in range(1, 7)])
-    ax.set_xlabel("loaded face")
-    ax.set_ylabel("face reading a force")
+    ax.set_xlabel("loaded face", fontsize=SMALL)
+    ax.set_ylabel("face reading a force", fontsize=SMALL)
     for i in range(6):
         for j in range(6):
             if np.isfinite(M[i, j]):
-                ax.text(j, i, f"{M[i, j]:.1f}", ha="center", va="center", fontsize=8,
+                ax.text(j, i, f"{M[i, j]:.1f}", ha="center", va="center", fontsize=SMALL,
                         color="black" if M[i, j] > 0.6 * np.nanmax(M) else "white")
     acc = (evaluation.identification.get("single") or {}).get("force")  # the papers' rule for single-face loads
-    ax.set_title("face identification: mean ‖F‖ (N) per face"
-                 + (f" — {100 * acc:.1f} % identified by force" if acc is not None else ""),
-                 fontsize=9)
-    fig.tight_layout()
+    # two short lines: the figure is narrow, a one-line title was cut at both ends
+    ax.set_title("face identification: mean ‖F‖ (N)"
+                 + (f"\n{100 * acc:.1f} % of single-face loads identified by force" if acc is not None else ""),
+                 fontsize=TITLE)
     style_figure(fig, dark)
+    fig.tight_layout()
     return fig
 
 
@@ -127,21 +140,22 @@ def comparison_figure(evaluation, fig: Figure | None = None, dark: bool = True) 
             hi = max(np.max(ref[ok, k]), np.max(pred[ok, k])) * scale
             ax.plot([lo, hi], [lo, hi], color="#888888", lw=0.8)
             rmse = np.sqrt(np.mean((pred[ok, k] - ref[ok, k]) ** 2)) * scale
-            ax.set_title(f"{AXES[k]}: RMSE {rmse:.3g} {unit}", fontsize=8)
+            ax.set_title(f"{AXES[k]}: RMSE {rmse:.3g} {unit}", fontsize=SMALL)
         else:
-            ax.set_title(f"{AXES[k]}", fontsize=8)
-        ax.set_xlabel(f"reference ({unit})", fontsize=7)
+            ax.set_title(f"{AXES[k]}", fontsize=SMALL)
+        ax.locator_params(nbins=4)  # few ticks: readable at 9 pt in a small panel
+        ax.set_xlabel(f"reference ({unit})", fontsize=SMALL)
         if k % 3 == 0:
-            ax.set_ylabel(f"calibrated ({unit})", fontsize=7)
+            ax.set_ylabel(f"calibrated ({unit})", fontsize=SMALL)
         ax.grid(alpha=0.2)
-    fig.suptitle("comparison with the reference (held-out, total load in the reference frame)", fontsize=9,
+    fig.suptitle("calibrated against the reference (held-out, total load, reference frame)", fontsize=TITLE,
                  color=DARK["fg"] if dark else "black")
-    fig.tight_layout()
     style_figure(fig, dark)
+    fig.tight_layout()
     return fig
 
 
-def export_report(folder, calibration, evaluation, info: dict | None = None) -> Path:
+def export_report(folder, calibration, evaluation, info: dict | None = None, progress=None) -> Path:
     """Write ``folder/``: ``report.md``, ``numbers.json`` and the three figures as PNG.
 
     Parameters
@@ -152,6 +166,8 @@ def export_report(folder, calibration, evaluation, info: dict | None = None) -> 
     evaluation : Evaluation
     info : dict, optional
         Extra facts for the report (mount, devices, samples, simulated).
+    progress : callable, optional
+        ``progress(fraction 0..1, text)`` after each file written.
 
     Returns
     -------
@@ -160,13 +176,15 @@ def export_report(folder, calibration, evaluation, info: dict | None = None) -> 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     info = dict(info or {})
-    figs = {
-        "rmse.png": rmse_figure(evaluation, dark=False),
-        "identification.png": identification_figure(evaluation, dark=False),
-        "comparison.png": comparison_figure(evaluation, dark=False),
-    }
-    for name, fig in figs.items():
-        fig.savefig(folder / name, dpi=150)
+    def step(k: int, text: str) -> None:
+        if progress is not None:
+            progress(k / 5, text)
+
+    draw = {"rmse.png": rmse_figure, "identification.png": identification_figure, "comparison.png": comparison_figure}
+    for k, (name, figure) in enumerate(draw.items()):
+        step(k, f"drawing {folder / name}")
+        figure(evaluation, dark=False).savefig(folder / name, dpi=150, bbox_inches="tight", pad_inches=0.1)
+    step(3, f"writing {folder / 'numbers.json'}")
     numbers = {
         "generated": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
         "info": info,
@@ -218,7 +236,9 @@ def export_report(folder, calibration, evaluation, info: dict | None = None) -> 
         "",
     ]
     path = folder / "report.md"
+    step(4, f"writing {path}")
     path.write_text("\n".join(lines))
+    step(5, f"report written to {folder}")
     return path
 
 

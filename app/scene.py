@@ -138,11 +138,21 @@ class ContactGlyphs:
 
     Created once; :meth:`update` moves them in place and hides the faces whose force is
     under ``threshold`` (N) or whose estimate is not valid. The contact is a white sphere
-    drawn in an overlay layer (the same camera, its own depth buffer), so it stays visible
-    from any camera angle, even behind the object; the arrow, in the face's colour (the
-    colour of its curve in the plots), ends on the sphere's surface. Arrows longer than
-    :data:`FULL_SCALE_FORCE` are clamped to it and get a white collar at the tail. Torsion
-    rings float a little above the surface (a ring in the surface's plane z-fights with it).
+    centred on the contact point, drawn with the rest of the scene (depth-tested: a contact
+    on a face turned away is hidden by the object, as its arrow is); the arrow, in the face's
+    colour (the colour of its curve in the plots), ends on the sphere's surface. Arrows
+    longer than :data:`FULL_SCALE_FORCE` are clamped to it and get a white collar at the tail.
+    Torsion rings float a little above the surface (a ring in the surface's plane z-fights
+    with it).
+
+    The uncertainty ellipsoid is the 2σ region of the contact point (its covariance from the
+    solver, m²). It is drawn only where it says something: not when its largest semi-axis is
+    over ``max_ellipsoid`` (half the cube's edge: a light touch whose point the face cannot
+    place), nor when it fits inside the contact sphere (a firm touch: the point is known
+    better than the sphere's radius). :attr:`ellipsoid_state` tells which, per face.
+
+    :meth:`set_contact_color` is the per-contact state hook: a face's sphere takes the given
+    colour (e.g. a flagged contact) until it is reset to ``None``.
 
     Parameters
     ----------
@@ -152,7 +162,6 @@ class ContactGlyphs:
     """
 
     def __init__(self, plotter, edge: float):
-        import vtk
 
         self.plotter = plotter
         self.force_scale = 0.006  # m per N: 15 N -> 9 cm
@@ -162,6 +171,7 @@ class ContactGlyphs:
         self.show_torsion = True
         self.show_uncertainty = False
         self.radius = 0.07 * edge  # m, contact sphere
+        self.max_ellipsoid = 0.5 * edge  # m: largest ellipsoid semi-axis drawn (see the class docstring)
         self.lift = 0.04 * edge  # m, torsion rings above the surface
         unit_arrow = pv.Arrow(start=(0, 0, 0), direction=(1, 0, 0), tip_length=0.25, tip_radius=2.2, shaft_radius=1.0, scale=1.0)
         # pv.Arrow scales radii by `scale` (=1): radii are in "width" units, length is 1
@@ -169,24 +179,13 @@ class ContactGlyphs:
         ring = pv.Disc(inner=0.82, outer=1.0, r_res=1, c_res=48)
         collar = pv.Disc(inner=0.0, outer=1.0, r_res=1, c_res=24)
         self._width = 0.0022 * edge / 0.05
-        # the overlay: a second renderer on layer 1 sharing the scene's camera; it clears only
-        # the depth buffer, so what it draws is never hidden by the object
-        ren_win = plotter.ren_win
-        ren_win.SetNumberOfLayers(max(2, ren_win.GetNumberOfLayers()))
-        self.overlay = vtk.vtkRenderer()
-        self.overlay.SetLayer(1)
-        self.overlay.InteractiveOff()
-        self.overlay.SetActiveCamera(plotter.renderer.GetActiveCamera())
-        ren_win.AddRenderer(self.overlay)
         sphere_src = pv.Sphere(radius=self.radius, theta_resolution=16, phi_resolution=12)
         self.spheres, self.arrows, self.rings, self.ellipsoids, self.collars = {}, {}, {}, {}, {}
         for i in FACES:
             c = FACE_COLORS[i]
-            sph = pv.Actor(mapper=pv.DataSetMapper(sphere_src.copy()))
-            sph.prop.color = CONTACT_COLOR
-            sph.prop.interpolation = "gouraud"
+            sph = plotter.add_mesh(sphere_src.copy(), color=CONTACT_COLOR, name=f"contact_sphere_{i}",
+                                   reset_camera=False, smooth_shading=True)
             sph.prop.ambient = 0.35
-            self.overlay.AddActor(sph)
             self.spheres[i] = sph
             self.arrows[i] = plotter.add_mesh(unit_arrow.copy(), color=c, name=f"force_arrow_{i}", reset_camera=False)
             # opaque: a translucent actor costs every frame an extra pass in software GL (~1.6x)
@@ -196,6 +195,10 @@ class ContactGlyphs:
             self.ellipsoids[i] = plotter.add_mesh(unit_sphere.copy(), color=c, opacity=0.25, name=f"uncertainty_{i}", reset_camera=False)
         self.shown = np.zeros(6, dtype=bool)
         self.clamped = np.zeros(6, dtype=bool)
+        #: per face (1..6): "drawn", "inside sphere", "too wide", or "" (no covariance / not shown)
+        self.ellipsoid_state = {i: "" for i in FACES}
+        self._contact_colors: dict[int, str] = {}  # face -> sphere colour (the state hook)
+        self._sphere_color: dict[int, str] = {i: CONTACT_COLOR for i in FACES}
         self.updates = 0
         self._ring_sign: dict[int, int] = {}
         self._ring_colors = {i: (hex_rgb(FACE_COLORS[i]), tuple(0.45 * v for v in hex_rgb(FACE_COLORS[i]))) for i in FACES}
@@ -210,6 +213,24 @@ class ContactGlyphs:
     def reach(self) -> float:
         """How far beyond a contact point a glyph can reach, m (arrow at full scale, sphere)."""
         return self.max_length + 2 * self.radius
+
+    def set_contact_color(self, face: int, color: str | None) -> None:
+        """The sphere of ``face``'s contact in ``color`` from the next :meth:`update` on (``None``: white again)."""
+        if color is None:
+            self._contact_colors.pop(int(face), None)
+        else:
+            self._contact_colors[int(face)] = color
+
+    def ellipsoid_axes(self, covariance) -> np.ndarray:
+        """The 2σ semi-axes (3,) of the contact point's ``covariance`` (3, 3), m, largest last."""
+        w = np.linalg.eigvalsh(0.5 * (np.asarray(covariance, float) + np.asarray(covariance, float).T))
+        return 2.0 * np.sqrt(np.clip(w, 0.0, None))
+
+    def _ellipsoid_rule(self, covariance) -> str:
+        if covariance is None or not np.isfinite(covariance).all():
+            return ""
+        top = float(self.ellipsoid_axes(covariance)[-1])
+        return "too wide" if top > self.max_ellipsoid else "inside sphere" if top < self.radius else "drawn"
 
     def hide(self) -> None:
         for a in self.actors:
@@ -251,11 +272,17 @@ class ContactGlyphs:
             tor = float(torsions[k]) if on else np.nan
             ring_on = bool(on and self.show_torsion and np.isfinite(tor) and abs(tor) * self.torque_scale > 1e-4)
             self.rings[i].SetVisibility(ring_on)
-            cov_on = bool(on and self.show_uncertainty and covariances is not None and np.isfinite(covariances[k]).all())
+            state = self._ellipsoid_rule(covariances[k]) if on and self.show_uncertainty and covariances is not None else ""
+            self.ellipsoid_state[i] = state
+            cov_on = state == "drawn"
             self.ellipsoids[i].SetVisibility(cov_on)
             if not on:
                 continue
             self.spheres[i].SetPosition(*points[k])
+            color = self._contact_colors.get(i, CONTACT_COLOR)
+            if self._sphere_color[i] != color:  # (a colour set costs a pyvista round trip)
+                self._sphere_color[i] = color
+                self.spheres[i].prop.color = color
             M = arrow_matrix(points[k], forces[k], self.force_scale, self._width, self.max_length, self.radius)
             self.arrows[i].user_matrix = M
             if clamped[k]:
@@ -632,6 +659,7 @@ class CubeScene(QWidget):
             self._patches[i] = self.plotter.add_mesh(
                 mesh, color=FACE_COLORS[i], opacity=opacity, name=f"patch_{i}", smooth_shading=True, reset_camera=False
             )
+        self._place_labels()
         if self.frame_glyphs:
             self.frame_contacts()
         self.redraw()
@@ -641,6 +669,24 @@ class CubeScene(QWidget):
         """A line of text in the view's top-left corner (replaced, not added, on each call)."""
         self.plotter.add_text(text, position="upper_left", font_size=11, color="#f0c060", name="caption")
         self.redraw()
+
+    def label_offset(self, face: int) -> float:
+        """How far out along ``face``'s normal its number is drawn, m: past the patch on it (the
+        number stays clear of the patch and of contacts on it)."""
+        c = np.asarray(self.core.face_pose(face)[:3, 3], dtype=float)  # the face centre: along its normal
+        n = c / np.linalg.norm(c)
+        reach = 0.5 * self.core.edge
+        actor = self._patches.get(face)
+        if actor is not None and actor.mapper is not None and actor.mapper.dataset is not None:
+            pts = np.asarray(actor.mapper.dataset.points)
+            if pts.size:
+                reach = max(reach, float((pts @ n).max()))
+        return reach + 0.3 * self.core.edge
+
+    def _place_labels(self) -> None:
+        for i, lab in self.face_labels.items():
+            c = np.asarray(self.core.face_pose(i)[:3, 3], dtype=float)
+            lab.SetPosition(*(c / np.linalg.norm(c) * self.label_offset(i)))
 
     def close_scene(self) -> None:
         """Release the GL resources now (not at some later garbage collection, which may fall

@@ -15,6 +15,7 @@ a deleted widget.
 
 from __future__ import annotations
 
+import sys
 import threading
 import traceback
 import weakref
@@ -105,7 +106,11 @@ class Task(QObject):
             return
         except Exception as exc:  # noqa: BLE001 - reported to the operator through `failed`
             if not self._cancel.is_set():
-                traceback.print_exc()
+                # one line for the terminal (the operator gets the message in the window); the
+                # traceback only for errors that are not about the input (a bug)
+                print(f"pito-app: {self.label}: {type(exc).__name__}: {exc}", file=sys.stderr)
+                if not isinstance(exc, (OSError, ValueError, KeyError)):
+                    traceback.print_exc()
                 self._deliver_failure(f"{type(exc).__name__}: {exc}")
             return
         if not self._cancel.is_set():

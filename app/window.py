@@ -10,10 +10,10 @@ from PySide6.QtWidgets import QFileDialog, QLabel, QMainWindow, QMessageBox, QTa
 
 from pito_core.frames import CubeCore
 
-from pito_core.contact import DEFAULT_WRENCH_COV
 from pito_core.pipeline import PipelineProcess, RecordingReader
 from pito_core.sim import reference_pose
 
+from .filetypes import CALIBRATION_FILTER
 from .demo import DEMO_METHOD, DemoDevices, demo_calibration
 from .live import LiveView
 from .tasks import TaskBar, cancel_tasks, run_in_process, run_task
@@ -210,6 +210,8 @@ class MainWindow(QMainWindow):
 
         h = short_hash(calibration_hash(calibration))  # the calibration's identity (issue 13)
         self.cal_label.setText(f"calibration: {label or calibration.method} [{h}]")
+        self.cal_label.setStyleSheet("")
+        self.live.set_notice(None)
         base = self.windowTitle().split("  — calibration")[0]
         self.setWindowTitle(f"{base}  — calibration {label or calibration.method} [{h}]")
 
@@ -224,15 +226,32 @@ class MainWindow(QMainWindow):
             self.statusBar().showMessage(f"Loaded calibration {path} ({cal.method})", 8000)
 
         def failed(message):
-            QMessageBox.warning(self, "Calibration", f"Could not load {path}:\n{message}")
+            self.calibration_failed(path, message)
 
         task = run_task(lambda progress: load_calibration(path), f"Loading {Path(path).name}", done, failed,
                         bar=self.taskbar, owner=self)
         task.ended.connect(lambda: setattr(self, "_loading_calibration", False))
         return task
 
+    def calibration_failed(self, path, message: str) -> None:
+        """A calibration file could not be loaded: say so in a dialog, the header and over the live view.
+
+        The window goes on without a calibration (raw counts only: no forces, no contacts), and
+        says that prominently until a calibration is loaded.
+        """
+        if self.calibration is None:
+            self.cal_label.setText("NO CALIBRATION")
+            self.cal_label.setStyleSheet("color: #ff6b6b; font-weight: bold;")
+            self.live.set_notice(
+                f"No calibration: {Path(path).name} could not be loaded ({message}). The view runs without "
+                "one: no forces, no contacts, empty plots. Load a calibration file with “Load calibration…”.")
+        self.statusBar().showMessage(f"calibration {Path(path).name} not loaded", 15000)
+        QMessageBox.warning(self, "Calibration", f"Could not load {path}:\n{message}\n\n"
+                            + ("The live view runs without a calibration." if self.calibration is None
+                               else "The calibration in use is kept."))
+
     def ask_calibration(self) -> None:
-        path, _ = QFileDialog.getOpenFileName(self, "Load a calibration", "", "PITO calibration (*.h5 *.hdf5);;All files (*)")
+        path, _ = QFileDialog.getOpenFileName(self, "Load a calibration", "", CALIBRATION_FILTER)
         if path:
             self.load_calibration(path)
 
@@ -253,8 +272,12 @@ class MainWindow(QMainWindow):
             self.rig.set_assembly(self.assembly)
 
     def _install_solver(self, *_) -> None:
-        """Contact solver for the worker; the Cramér–Rao covariance only while it is displayed (~4× the cost)."""
-        cov = DEFAULT_WRENCH_COV if self.live.show_uncertainty.isChecked() else None
+        """Contact solver for the worker; the Cramér–Rao covariance only while it is displayed (~4× the cost).
+
+        The face wrenches' covariance is the calibration's own (fit and gauge noise, at the
+        latest counts): the ellipsoids show how well this calibration places the contact.
+        """
+        cov = "calibration" if self.live.show_uncertainty.isChecked() else None
         assembly = self.assembly
         self.worker.post(lambda: self.worker.set_assembly(assembly, cov))
 

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Install the Debian/Ubuntu packages pito needs: Python's venv, the OpenGL/EGL and
-# X/xcb libraries Qt 6 and VTK load at run time, and Xvfb for headless GUI tests.
+# X/xcb libraries Qt 6 and VTK load at run time, a font with the app's glyphs, and Xvfb for
+# headless GUI tests.
 # Installs only what is missing; uses sudo when not root.
 set -euo pipefail
 
@@ -9,6 +10,7 @@ PKGS=(python3-venv python3-pip
   xvfb xauth libx11-xcb1 libxkbcommon-x11-0 libxcb-cursor0 libxcb-icccm4 libxcb-image0
   libxcb-keysyms1 libxcb-randr0 libxcb-render-util0 libxcb-shape0 libxcb-xkb1 libxcb-glx0
   libxcb-util1 libxcb-sync1 libxcb-xfixes0 libxcb-shm0 libxcb-render0 libxcursor1
+  fonts-dejavu-core  # DejaVu Sans: the glyphs the app draws (‖ · ± σ); app/fonts.py also loads matplotlib's copy
   iproute2)  # iproute2: `ip link set lo up` in the private network namespace of the LSL tests
 
 if ! command -v dpkg-query >/dev/null 2>&1; then

@@ -82,6 +82,14 @@ class LiveView(QWidget):
         self.readout.setObjectName("value")
         bar.addWidget(self.readout)
 
+        # --- a notice over the view: what is wrong and what to do (e.g. no calibration)
+        self.notice = QLabel("")
+        self.notice.setObjectName("notice")
+        self.notice.setWordWrap(True)
+        self.notice.setStyleSheet("QLabel#notice { background: #5a2a22; color: #ffffff; font-size: 11pt;"
+                                  " font-weight: bold; border: 1px solid #e74c3c; border-radius: 5px; padding: 8px; }")
+        self.notice.setVisible(False)
+
         # --- timeline (replay)
         tl = QHBoxLayout()
         self.timeline = QSlider(Qt.Orientation.Horizontal)
@@ -109,6 +117,11 @@ class LiveView(QWidget):
         self.torque_scale.setSuffix(" mm per N·m")
         self.show_torsion = QCheckBox("torsion rings")
         self.show_uncertainty = QCheckBox("uncertainty ellipsoids (2σ)")
+        self.show_uncertainty.setToolTip(
+            "The 2σ region of each contact point, from the calibration's own uncertainty (fit and gauge noise).\n"
+            "Not drawn when wider than half the face (a light touch: the face cannot place it),\n"
+            "nor when it fits inside the white sphere (a firm touch: the point is known better than the sphere).\n"
+            "A calibration without an uncertainty record shows none.")
         form.addRow("Hide contacts under", self.threshold)
         form.addRow("Force arrows", self.force_scale)
         form.addRow("Torsion ring radius", self.torque_scale)
@@ -129,6 +142,7 @@ class LiveView(QWidget):
         lay = QVBoxLayout(self)
         lay.setContentsMargins(6, 6, 6, 6)
         lay.addLayout(bar)
+        lay.addWidget(self.notice)
         lay.addWidget(split, 1)
         lay.addLayout(tl)
 
@@ -147,6 +161,7 @@ class LiveView(QWidget):
         self.assembly.currentTextChanged.connect(self.assembly_requested)
         self.timeline.sliderReleased.connect(self._seek)
         self._last_contacts = None
+        self._last_contacts_time = float("nan")
         #: the worker hands contacts to the drawing thread itself (:meth:`take_contacts`, set by
         #: the main window while this view is the current tab); on_bundle then only counts them
         self.direct_contacts = False
@@ -163,6 +178,11 @@ class LiveView(QWidget):
         self._last_readout = -np.inf
         self._readout_text = ""
         self.scene.frame_contacts()
+
+    def set_notice(self, text: str | None) -> None:
+        """Show ``text`` prominently above the view (``None`` or empty: hide it)."""
+        self.notice.setText(text or "")
+        self.notice.setVisible(bool(text))
 
     # ------------------------------------------------------------ options (glyphs are the model)
     def sync_options(self) -> None:
@@ -193,9 +213,15 @@ class LiveView(QWidget):
         self.scene.redraw()
 
     def _pause(self, on: bool) -> None:
+        """Pause freezes the screen (plots, glyphs, readout); acquisition goes on and the plots'
+        rings keep filling, so Resume shows the last seconds as they were measured."""
         self.paused = on
         self.pause.setText("Resume" if on else "Pause")
         self.pause_toggled.emit(on)
+        if not on:
+            if self._last_contacts is not None:
+                self._show_contacts(self._last_contacts, self._last_contacts_time)
+            self.request_display()
 
     def _record(self, on: bool) -> None:
         self.record.setText("■ Stop recording" if on else "● Record")
@@ -243,23 +269,31 @@ class LiveView(QWidget):
             self._replay_text = f"replay {b.replay_position:6.2f} / {b.replay_duration:.2f} s"
         if self.record.isChecked():
             self._record_text = f"■ Stop recording ({b.recorded / 1000:.1f} k samples)"
-        if self.paused:
-            return
         arrived = b.arrived_time if b.arrived_time is not None else np.zeros(0)
         if arrived.size == 0 and b.time.size == 0:
             return
         t = b.contacts_time if np.isfinite(b.contacts_time) else b.latest_time
+        self._append_plots(b, arrived, t)  # paused too: the rings keep the history, only the screen stops
+        if self.paused:
+            if b.contacts is not None:
+                self._last_contacts, self._last_contacts_time = b.contacts, t
+            return
         if np.isfinite(t):
             self.latency = time.monotonic() - t  # s from the newest sample's time to its display
         if b.contacts is not None:
             # to the scene's drawing thread at once (it keeps only the latest for its next frame):
             # the 3D view is not held back by the plots' pacing
-            self._last_contacts = b.contacts
+            self._last_contacts, self._last_contacts_time = b.contacts, t
             if self.direct_contacts and self.scene.render_thread is not None:
                 self._n_shown = int(self.scene.glyphs.visible(b.contacts).sum())  # (already queued by the worker)
             else:
                 self._n_shown = int(self._show_contacts(b.contacts, t).sum())
                 self.scene.redraw()
+        self.bundles_shown += 1
+        self.request_display()
+
+    def _append_plots(self, b, arrived, t: float) -> None:
+        """The bundle's samples into the plots' rings (no drawing)."""
         if b.wrenches is not None:
             fw = b.arrived_face_wrenches
             if fw is not None and fw.shape[0] == arrived.size:
@@ -270,8 +304,6 @@ class LiveView(QWidget):
             if b.sum_force is not None:
                 self._sums = (float(np.linalg.norm(b.sum_force)), float(np.linalg.norm(b.sum_torque)))
                 self.equilibrium.append(t, *self._sums)
-        self.bundles_shown += 1
-        self.request_display()
 
     # ------------------------------------------------------------ drawing, paced by the display
     def request_display(self) -> None:

@@ -6,6 +6,10 @@ pacer, at most at the display rate — hands each curve the last ``window`` seco
 of the ring (no copy), decimated to the plot's pixel width by min–max per pixel column, so
 a 1 kHz stream costs the same to draw as a 60 Hz one and no peak is lost. The axes move only
 when the range must change (hysteresis), so a refresh repaints curves, not tick labels.
+
+A ring holds one timeline: samples whose time goes back (a replay that loops or seeks, another
+source) start a new one (:meth:`TimeRing.append`), and a stretch without samples longer than
+``GAP`` is drawn as a break in the curves, never as a straight line across it.
 """
 
 from __future__ import annotations
@@ -16,7 +20,10 @@ from PySide6.QtWidgets import QVBoxLayout, QWidget
 
 from ..palette import FACE_COLORS
 
-__all__ = ["RingBuffer", "FaceForcePlot", "EquilibriumPlot", "minmax_decimate"]
+__all__ = ["RingBuffer", "TimeRing", "FaceForcePlot", "EquilibriumPlot", "minmax_decimate", "break_gaps", "GAP", "legend_html"]
+
+#: s: a stretch without samples longer than this is a break in the curves (not a line across it)
+GAP = 0.5
 
 pg.setConfigOptions(antialias=False, background="#1e2329", foreground="#c9d1d9")
 
@@ -74,6 +81,50 @@ class RingBuffer:
     def data(self) -> np.ndarray:
         """``(len, width)`` rows, oldest first (a copy)."""
         return self.view().copy()
+
+
+class TimeRing(RingBuffer):
+    """A :class:`RingBuffer` of rows ``[t, …]`` (column 0: time, s) kept in time order.
+
+    Rows older than the newest kept one start a new timeline: the ring is cleared first (a
+    replay looped or seeked, or the source changed), so its times always increase.
+    """
+
+    def append(self, rows) -> None:
+        rows = np.atleast_2d(np.asarray(rows, dtype=float))
+        if rows.shape[0] == 0:
+            return
+        back = np.flatnonzero(np.diff(rows[:, 0]) < 0)
+        if back.size:  # back in time within the rows: the last run is the new timeline
+            rows = rows[int(back[-1]) + 1:]
+            self.clear()
+        elif len(self) and rows[0, 0] < self._buf[(self._n - 1) % self.capacity, 0]:
+            self.clear()
+        super().append(rows)
+
+    @property
+    def written(self) -> int:
+        """Rows written since the ring was made (changes with every append, a clear included)."""
+        return self._n + self._clears
+
+    _clears = 0
+
+    def clear(self) -> None:
+        super().clear()
+        self._clears += 1
+
+
+def break_gaps(t, y, gap: float = GAP):
+    """``(t, y)`` with a NaN row after every sample followed by none for more than ``gap`` s.
+
+    A curve drawn with ``connect="finite"`` then stops at the gap instead of joining its two
+    sides with a straight line. ``t`` (n,) sorted, ``y`` (n, k).
+    """
+    t = np.asarray(t, dtype=float)
+    idx = np.flatnonzero(np.diff(t) > gap)
+    if idx.size == 0:
+        return t, y
+    return np.insert(t, idx + 1, t[idx]), np.insert(np.asarray(y, dtype=float), idx + 1, np.nan, axis=0)
 
 
 def minmax_decimate(t, y, t0: float, t1: float, n_bins: int):
@@ -140,11 +191,25 @@ class _Curve(pg.PlotCurveItem):
 
 
 def _curve(plot: pg.PlotItem, color: str, name: str) -> _Curve:
-    """A bare curve in ``plot`` (and its legend): the data are decimated here already, so
-    ``PlotDataItem``'s own dataset, bounds and downsampling pass would only repeat work on every refresh."""
+    """A bare curve in ``plot``: the data are decimated here already, so ``PlotDataItem``'s own
+    dataset, bounds and downsampling pass would only repeat work on every refresh."""
     c = _Curve(pen=pg.mkPen(color, width=1), name=name)
     plot.addItem(c)
     return c
+
+
+def legend_html(entries) -> str:
+    """A one-line legend (``(colour, text, dashed)`` entries) as HTML for a plot's title row.
+
+    The legend sits above the plot area, not in it: curves never run over it.
+    """
+    parts = [f'<span style="color:{color}">{"┄┄" if dashed else "━━"}</span>&nbsp;{text}'
+             for color, text, dashed in entries]
+    return "&nbsp;&nbsp;&nbsp;".join(parts)
+
+
+def _set_legend(plot: pg.PlotItem, entries) -> None:
+    plot.setTitle(legend_html(entries), size="9pt", color="#c9d1d9")
 
 
 def _column_bounds(y):
@@ -180,12 +245,12 @@ class FaceForcePlot(pg.PlotWidget):
     def __init__(self, window: float = 10.0, rate: float = 1000.0, parent=None):
         super().__init__(parent)
         self.window = float(window)
-        self.buffer = RingBuffer(int(window * rate * 1.25), 7)  # t, |F1|..|F6|
+        self.buffer = TimeRing(int(window * rate * 1.25), 7)  # t, |F1|..|F6|
         _style_plot(self.getPlotItem(), "force norm ‖F‖ (N)")
-        self.addLegend(offset=(6, 4), colCount=6, labelTextSize="8pt")
         self.curves = [
             _curve(self.getPlotItem(), FACE_COLORS[i], f"face {i}") for i in range(1, 7)
         ]
+        _set_legend(self.getPlotItem(), [(FACE_COLORS[i], f"face {i}", False) for i in range(1, 7)])
         self._y = _YRange(2.0)
         self.setXRange(-self.window, 0, padding=0)
         self.setYRange(0, self._y.top, padding=0)
@@ -201,17 +266,20 @@ class FaceForcePlot(pg.PlotWidget):
 
     def refresh(self) -> bool:
         """Redraw the curves from the ring (decimated to the pixel width); False if nothing new."""
-        if self.buffer._n == self._drawn_n:
+        if self.buffer.written == self._drawn_n:
             return False
-        self._drawn_n = self.buffer._n
+        self._drawn_n = self.buffer.written
         d = self.buffer.view()
         if d.shape[0] == 0:
+            for c in self.curves:
+                c.set_curve(np.zeros(0), np.zeros(0), np.nan, np.nan)
             return False
         t_end = d[-1, 0]
         first = int(np.searchsorted(d[:, 0], t_end - self.window))
         d = d[first:]
         px = max(50, int(self.getPlotItem().getViewBox().width()))
         t, y = minmax_decimate(d[:, 0], d[:, 1:], t_end - self.window, t_end, px)
+        t, y = break_gaps(t, y)
         t = t - t_end
         lo, hi = _column_bounds(y)
         for k, c in enumerate(self.curves):
@@ -225,20 +293,21 @@ class FaceForcePlot(pg.PlotWidget):
 
     def clear_data(self) -> None:
         self.buffer.clear()
-        self._drawn_n = -1
+        self.refresh()  # the curves show the empty ring (not the old timeline)
 
 
 class EquilibriumPlot(QWidget):
     """‖ΣF‖ (N) against the object's weight m·g, and ‖ΣT‖ (N·m), over time.
 
     For an object held still, the face loads balance its weight: ‖ΣF‖ ≈ m·g and
-    ‖ΣT‖ ≈ 0 about its centre of mass.
+    ‖ΣT‖ ≈ 0 about its centre of mass — up to the calibration's error, which leaves a residual
+    of a few mN·m at rest; the legend says so.
     """
 
     def __init__(self, weight: float = 0.0, window: float = 10.0, rate: float = 120.0, parent=None):
         super().__init__(parent)
         self.window = float(window)
-        self.buffer = RingBuffer(int(window * rate * 1.25), 3)  # t, |ΣF|, |ΣT|
+        self.buffer = TimeRing(int(window * rate * 1.25), 3)  # t, |ΣF|, |ΣT|
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.setSpacing(2)
@@ -246,13 +315,15 @@ class EquilibriumPlot(QWidget):
         self.torque_plot = pg.PlotWidget()
         _style_plot(self.force_plot.getPlotItem(), "‖ΣF‖ (N)", bottom="")
         _style_plot(self.torque_plot.getPlotItem(), "‖ΣT‖ (mN·m)")
-        self.torque_plot.addLegend(offset=(6, 4), labelTextSize="8pt")
-        self.force_plot.addLegend(offset=(6, 4), labelTextSize="8pt")
         self.force_curve = _curve(self.force_plot.getPlotItem(), "#e8edf2", "‖ΣF‖ of the six faces")
         self.weight_line = pg.InfiniteLine(angle=0, pen=pg.mkPen("#f0a030", width=1, style=pg.QtCore.Qt.PenStyle.DashLine),
-                                           label="weight m·g = {value:.2f} N", labelOpts={"color": "#f0a030", "position": 0.15})
+                                           label="m·g = {value:.2f} N", labelOpts={"color": "#f0a030", "position": 0.92})
         self.force_plot.addItem(self.weight_line)
-        self.torque_curve = _curve(self.torque_plot.getPlotItem(), "#56B4E9", "‖ΣT‖ about the centre of gravity (0 when still)")
+        self.torque_curve = _curve(self.torque_plot.getPlotItem(), "#56B4E9", "‖ΣT‖ about the centre of gravity")
+        _set_legend(self.force_plot.getPlotItem(), [("#e8edf2", "‖ΣF‖ of the six faces", False),
+                                                    ("#f0a030", "the object's weight m·g (at rest)", True)])
+        _set_legend(self.torque_plot.getPlotItem(), [
+            ("#56B4E9", "‖ΣT‖ about the centre of gravity: 0 at rest, up to the calibration's error", False)])
         self._fy = _YRange(1.0)
         self._ty = _YRange(20.0)  # mN·m
         for p in (self.force_plot, self.torque_plot):
@@ -278,18 +349,21 @@ class EquilibriumPlot(QWidget):
 
     def refresh(self) -> bool:
         """Redraw from the ring; False if nothing new."""
-        if self.buffer._n == self._drawn_n:
+        if self.buffer.written == self._drawn_n:
             return False
-        self._drawn_n = self.buffer._n
+        self._drawn_n = self.buffer.written
         d = self.buffer.view()
         if d.shape[0] == 0:
+            for c in (self.force_curve, self.torque_curve):
+                c.set_curve(np.zeros(0), np.zeros(0), np.nan, np.nan)
             return False
         t_end = d[-1, 0]
         d = d[int(np.searchsorted(d[:, 0], t_end - self.window)):]
-        t = d[:, 0] - t_end
-        lo, hi = _column_bounds(d[:, 1:])
-        self.force_curve.set_curve(t, d[:, 1], lo[0], hi[0])
-        self.torque_curve.set_curve(t, d[:, 2] * 1000, lo[1] * 1000, hi[1] * 1000)
+        t, y = break_gaps(d[:, 0], d[:, 1:])
+        t = t - t_end
+        lo, hi = _column_bounds(y)
+        self.force_curve.set_curve(t, y[:, 0], lo[0], hi[0])
+        self.torque_curve.set_curve(t, y[:, 1] * 1000, lo[1] * 1000, hi[1] * 1000)
         if self._fy.fit(float(hi[0])):
             self.force_plot.setYRange(0, self._fy.top, padding=0)
         if self._ty.fit(1000 * float(hi[1])):
@@ -299,4 +373,4 @@ class EquilibriumPlot(QWidget):
 
     def clear_data(self) -> None:
         self.buffer.clear()
-        self._drawn_n = -1
+        self.refresh()  # the curves show the empty ring (not the old timeline)

@@ -16,7 +16,19 @@ from ..scene import ACTIVE_COLOR, CONNECTED_COLOR, CubeScene
 from ..widgets.coverage import AXIS_LABELS, CoverageBars, CoverageModel, FULL_SCALE
 from .page import WizardPage
 
-__all__ = ["LoadPage", "face_gates"]
+__all__ = ["LoadPage", "face_gates", "samples_text", "SAMPLES_TIP"]
+
+#: why a face keeps more than k samples (the Samples row's tooltip)
+SAMPLES_TIP = ("k (the method page) is the least number of samples a face needs. Every sample of a kept still load "
+               "counts (1000 a second), and a face is done only when its coverage, distinct loads and condition "
+               "number pass too, so a face usually ends with more than k; the fit uses all of them.")
+
+
+def samples_text(n: int, k: int) -> str:
+    """The Samples row: ``n`` kept against the least ``k`` (e.g. ``71 303 (≥ 1 000 ✔)``)."""
+    def fmt(v):
+        return f"{v:,}".replace(",", " ")
+    return f"{fmt(n)} (≥ {fmt(k)} {'✔' if n >= k else 'needed'})"
 
 
 def face_gates(fc) -> list[tuple[float, str]]:
@@ -31,7 +43,7 @@ def face_gates(fc) -> list[tuple[float, str]]:
         (min(1.0, len(fc.captures) / r.min_captures), f"still loads {len(fc.captures)} → {r.min_captures}"),
         (min(1.0, float(cov.min()) / r.required) if r.required > 0 else 1.0,
          f"coverage {cov.min():.2f} → {r.required:.2f}"),
-        (min(1.0, fc.n_samples / r.k), f"samples {fc.n_samples} → {r.k}"),
+        (min(1.0, fc.n_samples / r.k), f"samples {fc.n_samples:,} → at least {r.k:,}".replace(",", " ")),
     ]
 
 
@@ -80,7 +92,7 @@ class LoadPage(WizardPage):
         self.face_title.setObjectName("bigFace")
         right.addWidget(self.face_title)
         self.coverage_model = CoverageModel(model.rules.required)
-        right.addWidget(QLabel("Coverage per axis and sign (kept loads, against full scale; white = live load)"))
+        right.addWidget(QLabel("Coverage per axis and sign (kept loads against full scale)"))
         self.bars = CoverageBars(self.coverage_model)
         right.addWidget(self.bars, 1)
         grid = QGridLayout()
@@ -89,6 +101,7 @@ class LoadPage(WizardPage):
         self.progress.setRange(0, 100)
         self.samples = QLabel("—")
         self.samples.setObjectName("value")
+        self.samples.setToolTip(SAMPLES_TIP)
         self.kappa = QLabel("—")
         self.kappa.setObjectName("value")
         self.captures = QLabel("0")
@@ -99,7 +112,7 @@ class LoadPage(WizardPage):
         self.state.setObjectName("state")
         rows = (("Face done when all four are ✔", self.progress), ("Condition number of the kept loads κ", self.kappa),
                 ("Distinct still loads", self.captures), ("Coverage (weakest axis)", self.coverage_text),
-                ("Samples kept", self.samples), ("Live", self.state))
+                ("Samples kept (at least k)", self.samples), ("Live", self.state))
         for r, (text, w) in enumerate(rows):
             grid.addWidget(QLabel(text), r, 0)
             grid.addWidget(w, r, 1)
@@ -174,7 +187,7 @@ class LoadPage(WizardPage):
         axis = AXIS_LABELS[worst[0]] + ("−" if worst[1] == 0 else "+")
         self.coverage_text.setText(f"{axis} {cov[worst]:.2f} / {m.rules.required:.2f} of full scale"
                                    + (" ✔" if cov.min() >= m.rules.required else ""))
-        self.samples.setText(f"{fc.n_samples} / {m.rules.k}" + (" ✔" if fc.n_samples >= m.rules.k else ""))
+        self.samples.setText(samples_text(fc.n_samples, m.rules.k))
         self.undo.setEnabled(bool(fc.captures))
         done = fc.sufficient
         remaining = [f for f in m.faces if not m.captures[f].sufficient]

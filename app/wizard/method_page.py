@@ -111,5 +111,6 @@ class MethodPage(WizardPage):
         faces = faces_to_load(m.method, m.flange, m.connected_face)
         self.summary.setText(
             f"You will load faces {', '.join(map(str, faces))} one at a time "
-            f"({len(faces)} × {m.rules.k} samples), with the flange on face {m.connected_face}."
+            f"(at least {m.rules.k} samples each; usually more, until the coverage bars are green), "
+            f"with the flange on face {m.connected_face}."
         )

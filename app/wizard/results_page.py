@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
-from PySide6.QtCore import Qt
+from PySide6.QtCore import Qt, QUrl
 from PySide6.QtGui import QImage, QPixmap
 from PySide6.QtWidgets import (
     QComboBox, QFileDialog, QGridLayout, QGroupBox, QHBoxLayout, QLabel, QPushButton,
@@ -16,6 +16,7 @@ from PySide6.QtWidgets import (
 from pito_core.calibration import RankDeficientError, calibrate
 
 from .. import report
+from ..filetypes import CALIBRATION_SAVE_FILTER, CALIBRATION_SUFFIX
 from ..tasks import TaskBar, run_in_process, run_task
 from .page import WizardPage
 
@@ -77,7 +78,7 @@ def render_figures(evaluation, sizes: dict) -> dict:
     draw = {"rmse": report.rmse_figure, "ident": report.identification_figure, "comp": report.comparison_figure}
     out = {}
     for name, (w, h) in sizes.items():
-        fig = Figure(figsize=(w / 90, h / 90), dpi=90)
+        fig = Figure(figsize=(w / report.SCREEN_DPI, h / report.SCREEN_DPI), dpi=report.SCREEN_DPI)  # 9 pt = 12 px
         canvas = FigureCanvasAgg(fig)
         draw[name](evaluation, fig)
         canvas.draw()
@@ -184,6 +185,14 @@ class ResultsPage(WizardPage):
         buttons.addWidget(self.save_btn)
         buttons.addWidget(self.export_btn)
         self.body.addLayout(buttons)
+        # after an export: where it went, with a link that opens the folder (and the path to copy)
+        self.exported_label = QLabel("")
+        self.exported_label.setObjectName("hint")
+        self.exported_label.setTextFormat(Qt.TextFormat.RichText)
+        self.exported_label.setTextInteractionFlags(Qt.TextInteractionFlag.TextBrowserInteraction)
+        self.exported_label.setOpenExternalLinks(True)
+        self.exported_label.setVisible(False)
+        self.body.addWidget(self.exported_label)
         self.taskbar = TaskBar()  # the fit runs in a worker thread: progress and Cancel here
         self.body.addWidget(self.taskbar)
         self.task = None
@@ -263,6 +272,8 @@ class ResultsPage(WizardPage):
         has = cal is not None and ev is not None
         for b in (self.accept_btn, self.save_btn, self.export_btn):
             b.setEnabled(has)
+        self.accept_btn.setEnabled(has and not m.accepted)  # accepted once: it is the live view's now
+        self.accept_btn.setText("✔ Accepted — in use in the live view" if has and m.accepted else "Accept calibration")
         self.save_btn.setEnabled(has and m.accepted)
         self.export_btn.setEnabled(has and m.accepted and not self.exporting)
         if not has:
@@ -294,9 +305,11 @@ class ResultsPage(WizardPage):
                                           + f", ± {np.nanmax(unc[worst_t - 1, 3:]) * 1000:.2f} mN·m (95 %)")
         self.values["method"].setText(self.values["method"].text()
                                       + f"; net force of a free grasp: {cal.meta.get('net_load', 'not recorded')}")
-        status = "✔ accepted" if m.accepted else "awaiting your decision"
+        status = "✔ accepted — the live view uses it" if m.accepted else "awaiting your decision"
         if m.saved_path:
             status += f" — saved to {Path(m.saved_path).name}"
+        if getattr(self, "exported_path", None):
+            status += f" — report exported to {Path(self.exported_path).parent}"
         if self.note:
             status += " — minimum-norm fit: some directions were weakly loaded (see tooltip)"
         self.values["status"].setText(status)
@@ -309,7 +322,9 @@ class ResultsPage(WizardPage):
 
     # ------------------------------------------------------------ actions
     def accept(self) -> None:
+        """Accept the fitted calibration: the main window applies it to the live view (``result_changed``)."""
         self.model.accepted = True
+        self.model.result_changed.emit()
         self.refresh()
 
     def _redo_clicked(self) -> None:
@@ -329,10 +344,12 @@ class ResultsPage(WizardPage):
         if self.model.calibration is None:
             return None
         if path is None:
-            path, _ = QFileDialog.getSaveFileName(self, "Save calibration", f"pito-{self.model.method}.h5",
-                                                  "PITO calibration (*.h5)")
+            path, _ = QFileDialog.getSaveFileName(self, "Save calibration", f"pito-{self.model.method}{CALIBRATION_SUFFIX}",
+                                                  CALIBRATION_SAVE_FILTER)
             if not path:
                 return None
+            if not Path(path).suffix:
+                path += CALIBRATION_SUFFIX
         self.model.calibration.save(path)
         self.model.saved_path = str(path)
         self.refresh()
@@ -355,12 +372,11 @@ class ResultsPage(WizardPage):
         cal, ev = m.calibration, m.evaluation
 
         def work(progress):
-            progress(None, f"figures and numbers into {folder}")
-            return report.export_report(folder, cal, ev, info)
+            return report.export_report(folder, cal, ev, info, progress=progress)
 
         def done(path):
             self.exported_path = path
-            self.values["status"].setText(f"report exported to {path}")
+            self.show_exported(Path(path))
 
         self.export_task = run_task(work, "Exporting the report", done,
                                     lambda msg: self.values["status"].setText(f"✘ export failed: {msg}"),
@@ -368,6 +384,15 @@ class ResultsPage(WizardPage):
         self.export_task.ended.connect(self.refresh)
         self.refresh()
         return Path(folder) / "report.md"
+
+    def show_exported(self, report_md: Path) -> None:
+        """Say where the report went: its files, the folder's path and a link that opens it."""
+        folder = report_md.parent
+        names = ", ".join(sorted(p.name for p in folder.iterdir() if p.is_file()))
+        url = QUrl.fromLocalFile(str(folder.resolve())).toString()
+        self.exported_label.setText(f"✔ Report exported to <b>{folder}</b> ({names}) — <a href=\"{url}\">Open folder</a>")
+        self.exported_label.setToolTip(str(report_md))
+        self.exported_label.setVisible(True)
 
     @property
     def exporting(self) -> bool:

@@ -11,7 +11,10 @@ Export a pito recording to NWB (pynwb), ROS 2 MCAP (no ROS needed), CSV or MATLA
 
 The recording goes through the same pipeline as the app and `pito replay` (pairing of the
 reference by the device clocks, recorded tares), then:
-  --nwb OUT.nwb   raw counts (counts), reference force (N) / torque (N*m), per face force (N)
+  --nwb OUT.nwb   (give --subject-id, --species, --sex, --age, --experimenter, --institution:
+                  without a subject, nwbinspector reports the file CRITICAL for DANDI;
+                  `pito export` warns about each one left out)
+                  raw counts (counts), reference force (N) / torque (N*m), per face force (N)
                   and torque (N*m) as separate TimeSeries in the face's own frame, contacts as
                   SpatialSeries (m, reference frame: the core frame), the calibration matrix,
                   offset and provenance (method, date, sha256 content hash, patch assembly).
@@ -63,7 +66,7 @@ def run(args) -> int:
             print(f"wrote {written}")
     if not (args.nwb or args.mcap):
         return 0
-    from ..interop import export_data, write_mcap, write_nwb
+    from ..interop import export_data, missing_metadata, write_mcap, write_nwb
 
     cal = None
     if args.calibration:
@@ -80,6 +83,9 @@ def run(args) -> int:
         print("  exporting counts and reference only (give --calibration FILE for wrenches and contacts)")
     print(f"  pipeline{' + contacts' if data.contacts is not None else ''}: {t_pipe:.1f} s")
     if args.nwb:
+        _warn_missing_metadata(missing_metadata(
+            subject_id=args.subject_id, species=args.species, sex=args.sex, age=args.age,
+            experimenter=args.experimenter, institution=args.institution))
         t = time.perf_counter()
         write_nwb(data, args.nwb, subject_id=args.subject_id, species=args.species, sex=args.sex, age=args.age,
                   experimenter=args.experimenter,
@@ -95,3 +101,12 @@ def run(args) -> int:
               f"({data.n / max(dt, 1e-9):.0f} samples/s, {data.n / max(dt + t_pipe, 1e-9):.0f} with the pipeline)")
     sys.stdout.flush()
     return 0
+
+
+def _warn_missing_metadata(missing: list[str]) -> None:
+    """One warning line on stderr naming the NWB metadata options left out (nwbinspector would report them)."""
+    if not missing:
+        return
+    severity = "no subject: nwbinspector reports 'Subject is missing' (CRITICAL for DANDI)" if "--subject-id" in missing \
+        else "nwbinspector reports them as best-practice findings"
+    print(f"pito export: warning: NWB metadata not given: {', '.join(missing)} — {severity}", file=sys.stderr)

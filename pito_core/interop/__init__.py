@@ -22,7 +22,7 @@ from ._conventions import (
 from ._data import ExportData, export_data
 from ._lsl import LslPublisher, contact_samples, lsl_stream_infos, wrench_samples
 from ._mcap import write_mcap
-from ._nwb import write_nwb
+from ._nwb import BEHAVIOR_MODULE, MISC_MODULE, missing_metadata, write_nwb
 from ._provenance import (
     assembly_record,
     calibration_from_record,
@@ -33,6 +33,7 @@ from ._provenance import (
 )
 
 __all__ = [
+    "BEHAVIOR_MODULE", "MISC_MODULE", "missing_metadata",
     "CONTACT_CHANNELS",
     "CONTACT_STREAM",
     "CONTACT_TYPE",

@@ -3,12 +3,13 @@
 Topics (profile ``ros2``, encoding ``cdr``; stamps = recording start (UNIX) + sample time):
 
 - ``/pito/face_{i}/wrench`` — ``geometry_msgs/msg/WrenchStamped``, ``frame_id`` ``pito_face_{i}``:
-  the wrench on face i in its own frame (N, N·m), every cube sample (with a calibration).
+  the wrench on face i in its own frame (N, N·m), every cube sample with a finite value (with a calibration).
 - ``/pito/face_{i}/contact/point`` — ``geometry_msgs/msg/PointStamped``, frame ``pito_core``:
   the contact point (m), only at samples where face i carries a contact;
   ``/pito/face_{i}/contact/wrench`` — ``WrenchStamped``, frame ``pito_core``: the finger force
   (N) and the torsion as a torque along the normal (N·m), acting at that point.
-- ``/pito/reference/wrench`` — ``WrenchStamped``, frame ``pito_reference`` (S_A), tared.
+- ``/pito/reference/wrench`` — ``WrenchStamped``, frame ``pito_reference`` (S_A), tared; only at
+  samples with a reference value (no message carries NaN).
 - ``/tf_static`` — ``tf2_msgs/msg/TFMessage``: ``pito_core`` → ``pito_face_{i}`` (i = 1..6).
 - ``/pito/raw_counts`` — ``std_msgs/msg/Int32MultiArray`` (36 counts) every sample.
 - metadata record ``pito_provenance`` (calibration method/date/hash, assembly, note) and the
@@ -159,13 +160,17 @@ def write_mcap(data, path, *, raw_counts: bool = True, progress=None) -> dict:
             put("/pito/raw_counts", "std_msgs/msg/Int32MultiArray", stamp, _int32_array(data.counts))
         advance("mcap: counts")
         if data.reference is not None:
-            put("/pito/reference/wrench", "geometry_msgs/msg/WrenchStamped", stamp,
-                _stamped(stamp, "pito_reference", data.reference))
+            # only samples with a reference value (a cube sample before the first reference packet has none)
+            ok = np.isfinite(np.asarray(data.reference, float)).all(axis=1)
+            put("/pito/reference/wrench", "geometry_msgs/msg/WrenchStamped", stamp[ok],
+                _stamped(stamp[ok], "pito_reference", np.asarray(data.reference, float)[ok]))
         advance("mcap: reference")
         if data.face_wrenches is not None:
             for i in range(1, 7):
-                put(f"/pito/face_{i}/wrench", "geometry_msgs/msg/WrenchStamped", stamp,
-                    _stamped(stamp, ROS_FACE_FRAME.format(i=i), data.face_wrenches[:, i - 1]))
+                fw = np.asarray(data.face_wrenches[:, i - 1], float)
+                ok = np.isfinite(fw).all(axis=1)  # no message where there is no value
+                put(f"/pito/face_{i}/wrench", "geometry_msgs/msg/WrenchStamped", stamp[ok],
+                    _stamped(stamp[ok], ROS_FACE_FRAME.format(i=i), fw[ok]))
                 advance(f"mcap: face {i}")
         if data.contacts is not None:
             c = data.contacts

@@ -33,7 +33,9 @@ def qapp_args():
 
 @pytest.fixture
 def styled(qapp):
+    from app.fonts import install_app_font
     from app.theme import STYLE
 
+    install_app_font(qapp)
     qapp.setStyleSheet(STYLE)
     return qapp

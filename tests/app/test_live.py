@@ -18,7 +18,7 @@ def contacts(force_face1=(-8.0, 1.0, 2.0), valid=(True, True, False, False, Fals
     pts[0], nrm[0], frc[0] = (0.027, 0.004, 0.002), (1, 0, 0), force_face1
     pts[1], nrm[1], frc[1] = (0.0, 0.027, 0.0), (0, 1, 0), (0.0, -0.1, 0.0)  # 0.1 N: under threshold
     return ObjectContacts(pts, nrm, frc, np.array([0.02, 0, 0, 0, 0, 0.0]), np.array(valid),
-                          np.tile(np.eye(3) * 1e-6, (6, 1, 1)))
+                          np.tile(np.eye(3) * 9e-6, (6, 1, 1)))
 
 
 def bundle(t, c):
@@ -105,7 +105,8 @@ def test_pause_freezes_the_view(live):
     live.pause.setChecked(False)
     live.on_bundle(bundle(0.2, contacts((-2.0, 0, 0))))
     assert live.bundles_shown == n + 1
-    assert len(live.force_plot.buffer) == 2 and len(live.equilibrium.buffer) == 2
+    # acquisition went on while paused: the rings kept the paused sample, Resume shows it
+    assert len(live.force_plot.buffer) == 3 and len(live.equilibrium.buffer) == 3
 
 
 def test_torsion_and_uncertainty_toggles(live):

@@ -35,7 +35,7 @@ def test_export_dialog_writes_every_format_in_the_background(qtbot, interop_file
     assert names == ["out.mat", "out.mcap", "out.nwb", "out_ati.csv", "out_pito.csv"]
     with pynwb.NWBHDF5IO(str(tmp_path / "out.nwb"), "r") as io:
         f = io.read()
-        assert f.subject.subject_id == "S07" and "pito_wrenches" in f.processing
+        assert f.subject.subject_id == "S07" and "behavior" in f.processing
     assert dlg.export_button.isEnabled()
     assert seen and all(0 <= f <= 1 for f in seen) and seen == sorted(seen)  # the bar only moves forward
 

@@ -64,7 +64,12 @@ def test_mcap_round_trip(mcap_file):
     raw = msgs["/pito/raw_counts"]
     np.testing.assert_array_equal(np.array([list(m.data) for _, _, m in raw]), data.counts)
     ref = msgs["/pito/reference/wrench"]
-    assert len(ref) == data.n and ref[0][2].header.frame_id == "pito_reference"
+    has_ref = np.isfinite(data.reference).all(axis=1)
+    assert len(ref) == int(has_ref.sum()) and ref[0][2].header.frame_id == "pito_reference"
+    got = np.array([[m.wrench.force.x, m.wrench.force.y, m.wrench.force.z,
+                     m.wrench.torque.x, m.wrench.torque.y, m.wrench.torque.z] for _, _, m in ref])
+    np.testing.assert_array_equal(got, data.reference[has_ref])
+    np.testing.assert_array_equal([t for _, t, _ in ref], stamps[has_ref])
     (schema, _, tf), = msgs["/tf_static"]
     assert schema == "tf2_msgs/msg/TFMessage" and len(tf.transforms) == 6
     core = CubeCore(data.assembly["core_edge_m"])
@@ -93,3 +98,35 @@ def test_mcap_counts_only_without_calibration(interop_files, tmp_path):
     msgs, _, meta, atts = read_all(out)
     assert set(msgs) == {"/pito/raw_counts", "/pito/reference/wrench", "/tf_static"}
     assert "calibration.json" not in atts and json.loads(meta["pito_provenance"]["calibration"]) is None
+
+
+def test_no_mcap_message_carries_nan(mcap_file):
+    """A cube sample before the first reference packet has no reference: no message for it (not a NaN one)."""
+    path, data = mcap_file
+    msgs, *_ = read_all(path)
+    for topic, rows in msgs.items():
+        for _, _, m in rows:
+            w = getattr(m, "wrench", None)
+            if w is not None:
+                v = [w.force.x, w.force.y, w.force.z, w.torque.x, w.torque.y, w.torque.z]
+                assert np.isfinite(v).all(), f"{topic}: a message carries NaN"
+
+
+def test_mcap_skips_samples_without_reference(mcap_file, tmp_path):
+    """Independent of the recording: NaN reference rows written to MCAP are left out, the rest kept in order."""
+    from dataclasses import replace
+
+    from pito_core.interop import write_mcap
+
+    _, data = mcap_file
+    ref = np.array(data.reference, float)
+    rng = np.random.default_rng(3)
+    holes = rng.choice(data.n, size=7, replace=False)
+    ref[holes] = np.nan
+    ref[0] = np.nan
+    counts = write_mcap(replace(data, reference=ref), tmp_path / "holes.mcap", raw_counts=False)
+    keep = np.isfinite(ref).all(axis=1)
+    assert counts["/pito/reference/wrench"] == int(keep.sum())
+    msgs, *_ = read_all(tmp_path / "holes.mcap")
+    got = np.array([[m.wrench.force.x, m.wrench.torque.z] for _, _, m in msgs["/pito/reference/wrench"]])
+    np.testing.assert_array_equal(got, ref[keep][:, [0, 5]])

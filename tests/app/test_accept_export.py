@@ -1,0 +1,76 @@
+"""Accept and Export on the results page (issue 21, defects 7 and 11): accepting applies the
+calibration to the live view (the header names it) and disables the button; Export says where
+the report went, with a link to open the folder; the save dialog proposes ``.pitocal``."""
+
+import numpy as np
+import pytest
+
+pytestmark = pytest.mark.needs_display
+
+
+@pytest.fixture(scope="module")
+def fitted():
+    from app.wizard.results_page import fit_and_evaluate
+    from pito_core.sim import simulate_calibration
+
+    session = simulate_calibration("frame_hole", 6, k=150, seed=3)  # SIMULATED
+    cal, ev, _ = fit_and_evaluate(session, "loaded_frame")
+    return cal, ev
+
+
+@pytest.fixture
+def window(qtbot, styled):
+    from app.window import MainWindow
+
+    w = MainWindow(demo=False)
+    qtbot.addWidget(w)
+    yield w
+    w.shutdown()
+    w.release_views()
+
+
+def test_accept_applies_to_the_live_view_and_disables(window, fitted, qtbot):
+    from pito_core.io import calibration_hash, short_hash
+
+    cal, ev = fitted
+    page = window.wizard.pages["results"]
+    window.model.set_result(cal, ev)
+    page.refresh()
+    assert page.accept_btn.isEnabled() and window.calibration is None
+    page.accept_btn.click()
+    assert window.calibration is cal
+    assert short_hash(calibration_hash(cal)) in window.cal_label.text() and "wizard" in window.cal_label.text()
+    assert not page.accept_btn.isEnabled() and "live view" in page.accept_btn.text()
+    qtbot.waitUntil(lambda: window.worker.calibration is cal, timeout=3000)
+
+
+def test_export_says_where_the_report_went(window, fitted, qtbot, tmp_path):
+    cal, ev = fitted
+    page = window.wizard.pages["results"]
+    window.model.set_result(cal, ev)
+    page.accept()
+    page.export(tmp_path / "report")
+    qtbot.waitUntil(lambda: not page.exporting, timeout=60000)
+    text = page.exported_label.text()
+    assert page.exported_label.isVisibleTo(page) and str(tmp_path / "report") in text and "Open folder" in text
+    assert "report.md" in text and "identification.png" in text
+    assert "report exported to" in page.values["status"].text()  # survives the refresh at the task's end
+
+
+def test_save_proposes_pitocal(window, fitted, monkeypatch, tmp_path):
+    from PySide6.QtWidgets import QFileDialog
+
+    cal, ev = fitted
+    page = window.wizard.pages["results"]
+    window.model.set_result(cal, ev)
+    page.accept()
+    seen = {}
+
+    def fake(parent, title, name, filt):
+        seen.update(name=name, filter=filt)
+        return str(tmp_path / "mine"), filt
+
+    monkeypatch.setattr(QFileDialog, "getSaveFileName", fake)
+    path = page.save()
+    assert seen["name"].endswith(".pitocal") and "*.pitocal" in seen["filter"]
+    assert path.endswith(".pitocal") and (tmp_path / "mine.pitocal").exists()

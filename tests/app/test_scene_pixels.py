@@ -1,0 +1,141 @@
+"""Screenshot checks of the 3D view, read from its pixels: a contact on a face turned away is
+hidden by the object (not drawn through it), a visible one shows; uncertainty ellipsoids stay
+inside the view and are drawn only where they say something (issue 21, defects 4 and 5)."""
+
+import numpy as np
+import pytest
+
+from pito_core.contact import ObjectContacts
+from pito_core.frames import FACE_NORMALS, CubeCore
+
+pytestmark = pytest.mark.needs_display
+
+
+def contact_on(face: int, force_n: float = 0.5, cov=None, core=CubeCore()):
+    """One contact at the centre of ``face``, pushing inwards with ``force_n`` N (others invalid)."""
+    pts = np.full((6, 3), np.nan)
+    nrm = np.zeros((6, 3))
+    frc = np.zeros((6, 3))
+    valid = np.zeros(6, bool)
+    n = np.array(FACE_NORMALS[face])
+    pts[face - 1] = n * core.edge / 2
+    nrm[face - 1] = n
+    frc[face - 1] = -force_n * n
+    valid[face - 1] = True
+    covs = None if cov is None else np.tile(np.asarray(cov, float), (6, 1, 1))
+    return ObjectContacts(pts, nrm, frc, np.zeros(6), valid, covs)
+
+
+def pixels(scene) -> np.ndarray:
+    from app.scene import grab_scene
+
+    img = grab_scene(scene).convertToFormat(grab_scene(scene).format().Format_RGB888)
+    w, h = img.width(), img.height()
+    return np.frombuffer(img.constBits(), np.uint8)[: h * img.bytesPerLine()].reshape(h, img.bytesPerLine())[:, : 3 * w].reshape(h, w, 3).astype(int)
+
+
+def changed(a, b) -> np.ndarray:
+    return np.abs(a - b).sum(axis=2) > 30
+
+
+@pytest.fixture
+def scene(qtbot):
+    from app.scene import CubeScene
+
+    s = CubeScene(CubeCore())
+    qtbot.addWidget(s)
+    s.resize(640, 480)
+    s.show()
+    qtbot.waitExposed(s)
+    for lab in s.face_labels.values():  # the labels are not what is checked here
+        lab.SetVisibility(False)
+    yield s
+    s.close_scene()
+
+
+def test_default_camera_sees_faces_1_4_5(scene):
+    cam = np.array(scene.plotter.camera.position) - np.array(scene.plotter.camera.focal_point)
+    facing = {f for f, n in FACE_NORMALS.items() if np.dot(n, cam) > 0}
+    assert facing == {1, 4, 5}
+
+
+@pytest.mark.parametrize("face", [2, 3, 6])
+def test_a_contact_on_a_hidden_face_is_occluded(scene, face):
+    g = scene.glyphs
+    g.hide()
+    empty = pixels(scene)
+    g.update(contact_on(face))
+    assert g.spheres[face].GetVisibility()  # drawn — and hidden by the object
+    diff = changed(pixels(scene), empty)
+    assert diff.sum() == 0, f"face {face}'s contact shows through the object on {diff.sum()} px"
+
+
+@pytest.mark.parametrize("face", [1, 4, 5])
+def test_a_contact_on_a_visible_face_shows(scene, face):
+    g = scene.glyphs
+    g.hide()
+    empty = pixels(scene)
+    g.update(contact_on(face))
+    diff = changed(pixels(scene), empty)
+    assert diff.sum() > 40, f"face {face}'s contact sphere is not seen ({diff.sum()} px)"
+    white = (pixels(scene) > 200).all(axis=2) & diff
+    assert white.sum() > 10  # the sphere itself (white), not only its arrow
+
+
+def test_contact_colour_hook(scene):
+    from app.palette import hex_rgb
+
+    g = scene.glyphs
+    g.set_contact_color(1, "#ff0000")
+    g.update(contact_on(1))
+    assert np.allclose(g.spheres[1].prop.color.float_rgb, hex_rgb("#ff0000"), atol=1e-3)
+    g.set_contact_color(1, None)
+    g.update(contact_on(1))
+    assert np.allclose(g.spheres[1].prop.color.float_rgb, (1.0, 1.0, 1.0), atol=1e-3)
+
+
+@pytest.mark.parametrize("sigma_mm, state", [(1.0, "inside sphere"), (4.0, "drawn"), (30.0, "too wide"), (300.0, "too wide")])
+def test_ellipsoids_are_drawn_only_where_meaningful_and_stay_in_view(scene, sigma_mm, state):
+    g = scene.glyphs
+    g.show_uncertainty = False
+    g.update(contact_on(1, 2.0))
+    without = pixels(scene)
+    g.show_uncertainty = True
+    cov = np.diag([1.0, 1.0, 0.3]) * (sigma_mm * 1e-3) ** 2
+    g.update(contact_on(1, 2.0, cov))
+    assert g.ellipsoid_state[1] == state
+    assert g.ellipsoids[1].GetVisibility() == (state == "drawn")
+    diff = changed(pixels(scene), without)
+    if state != "drawn":
+        assert diff.sum() == 0
+        return
+    ys, xs = np.nonzero(diff)
+    h, w = diff.shape
+    assert ys.size > 20  # seen
+    assert xs.min() > 0.1 * w and xs.max() < 0.9 * w and ys.min() > 0.1 * h and ys.max() < 0.9 * h  # well inside the view
+    assert ys.size < 0.1 * h * w
+
+
+def test_ellipsoid_axes_are_two_sigma():
+    from app.scene import ContactGlyphs
+
+    rng = np.random.default_rng(2)
+    A = rng.normal(size=(3, 3))
+    cov = A @ A.T * 1e-6
+    axes = ContactGlyphs.ellipsoid_axes(None, cov)
+    np.testing.assert_allclose(axes, 2 * np.sqrt(np.linalg.eigvalsh(cov)))
+
+
+def test_face_numbers_stand_clear_of_the_patches(scene):
+    """A face's number is placed past its patch (not inside a dome, under its contact sphere)."""
+    from app.objects import display_meshes, load_assembly
+
+    scene.set_patches(display_meshes(load_assembly("pito_mixed")))
+    for i, lab in scene.face_labels.items():
+        c = np.array(scene.core.face_pose(i)[:3, 3])
+        n = c / np.linalg.norm(c)
+        pts = np.asarray(scene._patches[i].mapper.dataset.points) if i in scene._patches else np.zeros((1, 3))
+        outer = max(0.5 * scene.core.edge, float((pts @ n).max()))
+        pos = np.array(lab.GetPosition())
+        assert pos @ n >= outer + scene.glyphs.radius * 2
+        assert np.allclose(pos - (pos @ n) * n, 0, atol=1e-12)
