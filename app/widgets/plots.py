@@ -4,8 +4,9 @@ Data and drawing are decoupled: ``append`` writes new samples into a ring buffer
 samples), called once per worker bundle); ``refresh`` (one routine for both plots) — called by
 the live view's display pacer, at most at the display rate — hands each curve the last
 ``window`` seconds as a view of the ring (no copy), decimated to the plot's pixel width by
-min–max per pixel column, so a 1 kHz stream costs the same to draw as a 60 Hz one and no peak is lost. The axes move only
-when the range must change (hysteresis), so a refresh repaints curves, not tick labels.
+min–max per pixel column, so a 1 kHz stream costs the same to draw as a 60 Hz one and no peak
+is lost. The axes move only when the range must change (hysteresis), so a refresh repaints
+curves, not tick labels.
 
 A ring holds one timeline: samples whose time goes back (a replay that loops or seeks, another
 source) start a new one (:meth:`TimeRing.append`), and a stretch without samples longer than
