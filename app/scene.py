@@ -46,8 +46,6 @@ FLANGE_COLOR = "#8a8f96"
 ATI_COLOR = "#3a3f45"
 BACKGROUND = "#1e2329"
 
-pv.global_theme.multi_samples = 0  # MSAA halves the frame rate in software GL
-
 #: Most frames a second a threaded scene draws, Hz (``RenderThread.max_rate``). With a GPU: a
 #: display's refresh rate. In software OpenGL (Mesa's llvmpipe) a frame of the live view costs
 #: ~14 ms of CPU at 680×740 px; unlimited frames took that CPU from the data path and the
