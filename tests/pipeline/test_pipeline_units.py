@@ -63,6 +63,15 @@ def test_tare_event_applies_from_its_sample(calibration):
     assert not np.allclose(b2.face_wrenches[0], live.calibration.wrenches(rest["counts"][:1])[0])  # the tare acted
 
 
+def test_a_saturated_gauge_never_gives_a_valid_contact(calibration):
+    pipe = Pipeline(calibration, "pito_mixed", has_reference=False)
+    rows = _grasp(t0=4.0)  # mid-grasp: fingers on the patches
+    assert pipe.process(rows, flush=True).contacts.valid.any()
+    rows = _grasp(t0=5.0)
+    rows["counts"][-1, 7] = 2**23 - 1  # one gauge of the newest sample at the ADC limit
+    assert not pipe.process(rows, flush=True).contacts.valid.any()
+
+
 def _reference(t, seed=0):
     return {"time": np.asarray(t, dtype=float), "wrench": np.random.default_rng(seed).normal(size=(len(t), 6))}
 
