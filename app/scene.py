@@ -24,6 +24,7 @@ from PySide6.QtGui import QImage, QPainter
 from PySide6.QtWidgets import QVBoxLayout, QWidget
 from vtkmodules.qt.QVTKRenderWindowInteractor import QVTKRenderWindowInteractor
 
+from pito_core.defaults import SHOW_CONTACT_FORCE_N
 from pito_core.frames import FACES, CubeCore
 
 from .palette import CONTACT_COLOR, FACE_COLORS, hex_rgb
@@ -155,7 +156,7 @@ class ContactGlyphs:
         self.plotter = plotter
         self.force_scale = 0.006  # m per N: 15 N -> 9 cm
         self.torque_scale = 0.25  # m per N·m: 0.1 N·m -> 2.5 cm ring radius
-        self.threshold = 0.3  # N
+        self.threshold = SHOW_CONTACT_FORCE_N  # N
         self.full_scale = FULL_SCALE_FORCE  # N
         self.show_torsion = True
         self.show_uncertainty = False

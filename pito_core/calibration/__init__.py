@@ -26,7 +26,7 @@ from ._fit import (
 )
 from ._uncertainty import CalibrationCovariance, CovarianceGroup
 from ._methods import METHODS, MethodSpec, get_method
-from ._session import DEFAULT_COUNTS_RANGE, FLANGES, N_GAUGES, CalibrationSession, SessionBlock
+from ._session import DEFAULT_COUNTS_RANGE, FLANGES, CalibrationSession, SessionBlock
 
 __all__ = [
     "ExcitationError",
@@ -53,7 +53,6 @@ __all__ = [
     "FLANGES",
     "METHODS",
     "MethodSpec",
-    "N_GAUGES",
     "RankDeficientWarning",
     "SessionBlock",
     "calibrate",

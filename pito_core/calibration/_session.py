@@ -7,15 +7,12 @@ from typing import Iterator
 
 import numpy as np
 
-from ..frames import CubeCore, check_face, check_pose
+from ..frames import N_GAUGES, CubeCore, check_face, check_pose
 from ..io._csv import read_session_csv_fields, write_session_csv
 from ..io._hdf5 import FileFormatError
 from ..io._session_file import read_session_fields, write_session
 
-__all__ = ["CalibrationSession", "FLANGES", "SessionBlock", "N_GAUGES", "DEFAULT_COUNTS_RANGE"]
-
-#: Number of strain-gauge channels: face i owns columns 6(i-1) .. 6i-1.
-N_GAUGES = 36
+__all__ = ["CalibrationSession", "FLANGES", "SessionBlock", "DEFAULT_COUNTS_RANGE"]
 
 #: Flange types (SPEC "Calibration mounts").
 FLANGES = ("frame", "frame_hole", "face")

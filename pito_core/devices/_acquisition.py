@@ -23,20 +23,17 @@ import time
 
 import numpy as np
 
+from ..frames import CUBE_ADC_LIMIT, N_GAUGES
 from ..io import RecordingWriter
 from ._clock import PAIRING_RULE, StreamClock, TickUnwrapper, pair_reference
-from ._frame import N_CHANNELS
 from ._netft import NetFTBatch
 from ._serial import PitoBatch
 
-
-#: A cube sample with a gauge at or beyond these counts is saturated (24-bit ADC of the cube's boards).
-CUBE_ADC_LIMIT = 2**23 - 1
 __all__ = ["Acquisition"]
 
 #: The rows of the cube's ring: name -> (dtype, shape of one row).
 PITO_ROWS = {"seq": (np.uint32, ()), "time_us": (np.uint32, ()), "tick": (np.int64, ()),
-             "counts": (np.int32, (N_CHANNELS,)), "host_time": (np.float64, ()), "time": (np.float64, ())}
+             "counts": (np.int32, (N_GAUGES,)), "host_time": (np.float64, ()), "time": (np.float64, ())}
 #: The rows of the reference's ring.
 NETFT_ROWS = {"rdt_seq": (np.uint32, ()), "ft_seq": (np.uint32, ()), "tick": (np.int64, ()),
               "status": (np.uint32, ()), "wrench": (np.float64, (6,)), "host_time": (np.float64, ()),
@@ -171,7 +168,7 @@ class Acquisition(RingReader):
         self._collect_lock = threading.Lock()
         self._stop = threading.Event()
         self._thread = None
-        self.counts_offset = np.zeros(N_CHANNELS)
+        self.counts_offset = np.zeros(N_GAUGES)
         self.reference_bias = np.zeros(6)
         self.tared_at: float | None = None
         #: called (no arguments, in the collecting thread) after new rows reached the rings, so a

@@ -19,6 +19,7 @@ import os
 
 import numpy as np
 
+from ..frames import N_GAUGES
 from ._csv import CSV_COUNTS, CSV_REFERENCE
 
 __all__ = ["export_recording_files", "export_recording_csv", "export_recording_mat", "read_recording_csv", "RECORDING_CSV_COLUMNS"]
@@ -33,7 +34,7 @@ RECORDING_CSV_COLUMNS = {
 def _table(recording, stream: str) -> tuple[np.ndarray, list[str]]:
     if stream == "pito":
         r = recording.pito
-        cols = [r["host_time"], r["seq"], r["time_us"]] + [r["counts"][:, j] for j in range(36)]
+        cols = [r["host_time"], r["seq"], r["time_us"]] + [r["counts"][:, j] for j in range(N_GAUGES)]
     elif stream == "netft":
         r = recording.netft
         cols = [r["host_time"], r["rdt_seq"], r["ft_seq"], r["status"]] + [r["wrench"][:, j] for j in range(6)]
@@ -89,7 +90,7 @@ def export_recording_mat(recording, path) -> None:
                 "pito_seq": p["seq"].reshape(-1, 1),
                 "pito_time_us": p["time_us"].reshape(-1, 1),
                 "pito_host_time": p["host_time"].reshape(-1, 1),
-                "pito_counts": p["counts"].reshape(-1, 36),
+                "pito_counts": p["counts"].reshape(-1, N_GAUGES),
                 "ati_rdt_seq": a["rdt_seq"].reshape(-1, 1),
                 "ati_ft_seq": a["ft_seq"].reshape(-1, 1),
                 "ati_status": a["status"].reshape(-1, 1),

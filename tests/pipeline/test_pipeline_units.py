@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from pito_core.frames import CUBE_ADC_LIMIT
 from pito_core.pipeline import NewSamples, Pipeline
 
 
@@ -68,7 +69,7 @@ def test_a_saturated_gauge_never_gives_a_valid_contact(calibration):
     rows = _grasp(t0=4.0)  # mid-grasp: fingers on the patches
     assert pipe.process(rows, flush=True).contacts.valid.any()
     rows = _grasp(t0=5.0)
-    rows["counts"][-1, 7] = 2**23 - 1  # one gauge of the newest sample at the ADC limit
+    rows["counts"][-1, 7] = CUBE_ADC_LIMIT  # one gauge of the newest sample at the ADC limit
     assert not pipe.process(rows, flush=True).contacts.valid.any()
 
 
