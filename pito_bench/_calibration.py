@@ -51,8 +51,7 @@ def rmse_summary(ev) -> dict:
 
 def _design(session, method, output_faces):
     """Offset-free counts and targets as ``calibrate`` uses them: list of ``(faces, cols, S, W)``."""
-    from pito_core.calibration import get_method
-    from pito_core.calibration._targets import MountGeometry, block_targets
+    from pito_core.calibration import MountGeometry, block_targets, get_method
 
     spec = get_method(method)
     counts = np.asarray(session.counts, dtype=float)
@@ -131,8 +130,7 @@ def task_generate(jobs) -> dict:
 
 def task_memory(k, train, test, methods, repeat=3) -> dict:
     """In-memory fits of every method at size k, with the NumPy baselines and the cores."""
-    from pito_core.calibration import CalibrationSession, calibrate, evaluate
-    from pito_core.calibration._lstsq import StreamedQR
+    from pito_core.calibration import CalibrationSession, StreamedQR, calibrate, evaluate
 
     sessions = {fl: CalibrationSession.load(p) for fl, p in train.items()}
     tests = {fl: CalibrationSession.load(p) for fl, p in test.items()}

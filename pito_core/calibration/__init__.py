@@ -10,6 +10,7 @@ from ._evaluate import (
     evaluate,
     identify_loaded_faces,
     inverse_condition_table,
+    UNCERTAINTY_WORDS,
 )
 from ._fit import (
     AXES,
@@ -25,8 +26,10 @@ from ._fit import (
     session_offsets,
 )
 from ._uncertainty import CalibrationCovariance, CovarianceGroup
+from ._lstsq import LstsqResult, StreamedQR
 from ._methods import METHODS, MethodSpec, get_method
-from ._session import DEFAULT_COUNTS_RANGE, FLANGES, CalibrationSession, SessionBlock
+from ._targets import MountGeometry, block_targets
+from ..io import DEFAULT_COUNTS_RANGE, FLANGES, CalibrationSession, SessionBlock  # the session format (io), re-exported
 
 __all__ = [
     "ExcitationError",
@@ -39,6 +42,11 @@ __all__ = [
     "evaluate",
     "identify_loaded_faces",
     "inverse_condition_table",
+    "UNCERTAINTY_WORDS",
+    "LstsqResult",
+    "StreamedQR",
+    "MountGeometry",
+    "block_targets",
     "AXES",
     "NET_LOAD_MEASURED",
     "NET_LOAD_PRIOR",

@@ -23,7 +23,7 @@ from ..frames import FACES
 from ._calibration import Calibration
 from ._lstsq import RANK_RTOL, StreamedQR
 from ._methods import MethodSpec, get_method
-from ._session import CalibrationSession, _few
+from ..io import CalibrationSession, few_indices as _few
 from ._targets import MountGeometry, block_targets
 from ._residuals import fit_error_model
 from ._uncertainty import CalibrationCovariance, CovarianceGroup

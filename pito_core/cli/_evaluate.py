@@ -48,8 +48,7 @@ def print_evaluation(ev, calibration=None) -> None:
     squeeze loads by torque (the other rules are listed below it). With the calibration's
     covariance each RMSE table row is followed by the ± (95 %) of that face and axis.
     """
-    from ..calibration import AXES
-    from ..calibration._evaluate import UNCERTAINTY_WORDS
+    from ..calibration import AXES, UNCERTAINTY_WORDS
 
     if ev.simulated:
         print("(SIMULATED data)")

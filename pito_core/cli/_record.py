@@ -87,7 +87,7 @@ def _line(elapsed, stats) -> str:
         f = stats["netft"]
         s += f" | ati {f['records']} records, lost {f['lost']}, saturated {f['saturated']}"
         s += f", out of order {f.get('out_of_order', 0)}"
-    from ..devices._health import health_words
+    from ..devices import health_words
 
     words = health_words(stats)
     return s + (" | " + "; ".join(words) if words else "")
@@ -192,7 +192,7 @@ def _record(args) -> int:
             reader = AcquisitionReader(acq, simulated=info["simulated"], history=0.0)
             t0 = time.monotonic()
             next_progress = t0 + args.progress
-            from ..devices._health import StallReporter
+            from ..devices import StallReporter
 
             stall_reporter = StallReporter()
             tared = args.tare <= 0

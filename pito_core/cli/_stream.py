@@ -52,7 +52,7 @@ def register(sub) -> None:
 
 def run(args) -> int:
     if args.write_machine_config:
-        from ..interop._lsl import machine_only_config
+        from ..interop import machine_only_config
 
         print(f"wrote {machine_only_config(args.write_machine_config)}  (export LSLAPICFG={args.write_machine_config})")
         return 0

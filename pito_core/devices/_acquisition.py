@@ -24,7 +24,7 @@ import time
 import numpy as np
 
 from ..frames import CUBE_ADC_LIMIT, N_GAUGES
-from ..io import RecordingWriter
+from ..io import CalibrationSession, RecordingWriter
 from ._clock import PAIRING_RULE, StreamClock, TickUnwrapper, pair_reference
 from ._netft import NetFTBatch
 from ._serial import PitoBatch
@@ -388,7 +388,7 @@ class Acquisition(RingReader):
     # ------------------------------------------------------------------ sessions
     def to_session(self, t0=None, t1=None, loaded=None, *, flange, connected_face, T_core_ati,
                    core=None, meta: dict | None = None, reference_delay: float = 0.0):
-        """Build a :class:`~pito_core.calibration.CalibrationSession` from the buffered samples.
+        """Build a :class:`~pito_core.io.CalibrationSession` from the buffered samples.
 
         Parameters
         ----------
@@ -419,8 +419,6 @@ class Acquisition(RingReader):
         ValueError
             No reference connected, no samples in the window, or a bad ``loaded``.
         """
-        from ..calibration import CalibrationSession
-
         if self.netft is None:
             raise ValueError("netft: a reference sensor is needed to build a session")
         self._drain()

@@ -45,7 +45,7 @@ from multiprocessing.connection import Connection, wait
 
 import numpy as np
 
-from ..devices._lifetime import die_with_parent, install_stop_signals
+from ..devices import die_with_parent, install_stop_signals
 from ..frames import CubeCore
 from ._bundle import LiveBundle
 from ._open import open_acquisition

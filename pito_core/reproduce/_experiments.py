@@ -282,7 +282,7 @@ def _touch_test(res: Results, cube, cfg, t0) -> dict:
     pencil aimed at a mark does; errors are measured against the targets (as the papers do),
     and against where the touch actually landed (the sensor's own error).
     """
-    from ..calibration._targets import MountGeometry
+    from ..calibration import MountGeometry
 
     face = 5 if cfg.connected_face != 5 else 1
     session, truth = simulate_touches(face, "face", cfg.connected_face, k=cfg.k_touch, seed=cfg.seed, model=cube,

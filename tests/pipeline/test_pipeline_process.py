@@ -10,7 +10,7 @@ import time
 import numpy as np
 import pytest
 
-from pito_core.devices._lifetime import process_alive as _alive
+from pito_core.devices import process_alive as _alive
 
 from pito_core.io import read_recording
 from pito_core.pipeline import Pipeline, PipelineProcess, PipelineProcessError
