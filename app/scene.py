@@ -25,7 +25,7 @@ from PySide6.QtWidgets import QVBoxLayout, QWidget
 from vtkmodules.qt.QVTKRenderWindowInteractor import QVTKRenderWindowInteractor
 
 from pito_core.defaults import SHOW_CONTACT_FORCE_N
-from pito_core.frames import FACES, CubeCore
+from pito_core.frames import FACE_NORMALS, FACES, CubeCore
 
 from .palette import CONTACT_COLOR, FACE_COLORS, hex_rgb
 from .render_thread import RenderThread
@@ -532,8 +532,6 @@ class CubeScene(QWidget):
     def look_at_mount(self, connected_face: int | None, active_face: int | None = None, distance: float = 4.8,
                       elevation: float | None = None) -> None:
         """Camera with the flange's face down (as on the bench), the active face towards the viewer."""
-        from pito_core.frames import FACE_NORMALS
-
         e = self.core.edge
         if connected_face is None:
             self.reset_camera(distance)

@@ -23,7 +23,7 @@ import time
 
 import numpy as np
 
-from ..frames import CUBE_ADC_LIMIT, N_GAUGES
+from ..frames import CUBE_ADC_LIMIT, N_GAUGES, check_face
 from ..io import CalibrationSession, RecordingWriter
 from ._clock import PAIRING_RULE, StreamClock, TickUnwrapper, pair_reference
 from ._netft import NetFTBatch
@@ -472,8 +472,6 @@ class Acquisition(RingReader):
         if callable(loaded):
             out = np.asarray(loaded(t))
         elif np.isscalar(loaded) and not isinstance(loaded, (bool, np.bool_)):
-            from ..frames import check_face
-
             face = check_face(loaded, "loaded")
             out = np.zeros((n, 6), bool)
             out[:, face - 1] = True

@@ -21,6 +21,7 @@ import numpy as np
 
 from ..frames import N_GAUGES
 from ._csv import CSV_COUNTS, CSV_REFERENCE
+from ._recording import RECORDING_FORMAT, RECORDING_VERSION
 
 __all__ = ["export_recording_files", "export_recording_csv", "export_recording_mat", "read_recording_csv", "RECORDING_CSV_COLUMNS"]
 
@@ -76,8 +77,6 @@ def read_recording_csv(path, stream: str = "pito") -> dict:
 def export_recording_mat(recording, path) -> None:
     """Write ``recording`` to exactly ``path`` as a MATLAB ``.mat`` file (v5, scipy.io.savemat)."""
     from scipy.io import savemat
-
-    from ._recording import RECORDING_FORMAT, RECORDING_VERSION
 
     p, a = recording.pito, recording.netft
     with open(os.fspath(path), "wb") as fh:  # exactly the name given: savemat adds ".mat" to str paths

@@ -32,7 +32,7 @@ import numpy as np
 
 from .._version import __version__
 from ..frames import N_GAUGES
-from ._hdf5 import ChecksumError, FileFormatError
+from ._hdf5 import ChecksumError, FileFormatError, json_attr
 
 __all__ = [
     "RECORDING_FORMAT",
@@ -63,8 +63,6 @@ _ROWS = {KIND_PITO: PITO_ROW, KIND_NETFT: NETFT_ROW}
 
 
 def _json_bytes(obj) -> bytes:
-    from ._hdf5 import json_attr
-
     return json_attr(obj).encode("utf-8")
 
 

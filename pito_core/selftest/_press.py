@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..frames import N_GAUGES
+from ..frames import N_GAUGES, invert_pose
 
 __all__ = ["PressStep", "StepCheck", "PressTestResult", "PRESS_PROTOCOL", "check_press_test"]
 
@@ -97,8 +97,6 @@ def _face_wrench(cal, counts, rest, face: int) -> np.ndarray:
     W = cal.wrenches(np.atleast_2d(np.asarray(counts, dtype=float)), offset=np.asarray(rest, dtype=float))
     w = W[:, face - 1, :]
     if cal.output_frame == "reference":  # rotate back into the face frame (forces and torques alike)
-        from ..frames import invert_pose
-
         R = (invert_pose(cal.T_core_ati) @ cal.core.face_pose(face))[:3, :3]
         w = np.concatenate([w[:, :3] @ R, w[:, 3:] @ R], axis=1)  # (Rᵀ v) for each row
     return w
