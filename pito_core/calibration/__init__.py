@@ -1,4 +1,7 @@
-"""Calibration: sessions, the method table, the least-squares core, Calibration, evaluation."""
+"""Calibration: the method table, the least-squares core, Calibration, evaluation.
+
+Sessions are :mod:`pito_core.io`'s (``CalibrationSession`` is re-exported here).
+"""
 
 from ._calibration import Calibration, load_calibration
 from ._evaluate import (

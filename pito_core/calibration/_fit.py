@@ -197,7 +197,7 @@ class Calibrator:
     ----------
     method : str
         One of ``face_to_face``, ``quasi_total``, ``total``, ``loaded_frame``,
-        ``unloaded_frame`` (SPEC "Calibration methods").
+        ``unloaded_frame`` (docs/calibration.md, "The methods").
     prior : {None, "own_gauge"}
         None (default): the papers' plain least squares everywhere. ``"own_gauge"``: where
         the loads leave directions of the counts unexcited (a ``face`` or ``frame`` flange

@@ -11,7 +11,7 @@ __all__ = ["CubeCore", "FACE_NORMALS", "OPPOSITE_FACE", "FACES", "DEFAULT_EDGE",
 #: Faces in the order of every public array: face i at index i-1.
 FACES = (1, 2, 3, 4, 5, 6)
 
-#: Outward normal of each face in the core frame (SPEC: 1 +x, 2 +y, 3 −x, 4 −y, 5 +z, 6 −z).
+#: Outward normal of each face in the core frame (docs/conventions.md, "Face frames": 1 +x, 2 +y, 3 −x, 4 −y, 5 +z, 6 −z).
 FACE_NORMALS = {
     1: (1.0, 0.0, 0.0),
     2: (0.0, 1.0, 0.0),

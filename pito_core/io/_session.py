@@ -18,7 +18,7 @@ from ._session_file import read_session_fields, write_session
 
 __all__ = ["CalibrationSession", "FLANGES", "SessionBlock", "DEFAULT_COUNTS_RANGE", "few_indices"]
 
-#: Flange types (SPEC "Calibration mounts").
+#: Flange types (docs/conventions.md, "Calibration mounts").
 FLANGES = ("frame", "frame_hole", "face")
 
 #: Counts at or beyond these limits are saturated, unless a session says otherwise (int32 range).
@@ -63,7 +63,7 @@ class CalibrationSession:
     T_core_ati : array-like, shape (4, 4)
         Pose of the reference sensor's frame in the core frame.
     flange : {"frame", "frame_hole", "face"}
-        The calibration mount (SPEC "Calibration mounts").
+        The calibration mount (docs/conventions.md, "Calibration mounts").
     connected_face : int
         The face the flange is on, 1..6.
     core : CubeCore, optional
