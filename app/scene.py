@@ -24,7 +24,8 @@ from PySide6.QtGui import QImage, QPainter
 from PySide6.QtWidgets import QVBoxLayout, QWidget
 from vtkmodules.qt.QVTKRenderWindowInteractor import QVTKRenderWindowInteractor
 
-from pito_core.frames import FACES, CubeCore
+from pito_core.defaults import SHOW_CONTACT_FORCE_N
+from pito_core.frames import FACE_NORMALS, FACES, CubeCore
 
 from .palette import CONTACT_COLOR, FACE_COLORS, hex_rgb
 from .render_thread import RenderThread
@@ -46,12 +47,10 @@ FLANGE_COLOR = "#8a8f96"
 ATI_COLOR = "#3a3f45"
 BACKGROUND = "#1e2329"
 
-pv.global_theme.multi_samples = 0  # MSAA halves the frame rate in software GL
-
 #: Most frames a second a threaded scene draws, Hz (``RenderThread.max_rate``). With a GPU: a
 #: display's refresh rate. In software OpenGL (Mesa's llvmpipe) a frame of the live view costs
 #: ~14 ms of CPU at 680×740 px; unlimited frames took that CPU from the data path and the
-#: plots and made every view later, not fresher (docs/performance.md §6).
+#: plots and made every view later, not fresher (docs/performance.md, "Live window").
 MAX_FRAME_RATE = {"hardware": 60.0, "software": 50.0}
 
 
@@ -166,7 +165,7 @@ class ContactGlyphs:
         self.plotter = plotter
         self.force_scale = 0.006  # m per N: 15 N -> 9 cm
         self.torque_scale = 0.25  # m per N·m: 0.1 N·m -> 2.5 cm ring radius
-        self.threshold = 0.3  # N
+        self.threshold = SHOW_CONTACT_FORCE_N  # N
         self.full_scale = FULL_SCALE_FORCE  # N
         self.show_torsion = True
         self.show_uncertainty = False
@@ -560,8 +559,6 @@ class CubeScene(QWidget):
     def look_at_mount(self, connected_face: int | None, active_face: int | None = None, distance: float = 4.8,
                       elevation: float | None = None) -> None:
         """Camera with the flange's face down (as on the bench), the active face towards the viewer."""
-        from pito_core.frames import FACE_NORMALS
-
         e = self.core.edge
         if connected_face is None:
             self.reset_camera(distance)
