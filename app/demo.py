@@ -9,8 +9,9 @@ the simulator at startup. No Qt here.
 
 from __future__ import annotations
 
+from pito_core.calibration import calibrate
 from pito_core.pipeline import PipelineProcess
-from pito_core.sim import SimulatedDevices
+from pito_core.sim import SimulatedDevices, simulate_calibration
 
 __all__ = ["DemoDevices", "demo_calibration", "DEMO_METHOD"]
 
@@ -73,8 +74,5 @@ class DemoDevices:
 def demo_calibration(k: int = 1500, seed: int = 0):
     """Calibrate the virtual cube with the simulator: method :data:`DEMO_METHOD` (flange with an
     access hole on face 6, all six faces loaded, ``k`` samples each). SIMULATED data."""
-    from pito_core.calibration import calibrate
-    from pito_core.sim import simulate_calibration
-
     session = simulate_calibration("frame_hole", 6, k=k, seed=seed)
     return calibrate(session, DEMO_METHOD)

@@ -14,6 +14,10 @@ from PySide6.QtWidgets import (
     QVBoxLayout, QWidget,
 )
 
+from pito_core.calibration import load_calibration
+from pito_core.interop import export_data, write_mcap, write_nwb
+from pito_core.io import export_recording_csv, export_recording_mat, read_recording
+
 from .filetypes import CALIBRATION_FILTER
 from .tasks import TaskBar, run_task
 
@@ -30,8 +34,6 @@ def export_recording(recording, formats, out_prefix, calibration_path=None, subj
 
     ``progress(fraction, text)`` as :func:`app.tasks.run_task` gives it (raises when cancelled).
     """
-    from pito_core.io import export_recording_csv, export_recording_mat, read_recording
-
     progress = progress or (lambda f, t: None)
     unknown = set(formats) - set(FORMATS)
     if unknown or not formats:
@@ -49,12 +51,8 @@ def export_recording(recording, formats, out_prefix, calibration_path=None, subj
             out.append(prefix + ".mat")
         progress(0.05, "raw streams written")
     if "nwb" in formats or "mcap" in formats:
-        from pito_core.interop import export_data, write_mcap, write_nwb
-
         cal = None
         if calibration_path:
-            from pito_core.calibration import load_calibration
-
             cal = load_calibration(calibration_path)
         data = export_data(recording, cal, calibration_source=calibration_path, progress=progress)
         both = "nwb" in formats and "mcap" in formats

@@ -12,7 +12,7 @@ import time
 from PySide6.QtCore import QTimer
 from PySide6.QtWidgets import QLabel
 
-from pito_core.devices._health import health_words
+from pito_core.devices import health_words
 
 __all__ = ["HealthIndicator", "install_health_indicator"]
 

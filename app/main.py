@@ -57,6 +57,7 @@ def main(argv=None) -> int:
     if args.screenshot and not args.demo:
         print("pito-app: --screenshot needs --demo (screens are rendered on the simulated devices)", file=sys.stderr)
         return 2
+    # deferred: Qt, pyvista, VTK and the window load only once a window is made (not for --help)
     from PySide6.QtWidgets import QApplication
 
     app = QApplication.instance() or QApplication(sys.argv[:1])
@@ -74,7 +75,7 @@ def main(argv=None) -> int:
     if args.pito:
         window.connect_devices(args.pito, args.ati or "", False)
     if args.screenshot:
-        from .screenshot import take_screenshot
+        from .screenshot import take_screenshot  # deferred with the window (above)
 
         w, h = (int(x) for x in args.size.lower().split("x"))
         if w < 1280 or h < 800:

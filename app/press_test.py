@@ -12,6 +12,7 @@ import numpy as np
 from PySide6.QtCore import QTimer
 from PySide6.QtWidgets import QDialog, QHBoxLayout, QLabel, QPlainTextEdit, QPushButton, QVBoxLayout
 
+from pito_core.frames import N_GAUGES
 from pito_core.selftest import PRESS_PROTOCOL, check_press_test
 
 __all__ = ["PressTestDialog", "install_press_test_menu", "STEP_S", "REST_S"]
@@ -71,7 +72,7 @@ class PressTestDialog(QDialog):
 
     def _take(self) -> np.ndarray:
         buf, self._buf = self._buf or [], None
-        return np.concatenate(buf) if buf else np.zeros((0, 36))
+        return np.concatenate(buf) if buf else np.zeros((0, N_GAUGES))
 
     # ------------------------------------------------------------ flow
     def advance(self) -> None:

@@ -7,6 +7,7 @@ import time
 from PySide6.QtWidgets import QApplication
 
 from .eventloop import process_for, wait_until
+from .scene import grab_window
 from .wizard.driver import run_to_page
 
 __all__ = ["take_screenshot", "wait_until", "process_for"]
@@ -60,7 +61,5 @@ def take_screenshot(window, page: str, path, size=(1440, 900)) -> bool:
     if page != "live":
         process_for(0.3)
     QApplication.processEvents()
-    from .scene import grab_window
-
     img = grab_window(window)  # the 3D views are native GL windows: painted in
     return bool(img.save(str(path)))

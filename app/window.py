@@ -8,7 +8,9 @@ from pathlib import Path
 from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import QFileDialog, QLabel, QMainWindow, QMessageBox, QTabWidget, QWidget, QHBoxLayout
 
+from pito_core.calibration import load_calibration
 from pito_core.frames import CubeCore
+from pito_core.io import calibration_hash, short_hash
 
 from pito_core.pipeline import PipelineProcess, RecordingReader
 from pito_core.sim import reference_pose
@@ -21,6 +23,10 @@ from .objects import display_meshes, list_assemblies, load_assembly, weight
 from .wizard.model import WizardModel
 from .wizard.wizard import CalibrationWizard
 from .workers import DeviceWorker, WorkerThread
+from .export_dialog import install_export_menu
+from .live.lsl_toggle import install_lsl_toggle
+from .health import install_health_indicator
+from .press_test import install_press_test_menu
 
 __all__ = ["MainWindow"]
 
@@ -92,14 +98,8 @@ class MainWindow(QMainWindow):
         self.worker.error.connect(self.on_worker_error)
         self.worker.recording_closed.connect(self._recording_closed)
         self.worker.recording_failed.connect(self._recording_failed)
-        from .export_dialog import install_export_menu  # File → Export; the live view's LSL toggle (docs/interop.md)
-        from .live.lsl_toggle import install_lsl_toggle
-
         install_export_menu(self)
         install_lsl_toggle(self.live, self.worker, simulated=demo)
-        from .health import install_health_indicator  # status bar: "stalled", rate mismatch (issue 13)
-        from .press_test import install_press_test_menu  # Tools → Press test (issue 13)
-
         install_health_indicator(self)
         install_press_test_menu(self)
         self.errors: list[str] = []
@@ -206,8 +206,6 @@ class MainWindow(QMainWindow):
     def set_calibration(self, calibration, label: str = "") -> None:
         self.calibration = calibration
         self.worker.post(lambda: self.worker.set_calibration(calibration))
-        from pito_core.io import calibration_hash, short_hash
-
         h = short_hash(calibration_hash(calibration))  # the calibration's identity (issue 13)
         self.cal_label.setText(f"calibration: {label or calibration.method} [{h}]")
         self.cal_label.setStyleSheet("")
@@ -217,8 +215,6 @@ class MainWindow(QMainWindow):
 
     def load_calibration(self, path):
         """Load a calibration file in the background; returns the task (its ``done`` carries the calibration)."""
-        from pito_core.calibration import load_calibration
-
         self._loading_calibration = True
 
         def done(cal):

@@ -27,6 +27,7 @@ import numpy as np
 from PySide6.QtCore import QObject, Qt, QThread, QTimer, Signal, Slot
 
 from pito_core.frames import CubeCore
+from pito_core.interop import provenance_meta
 from pito_core.pipeline import LiveBundle, NewSamples, Pipeline, face_sums
 
 __all__ = ["Source", "Bundle", "DeviceWorker", "WorkerThread", "face_sums", "merge_bundles"]
@@ -277,8 +278,6 @@ class DeviceWorker(QObject):
             self.recording_failed.emit(message)
             raise ValueError(message)
         self.stop_recording()
-        from pito_core.interop import provenance_meta
-
         info = {"simulated": bool(simulated), "source": "pito-app"}
         info.update(provenance_meta(self.pipeline))  # the calibration and object shown (docs/interop.md)
         info.update(meta or {})

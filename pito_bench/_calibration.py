@@ -16,6 +16,18 @@ import time
 
 import numpy as np
 
+from pito_core.calibration import (
+    Calibration,
+    CalibrationSession,
+    MountGeometry,
+    StreamedQR,
+    block_targets,
+    calibrate,
+    evaluate,
+    get_method,
+)
+from pito_core.sim import random_sensor, random_sensor_session
+
 from ._baseline import plain_affine_lstsq
 from ._data import MOUNT_OF_METHOD, write_session_file
 from ._timing import best_time, peak_rss_mb, run_worker
@@ -51,9 +63,6 @@ def rmse_summary(ev) -> dict:
 
 def _design(session, method, output_faces):
     """Offset-free counts and targets as ``calibrate`` uses them: list of ``(faces, cols, S, W)``."""
-    from pito_core.calibration import get_method
-    from pito_core.calibration._targets import MountGeometry, block_targets
-
     spec = get_method(method)
     counts = np.asarray(session.counts, dtype=float)
     loaded = np.asarray(session.loaded, dtype=bool)
@@ -91,8 +100,6 @@ def plain_fit(session, method, output_faces, solver: str = "lstsq"):
     -------
     Calibration
     """
-    from pito_core.calibration import Calibration
-
     spec, offset, groups = _design(session, method, output_faces)
     matrix = np.zeros((6 * len(output_faces), 36))
     row_of = {f: r for r, f in enumerate(output_faces)}
@@ -131,9 +138,6 @@ def task_generate(jobs) -> dict:
 
 def task_memory(k, train, test, methods, repeat=3) -> dict:
     """In-memory fits of every method at size k, with the NumPy baselines and the cores."""
-    from pito_core.calibration import CalibrationSession, calibrate, evaluate
-    from pito_core.calibration._lstsq import StreamedQR
-
     sessions = {fl: CalibrationSession.load(p) for fl, p in train.items()}
     tests = {fl: CalibrationSession.load(p) for fl, p in test.items()}
     rows = []
@@ -176,8 +180,6 @@ def task_memory(k, train, test, methods, repeat=3) -> dict:
 
 def task_stream(path, method, test_path, block_size=65536) -> dict:
     """One streamed fit from a session file (lazy), alone in its process: time and memory."""
-    from pito_core.calibration import CalibrationSession, calibrate, evaluate
-
     session = CalibrationSession.load(path, lazy=True)
     rss0 = _current_rss_mb()
     t0 = time.perf_counter()
@@ -263,9 +265,6 @@ def task_random_cubes(n_cubes, k_choices, seed=0, prior=False) -> dict:
     the simulated face wrenches. With ``prior``, also ``prior="own_gauge"`` where it applies.
     """
     import warnings
-
-    from pito_core.calibration import calibrate
-    from pito_core.sim import random_sensor, random_sensor_session
 
     rng = np.random.default_rng(seed)
     rows = []

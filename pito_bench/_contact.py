@@ -24,6 +24,8 @@ import time
 
 import numpy as np
 
+from pito_core.contact import Ellipsoid, MeshSurface, Plane, Sphere, contact_crb, solve
+
 from ._timing import best_time, run_worker
 
 __all__ = ["NOISE_LEVELS", "SCENARIOS", "SURFACES", "make_surface", "sample_contacts", "run_contact"]
@@ -50,8 +52,6 @@ def _bump_mesh(n: int = 50, half: float = 0.025):
 def make_surface(kind: str):
     """The benchmark's patch of ``kind`` in a face frame (m), and its apex (3,)."""
     from scipy.spatial.transform import Rotation
-
-    from pito_core.contact import Ellipsoid, MeshSurface, Plane, Sphere
 
     if kind == "plane":
         return Plane([0.0, 0.0, 0.004], [0.0, 0.0, 1.0])
@@ -179,8 +179,6 @@ def _error_ratio(est, c, crb_tr, ok):
 def task_contact(n_speed=100_000, n_acc=20_000, n_scipy=200, surfaces=SURFACES, levels=tuple(NOISE_LEVELS),
                  scipy_levels=("mid",), repeat=3, seed=0) -> dict:
     """Speed and accuracy of ``solve`` and of the scipy baseline on every surface and scenario."""
-    from pito_core.contact import contact_crb, solve
-
     rng = np.random.default_rng(seed)
     speed_rows, acc_rows = [], []
     for kind in surfaces:

@@ -16,6 +16,8 @@ import numpy as np
 
 from pito_core.calibration import CalibrationSession
 from pito_core.frames import FACES, invert_pose, wrench_adjoint
+from pito_core.io import write_session
+from pito_core.sim import VirtualCube, reference_pose
 
 __all__ = ["MOUNT_OF_METHOD", "BenchData", "generate_session", "write_session_file"]
 
@@ -50,8 +52,6 @@ class BenchData:
     """
 
     def __init__(self, flange: str, connected_face: int, n: int, seed: int = 0):
-        from pito_core.sim import VirtualCube, reference_pose
-
         self.flange, self.connected_face, self.n, self.seed = flange, int(connected_face), int(n), int(seed)
         self.cube = VirtualCube(seed=0)
         self.core = self.cube.core
@@ -161,6 +161,4 @@ def generate_session(flange: str, connected_face: int, n: int, seed: int = 0) ->
 
 def write_session_file(path, flange: str, connected_face: int, n: int, seed: int = 0) -> None:
     """Write a simulated session of ``n`` samples to ``path`` (pito-session v1), in bounded memory."""
-    from pito_core.io import write_session
-
     write_session(path, _LazyGenerated(BenchData(flange, connected_face, n, seed)), block_size=GEN_BLOCK)

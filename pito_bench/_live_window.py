@@ -38,6 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ._stamp import WindowProbe, decode
+
 __all__ = ["run", "main", "start_xvfb", "display_env"]
 
 SIZE = (1440, 900)
@@ -45,14 +47,13 @@ SIZE = (1440, 900)
 
 def _run_app(regions: str, seconds: float, warmup: float) -> int:
     """In the app's process: the demo window with frame stamps; writes the regions JSON when warm."""
+    # deferred: Qt and the app load only in the app's process (the grabber and the soak import this module)
     from PySide6.QtCore import QTimer
     from PySide6.QtWidgets import QApplication
 
     app = QApplication(sys.argv[:1])
     from app.theme import STYLE
     from app.window import MainWindow
-
-    from ._stamp import WindowProbe
 
     app.setStyleSheet(STYLE)
     w = MainWindow(demo=True)
@@ -95,8 +96,7 @@ def _percentiles(values) -> dict:
 
 
 def _grab(display: str, regions_path: Path, seconds: float, rate: float, app_proc) -> dict:
-    from ._stamp import decode
-    from ._xgrab import Grabber
+    from ._xgrab import Grabber  # deferred: loads libX11 (ctypes) at import; only the grabbing process needs it
 
     t_wait = time.monotonic() + 180
     while not regions_path.exists():

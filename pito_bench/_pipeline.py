@@ -31,6 +31,12 @@ import time
 
 import numpy as np
 
+from pito_core.calibration import Calibration
+from pito_core.contact import Assembly, Patch, Sphere
+from pito_core.devices import Acquisition, FrameDecoder, PitoSerial, crc16_ccitt_false, pack_frames
+from pito_core.pipeline import AcquisitionReader, Pipeline
+from pito_core.sim import IdleDevice, VirtualCube, push_samples
+
 from ._timing import best_time, run_worker, thread_env
 
 __all__ = ["live_scenario", "default_pipeline", "tick_cost", "decode_benchmark", "run_live", "run_pipeline"]
@@ -45,8 +51,6 @@ def live_scenario(n: int, rate_hz: float = 1000.0, seed: int = 0):
     Face i's contact circles on its spherical patch (period 2 s, phase per face) with a
     4–8 N force within 30° of the inward normal and a small torsion.
     """
-    from pito_core.sim import VirtualCube
-
     rng = np.random.default_rng(seed)
     t = np.arange(n) / rate_hz
     cube = VirtualCube(seed=0)
@@ -73,8 +77,6 @@ def live_scenario(n: int, rate_hz: float = 1000.0, seed: int = 0):
 
 def bench_assembly(core):
     """Six spherical caps (one per face, face frame): the live scenario's object."""
-    from pito_core.contact import Assembly, Patch, Sphere
-
     return Assembly("bench-spheres", core, {i: Patch(Sphere(PATCH_CENTER, PATCH_RADIUS), name="sphere cap")
                                             for i in range(1, 7)})
 
@@ -82,10 +84,6 @@ def bench_assembly(core):
 def default_pipeline(has_reference: bool = False):
     """The live scenario's :class:`pito_core.pipeline.Pipeline` — the one the app, ``pito record``
     and replay run: ideal calibration of the simulated cube, six sphere patches, no smoothing."""
-    from pito_core.calibration import Calibration
-    from pito_core.pipeline import Pipeline
-    from pito_core.sim import VirtualCube
-
     cube = VirtualCube(seed=0)
     cal = Calibration("ideal", cube.ideal_calibration(), range(1, 7), "face", cube.offset, cube.core, np.eye(4),
                       meta={"simulated": True})
@@ -98,10 +96,6 @@ def tick_cost(ticks: int = 600, per_tick: int = 17, buffer_seconds: float = 30.0
     the last 4,000 cube + 20,000 reference rows each tick) against reading by write cursor
     (``AcquisitionReader``), and the whole pipeline step (pairing, tare, calibration, six contacts).
     Synthetic 1 kHz rows pushed straight into an ``Acquisition``, ``per_tick`` new per tick."""
-    from pito_core.devices import Acquisition
-    from pito_core.pipeline import AcquisitionReader
-    from pito_core.sim import IdleDevice, push_samples
-
     def push(acq, k, n):
         push_samples(acq, k, n, host0=1000.0, counts=np.zeros((n, 36), np.int32), wrench=np.zeros((n, 6)))
 
@@ -141,8 +135,6 @@ def tick_cost(ticks: int = 600, per_tick: int = 17, buffer_seconds: float = 30.0
 # ---------------------------------------------------------------- decoding
 def _naive_decode(data: bytes) -> int:
     """Plain per-frame decoder (the baseline): find sync, unpack, check the CRC in Python."""
-    from pito_core.devices import crc16_ccitt_false
-
     n, pos, size = 0, 0, 156
     fmt = struct.Struct("<2sII36iH")
     while pos + size <= len(data):
@@ -193,8 +185,6 @@ class _FastPathDecoder:
 
 def decode_benchmark(n_frames: int = 20_000, repeat: int = 3) -> dict:
     """Frames per second of ``FrameDecoder`` (two chunk sizes) and of the naive decoder."""
-    from pito_core.devices import FrameDecoder, pack_frames
-
     counts, _ = live_scenario(n_frames, seed=1)
     data = pack_frames(np.arange(n_frames), np.arange(n_frames) * 1000, counts)
     rows = []
@@ -267,9 +257,6 @@ def run_live(duration: float = 5.0, rate_hz: float = 1000.0, *, on_bundle=None, 
         ``processing_ms`` (per bundle: read, pipeline, ``on_bundle``), ``cpu_share``, ``frames``,
         ``bundles``, ``dropped``, ``contact_error_mm`` (RMS distance of the live contacts from the truth).
     """
-    from pito_core.devices import Acquisition, PitoSerial
-    from pito_core.pipeline import AcquisitionReader
-
     n = int(round(duration * rate_hz))
     pipe = default_pipeline() if pipeline is None else pipeline
     core = pipe.core

@@ -16,11 +16,12 @@ import sys
 import time
 import tty
 
+from pito_core.devices import pack_frames
+
+from ._pipeline import live_scenario
+
 
 def main(argv=None) -> int:
-    from pito_core.devices import pack_frames
-    from ._pipeline import live_scenario
-
     argv = sys.argv[1:] if argv is None else argv
     n, rate, seed = int(argv[0]), float(argv[1]), int(argv[2])
     counts, _ = live_scenario(n, rate, seed)

@@ -11,6 +11,13 @@ import subprocess
 import sys
 import tempfile
 
+from pito_core import __version__
+
+from ._calibration import random_cube_ratios, run_calibration
+from ._contact import run_contact
+from ._pipeline import run_pipeline
+from ._report import targets
+from ._soak import run_soak
 from ._timing import thread_env
 
 __all__ = ["SECTIONS", "FULL_SIZES", "QUICK_SIZES", "run_bench", "live_available", "json_safe"]
@@ -59,8 +66,6 @@ def _meta(quick: bool, threads: int) -> dict:
         load = [round(x, 2) for x in os.getloadavg()]
     except OSError:  # pragma: no cover
         load = None
-    from pito_core import __version__
-
     return {"date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"), "pito": __version__,
             "python": platform.python_version(), "numpy": numpy.__version__, "scipy": scipy.__version__,
             "cpu": cpu, "cpus": os.cpu_count(), "loadavg": load, "quick": quick, "threads": threads,
@@ -108,8 +113,6 @@ def run_bench(*, quick: bool = False, sections=SECTIONS, sizes=None, threads: in
     dict
         ``meta``, one key per section run, and ``targets``; JSON-ready (NaN → None).
     """
-    from ._report import targets
-
     progress = progress or (lambda s: None)
     unknown = set(sections) - set(SECTIONS) - set(EXTRA_SECTIONS)
     if unknown:
@@ -119,27 +122,17 @@ def run_bench(*, quick: bool = False, sections=SECTIONS, sizes=None, threads: in
     workdir = tempfile.mkdtemp(prefix="pito-bench-") if own_dir else workdir
     try:
         if "calibration" in sections:
-            from ._calibration import run_calibration
-
             ks = sizes if sizes is not None else (QUICK_SIZES if quick else FULL_SIZES)
             result["calibration"] = run_calibration(ks, workdir, quick=quick, threads=threads,
                                                     n_test=5_000 if quick else 20_000, progress=progress)
-            from ._calibration import random_cube_ratios
-
             result["calibration"]["random_cubes"] = random_cube_ratios(quick=quick, threads=threads, progress=progress)
         if "contact" in sections:
-            from ._contact import run_contact
-
             result["contact"] = run_contact(quick=quick, threads=threads, progress=progress, **(contact_sizes or {}))
         if "pipeline" in sections:
-            from ._pipeline import run_pipeline
-
             result["pipeline"] = run_pipeline(quick=quick, threads=threads, progress=progress)
         if "live" in sections:
             result["live"] = _run_live(quick, threads, progress)
         if "soak" in sections:
-            from ._soak import run_soak
-
             minutes = 1.0 if quick else 10.0
             app = live_available() and shutil.which("Xvfb") is not None
             progress(f"soak: recording {minutes:g} min from the simulated devices "

@@ -31,6 +31,10 @@ from pathlib import Path
 
 import numpy as np
 
+from pito_core.io import Recording
+
+from ._live_window import display_env, start_xvfb
+
 __all__ = ["run_soak"]
 
 _PAGE = os.sysconf("SC_PAGE_SIZE")
@@ -67,8 +71,6 @@ def _descendants(pid: int) -> list[int]:
 def run_soak(minutes: float = 10.0, *, app: bool = False, workdir=None, progress=print) -> dict:
     """Record ``minutes`` from the simulated devices (the app's window open with ``app``), sample memory/CPU,
     verify the file. Returns a JSON-able dict."""
-    from pito_core.io import Recording
-
     workdir = Path(workdir or tempfile.mkdtemp(prefix="pito-soak-"))
     workdir.mkdir(parents=True, exist_ok=True)
     out = workdir / "soak.rec"
@@ -76,8 +78,6 @@ def run_soak(minutes: float = 10.0, *, app: bool = False, workdir=None, progress
     xvfb = None
     env = None
     if app:
-        from ._live_window import display_env, start_xvfb
-
         display, xvfb = start_xvfb()
         env = display_env(display)
         cmd = [sys.executable, "-c", "import sys; from app.main import main; sys.exit(main(sys.argv[1:]))", "--demo",

@@ -8,6 +8,8 @@ from __future__ import annotations
 import json
 import sys
 
+from ._timing import peak_rss_mb
+
 
 #: task name -> (module, function)
 TASKS = {
@@ -28,8 +30,6 @@ def _task(name):
 
 
 def main(argv=None) -> int:
-    from ._timing import peak_rss_mb
-
     argv = sys.argv[1:] if argv is None else argv
     task, params = argv[0], json.loads(argv[1]) if len(argv) > 1 else {}
     out = _task(task)(**params)

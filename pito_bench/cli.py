@@ -6,6 +6,10 @@ import argparse
 import json
 import sys
 
+from pito_bench import SECTIONS, run_bench
+
+from ._report import format_report, write_plots
+
 HELP = """\
 Measure what pito exists for and print tables with units.
 
@@ -43,8 +47,6 @@ generated and fitted); --quick takes under a minute on an idle 2-core machine.
 
 
 def register(sub) -> None:
-    from pito_bench import SECTIONS
-
     p = sub.add_parser("bench", help="benchmark calibration, contact sensing and the live pipeline",
                        description=HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--quick", action="store_true", help="small sizes (k ≤ 10⁵ samples, short live runs)")
@@ -62,9 +64,6 @@ def register(sub) -> None:
 
 def run(args) -> int:
     import os
-
-    from pito_bench import run_bench
-    from ._report import format_report, write_plots
 
     sections = tuple(s.strip() for s in args.sections.split(",") if s.strip())
     sizes = None

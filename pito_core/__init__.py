@@ -1,6 +1,6 @@
 """pito: calibration, intrinsic contact sensing and recording for the PITO cube (headless core).
 
-The public names of SPEC.md are re-exported here: ``transform_wrench``, ``CubeCore``,
+The most used public names are re-exported here: ``transform_wrench``, ``CubeCore``,
 ``CalibrationSession``, ``calibrate``, ``Calibration``, ``load_calibration``.
 """
 

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 from PySide6.QtWidgets import QHBoxLayout, QLabel, QPushButton, QWidget
 
+from pito_core.interop import LslPublisher
+
 __all__ = ["LslToggle", "install_lsl_toggle"]
 
 
@@ -42,8 +44,6 @@ class LslToggle(QWidget):
         lay.addWidget(self.label)
         if publisher_factory is None:
             try:
-                from pito_core.interop import LslPublisher
-
                 import pylsl  # noqa: F401
 
                 publisher_factory = lambda pipe: LslPublisher(pipe, simulated=self.simulated)  # noqa: E731

@@ -18,7 +18,7 @@ __all__ = ["native_plotter", "is_software_gl", "MAX_FRAME_RATE"]
 #: Most frames a second a threaded scene draws, Hz (``RenderThread.max_rate``). With a GPU: a
 #: display's refresh rate. In software OpenGL (Mesa's llvmpipe) a frame of the live view costs
 #: ~14 ms of CPU at 680×740 px; unlimited frames took that CPU from the data path and the
-#: plots and made every view later, not fresher (docs/performance.md §6).
+#: plots and made every view later, not fresher (docs/performance.md, "Live window").
 MAX_FRAME_RATE = {"hardware": 60.0, "software": 50.0}
 
 

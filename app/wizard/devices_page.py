@@ -11,20 +11,13 @@ from PySide6.QtWidgets import (
     QPushButton, QTableWidget, QTableWidgetItem, QVBoxLayout,
 )
 
+from pito_core.devices import list_serial_ports
+
 from .page import WizardPage
 
-__all__ = ["DevicesPage", "list_serial_ports"]
+__all__ = ["DevicesPage"]
 
 AXES = ("fx (N)", "fy (N)", "fz (N)", "tx (N·m)", "ty (N·m)", "tz (N·m)")
-
-
-def list_serial_ports() -> list[str]:
-    """Serial ports the OS knows (pyserial), best first."""
-    try:
-        from serial.tools import list_ports
-    except ImportError:  # pragma: no cover
-        return []
-    return [p.device for p in sorted(list_ports.comports(), key=lambda p: ("USB" not in (p.description or ""), p.device))]
 
 
 class DevicesPage(WizardPage):
@@ -53,7 +46,7 @@ class DevicesPage(WizardPage):
         form = QFormLayout(box)
         self.port = QComboBox()
         self.port.setEditable(True)
-        self.port.addItems(list_serial_ports() or ["/dev/ttyACM0"])
+        self.port.addItems([p["device"] for p in list_serial_ports()] or ["/dev/ttyACM0"])
         self.host = QLineEdit("192.168.1.1")
         self.simulated = QCheckBox("Use the simulators (virtual cube on a pty, virtual Net F/T on loopback UDP)")
         self.connect_btn = QPushButton("Connect")

@@ -13,7 +13,7 @@ from .page import WizardPage
 
 __all__ = ["MethodPage", "FLANGE_TEXT"]
 
-#: Operator names of the flanges (SPEC "Calibration mounts").
+#: Operator names of the flanges (docs/conventions.md, "Calibration mounts").
 FLANGE_TEXT = {
     "frame": "type 1 — on the core frame (connected face not loadable)",
     "frame_hole": "type 2 — on the core frame, with an access hole",

@@ -13,7 +13,7 @@ from PySide6.QtWidgets import (
     QComboBox, QFileDialog, QGridLayout, QGroupBox, QHBoxLayout, QLabel, QPushButton,
 )
 
-from pito_core.calibration import RankDeficientError, calibrate
+from pito_core.calibration import RankDeficientError, calibrate, evaluate
 
 from .. import report
 from ..filetypes import CALIBRATION_SAVE_FILTER, CALIBRATION_SUFFIX
@@ -32,8 +32,6 @@ def fit_and_evaluate(session, method: str, holdout: float = 0.25, seed: int = 0,
     Returns ``(calibration, evaluation, note)``; ``note`` says if a minimum-norm fit was needed.
     ``progress(fraction, text)``, if given, is called between the steps (and may raise to cancel).
     """
-    from pito_core.calibration import evaluate
-
     progress = progress or (lambda *_: None)
     progress(0.0, "splitting the samples")
     # blocks of 50 samples: every kept capture (a few hundred still samples) feeds both sides,

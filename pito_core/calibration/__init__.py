@@ -1,4 +1,7 @@
-"""Calibration: sessions, the method table, the least-squares core, Calibration, evaluation."""
+"""Calibration: the method table, the least-squares core, Calibration, evaluation.
+
+Sessions are :mod:`pito_core.io`'s (``CalibrationSession`` is re-exported here).
+"""
 
 from ._calibration import Calibration, load_calibration
 from ._evaluate import (
@@ -10,6 +13,7 @@ from ._evaluate import (
     evaluate,
     identify_loaded_faces,
     inverse_condition_table,
+    UNCERTAINTY_WORDS,
 )
 from ._fit import (
     AXES,
@@ -25,8 +29,10 @@ from ._fit import (
     session_offsets,
 )
 from ._uncertainty import CalibrationCovariance, CovarianceGroup
+from ._lstsq import LstsqResult, StreamedQR
 from ._methods import METHODS, MethodSpec, get_method
-from ._session import DEFAULT_COUNTS_RANGE, FLANGES, N_GAUGES, CalibrationSession, SessionBlock
+from ._targets import MountGeometry, block_targets
+from ..io import DEFAULT_COUNTS_RANGE, FLANGES, CalibrationSession, SessionBlock  # the session format (io), re-exported
 
 __all__ = [
     "ExcitationError",
@@ -39,6 +45,11 @@ __all__ = [
     "evaluate",
     "identify_loaded_faces",
     "inverse_condition_table",
+    "UNCERTAINTY_WORDS",
+    "LstsqResult",
+    "StreamedQR",
+    "MountGeometry",
+    "block_targets",
     "AXES",
     "NET_LOAD_MEASURED",
     "NET_LOAD_PRIOR",
@@ -53,7 +64,6 @@ __all__ = [
     "FLANGES",
     "METHODS",
     "MethodSpec",
-    "N_GAUGES",
     "RankDeficientWarning",
     "SessionBlock",
     "calibrate",

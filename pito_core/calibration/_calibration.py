@@ -5,8 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..frames import FACES, CubeCore, check_pose, invert_pose, wrench_adjoint
-from ..io._calibration_file import read_calibration_fields, write_calibration
-from ..io._hdf5 import FileFormatError
+from ..io import FileFormatError, read_calibration_fields, write_calibration
 from ._uncertainty import CalibrationCovariance, CovarianceGroup
 
 __all__ = ["Calibration", "load_calibration"]

@@ -10,7 +10,7 @@ import numpy as np
 from ..defaults import LOADED_FORCE_N, LOADED_TORQUE_NM
 from ..frames import invert_pose, wrench_adjoint
 from ._calibration import Calibration
-from ._fit import AXES, _as_sessions
+from ._fit import AXES, _as_sessions, session_offsets
 from ._targets import MountGeometry, block_targets
 
 __all__ = ["Evaluation", "evaluate", "inverse_condition_table", "identify_loaded_faces", "equilibrium", "Equilibrium",
@@ -244,8 +244,6 @@ def evaluate(calibration: Calibration, sessions, *, tare: bool = True,
     -------
     Evaluation
     """
-    from ._fit import session_offsets
-
     if not isinstance(calibration, Calibration):
         raise ValueError(f"calibration: expected a Calibration, got {type(calibration).__name__}")
     sessions = _as_sessions(sessions)

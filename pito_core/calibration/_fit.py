@@ -23,7 +23,7 @@ from ..frames import FACES
 from ._calibration import Calibration
 from ._lstsq import RANK_RTOL, StreamedQR
 from ._methods import MethodSpec, get_method
-from ._session import CalibrationSession, _few
+from ..io import CalibrationSession, few_indices as _few
 from ._targets import MountGeometry, block_targets
 from ._residuals import fit_error_model
 from ._uncertainty import CalibrationCovariance, CovarianceGroup
@@ -197,7 +197,7 @@ class Calibrator:
     ----------
     method : str
         One of ``face_to_face``, ``quasi_total``, ``total``, ``loaded_frame``,
-        ``unloaded_frame`` (SPEC "Calibration methods").
+        ``unloaded_frame`` (docs/calibration.md, "The methods").
     prior : {None, "own_gauge"}
         None (default): the papers' plain least squares everywhere. ``"own_gauge"``: where
         the loads leave directions of the counts unexcited (a ``face`` or ``frame`` flange

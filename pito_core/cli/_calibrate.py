@@ -2,8 +2,14 @@
 
 from __future__ import annotations
 
+import argparse
 import sys
 import time
+
+from ..calibration import METHODS, calibrate, evaluate
+from ..io import calibration_hash, short_hash
+from ._evaluate import print_evaluation
+from ._sessions import load_sessions
 
 HELP = """\
 Fit a calibration matrix (counts → wrench on each face) from calibration sessions.
@@ -26,10 +32,8 @@ Methods (flange, faces loaded → result):
 
 
 def register(sub) -> None:
-    from ..calibration import METHODS
-
     p = sub.add_parser("calibrate", help="fit a calibration from sessions", description=HELP,
-                       formatter_class=__import__("argparse").RawDescriptionHelpFormatter)
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("sessions", nargs="+", metavar="SESSION", help="session files (.h5 or .csv)")
     p.add_argument("--method", "-m", required=True, choices=sorted(METHODS), help="calibration method")
     p.add_argument("-o", "--output", required=True, metavar="CAL", help="calibration file to write (HDF5)")
@@ -48,10 +52,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from ..calibration import calibrate, evaluate
-    from ._evaluate import print_evaluation
-    from ._sessions import load_sessions
-
     sessions = load_sessions(args.sessions, args.flange, args.connected_face)
     if args.holdout:
         pairs = [s.split(args.holdout, seed=args.seed) for s in sessions]
@@ -81,7 +81,5 @@ def run(args) -> int:
     else:
         print(f"net force/torque of a free grasp: {cal.meta['net_load']}")
     cal.save(args.output)
-    from ..io import calibration_hash, short_hash
-
     print(f"wrote {args.output} [{short_hash(calibration_hash(cal))}]")
     return 0

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 
+from ..devices import SIM, list_serial_ports
+
 HELP = """\
 List the serial ports the PITO cube may be on (pyserial's serial.tools.list_ports).
 
@@ -26,8 +28,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from ..devices import SIM, list_serial_ports
-
     ports = list_serial_ports()
     if args.json:
         print(json.dumps(ports + [{"device": SIM, "description": "simulated cube and Net F/T", "hwid": ""}]))

@@ -6,7 +6,17 @@ import json
 
 import numpy as np
 
+from ..calibration import (
+    AXES,
+    DEFAULT_FORCE_THRESHOLD,
+    DEFAULT_TORQUE_THRESHOLD,
+    UNCERTAINTY_WORDS,
+    evaluate,
+    load_calibration,
+)
 from ..defaults import LOADED_FORCE_N, LOADED_TORQUE_NM
+from ..io import calibration_hash, short_hash
+from ._sessions import load_sessions
 from ._tables import fmt, table
 
 HELP = """\
@@ -48,9 +58,6 @@ def print_evaluation(ev, calibration=None) -> None:
     squeeze loads by torque (the other rules are listed below it). With the calibration's
     covariance each RMSE table row is followed by the ± (95 %) of that face and axis.
     """
-    from ..calibration import AXES
-    from ..calibration._evaluate import UNCERTAINTY_WORDS
-
     if ev.simulated:
         print("(SIMULATED data)")
     if calibration is not None:
@@ -92,9 +99,6 @@ def print_evaluation(ev, calibration=None) -> None:
 
 
 def run(args) -> int:
-    from ..calibration import DEFAULT_FORCE_THRESHOLD, DEFAULT_TORQUE_THRESHOLD, evaluate, load_calibration
-    from ._sessions import load_sessions
-
     cal = load_calibration(args.calibration)
     sessions = load_sessions(args.sessions, args.flange, args.connected_face)
     ev = evaluate(
@@ -105,8 +109,6 @@ def run(args) -> int:
     if args.json:
         print(json.dumps(ev.to_dict(series=args.series), indent=2))
     else:
-        from ..io import calibration_hash, short_hash
-
         print(f"calibration: {args.calibration} [{short_hash(calibration_hash(cal))}] ({cal.method}, {cal.matrix.shape[0]}×36)")
         print_evaluation(ev, cal)
     return 0

@@ -6,6 +6,10 @@ import argparse
 import sys
 import time
 
+from ..calibration import load_calibration
+from ..interop import export_data, missing_metadata, write_mcap, write_nwb
+from ..io import export_recording_files, read_recording
+
 HELP = """\
 Export a pito recording to NWB (pynwb), ROS 2 MCAP (no ROS needed), CSV or MATLAB .mat.
 
@@ -59,19 +63,13 @@ def run(args) -> int:
     if not (args.nwb or args.mcap or args.csv or args.mat):
         raise ValueError("output: give at least one of --nwb, --mcap, --csv, --mat")
     if args.csv or args.mat:
-        from ..io import export_recording_files, read_recording
-
         rec = read_recording(args.file, recover=args.recover)
         for written in export_recording_files(rec, args.csv, args.mat):
             print(f"wrote {written}")
     if not (args.nwb or args.mcap):
         return 0
-    from ..interop import export_data, missing_metadata, write_mcap, write_nwb
-
     cal = None
     if args.calibration:
-        from ..calibration import load_calibration
-
         cal = load_calibration(args.calibration)
     t0 = time.perf_counter()
     data = export_data(args.file, cal, args.object, calibration_source=args.calibration,

@@ -16,6 +16,22 @@ import signal
 import sys
 import time
 
+from ..calibration import load_calibration
+from ..devices import (
+    DEFAULT_BAUDRATE,
+    RDT_PORT,
+    SIM,
+    Acquisition,
+    DeviceError,
+    StallReporter,
+    health_words,
+    open_devices,
+)
+from ..interop import LslPublisher, assembly_record, calibration_record
+from ..io import RecordingWriter
+from ..pipeline import AcquisitionReader, Pipeline
+from ..sim import SimulatedDevices, SimulatorError
+
 HELP = """\
 Record the cube and the reference sensor to a pito recording file.
 
@@ -38,8 +54,6 @@ replay applies at the same sample.
 
 
 def register(sub) -> None:
-    from ..devices import DEFAULT_BAUDRATE, RDT_PORT
-
     p = sub.add_parser("record", help="record the cube and the reference to a file", description=HELP,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--pito", required=True, metavar="PORT", help="cube serial port, or 'sim'")
@@ -87,16 +101,11 @@ def _line(elapsed, stats) -> str:
         f = stats["netft"]
         s += f" | ati {f['records']} records, lost {f['lost']}, saturated {f['saturated']}"
         s += f", out of order {f.get('out_of_order', 0)}"
-    from ..devices._health import health_words
-
     words = health_words(stats)
     return s + (" | " + "; ".join(words) if words else "")
 
 
 def run(args) -> int:
-    from ..devices import DeviceError
-    from ..sim import SimulatorError
-
     try:
         return _record(args)
     except (DeviceError, SimulatorError) as exc:  # a device that cannot be opened: one clear line
@@ -106,13 +115,9 @@ def run(args) -> int:
 
 def _addresses(args, stack) -> tuple[str, str | None, dict]:
     """``(cube port, reference address or None, info)``; ``sim`` starts the simulated devices' process."""
-    from ..devices import SIM
-
     info = {"simulated": bool(args.simulated), "source": "simulated devices (pito sim-devices)" if args.simulated else None}
     pito, ati = args.pito, args.ati
     if SIM in (pito, ati):
-        from ..sim import SimulatedDevices
-
         sim = stack.enter_context(SimulatedDevices(seed=args.seed, speed=args.sim_speed))
         info = {"simulated": True, "source": f"{sim.label}: {sim.describe()}"}
         pito = sim.port if pito == SIM else pito
@@ -122,12 +127,8 @@ def _addresses(args, stack) -> tuple[str, str | None, dict]:
 
 def _pipeline_for(args, has_reference: bool):
     """The pipeline every read goes through (hook: a calibration, an object)."""
-    from ..pipeline import Pipeline
-
     cal = None
     if getattr(args, "calibration", None):
-        from ..calibration import load_calibration
-
         cal = load_calibration(args.calibration)
     return Pipeline(cal, getattr(args, "object", None), has_reference=has_reference, rate_hz=1000.0)
 
@@ -136,8 +137,6 @@ def _sinks_for(args, meta: dict, pipeline=None) -> list:
     """Callables receiving each :class:`~pito_core.pipeline.LiveBundle` (hook: live publishers)."""
     if not getattr(args, "lsl", False):
         return []
-    from ..interop import LslPublisher
-
     return [LslPublisher(pipeline, simulated=bool(meta.get("simulated")), calibration_record=meta.get("calibration"),
                          assembly_record=meta.get("assembly"))]
 
@@ -147,8 +146,6 @@ def _recording_meta(args, info: dict, netft, pipeline=None) -> dict:
             "ati_host": args.ati, "reference_rate_hz": args.ati_rate,
             "units": {"counts": "counts", "wrench": "N, N·m", "time": "s"}}
     if pipeline is not None and (getattr(args, "calibration", None) or getattr(args, "object", None)):  # provenance
-        from ..interop import assembly_record, calibration_record
-
         if pipeline.calibration is not None:
             meta["calibration"] = calibration_record(pipeline.calibration, args.calibration)
         meta["assembly"] = assembly_record(pipeline.assembly if pipeline.assembly is not None else "cube")
@@ -160,10 +157,6 @@ def _recording_meta(args, info: dict, netft, pipeline=None) -> dict:
 
 
 def _record(args) -> int:
-    from ..devices import Acquisition, open_devices
-    from ..io import RecordingWriter
-    from ..pipeline import AcquisitionReader
-
     if args.duration is not None and not args.duration > 0:
         raise ValueError(f"--duration: expected > 0 s, got {args.duration}")
     if not args.ati_rate > 0:
@@ -192,8 +185,6 @@ def _record(args) -> int:
             reader = AcquisitionReader(acq, simulated=info["simulated"], history=0.0)
             t0 = time.monotonic()
             next_progress = t0 + args.progress
-            from ..devices._health import StallReporter
-
             stall_reporter = StallReporter()
             tared = args.tare <= 0
             try:

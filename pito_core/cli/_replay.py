@@ -8,6 +8,12 @@ import time
 
 import numpy as np
 
+from ..calibration import load_calibration
+from ..devices import STATUS_SATURATION
+from ..interop import recording_calibration
+from ..io import Recording, export_recording_files
+from ..pipeline import Pipeline, RecordingReader
+
 HELP = """\
 Replay a pito recording (written by `pito record`), print its content, or export it.
 
@@ -47,8 +53,6 @@ def _summary(rec) -> str:
         lines.append(f"cube: {p.size} samples, {int(gaps[(gaps > 0) & (gaps < 2**31)].sum())} missing from the sequence")
     a = rec.netft
     if a.size:
-        from ..devices import STATUS_SATURATION
-
         sat = int(((a["status"] & STATUS_SATURATION) != 0).sum())
         lines.append(f"reference: {a.size} samples, {sat} with saturation status")
     if not rec.complete:
@@ -57,8 +61,6 @@ def _summary(rec) -> str:
 
 
 def run(args) -> int:
-    from ..io import Recording, export_recording_files
-
     if not args.speed > 0:
         raise ValueError(f"--speed: expected > 0, got {args.speed}")
     rec = Recording(args.file, recover=args.recover)
@@ -69,16 +71,10 @@ def run(args) -> int:
         return 0
     if args.info:
         return 0
-    from ..pipeline import Pipeline, RecordingReader
-
     calibration = None
     if args.calibration:
-        from ..calibration import load_calibration
-
         calibration = load_calibration(args.calibration)
     if calibration is not None or rec.meta.get("calibration"):  # provenance (docs/interop.md): say which one
-        from ..interop import recording_calibration
-
         calibration, note = recording_calibration(rec.meta, calibration, args.calibration)
         print(note)
     reader = RecordingReader(rec, speed=args.speed, loop=False)

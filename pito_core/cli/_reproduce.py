@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from ..reproduce import run_reproduction
+
 HELP = "re-run both papers' experiments on the simulator (figures, CSV, summary)"
 
 DESCRIPTION = """\
@@ -40,8 +42,6 @@ def register(subparsers) -> None:
 
 
 def run(args) -> int:
-    from ..reproduce import run_reproduction
-
     _, found, path = run_reproduction(args.out, quick=args.quick, seed=args.seed, cube_seed=args.cube_seed,
                                       progress=lambda line: print(line, flush=True))
     for f in found:

@@ -7,6 +7,8 @@ import json
 import sys
 import threading
 
+from ..sim import run_devices
+
 HELP = """\
 Run the SIMULATED devices in the foreground, exactly as hardware is reached: the virtual
 cube writes real 156-byte frames (1 kHz) into a pseudo-terminal, the virtual ATI Net F/T
@@ -39,8 +41,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    from ..sim import run_devices
-
     if not args.speed > 0 or args.speed == float("inf"):
         raise ValueError(f"--speed: expected a finite speed > 0, got {args.speed}")
     if args.duration is not None and not args.duration > 0:

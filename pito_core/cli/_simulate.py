@@ -5,6 +5,17 @@ from __future__ import annotations
 import argparse
 import time
 
+from ..calibration import CalibrationSession
+from ..sim import (
+    ReferenceSensor,
+    VirtualCube,
+    reference_pose,
+    simulate_calibration,
+    simulate_free_grasp,
+    simulate_squeeze,
+    simulate_touches,
+)
+
 HELP = "simulate a session on the virtual cube and reference (no hardware)"
 
 DESCRIPTION = """\
@@ -64,8 +75,6 @@ def _faces(text):
 def run(args) -> int:
     import numpy as np
 
-    from ..sim import VirtualCube, simulate_calibration, simulate_free_grasp, simulate_squeeze, simulate_touches
-
     t_start = time.perf_counter()
     model = VirtualCube(seed=args.cube_seed)
     proto = args.protocol
@@ -91,9 +100,6 @@ def run(args) -> int:
 def _grasp_session(run, model, reference, seed):
     """A free grasp as a session: reference = table sensor under face 6 (placeholders)."""
     import numpy as np
-
-    from ..calibration import CalibrationSession
-    from ..sim import ReferenceSensor, reference_pose
 
     T = reference_pose("face", 6, model.core)
     ref = ReferenceSensor(T, reference).measure(run.state.table_wrench, rng=np.random.default_rng([seed, 33]))

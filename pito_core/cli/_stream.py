@@ -8,6 +8,13 @@ import signal
 import sys
 import time
 
+from ..calibration import load_calibration
+from ..devices import DEFAULT_BAUDRATE, Acquisition, DeviceError, open_devices
+from ..interop import LslPublisher, calibration_record, machine_only_config
+from ..pipeline import AcquisitionReader, Pipeline
+from ..sim import SimulatorError
+from ._record import _addresses
+
 HELP = """\
 Publish the cube's face wrenches and contacts as Lab Streaming Layer streams, live,
 without recording (`pito record ... --lsl` publishes while it records):
@@ -29,8 +36,6 @@ Addresses as `pito record`: --pito PORT or `sim`, --ati HOST[:PORT] or `sim` (or
 
 
 def register(sub) -> None:
-    from ..devices import DEFAULT_BAUDRATE
-
     p = sub.add_parser("stream", help="publish live LSL streams (wrenches, contacts)", description=HELP,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--pito", metavar="PORT", help="cube serial port, or 'sim'")
@@ -52,8 +57,6 @@ def register(sub) -> None:
 
 def run(args) -> int:
     if args.write_machine_config:
-        from ..interop._lsl import machine_only_config
-
         print(f"wrote {machine_only_config(args.write_machine_config)}  (export LSLAPICFG={args.write_machine_config})")
         return 0
     if not args.pito:
@@ -62,13 +65,6 @@ def run(args) -> int:
         raise ValueError("--calibration: required (the streams carry wrenches)")
     if args.duration is not None and not args.duration > 0:
         raise ValueError(f"--duration: expected > 0 s, got {args.duration}")
-    from ..calibration import load_calibration
-    from ..devices import Acquisition, DeviceError, open_devices
-    from ..interop import LslPublisher, calibration_record
-    from ..pipeline import AcquisitionReader, Pipeline
-    from ..sim import SimulatorError
-    from ._record import _addresses
-
     cal = load_calibration(args.calibration)
     args.simulated = False
     stop = {"flag": False}

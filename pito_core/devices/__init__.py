@@ -18,8 +18,15 @@ from ._frame import (
     pack_frames,
     unpack_frames,
 )
+from ._health import StallReporter, health_words
+from ._lifetime import die_with_parent, install_stop_signals, process_alive
 from ._netft import (
+    CMD_BIAS,
+    CMD_START_BUFFERED,
+    CMD_START_REALTIME,
+    CMD_STOP,
     FORCE_UNITS,
+    RDT_HEADER,
     RDT_PORT,
     RDT_RECORD_DTYPE,
     STATUS_ERROR,
@@ -55,7 +62,12 @@ __all__ = [
     "crc16_ccitt_false_rows",
     "pack_frames",
     "unpack_frames",
+    "CMD_BIAS",
+    "CMD_START_BUFFERED",
+    "CMD_START_REALTIME",
+    "CMD_STOP",
     "FORCE_UNITS",
+    "RDT_HEADER",
     "TORQUE_UNITS",
     "RDT_PORT",
     "RDT_RECORD_DTYPE",
@@ -71,4 +83,9 @@ __all__ = [
     "PitoBatch",
     "PitoSerial",
     "list_serial_ports",
+    "StallReporter",
+    "health_words",
+    "die_with_parent",
+    "install_stop_signals",
+    "process_alive",
 ]

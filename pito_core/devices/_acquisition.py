@@ -23,20 +23,17 @@ import time
 
 import numpy as np
 
-from ..io import RecordingWriter
+from ..frames import CUBE_ADC_LIMIT, N_GAUGES, check_face
+from ..io import CalibrationSession, RecordingWriter
 from ._clock import PAIRING_RULE, StreamClock, TickUnwrapper, pair_reference
-from ._frame import N_CHANNELS
 from ._netft import NetFTBatch
 from ._serial import PitoBatch
 
-
-#: A cube sample with a gauge at or beyond these counts is saturated (24-bit ADC of the cube's boards).
-CUBE_ADC_LIMIT = 2**23 - 1
 __all__ = ["Acquisition"]
 
 #: The rows of the cube's ring: name -> (dtype, shape of one row).
 PITO_ROWS = {"seq": (np.uint32, ()), "time_us": (np.uint32, ()), "tick": (np.int64, ()),
-             "counts": (np.int32, (N_CHANNELS,)), "host_time": (np.float64, ()), "time": (np.float64, ())}
+             "counts": (np.int32, (N_GAUGES,)), "host_time": (np.float64, ()), "time": (np.float64, ())}
 #: The rows of the reference's ring.
 NETFT_ROWS = {"rdt_seq": (np.uint32, ()), "ft_seq": (np.uint32, ()), "tick": (np.int64, ()),
               "status": (np.uint32, ()), "wrench": (np.float64, (6,)), "host_time": (np.float64, ()),
@@ -171,7 +168,7 @@ class Acquisition(RingReader):
         self._collect_lock = threading.Lock()
         self._stop = threading.Event()
         self._thread = None
-        self.counts_offset = np.zeros(N_CHANNELS)
+        self.counts_offset = np.zeros(N_GAUGES)
         self.reference_bias = np.zeros(6)
         self.tared_at: float | None = None
         #: called (no arguments, in the collecting thread) after new rows reached the rings, so a
@@ -391,7 +388,7 @@ class Acquisition(RingReader):
     # ------------------------------------------------------------------ sessions
     def to_session(self, t0=None, t1=None, loaded=None, *, flange, connected_face, T_core_ati,
                    core=None, meta: dict | None = None, reference_delay: float = 0.0):
-        """Build a :class:`~pito_core.calibration.CalibrationSession` from the buffered samples.
+        """Build a :class:`~pito_core.io.CalibrationSession` from the buffered samples.
 
         Parameters
         ----------
@@ -422,8 +419,6 @@ class Acquisition(RingReader):
         ValueError
             No reference connected, no samples in the window, or a bad ``loaded``.
         """
-        from ..calibration import CalibrationSession
-
         if self.netft is None:
             raise ValueError("netft: a reference sensor is needed to build a session")
         self._drain()
@@ -477,8 +472,6 @@ class Acquisition(RingReader):
         if callable(loaded):
             out = np.asarray(loaded(t))
         elif np.isscalar(loaded) and not isinstance(loaded, (bool, np.bool_)):
-            from ..frames import check_face
-
             face = check_face(loaded, "loaded")
             out = np.zeros((n, 6), bool)
             out[:, face - 1] = True

@@ -25,11 +25,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..frames import N_GAUGES
+
 __all__ = [
     "FRAME_SIZE",
     "FRAME_SYNC",
     "FRAME_DTYPE",
-    "N_CHANNELS",
     "crc16_ccitt_false",
     "crc16_ccitt_false_rows",
     "pack_frames",
@@ -38,8 +39,6 @@ __all__ = [
     "DecodedFrames",
 ]
 
-#: Number of gauge channels in a frame.
-N_CHANNELS = 36
 #: Frame size in bytes.
 FRAME_SIZE = 156
 #: The two sync bytes that start every frame.
@@ -48,7 +47,7 @@ _CRC_START, _CRC_STOP = 2, 154  # the CRC covers sequence .. counts
 
 #: numpy record layout of one frame.
 FRAME_DTYPE = np.dtype(
-    [("sync", "u1", (2,)), ("seq", "<u4"), ("time_us", "<u4"), ("counts", "<i4", (N_CHANNELS,)), ("crc", "<u2")]
+    [("sync", "u1", (2,)), ("seq", "<u4"), ("time_us", "<u4"), ("counts", "<i4", (N_GAUGES,)), ("crc", "<u2")]
 )
 assert FRAME_DTYPE.itemsize == FRAME_SIZE
 
@@ -130,8 +129,8 @@ def pack_frames(seq, time_us, counts) -> bytes:
         ``n * 156`` bytes.
     """
     counts = np.asarray(counts)
-    if counts.ndim != 2 or counts.shape[1] != N_CHANNELS:
-        raise ValueError(f"counts: expected shape (n, {N_CHANNELS}), got {counts.shape}")
+    if counts.ndim != 2 or counts.shape[1] != N_GAUGES:
+        raise ValueError(f"counts: expected shape (n, {N_GAUGES}), got {counts.shape}")
     n = counts.shape[0]
     seq = np.asarray(seq, dtype=np.int64).reshape(-1)
     time_us = np.asarray(time_us, dtype=np.int64).reshape(-1)
@@ -192,7 +191,7 @@ def unpack_frames(data: bytes) -> DecodedFrames:
     return DecodedFrames(rec["seq"].copy(), rec["time_us"].copy(), rec["counts"].copy())
 
 
-_EMPTY = DecodedFrames(np.zeros(0, np.uint32), np.zeros(0, np.uint32), np.zeros((0, N_CHANNELS), np.int32))
+_EMPTY = DecodedFrames(np.zeros(0, np.uint32), np.zeros(0, np.uint32), np.zeros((0, N_GAUGES), np.int32))
 
 
 class FrameDecoder:

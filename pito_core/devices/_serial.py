@@ -8,7 +8,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._frame import N_CHANNELS, FrameDecoder
+from ..frames import N_GAUGES
+from ._frame import FrameDecoder
 from ._queue import BatchQueue
 
 __all__ = ["PitoSerial", "PitoBatch", "DeviceError", "list_serial_ports", "DEFAULT_BAUDRATE", "StallMonitor", "STALL_AFTER"]
@@ -54,19 +55,20 @@ class PitoBatch:
         batches = list(batches)
         if not batches:
             return PitoBatch(
-                np.zeros(0, np.uint32), np.zeros(0, np.uint32), np.zeros((0, N_CHANNELS), np.int32), np.zeros(0)
+                np.zeros(0, np.uint32), np.zeros(0, np.uint32), np.zeros((0, N_GAUGES), np.int32), np.zeros(0)
             )
         return PitoBatch(*(np.concatenate([getattr(b, f) for b in batches]) for f in ("seq", "time_us", "counts", "host_time")))
 
 
 def list_serial_ports() -> list[dict]:
-    """Serial ports on this machine: ``[{"device", "description", "hwid"}, ...]``."""
+    """Serial ports on this machine, best first: ``[{"device", "description", "hwid"}, ...]``.
+
+    USB ports (the cube's kind) come first, then the others; each group by device path.
+    """
     from serial.tools import list_ports
 
-    return [
-        {"device": p.device, "description": p.description or "", "hwid": p.hwid or ""}
-        for p in sorted(list_ports.comports(), key=lambda p: p.device)
-    ]
+    ports = sorted(list_ports.comports(), key=lambda p: ("USB" not in (p.description or ""), p.device))
+    return [{"device": p.device, "description": p.description or "", "hwid": p.hwid or ""} for p in ports]
 
 
 class SequenceTracker:

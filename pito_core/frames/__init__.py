@@ -1,7 +1,7 @@
 """Poses, wrench transforms and the cube's geometry (imports nothing of ours)."""
 
 from ._checks import ROTATION_TOL, check_face, check_pose, check_vectors
-from ._cube import DEFAULT_EDGE, FACE_NORMALS, FACES, OPPOSITE_FACE, CubeCore
+from ._cube import CUBE_ADC_LIMIT, DEFAULT_EDGE, FACE_NORMALS, FACES, N_GAUGES, OPPOSITE_FACE, CubeCore
 from ._transforms import (
     cross_rows,
     invert_pose,
@@ -15,10 +15,12 @@ from ._transforms import (
 )
 
 __all__ = [
+    "CUBE_ADC_LIMIT",
     "CubeCore",
     "DEFAULT_EDGE",
     "FACES",
     "FACE_NORMALS",
+    "N_GAUGES",
     "OPPOSITE_FACE",
     "ROTATION_TOL",
     "check_face",

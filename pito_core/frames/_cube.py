@@ -6,12 +6,12 @@ import numpy as np
 
 from ._checks import check_face
 
-__all__ = ["CubeCore", "FACE_NORMALS", "OPPOSITE_FACE", "FACES", "DEFAULT_EDGE"]
+__all__ = ["CubeCore", "FACE_NORMALS", "OPPOSITE_FACE", "FACES", "DEFAULT_EDGE", "N_GAUGES", "CUBE_ADC_LIMIT"]
 
 #: Faces in the order of every public array: face i at index i-1.
 FACES = (1, 2, 3, 4, 5, 6)
 
-#: Outward normal of each face in the core frame (SPEC: 1 +x, 2 +y, 3 −x, 4 −y, 5 +z, 6 −z).
+#: Outward normal of each face in the core frame (docs/conventions.md, "Face frames": 1 +x, 2 +y, 3 −x, 4 −y, 5 +z, 6 −z).
 FACE_NORMALS = {
     1: (1.0, 0.0, 0.0),
     2: (0.0, 1.0, 0.0),
@@ -37,6 +37,12 @@ _FACE_Y = {
 
 #: Default edge of the sensing core, m (the PITO prototype's order of size).
 DEFAULT_EDGE = 0.05
+
+#: Strain-gauge channels of the cube: face i owns columns 6(i-1) .. 6i-1 of every ``counts`` array.
+N_GAUGES = 36
+
+#: A cube sample with a gauge at or beyond ± this many counts is saturated (the boards' 24-bit ADC).
+CUBE_ADC_LIMIT = 2**23 - 1
 
 
 class CubeCore:

@@ -1,6 +1,6 @@
 """Rigid transforms and wrench / twist changes of frame.
 
-Conventions (see SPEC.md): a pose ``T_a_b`` is the 4x4 homogeneous matrix of
+Conventions (docs/conventions.md, "Units and vectors" and "Poses"): a pose ``T_a_b`` is the 4x4 homogeneous matrix of
 frame b expressed in frame a, so ``p_a = T_a_b @ p_b``. A wrench is
 ``[fx, fy, fz, tx, ty, tz]`` in N and N·m with the moment taken about the origin
 of the frame it is expressed in. A twist is ``[vx, vy, vz, wx, wy, wz]`` in m/s

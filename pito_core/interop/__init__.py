@@ -20,7 +20,7 @@ from ._conventions import (
     WRENCH_TYPE,
 )
 from ._data import ExportData, export_data
-from ._lsl import LslPublisher, contact_samples, lsl_stream_infos, wrench_samples
+from ._lsl import LslPublisher, contact_samples, lsl_stream_infos, machine_only_config, wrench_samples
 from ._mcap import write_mcap
 from ._nwb import BEHAVIOR_MODULE, MISC_MODULE, missing_metadata, write_nwb
 from ._provenance import (
@@ -52,6 +52,7 @@ __all__ = [
     "contact_samples",
     "export_data",
     "lsl_stream_infos",
+    "machine_only_config",
     "provenance_meta",
     "recording_calibration",
     "wrench_samples",

@@ -6,6 +6,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..contact import ObjectContacts
+from ..io import read_recording
+from ..pipeline import replay_recording
 from ._provenance import assembly_record, calibration_record, recording_calibration
 
 __all__ = ["ExportData", "export_data"]
@@ -80,9 +83,6 @@ def export_data(path, calibration=None, assembly=None, *, calibration_source: st
         Solve contacts (needs a calibration).
     progress : callable(fraction in [0, 1], text), optional
     """
-    from ..io import read_recording
-    from ..pipeline import replay_recording
-
     def report(f, text):
         if progress is not None:
             progress(float(f), text)
@@ -99,8 +99,6 @@ def export_data(path, calibration=None, assembly=None, *, calibration_source: st
     W = None if cal is None else np.asarray(bundle.face_wrenches, float)
     cont = None
     if W is not None and contacts and time.size:
-        from ..contact import ObjectContacts
-
         parts = []
         for s in range(0, len(W), BLOCK):
             parts.append(pipe.contacts(W[s:s + BLOCK]))

@@ -38,6 +38,7 @@ from ._conventions import (
     WRENCH_STREAM,
     WRENCH_TYPE,
 )
+from ._provenance import assembly_record as _asm, calibration_record as _cal
 
 __all__ = ["LslPublisher", "lsl_stream_infos", "wrench_samples", "contact_samples", "machine_only_config",
            "MACHINE_ONLY_CONFIG"]
@@ -157,9 +158,6 @@ class LslPublisher:
     def __init__(self, pipeline, *, rate_hz: float = 1000.0, source_id: str = "pito", simulated: bool = False,
                  calibration_record: dict | None = None, assembly_record: dict | None = None):
         import pylsl
-
-        from ._provenance import assembly_record as _asm
-        from ._provenance import calibration_record as _cal
 
         if pipeline.calibration is None:
             raise ValueError("calibration: the LSL streams carry wrenches; give a calibration (--calibration FILE)")

@@ -25,6 +25,7 @@ import json
 
 import numpy as np
 
+from ..frames import CubeCore
 from ._conventions import ROS_CORE_FRAME, ROS_FACE_FRAME
 
 __all__ = ["write_mcap", "MSGDEFS"]
@@ -104,8 +105,6 @@ def write_mcap(data, path, *, raw_counts: bool = True, progress=None) -> dict:
     Returns ``{topic: message count}``.
     """
     from mcap_ros2.writer import Writer
-
-    from ..frames import CubeCore
 
     def report(f, text):
         if progress is not None:

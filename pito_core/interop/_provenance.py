@@ -19,6 +19,11 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..calibration import Calibration
+from ..contact import load_assembly
+from ..frames import CubeCore
+from ..io import calibration_hash as content_hash
+
 __all__ = [
     "PROVENANCE_VERSION",
     "calibration_hash",
@@ -39,8 +44,6 @@ def calibration_hash(calibration) -> str:
     (counts), ``T_core_ati``, method, output frame and faces, the core's edge (m) and ``meta``),
     prefixed with its algorithm; CLI lines and the app show its first 12 hex digits.
     """
-    from ..io import calibration_hash as content_hash
-
     return "sha256:" + content_hash(calibration)
 
 
@@ -68,9 +71,6 @@ def calibration_from_record(record: dict):
 
     Raises ``ValueError`` naming the field when the record is incomplete or its hash does not match.
     """
-    from ..calibration import Calibration
-    from ..frames import CubeCore
-
     if not isinstance(record, dict):
         raise ValueError(f"calibration record: expected an object, got {type(record).__name__}")
     missing = [k for k in ("method", "matrix", "offset", "output_faces", "output_frame", "T_core_ati", "core_edge_m")
@@ -90,8 +90,6 @@ def assembly_record(assembly) -> dict | None:
     if assembly is None:
         return None
     if isinstance(assembly, str):
-        from ..contact import load_assembly
-
         assembly = load_assembly(assembly)
     return {
         "name": assembly.name,

@@ -5,6 +5,7 @@ from ._csv import CSV_COUNTS, CSV_LOADED, CSV_REFERENCE, read_session_csv_fields
 from ._hdf5 import ChecksumError, FileFormatError, UnverifiedFileWarning
 from ._calhash import calibration_hash, short_hash
 from ._session_file import SESSION_FORMAT, SESSION_VERSION, read_session_fields, write_session
+from ._session import DEFAULT_COUNTS_RANGE, FLANGES, CalibrationSession, SessionBlock, few_indices
 from ._recording import (
     NETFT_ROW,
     PITO_ROW,
@@ -19,6 +20,11 @@ from ._verify import verify_file
 from ._export import RECORDING_CSV_COLUMNS, export_recording_csv, export_recording_files, export_recording_mat, read_recording_csv
 
 __all__ = [
+    "CalibrationSession",
+    "DEFAULT_COUNTS_RANGE",
+    "FLANGES",
+    "SessionBlock",
+    "few_indices",
     "CALIBRATION_FORMAT",
     "CALIBRATION_VERSION",
     "read_calibration_fields",

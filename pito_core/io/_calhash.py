@@ -7,6 +7,8 @@ import json
 
 import numpy as np
 
+from ._hdf5 import json_attr
+
 __all__ = ["calibration_hash", "short_hash"]
 
 
@@ -31,8 +33,6 @@ def calibration_hash(cal) -> str:
     h.update(f"method={cal.method}\0frame={cal.output_frame}\0".encode())
     h.update(("faces=" + ",".join(str(int(v)) for v in cal.output_faces) + "\0").encode())
     _arr(h, "core_edge", [float(cal.core.edge)])
-    from ._hdf5 import json_attr
-
     meta = json.loads(json_attr(cal.meta or {}))
     h.update(json.dumps(meta, sort_keys=True, allow_nan=True).encode())
     return h.hexdigest()

@@ -19,7 +19,9 @@ import os
 
 import numpy as np
 
+from ..frames import N_GAUGES
 from ._csv import CSV_COUNTS, CSV_REFERENCE
+from ._recording import RECORDING_FORMAT, RECORDING_VERSION
 
 __all__ = ["export_recording_files", "export_recording_csv", "export_recording_mat", "read_recording_csv", "RECORDING_CSV_COLUMNS"]
 
@@ -33,7 +35,7 @@ RECORDING_CSV_COLUMNS = {
 def _table(recording, stream: str) -> tuple[np.ndarray, list[str]]:
     if stream == "pito":
         r = recording.pito
-        cols = [r["host_time"], r["seq"], r["time_us"]] + [r["counts"][:, j] for j in range(36)]
+        cols = [r["host_time"], r["seq"], r["time_us"]] + [r["counts"][:, j] for j in range(N_GAUGES)]
     elif stream == "netft":
         r = recording.netft
         cols = [r["host_time"], r["rdt_seq"], r["ft_seq"], r["status"]] + [r["wrench"][:, j] for j in range(6)]
@@ -76,8 +78,6 @@ def export_recording_mat(recording, path) -> None:
     """Write ``recording`` to exactly ``path`` as a MATLAB ``.mat`` file (v5, scipy.io.savemat)."""
     from scipy.io import savemat
 
-    from ._recording import RECORDING_FORMAT, RECORDING_VERSION
-
     p, a = recording.pito, recording.netft
     with open(os.fspath(path), "wb") as fh:  # exactly the name given: savemat adds ".mat" to str paths
         savemat(
@@ -89,7 +89,7 @@ def export_recording_mat(recording, path) -> None:
                 "pito_seq": p["seq"].reshape(-1, 1),
                 "pito_time_us": p["time_us"].reshape(-1, 1),
                 "pito_host_time": p["host_time"].reshape(-1, 1),
-                "pito_counts": p["counts"].reshape(-1, 36),
+                "pito_counts": p["counts"].reshape(-1, N_GAUGES),
                 "ati_rdt_seq": a["rdt_seq"].reshape(-1, 1),
                 "ati_ft_seq": a["ft_seq"].reshape(-1, 1),
                 "ati_status": a["status"].reshape(-1, 1),

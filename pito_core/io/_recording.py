@@ -30,8 +30,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ._hdf5 import ChecksumError, FileFormatError
 from .._version import __version__
+from ..frames import N_GAUGES
+from ._hdf5 import ChecksumError, FileFormatError, json_attr
 
 __all__ = [
     "RECORDING_FORMAT",
@@ -53,7 +54,7 @@ _CHUNK = struct.Struct("<4sBBHIII")  # magic, kind, 0, 0, rows, payload length, 
 KIND_PITO, KIND_NETFT, KIND_EVENT, KIND_END = 1, 2, 3, 255
 
 #: One cube sample: sequence, device time (µs), host time (s, monotonic clock), 36 counts.
-PITO_ROW = np.dtype([("seq", "<u4"), ("time_us", "<u4"), ("host_time", "<f8"), ("counts", "<i4", (36,))])
+PITO_ROW = np.dtype([("seq", "<u4"), ("time_us", "<u4"), ("host_time", "<f8"), ("counts", "<i4", (N_GAUGES,))])
 #: One Net F/T record: RDT sequence, F/T sequence, status, host time (s), wrench (N, N·m).
 NETFT_ROW = np.dtype(
     [("rdt_seq", "<u4"), ("ft_seq", "<u4"), ("status", "<u4"), ("host_time", "<f8"), ("wrench", "<f8", (6,))]
@@ -62,8 +63,6 @@ _ROWS = {KIND_PITO: PITO_ROW, KIND_NETFT: NETFT_ROW}
 
 
 def _json_bytes(obj) -> bytes:
-    from ._hdf5 import json_attr
-
     return json_attr(obj).encode("utf-8")
 
 
@@ -119,8 +118,8 @@ class RecordingWriter:
         """Append cube samples: ``seq (n,)``, ``time_us (n,)``, ``host_time (n,)`` s, ``counts (n, 36)``."""
         counts = np.asarray(counts)
         n = counts.shape[0] if counts.ndim == 2 else -1
-        if counts.ndim != 2 or counts.shape[1] != 36:
-            raise ValueError(f"counts: expected shape (n, 36), got {counts.shape}")
+        if counts.ndim != 2 or counts.shape[1] != N_GAUGES:
+            raise ValueError(f"counts: expected shape (n, {N_GAUGES}), got {counts.shape}")
         rows = np.zeros(n, dtype=PITO_ROW)
         rows["seq"], rows["time_us"], rows["host_time"], rows["counts"] = seq, time_us, host_time, counts
         self._append(KIND_PITO, rows)

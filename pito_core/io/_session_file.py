@@ -71,7 +71,7 @@ def write_session(path, session, block_size: int = 262144) -> None:
 def read_session_fields(path, lazy: bool = False):
     """Read a session file into plain fields; ``lazy=True`` keeps the big arrays on disk.
 
-    Returns ``(fields, f)``: the keyword arguments of ``pito_core.calibration.CalibrationSession``
+    Returns ``(fields, f)``: the keyword arguments of :class:`pito_core.io.CalibrationSession`
     (``counts`` (N, 36), ``reference`` (N, 6) N and N·m, ``loaded`` (N, 6) bool, ``T_core_ati`` (4, 4),
     ``flange``, ``connected_face``, ``core_edge`` m, ``time`` (N,) s or None, ``meta``, ``counts_range``)
     and the open ``h5py.File`` that must stay open while the lazy datasets are used (``None`` when

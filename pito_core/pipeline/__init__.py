@@ -13,7 +13,7 @@ The app's acquisition worker, ``pito record``, ``pito replay``/the app's timelin
 
 from ..devices import PAIRING_RULE
 from ._bundle import LiveBundle, face_sums
-from ._pipeline import LIVE_FORCE_THRESHOLD, Pipeline
+from ._pipeline import Pipeline
 from ._open import open_acquisition, open_reader
 from ._process import PipelineProcess, PipelineProcessError
 from ._readers import AcquisitionReader, NewSamples, RecordingReader, recording_samples
@@ -21,7 +21,6 @@ from ._replay import replay_recording
 
 __all__ = [
     "AcquisitionReader",
-    "LIVE_FORCE_THRESHOLD",
     "LiveBundle",
     "NewSamples",
     "PAIRING_RULE",

@@ -24,14 +24,10 @@ import numpy as np
 from ..contact import Assembly, ObjectContacts, load_assembly, solve_object
 from ..defaults import SHOW_CONTACT_FORCE_N
 from ..devices import pair_reference
-from ..devices._acquisition import CUBE_ADC_LIMIT
-from ..frames import CubeCore
+from ..frames import CUBE_ADC_LIMIT, N_GAUGES, CubeCore
 from ._bundle import LiveBundle, face_sums
 
-__all__ = ["Pipeline", "LIVE_FORCE_THRESHOLD"]
-
-#: Force below which the live view shows no contact on a face, N (``pito_core.defaults``).
-LIVE_FORCE_THRESHOLD = SHOW_CONTACT_FORCE_N
+__all__ = ["Pipeline"]
 
 
 class _Window:
@@ -93,7 +89,7 @@ class Pipeline:
         wrenches and the contacts are made when it arrives, with the tare and calibration in
         force then (``LiveBundle.arrived_time``, ``contacts_time``).
     force_threshold : float
-        Force below which a face shows no contact, N (default :data:`LIVE_FORCE_THRESHOLD`).
+        Force below which a face shows no contact, N (default :data:`pito_core.defaults.SHOW_CONTACT_FORCE_N`).
     wrench_cov : array-like, shape (6, 6) or (6, 6, 6), or "calibration", optional
         Face-wrench noise covariance (N², N²·m, N²·m²) for the contacts' point covariance;
         ``"calibration"``: each face's covariance from the calibration at the latest counts
@@ -120,7 +116,7 @@ class Pipeline:
     """
 
     def __init__(self, calibration=None, assembly=None, *, core: CubeCore | None = None, has_reference: bool = True,
-                 force_threshold: float = LIVE_FORCE_THRESHOLD, wrench_cov=None, smooth: int = 5,
+                 force_threshold: float = SHOW_CONTACT_FORCE_N, wrench_cov=None, smooth: int = 5,
                  reference_history: float = 4.0, max_wait: float = 1.0, rate_hz: float = 1000.0):
         if int(smooth) < 1:
             raise ValueError(f"smooth: expected >= 1 samples, got {smooth!r}")
@@ -346,7 +342,7 @@ class Pipeline:
         if new is not None:
             rows = new if rows is None else {k: np.concatenate([rows[k], new[k]]) for k in new}
         if rows is None:
-            return {"time": np.zeros(0), "counts": np.zeros((0, 36)), "bias": np.zeros((0, 6))}
+            return {"time": np.zeros(0), "counts": np.zeros((0, N_GAUGES)), "bias": np.zeros((0, 6))}
         if not self.has_reference or flush:
             n = rows["time"].size
         else:

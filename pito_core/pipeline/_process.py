@@ -19,7 +19,8 @@ both processes).
 Protocol (``multiprocessing.connection.Connection`` on a socket pair, pickled tuples)
     child → parent: ``("ready", info)`` or ``("failed", message)`` once; then ``("bundle",
     LiveBundle)`` with its ``stats`` and ``recorded`` filled, and ``("reply", id, ok, value)``
-    to each request (``value`` is ``(exception type name, message)`` when ``ok`` is false).
+    to each request (``value`` is the request's exception, pickled, when ``ok`` is false:
+    :func:`_portable`).
     parent → child: ``(request, id, *args)``, requests ``set_calibration`` (Calibration or
     None), ``set_assembly`` (library name, Assembly or None; wrench covariance), ``tare``
     (duration), ``reset``, ``open_recording`` (path, meta), ``close_recording``,
@@ -37,6 +38,7 @@ from __future__ import annotations
 import contextlib
 import json
 import os
+import pickle
 import socket
 import subprocess
 import sys
@@ -212,9 +214,10 @@ class PipelineProcess:
                                                + (f" ({self.ended})" if self.ended else f" within {timeout} s"))
                 self._reply_ready.wait(left)
             ok, value = self._replies.pop(rid)
-        if not ok:
-            kind, message = value
-            raise ValueError(message) if kind == "ValueError" else PipelineProcessError(f"{name}: {message}")
+        if not ok:  # the child's exception: a bad argument as itself, anything else as this process's error
+            if isinstance(value, ValueError):
+                raise value
+            raise PipelineProcessError(f"{name}: {value}") from value
         return value
 
     # ------------------------------------------------------------------ settings of the pipeline
@@ -291,3 +294,21 @@ class _Borrowed:
         """Leave the process running; a recording it holds is closed (a worker closes its source on a switch)."""
         with contextlib.suppress(PipelineProcessError, ValueError):
             self._process.close_recording()
+
+
+# ---------------------------------------------------------------------- the exceptions' crossing
+def _portable(exc: Exception) -> Exception:
+    """``exc`` as it can cross to the parent: itself when it survives pickling, else its
+    built-in base (``ValueError`` or ``OSError``) with the type's name in the message (an
+    exception whose constructor takes other arguments than its message does not unpickle).
+
+    The child's side of a failed request's reply (:mod:`._process_child`); the parent's side is
+    :meth:`PipelineProcess._request`."""
+    try:
+        back = pickle.loads(pickle.dumps(exc))
+    except Exception:  # noqa: BLE001 - any failure to round-trip: fall back to the built-in base
+        back = None
+    if type(back) is type(exc) and str(back) == str(exc):
+        return exc
+    base = ValueError if isinstance(exc, ValueError) else OSError
+    return base(f"{type(exc).__name__}: {exc}")

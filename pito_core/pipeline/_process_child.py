@@ -19,11 +19,12 @@ from multiprocessing.connection import Connection, wait
 
 import numpy as np
 
-from ..devices._lifetime import die_with_parent, install_stop_signals
+from ..devices import die_with_parent, install_stop_signals
 from ..frames import CubeCore
 from ._bundle import LiveBundle
 from ._open import open_acquisition
 from ._pipeline import Pipeline
+from ._process import _portable
 from ._readers import AcquisitionReader
 
 __all__ = ["main"]
@@ -117,7 +118,7 @@ def _serve(conn: Connection, cfg: dict) -> None:
                 try:
                     conn.send(("reply", rid, True, child.handle(name, tuple(args))))
                 except (ValueError, OSError) as exc:  # a bad argument, or a file that cannot be written
-                    conn.send(("reply", rid, False, (type(exc).__name__, str(exc))))
+                    conn.send(("reply", rid, False, _portable(exc)))
             if child.wake_r in ready:
                 time.sleep(max(0.0, last_fed + gap - time.monotonic()))
                 child.drain_wakes()

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..devices import StreamClock, TickUnwrapper
+from ..frames import CUBE_ADC_LIMIT
 from ..io import read_recording
 
 __all__ = ["NewSamples", "AcquisitionReader", "RecordingReader", "recording_samples"]
@@ -80,9 +81,6 @@ class AcquisitionReader:
         On the first read, start this many seconds back (at the nominal rate).
     """
 
-    #: A cube sample at or beyond these counts is saturated (24-bit ADC of the cube's boards).
-    CUBE_ADC_LIMIT = 2**23 - 1
-
     def __init__(self, acquisition, simulated: bool = False, owns: bool = False, history: float = 0.1,
                  rate_hz: float = 1000.0):
         self.acq = acquisition
@@ -112,7 +110,7 @@ class AcquisitionReader:
             if len(f["time"]) and len(p["time"]):
                 self.backlog = float(f["time"][-1] - p["time"][-1])
         if len(p["time"]):
-            self._saturated += int((np.abs(p["counts"]) >= self.CUBE_ADC_LIMIT).any(axis=1).sum())
+            self._saturated += int((np.abs(p["counts"]) >= CUBE_ADC_LIMIT).any(axis=1).sum())
         return NewSamples(p, f)
 
     def stats(self) -> dict:

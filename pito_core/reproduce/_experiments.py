@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..calibration import calibrate, equilibrium, evaluate
+from ..calibration import MountGeometry, calibrate, equilibrium, evaluate
 from ..contact import Plane, solve
 from ..frames import FACES
 from ..sim import (
@@ -282,8 +282,6 @@ def _touch_test(res: Results, cube, cfg, t0) -> dict:
     pencil aimed at a mark does; errors are measured against the targets (as the papers do),
     and against where the touch actually landed (the sensor's own error).
     """
-    from ..calibration._targets import MountGeometry
-
     face = 5 if cfg.connected_face != 5 else 1
     session, truth = simulate_touches(face, "face", cfg.connected_face, k=cfg.k_touch, seed=cfg.seed, model=cube,
                                       t0=t0(10 * cfg.k_touch * TOUCH_REPEATS), placement_scatter=TOUCH_SCATTER,

@@ -15,6 +15,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..frames import N_GAUGES, invert_pose
+
 __all__ = ["PressStep", "StepCheck", "PressTestResult", "PRESS_PROTOCOL", "check_press_test"]
 
 AXES = ("fx", "fy", "fz", "tx", "ty", "tz")
@@ -95,8 +97,6 @@ def _face_wrench(cal, counts, rest, face: int) -> np.ndarray:
     W = cal.wrenches(np.atleast_2d(np.asarray(counts, dtype=float)), offset=np.asarray(rest, dtype=float))
     w = W[:, face - 1, :]
     if cal.output_frame == "reference":  # rotate back into the face frame (forces and torques alike)
-        from ..frames import invert_pose
-
         R = (invert_pose(cal.T_core_ati) @ cal.core.face_pose(face))[:3, :3]
         w = np.concatenate([w[:, :3] @ R, w[:, 3:] @ R], axis=1)  # (Rᵀ v) for each row
     return w
@@ -130,16 +130,16 @@ def check_press_test(cal, rest_counts, step_counts, steps=PRESS_PROTOCOL, *, min
         ``.passed``, ``.findings`` (e.g. "face 3: fz is flipped: the press read fz = +4.1 N, expected < 0").
     """
     rest = np.atleast_2d(np.asarray(rest_counts, dtype=float))
-    if rest.shape[1:] != (36,):
-        raise ValueError(f"rest_counts: expected shape (M, 36), got {rest.shape}")
+    if rest.shape[1:] != (N_GAUGES,):
+        raise ValueError(f"rest_counts: expected shape (M, {N_GAUGES}), got {rest.shape}")
     if len(step_counts) != len(steps):
         raise ValueError(f"step_counts: expected {len(steps)} steps (one per step of the protocol), got {len(step_counts)}")
     offset = rest.mean(axis=0)
     result = PressTestResult()
     for step, counts in zip(steps, step_counts):
         c = np.atleast_2d(np.asarray(counts, dtype=float))
-        if c.ndim != 2 or c.shape[1] != 36 or c.shape[0] == 0:
-            raise ValueError(f"step_counts (face {step.face}, {step.action}): expected shape (N>0, 36), got {c.shape}")
+        if c.ndim != 2 or c.shape[1] != N_GAUGES or c.shape[0] == 0:
+            raise ValueError(f"step_counts (face {step.face}, {step.action}): expected shape (N>0, {N_GAUGES}), got {c.shape}")
         d = np.asarray(step.direction, dtype=float)
         k = int(np.flatnonzero(d)[0])
         part = slice(0, 3) if k < 3 else slice(3, 6)

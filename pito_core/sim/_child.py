@@ -8,10 +8,10 @@ from __future__ import annotations
 import json
 import sys
 
+from ._process import run_devices
+
 
 def main(argv=None) -> int:
-    from ._process import run_devices
-
     argv = sys.argv[1:] if argv is None else argv
     cfg = json.loads(argv[0]) if argv else {}
     run_devices(**cfg, watch_parent=True)

@@ -16,7 +16,7 @@ import numpy as np
 from ..frames import CubeCore, check_vectors
 from ._model import VirtualCube
 from ._mount import face_from_core_adjoints
-from ._protocols import PATCH_HEIGHT
+from ._protocols import PATCH_HEIGHT, _check_k, _model_or_default
 from ._signals import smoothstep
 
 __all__ = ["GraspScenario", "GraspState", "GraspRun", "simulate_free_grasp", "GRAVITY", "FINGER_LAYOUTS"]
@@ -336,8 +336,6 @@ def simulate_free_grasp(
         Counts ``(N, 36)`` int32 and the truth; the faces carry every load
         (``F_i = W_i``), the table included (on face 6).
     """
-    from ._protocols import _check_k, _model_or_default
-
     k = _check_k(k)
     model = _model_or_default(model)
     scen = GraspScenario(mass, cog, n_fingers, grip, seed, model.core, free_only=free_only)

@@ -15,6 +15,7 @@ from ._grasp import GraspScenario, GraspState
 from ._model import VirtualCube
 from ._mount import check_flanged_mount, core_from_face_adjoints, face_wrenches_from_applied
 from ._params import FULL_SCALE_FACE, FULL_SCALE_FRAME
+from ._patches import contacts_on_assembly
 from ._reference import ReferenceSensor, reference_pose
 from ._signals import hashed_normal, hashed_uniform, smoothstep
 
@@ -101,8 +102,6 @@ class GraspLiveSource(LiveSource):
         super().__init__(model, seed, reference_pose("face", 6, model.core), reference)
         contacts = None
         if assembly is not None:
-            from ._patches import contacts_on_assembly
-
             contacts = contacts_on_assembly(assembly, n_fingers, seed)
         self.assembly = assembly
         self.label = f"simulated cube (pito_core.sim): looping grasp, {n_fingers} fingers" + (

@@ -4,13 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..frames import FACES, OPPOSITE_FACE, CubeCore
+from ..frames import FACES, N_GAUGES, OPPOSITE_FACE, CubeCore
 from ._params import FULL_SCALE_FACE, FULL_SCALE_FRAME, SimParams
 from ._signals import play_operator
 
-__all__ = ["VirtualCube", "hub_sensitivity", "N_GAUGES"]
-
-N_GAUGES = 36
+__all__ = ["VirtualCube", "hub_sensitivity"]
 
 #: Samples per block in :meth:`VirtualCube.counts_from_face_wrenches` (memory and cache).
 _BLOCK = 32768

@@ -5,12 +5,13 @@ from __future__ import annotations
 import numpy as np
 
 from ..frames import FACES, CubeCore, check_face, invert_pose, wrench_adjoint
+from ..io import FLANGES
 
 __all__ = ["MOUNTS", "check_mount", "check_flanged_mount", "face_wrenches_from_applied", "core_from_face_adjoints",
            "face_from_core_adjoints"]
 
-#: Flanges (SPEC "Calibration mounts") plus ``None`` for a free grasp.
-MOUNTS = ("frame", "frame_hole", "face", None)
+#: Flanges (docs/conventions.md, "Calibration mounts") plus ``None`` for a free grasp.
+MOUNTS = FLANGES + (None,)
 
 
 def check_mount(flange, connected_face):

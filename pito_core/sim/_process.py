@@ -44,7 +44,7 @@ import sys
 import threading
 import time
 
-from ..devices._lifetime import die_with_parent, install_stop_signals
+from ..devices import die_with_parent, install_stop_signals
 from ._transport_netft import SimulatedNetFT
 from ._transport_pito import SimulatedPitoPort
 from ._world import DemoWorld

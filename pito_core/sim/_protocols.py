@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..frames import FACES, check_face
+from ..io import CalibrationSession
 from ._model import VirtualCube
 from ._mount import check_flanged_mount, core_from_face_adjoints, face_wrenches_from_applied
 from ._params import FULL_SCALE_FACE
@@ -166,8 +167,6 @@ class _Builder:
 
 def _run(model, applied, loaded, flange, connected_face, reference, rng, t0, meta, return_truth):
     """Route the applied loads through the mount, read the cube and the reference."""
-    from ..calibration._session import CalibrationSession  # the session format only (no fitting code)
-
     n = applied.shape[0]
     t = t0 + np.arange(n) / model.params.rate
     F, W_total, W_frame = face_wrenches_from_applied(applied, flange, connected_face, model.core)

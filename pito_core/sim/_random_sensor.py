@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..frames import FACES, CubeCore, invert_pose, transform_wrench
+from ..io import CalibrationSession
 from ._mount import check_mount, face_wrenches_from_applied
 from ._params import FULL_SCALE_FACE
 from ._reference import reference_pose
@@ -142,8 +143,6 @@ def random_sensor_session(sensor: RandomSensor, flange: str, connected_face: int
     face_wrenches : ndarray, shape (N, 6, 6)
         The true wrench on each face (face frames, N and N·m).
     """
-    from ..calibration._session import CalibrationSession  # the session format only
-
     flange, c = check_mount(flange, connected_face)
     rng = np.random.default_rng([int(seed), sensor.seed, 0x5E55])
     if faces is None:

@@ -118,7 +118,7 @@ def simulate_touches(
 
     Notes
     -----
-    Soft-finger contact (SPEC): the face wrench is ``[f, c × f + τ n]`` with the normal
+    Soft-finger contact (docs/conventions.md, "Contact model"): the face wrench is ``[f, c × f + τ n]`` with the normal
     force 2–8 N pressing into the patch, a tangential force under 0.3 of it and a torsion
     within ±2 mN·m.
     """

@@ -10,7 +10,7 @@ from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 
 import numpy as np
 
-from ..devices._netft import (
+from ..devices import (
     CMD_BIAS,
     CMD_START_BUFFERED,
     CMD_START_REALTIME,

@@ -12,7 +12,7 @@ import tty
 
 import numpy as np
 
-from ..devices._frame import pack_frames
+from ..devices import pack_frames
 from ._transport_source import _Clock
 
 __all__ = ["SimulatedPitoPort"]

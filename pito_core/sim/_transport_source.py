@@ -8,7 +8,7 @@ from typing import Protocol
 
 import numpy as np
 
-from ..devices._frame import N_CHANNELS
+from ..frames import N_GAUGES
 from ._live import default_live_source
 
 __all__ = ["Source", "TestSignalSource", "default_simulated_source"]
@@ -49,8 +49,8 @@ class TestSignalSource:
         self.amplitude = np.asarray(amplitude, dtype=float)
         if self.amplitude.shape != (6,):
             raise ValueError(f"amplitude: expected shape (6,), got {self.amplitude.shape}")
-        self.gain = rng.normal(0.0, 1.0, (N_CHANNELS, 6)) * np.array([2e4, 2e4, 2e4, 2e6, 2e6, 2e6])
-        self.offset = rng.integers(-50_000, 50_000, N_CHANNELS)
+        self.gain = rng.normal(0.0, 1.0, (N_GAUGES, 6)) * np.array([2e4, 2e4, 2e4, 2e6, 2e6, 2e6])
+        self.offset = rng.integers(-50_000, 50_000, N_GAUGES)
         self.freq = rng.uniform(0.2, 2.0, 6)
         self.phase = rng.uniform(0, 2 * np.pi, 6)
         self.noise_counts = float(noise_counts)
@@ -63,7 +63,7 @@ class TestSignalSource:
         t = np.asarray(t, dtype=float).reshape(-1)
         c = self.offset + self.reference_at(t) @ self.gain.T
         if self.noise_counts:
-            h = np.sin(np.outer(t * 1e3 + 0.5, np.arange(1, N_CHANNELS + 1)) * 12.9898) * 43758.5453
+            h = np.sin(np.outer(t * 1e3 + 0.5, np.arange(1, N_GAUGES + 1)) * 12.9898) * 43758.5453
             c = c + self.noise_counts * 3.4 * (h - np.floor(h) - 0.5)  # uniform, std ≈ noise_counts
         return np.rint(c).astype(np.int64)
 

@@ -171,11 +171,19 @@ def test_face_sums_about_the_centre_of_gravity():
 
 
 def test_merge_keeps_every_sample():
-    a = Bundle(np.arange(3.0), np.zeros((3, 36)), np.zeros((3, 6)), wrenches=np.ones((6, 6)))
-    b = Bundle(np.arange(3.0, 5.0), np.ones((2, 36)), np.ones((2, 6)))
+    rng = np.random.default_rng(5)
+    a = Bundle(np.arange(3.0), rng.normal(size=(3, 36)), rng.normal(size=(3, 6)), wrenches=rng.normal(size=(6, 6)))
+    b = Bundle(np.arange(3.0, 5.0), rng.normal(size=(2, 36)), rng.normal(size=(2, 6)))
     m = merge_bundles(a, b)
-    assert m.time.tolist() == [0, 1, 2, 3, 4] and m.counts.shape == (5, 36)
-    assert m.wrenches is not None
+    # every sample of both, the older first
+    assert m.time.tolist() == [0, 1, 2, 3, 4]
+    np.testing.assert_array_equal(m.counts, np.vstack([a.counts, b.counts]))
+    np.testing.assert_array_equal(m.reference, np.vstack([a.reference, b.reference]))
+    # the newer bundle has no derived values: the older one's are kept, not lost
+    np.testing.assert_array_equal(m.wrenches, a.wrenches)
+    # when both have them, the newest state wins
+    c = Bundle(np.arange(5.0, 6.0), rng.normal(size=(1, 36)), rng.normal(size=(1, 6)), wrenches=rng.normal(size=(6, 6)))
+    np.testing.assert_array_equal(merge_bundles(m, c).wrenches, c.wrenches)
 
 
 def test_the_live_scene_draws_in_its_own_thread(live, qtbot):

@@ -87,7 +87,7 @@ def test_total_combines_mounts():
 
 def test_total_direct_load_on_the_connected_face_is_carried_by_it():
     """Eq. 6: face 6's own load is W_6 in row 6 (not a zero-wrench sample)."""
-    from pito_core.calibration._targets import MountGeometry, block_targets
+    from pito_core.calibration import MountGeometry, block_targets
     from pito_core.frames import transform_wrench
 
     K = true_sensitivity(33)

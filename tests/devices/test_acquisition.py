@@ -76,6 +76,8 @@ def test_session_aligns_reference_onto_cube_samples(running):
 def test_tare_removes_offsets(running):
     src, acq = running
     _wait(acq, 800)
+    t0, t1 = acq.now() - 0.6, acq.now() - 0.1
+    untared = acq.to_session(t0, t1, flange="face", connected_face=1, T_core_ati=np.eye(4))
     out = acq.tare(duration=0.5)
     assert len(out["counts_offset"]) == 36 and len(out["reference_bias"]) == 6
     p, f = acq.latest(300, tared=True)
@@ -91,8 +93,11 @@ def test_tare_removes_offsets(running):
     s3 = acq.to_session(loaded=lambda t: np.tile([False, True, False, False, False, False], (t.size, 1)),
                         flange="face", connected_face=1, T_core_ati=np.eye(4))
     assert s3.loaded[:, 1].all()
-    # the session reference is tared: bias subtracted
-    assert abs(s.meta["acquisition"]["reference_bias"][2] - acq.reference_bias[2]) == 0
+    # the session's reference is tared: the same samples as before the tare, minus the bias
+    tared = acq.to_session(t0, t1, flange="face", connected_face=1, T_core_ati=np.eye(4))
+    assert np.array_equal(tared.counts, untared.counts) and np.array_equal(tared.time, untared.time)
+    assert np.abs(acq.reference_bias).max() > 1e-3  # a bias that shows (the load was moving)
+    np.testing.assert_allclose(tared.reference, untared.reference - acq.reference_bias, rtol=0, atol=1e-12)
 
 
 def test_session_errors(running):

@@ -81,6 +81,17 @@ def test_list_serial_ports_shape():
         assert set(p) == {"device", "description", "hwid"}
 
 
+def test_list_serial_ports_puts_usb_first(monkeypatch):
+    from types import SimpleNamespace
+
+    from serial.tools import list_ports
+
+    fake = [SimpleNamespace(device=d, description=desc, hwid="") for d, desc in
+            [("/dev/ttyS0", "ttyS0"), ("/dev/ttyACM1", "USB ACM"), ("/dev/ttyACM0", "USB ACM"), ("/dev/ttyS1", None)]]
+    monkeypatch.setattr(list_ports, "comports", lambda: fake)
+    assert [p["device"] for p in list_serial_ports()] == ["/dev/ttyACM0", "/dev/ttyACM1", "/dev/ttyS0", "/dev/ttyS1"]
+
+
 def test_read_times_out_with_none():
     src = TestSignalSource()
     sim = SimulatedPitoPort(src, 1000, start=False)

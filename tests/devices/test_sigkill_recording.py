@@ -13,7 +13,7 @@ import time
 
 import pytest
 
-from pito_core.devices._lifetime import process_alive as _alive
+from pito_core.devices import process_alive as _alive
 
 from pito_core.io import FileFormatError, Recording
 

@@ -20,7 +20,7 @@ import pytest
 pytest.importorskip("pylsl", reason="the interop extra (pip install -e '.[interop]') is not installed")
 
 from pito_core.interop import calibration_hash  # noqa: E402
-from pito_core.interop._lsl import machine_only_config  # noqa: E402
+from pito_core.interop import machine_only_config  # noqa: E402
 from pito_core.pipeline import replay_recording  # noqa: E402
 
 from .conftest import ASSEMBLY, ideal_calibration  # noqa: E402

@@ -10,10 +10,11 @@ import time
 import numpy as np
 import pytest
 
-from pito_core.devices._lifetime import process_alive as _alive
+from pito_core.devices import process_alive as _alive
 
-from pito_core.io import read_recording
+from pito_core.io import ChecksumError, FileFormatError, read_recording
 from pito_core.pipeline import Pipeline, PipelineProcess, PipelineProcessError
+from pito_core.pipeline._process import _portable
 from pito_core.sim import SimulatedDevices, simulate_calibration
 
 pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="pty, /proc")
@@ -70,8 +71,9 @@ def test_bundles_carry_every_sample_once_with_the_pipelines_wrenches_and_a_recor
             assert rec.meta["source"] == "test" and rec.meta["simulated"] is True
             assert [e["type"] for e in rec.events] == ["clock", "note"]  # the clocks where the recording began
             assert np.all(np.diff(rec.pito["seq"].astype(np.int64)) == 1)
-            with pytest.raises(ValueError, match="duration"):
+            with pytest.raises(ValueError, match="duration") as info:
                 proc.tare(-1.0)
+            assert type(info.value) is ValueError  # the child's exception itself, pickled across
             pid = proc.pid
         assert not _alive(pid)  # closed: the child is gone
 
@@ -142,3 +144,13 @@ def test_the_apps_live_path_and_the_replay_of_its_recording_agree(tmp_path):
     both = np.isfinite(ref_live).all(axis=1) & np.isfinite(ref_rep).all(axis=1)
     assert both.mean() > 0.9  # paired the same way (a sample waits for the reference record after it)
     np.testing.assert_allclose(ref_rep[both], ref_live[both], rtol=1e-9, atol=1e-9)
+
+
+def test_exceptions_cross_the_process_boundary_as_themselves():
+    exc = FileFormatError("x.h5: not a pito session")
+    assert _portable(exc) is exc  # a pito exception that pickles crosses unchanged
+    odd = ChecksumError("x.h5", "/counts", "crc")  # its constructor takes (path, dataset, detail)
+    out = _portable(odd)
+    assert type(out) is ValueError and str(out) == f"ChecksumError: {odd}"
+    assert type(_portable(PermissionError(13, "denied"))) is PermissionError
+

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from pito_core.frames import CUBE_ADC_LIMIT
 from pito_core.pipeline import NewSamples, Pipeline
 
 
@@ -61,6 +62,15 @@ def test_tare_event_applies_from_its_sample(calibration):
     rep = Pipeline(calibration, has_reference=False).feed(NewSamples(rows, None, [event], restart=True))
     np.testing.assert_allclose(rep.face_wrenches, np.concatenate([b1.face_wrenches, b2.face_wrenches]), atol=1e-12)
     assert not np.allclose(b2.face_wrenches[0], live.calibration.wrenches(rest["counts"][:1])[0])  # the tare acted
+
+
+def test_a_saturated_gauge_never_gives_a_valid_contact(calibration):
+    pipe = Pipeline(calibration, "pito_mixed", has_reference=False)
+    rows = _grasp(t0=4.0)  # mid-grasp: fingers on the patches
+    assert pipe.process(rows, flush=True).contacts.valid.any()
+    rows = _grasp(t0=5.0)
+    rows["counts"][-1, 7] = CUBE_ADC_LIMIT  # one gauge of the newest sample at the ADC limit
+    assert not pipe.process(rows, flush=True).contacts.valid.any()
 
 
 def _reference(t, seed=0):

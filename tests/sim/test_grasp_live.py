@@ -180,15 +180,3 @@ def test_calibration_live_fades_in_after_a_switch():
     assert np.allclose(w[2], src2.applied_at(np.array([20.0]))[0])  # after the fade: the same loads
     with pytest.raises(ValueError, match="t:"):
         src.set_face(2, t=float("nan"))
-
-
-def test_sim_uses_only_the_session_format_of_calibration():
-    import ast
-    import pathlib
-
-    import pito_core.sim
-
-    for path in pathlib.Path(pito_core.sim.__file__).parent.glob("*.py"):
-        for node in ast.walk(ast.parse(path.read_text())):
-            if isinstance(node, ast.ImportFrom) and node.module and "calibration" in node.module:
-                assert node.module.endswith("calibration._session"), (path.name, node.module)

@@ -3,10 +3,9 @@
 import numpy as np
 import pytest
 
+from pito_core import contact
 from pito_core.sim import PATCH_HEIGHT, GraspLiveSource, simulate_touches
 from pito_core.sim._patches import contacts_on_assembly, point_above
-
-contact = pytest.importorskip("pito_core.contact")
 
 
 def test_flat_patch_height_matches_library():

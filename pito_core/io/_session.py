@@ -1,4 +1,8 @@
-"""Calibration sessions: gauge counts beside a reference sensor, with the mount."""
+"""Calibration sessions: gauge counts beside a reference sensor, with the mount.
+
+The session is data and its file format (``io``): devices build it, the simulator writes
+it, :mod:`pito_core.calibration` fits it. It imports nothing of ``calibration``.
+"""
 
 from __future__ import annotations
 
@@ -7,17 +11,14 @@ from typing import Iterator
 
 import numpy as np
 
-from ..frames import CubeCore, check_face, check_pose
-from ..io._csv import read_session_csv_fields, write_session_csv
-from ..io._hdf5 import FileFormatError
-from ..io._session_file import read_session_fields, write_session
+from ..frames import N_GAUGES, CubeCore, check_face, check_pose, invert_pose
+from ._csv import read_session_csv_fields, write_session_csv
+from ._hdf5 import FileFormatError
+from ._session_file import read_session_fields, write_session
 
-__all__ = ["CalibrationSession", "FLANGES", "SessionBlock", "N_GAUGES", "DEFAULT_COUNTS_RANGE"]
+__all__ = ["CalibrationSession", "FLANGES", "SessionBlock", "DEFAULT_COUNTS_RANGE", "few_indices"]
 
-#: Number of strain-gauge channels: face i owns columns 6(i-1) .. 6i-1.
-N_GAUGES = 36
-
-#: Flange types (SPEC "Calibration mounts").
+#: Flange types (docs/conventions.md, "Calibration mounts").
 FLANGES = ("frame", "frame_hole", "face")
 
 #: Counts at or beyond these limits are saturated, unless a session says otherwise (int32 range).
@@ -62,7 +63,7 @@ class CalibrationSession:
     T_core_ati : array-like, shape (4, 4)
         Pose of the reference sensor's frame in the core frame.
     flange : {"frame", "frame_hole", "face"}
-        The calibration mount (SPEC "Calibration mounts").
+        The calibration mount (docs/conventions.md, "Calibration mounts").
     connected_face : int
         The face the flange is on, 1..6.
     core : CubeCore, optional
@@ -142,11 +143,11 @@ class CalibrationSession:
         if not _lazy:
             bad = np.flatnonzero(~np.isfinite(reference).all(axis=1))
             if bad.size:
-                raise ValueError(f"reference: NaN or inf at sample indices {_few(bad)}")
+                raise ValueError(f"reference: NaN or inf at sample indices {few_indices(bad)}")
             if np.issubdtype(counts.dtype, np.floating):
                 bad = np.flatnonzero(~np.isfinite(counts).all(axis=1))
                 if bad.size:
-                    raise ValueError(f"counts: NaN or inf at sample indices {_few(bad)}")
+                    raise ValueError(f"counts: NaN or inf at sample indices {few_indices(bad)}")
 
     # ------------------------------------------------------------------ basics
     def __len__(self) -> int:
@@ -165,8 +166,6 @@ class CalibrationSession:
 
     def T_ati_face(self, i) -> np.ndarray:
         """``T_ati_face_i (4, 4)``: face i's frame in the reference frame."""
-        from ..frames import invert_pose
-
         return invert_pose(self.T_core_ati) @ self.core.face_pose(i)
 
     # ------------------------------------------------------------------ blocks
@@ -317,7 +316,8 @@ def _take(a, idx: np.ndarray) -> np.ndarray:
     return np.asarray(a[lo:hi])[idx - lo]
 
 
-def _few(idx: np.ndarray, k: int = 10) -> str:
+def few_indices(idx: np.ndarray, k: int = 10) -> str:
+    """The first ``k`` of the sample indices ``idx`` for an error message: ``"[3, 9, … (40 in all)]"``."""
     head = ", ".join(str(int(i)) for i in idx[:k])
     more = f" … ({idx.size} in all)" if idx.size > k else ""
     return f"[{head}{more}]"

@@ -1,4 +1,4 @@
-"""Issue 13 item 1: every file pito writes carries checksums; a flipped bit anywhere in a dataset is refused.
+"""Every file pito writes carries checksums; a flipped bit anywhere in a dataset is refused.
 
 The property tests flip one bit at a random byte of the stored data of a random dataset (offsets from
 h5py's ``get_offset`` / ``get_chunk_info``) and require a :class:`ChecksumError` naming the file and
