@@ -13,7 +13,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from .scene import FACE_COLORS
+from .palette import FACE_COLORS
 
 __all__ = ["rmse_figure", "identification_figure", "comparison_figure", "export_report", "style_figure", "SMALL", "SCREEN_DPI"]
 

@@ -1,11 +1,12 @@
 """Time plots over ring buffers (pyqtgraph): force norm per face, equilibrium.
 
-Data and drawing are decoupled: :meth:`append` writes new samples into a ring buffer (O(new
-samples), called once per worker bundle); :meth:`refresh` — called by the live view's display
-pacer, at most at the display rate — hands each curve the last ``window`` seconds as a view
-of the ring (no copy), decimated to the plot's pixel width by min–max per pixel column, so
-a 1 kHz stream costs the same to draw as a 60 Hz one and no peak is lost. The axes move only
-when the range must change (hysteresis), so a refresh repaints curves, not tick labels.
+Data and drawing are decoupled: ``append`` writes new samples into a ring buffer (O(new
+samples), called once per worker bundle); ``refresh`` (one routine for both plots) — called by
+the live view's display pacer, at most at the display rate — hands each curve the last
+``window`` seconds as a view of the ring (no copy), decimated to the plot's pixel width by
+min–max per pixel column, so a 1 kHz stream costs the same to draw as a 60 Hz one and no peak
+is lost. The axes move only when the range must change (hysteresis), so a refresh repaints
+curves, not tick labels.
 
 A ring holds one timeline: samples whose time goes back (a replay that loops or seeks, another
 source) start a new one (:meth:`TimeRing.append`), and a stretch without samples longer than
@@ -236,11 +237,60 @@ class _YRange:
         return False
 
 
-class FaceForcePlot(pg.PlotWidget):
-    """‖F‖ (N) on each face over the last ``window`` seconds, one curve per face colour.
+class _TimelinePlot:
+    """The refresh both plots share: the last ``window`` seconds of ``buffer`` handed to the curves.
 
-    ``last_time`` is the time (s, host clock) of the newest sample drawn by the last refresh.
+    A subclass sets ``window`` (s) and ``buffer`` (a :class:`TimeRing` of rows ``[t, y1, …,
+    yk]``) and draws in :meth:`_draw`. ``last_time`` is the time (s, host clock) of the newest
+    sample drawn by the last refresh, ``refreshes`` counts the refreshes that drew. Times are
+    drawn relative to the newest sample (0 at the right edge); the rows are decimated to the
+    plot's pixel width (:func:`minmax_decimate`) and gaps longer than :data:`GAP` are breaks.
     """
+
+    last_time = float("nan")
+    refreshes = 0
+    _drawn_n = -1  # the ring's ``written`` when last drawn
+
+    def _curves(self) -> list:
+        """Every curve of the plot (cleared when the ring is empty)."""
+        raise NotImplementedError
+
+    def _pixel_width(self) -> int:
+        """Width of the plot area, px: the decimation's number of columns."""
+        raise NotImplementedError
+
+    def _draw(self, t, y, lo, hi) -> None:
+        """Hand the curves times ``t (m,)`` s (≤ 0), values ``y (m, k)`` and per-column bounds ``lo``, ``hi`` (k,)."""
+        raise NotImplementedError
+
+    def refresh(self) -> bool:
+        """Redraw the curves from the ring (decimated to the pixel width); False if nothing new."""
+        if self.buffer.written == self._drawn_n:
+            return False
+        self._drawn_n = self.buffer.written
+        d = self.buffer.view()
+        if d.shape[0] == 0:
+            for c in self._curves():
+                c.set_curve(np.zeros(0), np.zeros(0), np.nan, np.nan)
+            return False
+        t_end = d[-1, 0]
+        d = d[int(np.searchsorted(d[:, 0], t_end - self.window)):]
+        px = max(50, self._pixel_width())
+        t, y = minmax_decimate(d[:, 0], d[:, 1:], t_end - self.window, t_end, px)
+        t, y = break_gaps(t, y)
+        lo, hi = _column_bounds(y)
+        self._draw(t - t_end, y, lo, hi)
+        self.last_time = float(t_end)
+        self.refreshes += 1
+        return True
+
+    def clear_data(self) -> None:
+        self.buffer.clear()
+        self.refresh()  # the curves show the empty ring (not the old timeline)
+
+
+class FaceForcePlot(_TimelinePlot, pg.PlotWidget):
+    """‖F‖ (N) on each face over the last ``window`` seconds, one curve per face colour."""
 
     def __init__(self, window: float = 10.0, rate: float = 1000.0, parent=None):
         super().__init__(parent)
@@ -254,9 +304,6 @@ class FaceForcePlot(pg.PlotWidget):
         self._y = _YRange(2.0)
         self.setXRange(-self.window, 0, padding=0)
         self.setYRange(0, self._y.top, padding=0)
-        self.last_time = float("nan")
-        self.refreshes = 0
-        self._drawn_n = -1
 
     def append(self, t, norms) -> None:
         """New samples: times ``t`` (n,) s and force norms ``(n, 6)`` N (or one time and a (6,) row)."""
@@ -264,39 +311,21 @@ class FaceForcePlot(pg.PlotWidget):
         norms = np.asarray(norms, dtype=float).reshape(t.size, 6)
         self.buffer.append(np.column_stack([t, norms]))
 
-    def refresh(self) -> bool:
-        """Redraw the curves from the ring (decimated to the pixel width); False if nothing new."""
-        if self.buffer.written == self._drawn_n:
-            return False
-        self._drawn_n = self.buffer.written
-        d = self.buffer.view()
-        if d.shape[0] == 0:
-            for c in self.curves:
-                c.set_curve(np.zeros(0), np.zeros(0), np.nan, np.nan)
-            return False
-        t_end = d[-1, 0]
-        first = int(np.searchsorted(d[:, 0], t_end - self.window))
-        d = d[first:]
-        px = max(50, int(self.getPlotItem().getViewBox().width()))
-        t, y = minmax_decimate(d[:, 0], d[:, 1:], t_end - self.window, t_end, px)
-        t, y = break_gaps(t, y)
-        t = t - t_end
-        lo, hi = _column_bounds(y)
+    def _curves(self) -> list:
+        return self.curves
+
+    def _pixel_width(self) -> int:
+        return int(self.getPlotItem().getViewBox().width())
+
+    def _draw(self, t, y, lo, hi) -> None:
         for k, c in enumerate(self.curves):
             c.set_curve(t, y[:, k], lo[k], hi[k])
         peak = np.fmax.reduce(hi)  # NaN only if no finite value
         if self._y.fit(float(peak)):
             self.setYRange(0, self._y.top, padding=0)
-        self.last_time = float(t_end)
-        self.refreshes += 1
-        return True
-
-    def clear_data(self) -> None:
-        self.buffer.clear()
-        self.refresh()  # the curves show the empty ring (not the old timeline)
 
 
-class EquilibriumPlot(QWidget):
+class EquilibriumPlot(_TimelinePlot, QWidget):
     """‖ΣF‖ (N) against the object's weight m·g, and ‖ΣT‖ (N·m), over time.
 
     For an object held still, the face loads balance its weight: ‖ΣF‖ ≈ m·g and
@@ -333,8 +362,6 @@ class EquilibriumPlot(QWidget):
         self.set_weight(weight)
         layout.addWidget(self.force_plot)
         layout.addWidget(self.torque_plot)
-        self._drawn_n = -1
-        self.last_time = float("nan")
 
     def set_weight(self, weight: float) -> None:
         """The object's weight m·g, N."""
@@ -347,30 +374,16 @@ class EquilibriumPlot(QWidget):
     def append(self, t: float, sum_force: float, sum_torque: float) -> None:
         self.buffer.append([t, sum_force, sum_torque])
 
-    def refresh(self) -> bool:
-        """Redraw from the ring; False if nothing new."""
-        if self.buffer.written == self._drawn_n:
-            return False
-        self._drawn_n = self.buffer.written
-        d = self.buffer.view()
-        if d.shape[0] == 0:
-            for c in (self.force_curve, self.torque_curve):
-                c.set_curve(np.zeros(0), np.zeros(0), np.nan, np.nan)
-            return False
-        t_end = d[-1, 0]
-        d = d[int(np.searchsorted(d[:, 0], t_end - self.window)):]
-        t, y = break_gaps(d[:, 0], d[:, 1:])
-        t = t - t_end
-        lo, hi = _column_bounds(y)
+    def _curves(self) -> list:
+        return [self.force_curve, self.torque_curve]
+
+    def _pixel_width(self) -> int:
+        return int(self.force_plot.getPlotItem().getViewBox().width())
+
+    def _draw(self, t, y, lo, hi) -> None:
         self.force_curve.set_curve(t, y[:, 0], lo[0], hi[0])
         self.torque_curve.set_curve(t, y[:, 1] * 1000, lo[1] * 1000, hi[1] * 1000)
         if self._fy.fit(float(hi[0])):
             self.force_plot.setYRange(0, self._fy.top, padding=0)
         if self._ty.fit(1000 * float(hi[1])):
             self.torque_plot.setYRange(0, self._ty.top, padding=0)
-        self.last_time = float(t_end)
-        return True
-
-    def clear_data(self) -> None:
-        self.buffer.clear()
-        self.refresh()  # the curves show the empty ring (not the old timeline)

@@ -10,6 +10,8 @@ velocity.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from ._checks import check_pose, check_vectors
@@ -17,6 +19,7 @@ from ._checks import check_pose, check_vectors
 __all__ = [
     "cross_rows",
     "pose_from_rotation_translation",
+    "rotation_from_x",
     "invert_pose",
     "wrench_adjoint",
     "transform_wrench",
@@ -48,6 +51,39 @@ def pose_from_rotation_translation(R, p) -> np.ndarray:
     T[:3, :3] = R
     T[:3, 3] = p
     return check_pose(T, "T")
+
+
+def rotation_from_x(direction) -> np.ndarray:
+    """The rotation taking the x axis onto ``direction``: its first column is ``direction``, normalised.
+
+    Parameters
+    ----------
+    direction : array-like, shape (3,)
+        Any non-zero vector (its length does not matter).
+
+    Returns
+    -------
+    R : ndarray, shape (3, 3)
+        A proper rotation (orthonormal, det +1). Its y axis is ``z × x`` (``y × x`` when the
+        direction is within ~25° of ±z), so it changes smoothly with ``direction``.
+
+    Notes
+    -----
+    Scalar arithmetic and no input checks: the live view calls it for every glyph on every
+    drawn frame, where ``np.cross`` and ``np.linalg.norm`` on 3-vectors cost more in call
+    overhead than in arithmetic.
+    """
+    x0, x1, x2 = (float(v) for v in direction)
+    n = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+    x0, x1, x2 = x0 / n, x1 / n, x2 / n
+    if abs(x2) < 0.9:  # y = (0, 0, 1) × x
+        y0, y1, y2 = -x1, x0, 0.0
+    else:  # y = (0, 1, 0) × x
+        y0, y1, y2 = x2, 0.0, -x0
+    m = math.sqrt(y0 * y0 + y1 * y1 + y2 * y2)
+    y0, y1, y2 = y0 / m, y1 / m, y2 / m
+    z0, z1, z2 = x1 * y2 - x2 * y1, x2 * y0 - x0 * y2, x0 * y1 - x1 * y0  # z = x × y
+    return np.array([[x0, y0, z0], [x1, y1, z1], [x2, y2, z2]])
 
 
 def invert_pose(T_a_b) -> np.ndarray:

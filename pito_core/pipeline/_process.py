@@ -6,7 +6,8 @@ patches) a few milliseconds per read. In the desktop app all of that would share
 interpreter lock with the drawing: the window would wait for the lock on every paint call
 and the devices would wait for the window. So :class:`PipelineProcess` runs the drivers, the
 collecting thread, :class:`~pito_core.pipeline.Pipeline` and the recorder in a child process
-(``python -m pito_core.pipeline._process_child CONFIG FD``) and sends the caller one
+(``python -m pito_core.pipeline._process_child CONFIG FD``, :mod:`._process_child`: the
+child's loop) and sends the caller one
 :class:`~pito_core.pipeline.LiveBundle` over a socket pair as soon as new rows arrive (the
 collecting thread wakes the child's loop through a pipe; at most one bundle per
 ``push_interval`` s); a receiving thread (blocked in ``recv`` without the lock) merges them
@@ -43,16 +44,11 @@ import subprocess
 import sys
 import threading
 import time
-from multiprocessing.connection import Connection, wait
+from multiprocessing.connection import Connection
 
 import numpy as np
 
-from ..devices import die_with_parent, install_stop_signals
-from ..frames import CubeCore
 from ._bundle import LiveBundle
-from ._open import open_acquisition
-from ._pipeline import Pipeline
-from ._readers import AcquisitionReader
 
 __all__ = ["PipelineProcess", "PipelineProcessError"]
 
@@ -300,76 +296,14 @@ class _Borrowed:
             self._process.close_recording()
 
 
-# ---------------------------------------------------------------------- the child
-class _Child:
-    """The child's state: the acquisition, its reader, the pipeline; one method per request."""
-
-    def __init__(self, cfg: dict):
-        self.acq = open_acquisition(cfg["pito"], cfg.get("ati"), buffered=cfg["buffered"], buffer_seconds=10.0,
-                                    reference_rate_hz=cfg["reference_rate_hz"], meta={"simulated": cfg["simulated"]})
-        self.reader = AcquisitionReader(self.acq, simulated=cfg["simulated"], owns=True)
-        core = CubeCore() if cfg.get("edge") is None else CubeCore(edge=cfg["edge"])
-        self.pipeline = Pipeline(core=core, has_reference=self.reader.has_reference)
-        self.recording_from: int | None = None  # cube cursor where the recording began
-        # the collecting thread writes a byte here when rows arrive: the serving loop waits on it
-        # and on the parent's requests at once (no polling period in the latency)
-        self.wake_r, self._wake_w = os.pipe2(os.O_NONBLOCK | os.O_CLOEXEC)
-        self.acq.listener = self._rows_arrived
-
-    def _rows_arrived(self) -> None:
-        with contextlib.suppress(BlockingIOError, OSError):  # a full pipe is already a wake-up
-            os.write(self._wake_w, b"\0")
-
-    def drain_wakes(self) -> None:
-        with contextlib.suppress(BlockingIOError, OSError):
-            while os.read(self.wake_r, 4096):
-                pass
-
-    def handle(self, name: str, args: tuple):
-        p, acq = self.pipeline, self.acq
-        if name == "set_calibration":
-            return p.set_calibration(*args)
-        if name == "set_assembly":
-            return p.set_assembly(*args)
-        if name == "tare":
-            event = p.tare(*args)
-            acq.record_event(event)
-            return event
-        if name == "reset":
-            return p.reset()
-        if name == "open_recording":
-            path, meta = args
-            meta.setdefault("simulated", bool(acq.meta.get("simulated", False)))
-            acq.open_recording(path, meta)
-            self.recording_from = acq.cursors()[0]
-            return None
-        if name == "close_recording":
-            self.recording_from = None
-            return acq.close_recording()
-        if name == "record_event":
-            return acq.record_event(*args)
-        raise ValueError(f"request: unknown {name!r}")
-
-    def bundle(self) -> LiveBundle:
-        b = self.pipeline.feed(self.reader.read())
-        b.stats = _plain(self.reader.stats())
-        b.recorded = 0 if self.recording_from is None else self.acq.cursors()[0] - self.recording_from
-        return b
-
-    def close(self) -> None:
-        self.acq.listener = None
-        with contextlib.suppress(Exception):
-            self.acq.close_recording()
-        self.reader.close()
-        for fd in (self.wake_r, self._wake_w):
-            with contextlib.suppress(OSError):
-                os.close(fd)
-
-
+# ---------------------------------------------------------------------- the exceptions' crossing
 def _portable(exc: Exception) -> Exception:
     """``exc`` as it can cross to the parent: itself when it survives pickling, else its
     built-in base (``ValueError`` or ``OSError``) with the type's name in the message (an
-    exception whose constructor takes other arguments than its message does not unpickle)."""
+    exception whose constructor takes other arguments than its message does not unpickle).
+
+    The child's side of a failed request's reply (:mod:`._process_child`); the parent's side is
+    :meth:`PipelineProcess._request`."""
     try:
         back = pickle.loads(pickle.dumps(exc))
     except Exception:  # noqa: BLE001 - any failure to round-trip: fall back to the built-in base
@@ -378,66 +312,3 @@ def _portable(exc: Exception) -> Exception:
         return exc
     base = ValueError if isinstance(exc, ValueError) else OSError
     return base(f"{type(exc).__name__}: {exc}")
-
-
-def _serve(conn: Connection, cfg: dict) -> None:
-    try:
-        child = _Child(cfg)
-    except Exception as exc:  # noqa: BLE001 - every failure to open goes back to the parent, in words
-        conn.send(("failed", f"{type(exc).__name__}: {exc}"))
-        return
-    signalled = install_stop_signals()
-    conn.send(("ready", {"reference": child.reader.has_reference, "pid": os.getpid()}))
-    parent = os.getppid()
-    gap = cfg["push_interval"]  # shortest time between two bundles (a cube that sends every frame
-    last_fed = last_sent = 0.0  # alone would otherwise cost a pipeline run per frame)
-    try:
-        while not signalled():
-            # wake when rows arrive or the parent asks something (at least 10 times a second)
-            ready = wait([conn, child.wake_r], timeout=0.1)
-            while conn.poll(0):
-                name, rid, *args = conn.recv()
-                if name == "close":
-                    conn.send(("reply", rid, True, None))
-                    return
-                try:
-                    conn.send(("reply", rid, True, child.handle(name, tuple(args))))
-                except (ValueError, OSError) as exc:  # a bad argument, or a file that cannot be written
-                    conn.send(("reply", rid, False, _portable(exc)))
-            if child.wake_r in ready:
-                time.sleep(max(0.0, last_fed + gap - time.monotonic()))
-                child.drain_wakes()
-            last_fed = time.monotonic()
-            b = child.bundle()
-            now = time.monotonic()
-            fresh = len(b) or b.arrived_time is not None
-            if fresh or now - last_sent >= 0.1:  # samples, or at least the device figures 10 times a second
-                conn.send(("bundle", b))
-                last_sent = now
-            if os.getppid() != parent:
-                break
-    except (EOFError, OSError):
-        pass  # the parent is gone
-    finally:
-        child.close()
-
-
-def _plain(d):
-    """Stats with numpy scalars as Python numbers (picklable anywhere, JSON-able)."""
-    if isinstance(d, dict):
-        return {k: _plain(v) for k, v in d.items()}
-    if isinstance(d, (list, tuple)):
-        return [_plain(v) for v in d]
-    if isinstance(d, np.generic):
-        return d.item()
-    return d
-
-
-def main(argv=None) -> int:
-    """The child's entry point (:mod:`pito_core.pipeline._process_child`)."""
-    argv = sys.argv[1:] if argv is None else argv
-    cfg = json.loads(argv[0])
-    if cfg.get("pdeathsig"):
-        die_with_parent()
-    _serve(Connection(int(argv[1])), cfg)
-    return 0

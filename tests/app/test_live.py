@@ -83,19 +83,6 @@ def test_arrow_ends_at_the_contact_point_and_scales_with_force(live):
         assert np.allclose(M[:3, 0] / np.linalg.norm(M[:3, 0]), np.array(f) / np.linalg.norm(f))
 
 
-def test_glyph_rotations_are_proper_for_any_direction():
-    """The per-frame rotation (scalar arithmetic) is orthonormal, right-handed, and takes +x onto the direction."""
-    from app.scene import _rotation_from_x
-
-    rng = np.random.default_rng(7)
-    dirs = [rng.normal(size=3) * s for s in rng.uniform(1e-3, 50, 300)]
-    dirs += [np.array(d, float) for d in ((0, 0, 1), (0, 0, -2), (1, 0, 0), (0, 1e-9, 5), (0.1, 0, 0.95))]
-    for d in dirs:
-        R = _rotation_from_x(d)
-        assert np.allclose(R.T @ R, np.eye(3), atol=1e-12) and np.isclose(np.linalg.det(R), 1.0)
-        assert np.allclose(R[:, 0], d / np.linalg.norm(d))
-
-
 def test_pause_freezes_the_view(live):
     live.on_bundle(bundle(0.0, contacts()))
     n = live.bundles_shown

@@ -9,6 +9,7 @@ from pito_core.frames import (
     check_pose,
     invert_pose,
     pose_from_rotation_translation,
+    rotation_from_x,
     transform_points,
     transform_twist,
     transform_wrench,
@@ -109,3 +110,14 @@ def test_validators():
     mirror = np.diag([1.0, 1.0, -1.0, 1.0])
     with pytest.raises(ValueError, match=r"proper rotation"):
         check_pose(mirror, "T")
+
+
+def test_rotation_from_x_is_proper_for_any_direction():
+    """The glyphs' per-frame rotation (scalar arithmetic) is orthonormal, right-handed, and takes +x onto the direction."""
+    rng = np.random.default_rng(7)
+    dirs = [rng.normal(size=3) * s for s in rng.uniform(1e-3, 50, 300)]
+    dirs += [np.array(d, float) for d in ((0, 0, 1), (0, 0, -2), (1, 0, 0), (0, 1e-9, 5), (0.1, 0, 0.95))]
+    for d in dirs:
+        R = rotation_from_x(d)
+        assert np.allclose(R.T @ R, np.eye(3), atol=1e-12) and np.isclose(np.linalg.det(R), 1.0)
+        assert np.allclose(R[:, 0], d / np.linalg.norm(d))
