@@ -177,9 +177,12 @@ def _error_ratio(est, c, crb_tr, ok):
 
 
 def task_contact(n_speed=100_000, n_acc=20_000, n_scipy=200, surfaces=SURFACES, levels=tuple(NOISE_LEVELS),
-                 scipy_levels=("mid",), repeat=3, seed=0) -> dict:
-    """Speed and accuracy of ``solve`` and of the scipy baseline on every surface and scenario."""
+                 scipy_levels=("mid",), repeat=3, seed=0, n_single=4000, n_two=2000) -> dict:
+    """Speed and accuracy of ``solve`` and of the scipy baseline on every surface and scenario,
+    and the single-contact test's false alarms and detection (``_single_contact``)."""
     from pito_core.contact import contact_crb, solve
+
+    from ._single_contact import task_single_contact
 
     rng = np.random.default_rng(seed)
     speed_rows, acc_rows = [], []
@@ -221,7 +224,7 @@ def task_contact(n_speed=100_000, n_acc=20_000, n_scipy=200, surfaces=SURFACES, 
             for level in levels:
                 cov = _noise_cov(level)
                 w = w0 + rng.normal(size=w0.shape) * np.sqrt(np.diag(cov))
-                est = solve(surface, w, point_contact=pc, wrench_cov=cov if pc else None)
+                est = solve(surface, w, point_contact=pc, wrench_cov=cov)
                 crb = contact_crb(surface, c, f, cov, torsion=tau, normal=nrm, point_contact=pc)
                 crb_tr = np.trace(crb.point_cov, axis1=1, axis2=2)
                 ok = est.valid & np.isfinite(crb_tr)
@@ -232,7 +235,11 @@ def task_contact(n_speed=100_000, n_acc=20_000, n_scipy=200, surfaces=SURFACES, 
                        "sigma_force_N": NOISE_LEVELS[level][0], "sigma_moment_Nm": NOISE_LEVELS[level][1],
                        "n": n_acc, "valid_fraction": float(est.valid.mean()),
                        "rms_point_error_m": err, "crb_rms_m": float(np.sqrt(np.mean(crb_tr[ok]))) if ok.any() else np.nan,
-                       "crb_ratio": ratio, "force_crb_ratio": float(ferr / fbound)}
+                       "crb_ratio": ratio, "force_crb_ratio": float(ferr / fbound),
+                       "flagged_fraction": float(1.0 - est.single_contact.mean()),
+                       "flag_reason": _main_reason(est)}
+                est.noise = w - w0  # for _beyond_crb
+                row.update(_beyond_crb(surface, scenario, c, f, w0, est, crb, nrm, cov, ok))
                 if kind != "mesh" and level in scipy_levels:
                     k = min(n_scipy, n_acc)
                     sc = scipy_solve(surface, w[:k], cov, point_contact=pc)
@@ -242,7 +249,37 @@ def task_contact(n_speed=100_000, n_acc=20_000, n_scipy=200, surfaces=SURFACES, 
                     row.update({"scipy_n": k, "scipy_crb_ratio": r_s, "scipy_valid_fraction": float(okk.mean()), "pito_crb_ratio_same_subset": r_p,
                                 "error_ratio_scipy": e_p / e_s if e_s > 0 else float("nan")})
                 acc_rows.append(row)
-    return {"speed": speed_rows, "accuracy": acc_rows}
+    single = task_single_contact(n_single=n_single, n_two=n_two, surfaces=surfaces, seed=seed + 1)
+    return {"speed": speed_rows, "accuracy": acc_rows, "single": single}
+
+
+def _beyond_crb(surface, scenario, c, f, w0, est, crb, nrm, cov, ok, n_mesh=2000) -> dict:
+    """Where the bound is out of reach (``_contact_bounds``): the share of samples whose normal force
+    is within 5 σ of its noise and the error ratio on the others; on the mesh, the share of samples
+    with two exact solutions (noise-free or noisy) and the error ratio on the others."""
+    from ._contact_bounds import mesh_exact_solutions, normal_snr_split
+
+    crb_tr = np.trace(crb.point_cov, axis1=1, axis2=2)
+    out = normal_snr_split(est.point, c, f, nrm, crb_tr, ok, float(np.sqrt(cov[2, 2])))
+    if surface.kind == "mesh" and scenario != "point":
+        k = min(n_mesh, len(c))
+        one = (mesh_exact_solutions(surface, w0[:k]) <= 1)
+        one_noisy = one & (mesh_exact_solutions(surface, w0[:k] + est.noise[:k]) <= 1)
+        _, r = _error_ratio(est.point[:k], c[:k], crb_tr[:k], ok[:k] & one_noisy)
+        out.update({"ambiguous_fraction": float(1.0 - one.mean()),
+                    "ambiguous_fraction_noisy": float(1.0 - one_noisy.mean()), "crb_ratio_unambiguous": r})
+    return out
+
+
+def _main_reason(est) -> str:
+    """The most common reason among flagged estimates ("" if none is flagged)."""
+    from pito_core.contact import reason_names
+
+    bad = ~est.single_contact
+    if not bad.any():
+        return ""
+    names, counts = np.unique(reason_names(est.single_contact_reason[bad]), return_counts=True)
+    return str(names[np.argmax(counts)])
 
 
 def pareto(speed_rows, acc_rows) -> list[dict]:
@@ -280,7 +317,8 @@ def run_contact(*, quick: bool = False, threads: int = 1, n_speed=None, n_acc=No
     """Run the contact benchmark in a one-thread subprocess; returns the JSON section."""
     params = {"n_speed": 100_000, "n_acc": 20_000, "n_scipy": 100, "scipy_levels": list(NOISE_LEVELS)}
     if quick:
-        params.update({"n_acc": 4000, "n_scipy": 20, "scipy_levels": ["mid"], "repeat": 2})
+        params.update({"n_acc": 4000, "n_scipy": 20, "scipy_levels": ["mid"], "repeat": 2, "n_single": 1000,
+                       "n_two": 400})
     for k, v in (("n_speed", n_speed), ("n_acc", n_acc), ("n_scipy", n_scipy)):
         if v is not None:
             params[k] = int(v)
@@ -294,4 +332,5 @@ def run_contact(*, quick: bool = False, threads: int = 1, n_speed=None, n_acc=No
         "speed": r["speed"],
         "accuracy": r["accuracy"],
         "pareto": pareto(r["speed"], r["accuracy"]),
+        "single": r["single"],
     }

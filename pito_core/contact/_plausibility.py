@@ -19,7 +19,9 @@ Each limit ``g(θ) ≥ 0`` is tested at the estimate ``θ̂`` with its Cramér�
 ``σ_g² = ∇gᵀ C ∇g``, and its p-value is ``Φ(z)`` — the probability of a margin this low or
 lower if the true contact sat exactly on the limit (the least favourable single contact).
 The residual's p-value is ``P(χ²₁ ≥ r²)``. ``single_contact_p`` is the smallest of these
-p-values, ``single_contact_reason`` names the limit that gives it, and
+p-values (with ``point_contact``, twice the smallest, capped at 1: Bonferroni over the two
+families of tests, limits and residual, keeps the false alarms of the residual — exactly
+χ²₁ — within ``alpha``), ``single_contact_reason`` names the limit that gives it, and
 ``single_contact = single_contact_p ≥ alpha`` (default ``SINGLE_CONTACT_ALPHA = 0.05``: a
 single contact exactly on one limit is flagged 5 % of the time, one inside its limits far
 less often). See ``docs/contact.md``.
@@ -214,6 +216,8 @@ def single_contact_test(c, n, f, tau, w, cov: ContactCovariance, shape_op, W=Non
     p_all[~finite] = 0.0
     worst = np.argmin(p_all, axis=1)
     p = p_all[np.arange(N), worst]
+    if point_contact:  # two families (the limits, the residual): Bonferroni keeps false alarms ≤ alpha
+        p = np.minimum(1.0, 2.0 * p)
     single = p >= alpha
     codes = np.array([SingleContactReason.PULLING, SingleContactReason.FRICTION,
                       SingleContactReason.OUTSIDE, SingleContactReason.RESIDUAL], dtype=np.int8)

@@ -58,7 +58,8 @@ class ContactEstimate:
         and ``docs/contact.md``.
     single_contact_p : ndarray, shape (N,)
         The score deciding it, in [0, 1]: the smallest p-value over the single contact's
-        limits (``Φ(margin / σ)`` per limit, ``P(χ²₁ ≥ r²)`` for the residual);
+        limits (``Φ(margin / σ)`` per limit; with ``point_contact`` also ``P(χ²₁ ≥ r²)`` for
+        the residual, and the smallest is doubled, capped at 1: Bonferroni);
         ``single_contact = single_contact_p >= alpha`` (default 0.05). NaN where no force.
     single_contact_reason : ndarray, shape (N,), int8
         :class:`SingleContactReason` code of the failing limit: 0 ``NONE`` (plausible),
