@@ -25,7 +25,8 @@ import warnings
 
 import numpy as np
 
-__all__ = ["SEPARATION_BINS", "CAL_ERROR", "task_single_contact", "limit_margins", "two_finger_touches"]
+__all__ = ["SEPARATION_BINS", "CAL_ERROR", "task_single_contact", "limit_margins", "two_finger_touches",
+           "single_table_rows", "plot_single"]
 
 #: Separation bins (standard deviations) of the detection table.
 SEPARATION_BINS = (0.0, 1.0, 2.0, 3.0, 5.0, np.inf)
@@ -161,9 +162,11 @@ def task_single_contact(n_single=4000, n_two=1000, repeats=100, surfaces=("plane
         bins = []
         for lo, hi in zip(SEPARATION_BINS[:-1], SEPARATION_BINS[1:]):
             m = (D > lo) & (D <= hi)
-            bins.append({"lo": lo, "hi": hi, "n": int(m.sum()),
+            bins.append({"lo": lo, "hi": hi if np.isfinite(hi) else None, "n": int(m.sum()),
                          "detected": float(flagged[m].mean()) if m.any() else float("nan")})
         beyond = D > 3.0
+        if kind == "plane":
+            sample = _limit_sample(patch, solve(patch.surface, w0, force_threshold=0.0), D, flagged)
         names, counts = np.unique(reason_names(est.single_contact_reason[flagged]), return_counts=True)
         rows.append({
             "surface": kind, "n_single": n_single, "n_two": n_two,
@@ -175,4 +178,65 @@ def task_single_contact(n_single=4000, n_two=1000, repeats=100, surfaces=("plane
             "bins": bins, "reasons": {str(k): int(v) for k, v in zip(names, counts)},
         })
     return {"rows": rows, "sigma_force_N": sigma[0], "sigma_moment_Nm": sigma[1], "calibration_error": CAL_ERROR,
-            "separation_bins": [float(b) for b in SEPARATION_BINS]}
+            "separation_bins": [float(b) if np.isfinite(b) else None for b in SEPARATION_BINS],
+            "plane_sample": sample if "plane" in surfaces else None}
+
+
+def _limit_sample(patch, est0, D, flagged, k=600) -> dict:
+    """Where the plane's two-finger touches sit on the limit surface (for the figure), first ``k``."""
+    f, n, tau = est0.force[:k], est0.normal[:k], est0.torsion[:k]
+    fn = -np.einsum("ij,ij->i", f, n)
+    ft = np.linalg.norm(f + fn[:, None] * n, axis=1)
+    lim = patch.mu * fn
+    return {"shear": (ft / lim).tolist(), "twist": (np.abs(tau) / (patch.torsion_radius * lim)).tolist(),
+            "D": np.where(np.isfinite(D[:k]), D[:k], 99.0).tolist(), "flagged": flagged[:k].astype(int).tolist()}
+
+
+def single_table_rows(single: dict) -> tuple[list, list]:
+    """Header and rows of the report's single-contact table (percentages)."""
+    bins = single["separation_bins"]
+    labels = [f"D {lo:g}–{hi:g}" if hi is not None else f"D > {lo:g}" for lo, hi in zip(bins[:-1], bins[1:])]
+    header = (["patch", "false alarms (%)", "false alarms point contact (%)", "indistinguishable D ≤ 0 (%)",
+               "within noise 0 < D ≤ 3 (%)", "detected D > 3 (%)"] + [f"detected {x} (%) [n]" for x in labels])
+    rows = []
+    for r in single["rows"]:
+        pct = lambda x: "—" if x is None or not np.isfinite(x) else f"{100 * x:.1f}"  # noqa: E731
+        rows.append([r["surface"], pct(r["false_alarm"]), pct(r["false_alarm_point_contact"]),
+                     pct(r["indistinguishable"]), pct(r["within_noise"]), pct(r["detected_beyond_3sigma"])]
+                    + [f"{pct(b['detected'])} [{b['n']}]" for b in r["bins"]])
+    return header, rows
+
+
+def plot_single(single: dict, axes, tag: str = "") -> None:
+    """The figure of ``docs/contact.md``: detection against separation, and the plane's limit surface."""
+    ax = axes[0]
+    bins = single["separation_bins"]
+    mids = [0.5 * (lo + hi) if hi is not None else lo + 1.5 for lo, hi in zip(bins[:-1], bins[1:])]
+    for j, r in enumerate(single["rows"]):
+        det = [np.nan if b["detected"] is None else b["detected"] for b in r["bins"]]
+        ax.plot(mids, 100 * np.asarray(det, float), "o-", color=f"C{j}",
+                label=f"{r['surface']} (false alarms {100 * r['false_alarm']:.1f} %)")
+    ax.axhline(90, color="k", ls=":", lw=0.8)
+    ax.axvline(3, color="k", ls="--", lw=0.8)
+    ax.set_xlabel("separation D of the best single-contact explanation (σ of its margin)")
+    ax.set_ylabel("two-finger touches flagged (%)")
+    ax.set_ylim(0, 102)
+    ax.set_title("Detection of two-finger touches, simulated" + tag)
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3)
+    s = single.get("plane_sample")
+    if not s:
+        return
+    ax = axes[1]
+    sh, tw, fl = (np.asarray(s[k], float) for k in ("shear", "twist", "flagged"))
+    ax.scatter(sh[fl == 0], tw[fl == 0], s=8, c="C2", label="plausible single contact")
+    ax.scatter(sh[fl == 1], tw[fl == 1], s=8, c="C3", marker="x", label="flagged")
+    t = np.linspace(0, np.pi / 2, 100)
+    ax.plot(np.cos(t), np.sin(t), "k-", lw=1, label="limit surface (μ, torsion radius)")
+    ax.set_xlabel("|f_t| / (μ f_n) (1)")
+    ax.set_ylabel("|τ| / (μ e f_n) (1)")
+    ax.set_xlim(0, 2)
+    ax.set_ylim(0, 3)
+    ax.set_title("Two fingers on the flat patch: their single-contact\nexplanation on the limit surface, simulated" + tag)
+    ax.legend(fontsize=7)
+    ax.grid(alpha=0.3)
