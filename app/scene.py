@@ -44,6 +44,8 @@ CONNECTED_COLOR = "#f0a030"
 ACTIVE_COLOR = "#2ecc71"
 FLANGE_COLOR = "#8a8f96"
 ATI_COLOR = "#3a3f45"
+#: Contact sphere of a contact that one fingertip cannot explain (``ObjectContacts.single_contact`` False)
+FLAGGED_CONTACT_COLOR = "#ff3b6b"
 BACKGROUND = "#1e2329"
 
 pv.global_theme.multi_samples = 0  # MSAA halves the frame rate in software GL
@@ -143,6 +145,9 @@ class ContactGlyphs:
     colour of its curve in the plots), ends on the sphere's surface. Arrows longer than
     :data:`FULL_SCALE_FORCE` are clamped to it and get a white collar at the tail. Torsion
     rings float a little above the surface (a ring in the surface's plane z-fights with it).
+    A contact that one fingertip cannot explain (``single_contact`` False: two fingers on
+    one patch, or a load beyond a fingertip's friction; docs/contact.md) gets a red-pink
+    sphere (:data:`FLAGGED_CONTACT_COLOR`) instead of the white one; ``flagged`` (6,) says which.
 
     Parameters
     ----------
@@ -196,6 +201,8 @@ class ContactGlyphs:
             self.ellipsoids[i] = plotter.add_mesh(unit_sphere.copy(), color=c, opacity=0.25, name=f"uncertainty_{i}", reset_camera=False)
         self.shown = np.zeros(6, dtype=bool)
         self.clamped = np.zeros(6, dtype=bool)
+        self.flagged = np.zeros(6, dtype=bool)
+        self._sphere_flag: dict[int, bool] = {}
         self.updates = 0
         self._ring_sign: dict[int, int] = {}
         self._ring_colors = {i: (hex_rgb(FACE_COLORS[i]), tuple(0.45 * v for v in hex_rgb(FACE_COLORS[i]))) for i in FACES}
@@ -243,6 +250,8 @@ class ContactGlyphs:
         forces = np.asarray(contacts.force, dtype=float)
         shown = self.visible(contacts)
         clamped = shown & (np.linalg.norm(forces, axis=1) > self.full_scale)
+        single = getattr(contacts, "single_contact", None)
+        flagged = shown & ~np.asarray(single, dtype=bool) if single is not None else np.zeros(6, dtype=bool)
         for k, i in enumerate(FACES):
             on = bool(shown[k])
             self.spheres[i].SetVisibility(on)
@@ -256,6 +265,9 @@ class ContactGlyphs:
             if not on:
                 continue
             self.spheres[i].SetPosition(*points[k])
+            if self._sphere_flag.get(i, False) != bool(flagged[k]):  # (a colour set costs a pyvista round trip)
+                self._sphere_flag[i] = bool(flagged[k])
+                self.spheres[i].prop.color = FLAGGED_CONTACT_COLOR if flagged[k] else CONTACT_COLOR
             M = arrow_matrix(points[k], forces[k], self.force_scale, self._width, self.max_length, self.radius)
             self.arrows[i].user_matrix = M
             if clamped[k]:
@@ -276,6 +288,7 @@ class ContactGlyphs:
                 self.ellipsoids[i].user_matrix = ellipsoid_matrix(points[k], covariances[k])
         self.shown = shown
         self.clamped = clamped
+        self.flagged = flagged
         self.updates += 1
         return shown
 
