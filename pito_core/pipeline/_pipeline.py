@@ -332,7 +332,10 @@ class Pipeline:
     def contacts(self, wrenches, wrench_cov=None):
         """Contacts ``ObjectContacts`` (core frame) of face wrenches ``(..., 6, 6)`` on the object's patches.
 
-        ``wrench_cov``: ``(6, 6)`` or ``(6, 6, 6)`` covariance for the point covariance (default none).
+        ``wrench_cov``: ``(6, 6)`` or ``(6, 6, 6)`` covariance for the point covariance (default none)
+        and the single-contact test (``single_contact``, ``single_contact_p``,
+        ``single_contact_reason`` per face; without a covariance the test assumes
+        ``DEFAULT_WRENCH_COV``; docs/contact.md).
         """
         assembly = self.assembly if self.assembly is not None else "cube"
         c = solve_object(assembly, np.asarray(wrenches)[None] if np.ndim(wrenches) == 2 else wrenches,
