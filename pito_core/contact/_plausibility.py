@@ -34,7 +34,6 @@ from enum import IntEnum
 import numpy as np
 from scipy.special import chdtrc, ndtr
 
-from ._crb import ContactCovariance
 from ._quadric import _cross
 
 __all__ = [
@@ -45,6 +44,8 @@ __all__ = [
     "SingleContactTest",
     "reason_names",
     "single_contact_test",
+    "soft_finger_variance",
+    "param_variance",
 ]
 
 #: Fingertip–patch friction coefficient μ when the patch file gives none (dimensionless). Dry
@@ -151,16 +152,49 @@ def _boundary_margin(boundary, c, T):
     return m[0], grad
 
 
-def _z(g, grad, C):
-    """``g / σ_g`` with ``σ_g² = gradᵀ C grad``; ±inf for a zero σ."""
-    var = np.einsum("ni,nij,nj->n", grad, C[:, : grad.shape[1], : grad.shape[1]], grad)
+def param_variance(C):
+    """``grad (n, k) -> (n,)``: ``gradᵀ C grad`` for parameter covariances ``C (n, k, k)``."""
+    def var(grad, rows):
+        k = grad.shape[1]
+        return np.einsum("ni,nij,nj->n", grad, C[rows][:, :k, :k], grad)
+    return var
+
+
+def soft_finger_variance(J, c, S):
+    """``grad (n, 6) -> (n,)``: variance of a function of the soft-finger estimate, without inverses.
+
+    The estimate solves ``w = model(θ)`` exactly, so a function ``g(θ̂)`` has the wrench
+    gradient ``u = J⁻ᵀ ∇g`` and variance ``uᵀ Σ u``. With ``J = [[0, I, 0], [A, [c]×, n]]``
+    (columns ``θ1, θ2, f, τ``), ``Jᵀ u = ∇g`` splits into ``M u_m = (∇g_θ1, ∇g_θ2, ∇g_τ)``,
+    ``M`` the 3 × 3 matrix of rows ``A1, A2, n``, and ``u_f = ∇g_f + c × u_m``; ``M`` is
+    inverted by its adjugate (vectorised, no per-sample LAPACK call).
+    """
+    r1, r2, r3 = J[:, 3:, 0], J[:, 3:, 1], J[:, 3:, 5]
+    adj = np.stack([_cross(r2, r3), _cross(r3, r1), _cross(r1, r2)], axis=1)  # rows: columns of M⁻¹·det
+    det = np.einsum("ij,ij->i", r1, adj[:, 0])
+
+    def var(grad, rows):
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            b = np.c_[grad[:, :2], grad[:, 5]] if grad.shape[1] == 6 else np.c_[grad[:, :2], np.zeros(len(grad))]
+            um = np.einsum("nk,nkj->nj", b, adj[rows]) / det[rows][:, None]
+            u = np.empty((len(grad), 6))
+            u[:, 3:] = um
+            u[:, :3] = (grad[:, 2:5] if grad.shape[1] >= 5 else 0.0) + _cross(c[rows], um)
+            if S.ndim == 2:
+                return ((u @ S) * u).sum(axis=1)
+            return np.einsum("ni,nij,nj->n", u, S[rows], u)
+    return var
+
+
+def _z(g, var):
+    """``g / σ_g``; ±inf for a zero σ, 0 for an unbounded one (a degenerate estimate)."""
     with np.errstate(invalid="ignore", divide="ignore"):
         z = g / np.sqrt(np.maximum(var, 0.0))
     z = np.where(np.isnan(z) & np.isfinite(g), np.where(g >= 0, np.inf, -np.inf), z)
-    return z
+    return np.where(np.isnan(z) & ~np.isnan(var), 0.0, z)
 
 
-def single_contact_test(c, n, f, tau, w, cov: ContactCovariance, shape_op, W=None, *,
+def single_contact_test(c, n, f, tau, w, variance, T, shape_op, W=None, *,
                         boundary=None, mu=DEFAULT_FRICTION, torsion_radius=DEFAULT_TORSION_RADIUS,
                         alpha=SINGLE_CONTACT_ALPHA, point_contact=False) -> SingleContactTest:
     """Single-contact test of ``N`` solved contacts (rows with a force above threshold).
@@ -173,8 +207,12 @@ def single_contact_test(c, n, f, tau, w, cov: ContactCovariance, shape_op, W=Non
         Estimated torsion, N·m (0 for point contact).
     w : ndarray, shape (N, 6)
         Measured wrenches ``[fx, fy, fz, tx, ty, tz]``, N and N·m.
-    cov : ContactCovariance
-        Cramér–Rao covariance of the estimate (``param_cov`` ``(N, k, k)``, ``tangents``).
+    variance : callable
+        ``(grad (n, k), rows) -> (n,)``: the variance of a function of the estimate with
+        gradient ``grad`` over ``[θ1, θ2, fx, fy, fz(, τ)]`` at ``rows``
+        (:func:`soft_finger_variance`, :func:`param_variance`).
+    T : ndarray, shape (N, 3, 2)
+        Tangent basis of the coordinates ``θ``.
     shape_op : ndarray, shape (N, 3, 3)
         Shape operator at ``c`` (1/m).
     W : ndarray, shape (6, 6) or (N, 6, 6), optional
@@ -189,28 +227,27 @@ def single_contact_test(c, n, f, tau, w, cov: ContactCovariance, shape_op, W=Non
     SingleContactTest
     """
     N = len(c)
-    finite = np.isfinite(c).all(axis=1) & np.isfinite(cov.param_cov).all(axis=(1, 2))
+    finite = np.isfinite(c).all(axis=1) & np.isfinite(T).all(axis=(1, 2))
     z = np.full((N, 4), np.inf)
     z[:, 3] = 0.0
     p_all = np.ones((N, 4))
     if finite.any():
-        i = np.flatnonzero(finite)
-        C, T = cov.param_cov[i], cov.tangents[i]
-        D = shape_op[i] @ T
+        i = slice(None) if finite.all() else np.flatnonzero(finite)  # a slice: views, no copies
+        Ti = T[i]
+        D = shape_op[i] @ Ti
         fn, g_fn, gf, grad_f, shear = _friction_margin(f[i], n[i], D, tau[i], mu, torsion_radius, point_contact)
-        z[i, 0] = _z(fn, g_fn, C)
-        z[i, 1] = _z(gf, grad_f, C)
+        z[i, 0] = _z(fn, variance(g_fn, i))
+        z[i, 1] = _z(gf, variance(grad_f, i))
         if boundary is not None:
-            gb, grad_b = _boundary_margin(boundary, c[i], T)
-            z[i, 2] = _z(gb, grad_b, C)
+            gb, grad_b = _boundary_margin(boundary, c[i], Ti)
+            z[i, 2] = _z(gb, variance(grad_b, i))
         z[i, :3] = np.where(np.isnan(z[i, :3]), -np.inf, z[i, :3])  # e.g. behind a central projection's apex
         p_all[i, :3] = ndtr(z[i, :3])
         if point_contact and W is not None:
             e = w[i].copy()
             e[:, :3] -= f[i]
             e[:, 3:] -= _cross(c[i], f[i])
-            Wi = np.broadcast_to(W, (N, 6, 6))[i]
-            r2 = np.einsum("ni,nij,nj->n", e, Wi, e)
+            r2 = ((e @ W) * e).sum(axis=1) if W.ndim == 2 else np.einsum("ni,nij,nj->n", e, W[i], e)
             z[i, 3] = np.sqrt(np.maximum(r2, 0.0))
             p_all[i, 3] = chdtrc(1, r2)
     p_all[~finite] = 0.0
@@ -224,7 +261,7 @@ def single_contact_test(c, n, f, tau, w, cov: ContactCovariance, shape_op, W=Non
     reason = codes[worst]
     if finite.any():
         torsion_worst = finite.copy()
-        torsion_worst[i] = ~shear
+        torsion_worst[finite] = ~shear
         reason[(worst == 1) & torsion_worst] = SingleContactReason.TORSION
     # pushing is the first thing a friction limit needs: a pulling force is named as such
     pulling = finite & (z[:, 0] < 0) & ~single

@@ -86,3 +86,28 @@ def test_patch_file_sets_friction_and_rejects_bad_values(tmp_path):
     (tmp_path / "q.json").write_text(json.dumps(d))
     with pytest.raises(ValueError, match="mu"):
         load_patch(tmp_path / "q.json")
+
+
+def test_fast_variance_equals_the_cramer_rao_propagation_and_the_test_can_be_skipped():
+    from pito_core.contact import Ellipsoid
+    from pito_core.contact._crb import covariance_from_jacobian, wrench_jacobian
+    from pito_core.contact._plausibility import param_variance, soft_finger_variance
+
+    rng = np.random.default_rng(3)
+    surf = Ellipsoid([0.0, 0.0, -0.01], [0.03, 0.02, 0.015])
+    q = rng.normal(size=(50, 3))
+    q[:, 2] = np.abs(q[:, 2]) + 0.5
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    c = surf.center + q * surf.semi_axes
+    n = surf.normal_at(c)
+    f = -3.0 * n + rng.normal(size=(50, 3))
+    tau = rng.uniform(-0.005, 0.005, 50)
+    A = rng.normal(size=(6, 6))
+    S = A @ A.T * 1e-4 + np.diag([1e-3] * 3 + [1e-7] * 3)
+    J, T = wrench_jacobian(c, n, surf._shape_operator(c, n), f, tau)
+    grad = rng.normal(size=(50, 6))
+    rows = np.arange(50)
+    np.testing.assert_allclose(soft_finger_variance(J, c, S)(grad, rows),
+                               param_variance(covariance_from_jacobian(J, T, S).param_cov)(grad, rows), rtol=1e-8)
+    est = solve(surf, np.c_[f, np.cross(c, f) + tau[:, None] * n], single_contact=False)
+    assert est.single_contact is None and est.single_contact_p is None and est.valid.all()
