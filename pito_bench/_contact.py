@@ -315,13 +315,14 @@ def pareto(speed_rows, acc_rows) -> list[dict]:
     return pts
 
 
-def run_contact(*, quick: bool = False, threads: int = 1, n_speed=None, n_acc=None, n_scipy=None, progress=print) -> dict:
+def run_contact(*, quick: bool = False, threads: int = 1, n_speed=None, n_acc=None, n_scipy=None, n_single=None,
+                n_two=None, progress=print) -> dict:
     """Run the contact benchmark in a one-thread subprocess; returns the JSON section."""
     params = {"n_speed": 100_000, "n_acc": 20_000, "n_scipy": 100, "scipy_levels": list(NOISE_LEVELS)}
     if quick:
         params.update({"n_acc": 4000, "n_scipy": 20, "scipy_levels": ["mid"], "repeat": 2, "n_single": 1000,
                        "n_two": 400})
-    for k, v in (("n_speed", n_speed), ("n_acc", n_acc), ("n_scipy", n_scipy)):
+    for k, v in (("n_speed", n_speed), ("n_acc", n_acc), ("n_scipy", n_scipy), ("n_single", n_single), ("n_two", n_two)):
         if v is not None:
             params[k] = int(v)
     progress("contact: solves per second and error against the Cramér–Rao bound")
