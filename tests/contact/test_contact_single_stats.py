@@ -9,17 +9,25 @@ the test as a calibration's ``return_cov`` would. Claims:
 
 * single touches: flagged ≤ 5 % (soft finger and point contact);
 * two-finger touches whose best single-contact explanation breaks a limit by more than
-  3 σ of its margin (σ by Monte Carlo over noisy repeats): ≥ 90 % flagged.
+  3 σ of its margin (σ by Monte Carlo over noisy repeats): ≥ 90 % flagged;
+* both again through a calibration fitted (``quasi_total``) to the linear gauge model of
+  ``tests/calibration/gen.py``, with the covariance of its ``wrenches(return_cov=True)``.
 """
 
+import sys
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
 import trimesh
 from scipy.spatial.transform import Rotation
 
-from pito_core.contact import Ellipsoid, MeshSurface, Patch, PatchBoundary, Plane, Sphere, solve
+from pito_core.calibration import calibrate
+from pito_core.contact import Ellipsoid, MeshSurface, Patch, PatchBoundary, Plane, Sphere, load_patch, solve
+
+sys.path.insert(0, str(Path(__file__).parents[1] / "calibration"))  # its gen.py: a known linear gauge model
+from gen import make_session, true_sensitivity  # noqa: E402
 
 MU, E = 0.8, 0.004  # this test's fingertip: friction coefficient, torsional radius (m)
 SIG = np.array([0.03] * 3 + [3e-4] * 3)  # gauge noise: N, N·m
@@ -162,3 +170,36 @@ def test_two_finger_touches_beyond_the_noise_are_flagged(kind):
     # and those exactly explained by one fingertip well inside its limits are rarely flagged
     inside = D < -3.0
     assert flagged[inside].mean() <= 0.05
+
+
+def test_a_fitted_calibration_and_its_own_covariance():
+    """Touches on face 6 of a cube measured through a calibration fitted to a known linear gauge
+    model (tests/calibration/gen.py: not pito_core.sim); the test gets the calibration's
+    ``return_cov`` covariance (fit error + gauge noise), as the pipeline does."""
+    K = true_sensitivity(23)
+    s = make_session(K, flange="frame", connected_face=1, k=400, noise=20.0, seed=23)
+    cal = calibrate(s, "quasi_total")
+    flat = load_patch("flat_46mm")
+    patch = Patch(flat.surface, flat.boundary, mu=MU, torsion_radius=E)
+    rng = np.random.default_rng(23)
+
+    def measure(w):
+        F = np.zeros((len(w), 6, 6))
+        F[:, 5] = w
+        counts = s.true_offset + F.reshape(-1, 36) @ K.T + rng.normal(scale=20.0, size=(len(w), 36))
+        W, cov = cal.wrenches(counts, return_cov=True)
+        return W[:, 5], cov[:, 5]
+
+    c, nrm = _points(patch, 1500, rng)
+    f, tau = _fingertip(nrm, rng)
+    w, cov = measure(_wrench(c, nrm, f, tau))
+    est = solve(patch, w, wrench_cov=cov)
+    assert est.valid.mean() > 0.99 and np.mean(~est.single_contact) <= 0.05
+    c1, n1 = _points(patch, 600, rng)
+    c2, n2 = _points(patch, 600, rng)
+    (f1, t1), (f2, t2) = _fingertip(n1, rng), _fingertip(n2, rng)
+    w0 = _wrench(c1, n1, f1, t1) + rng.uniform(0.2, 1.0, 600)[:, None] * _wrench(c2, n2, f2, t2)
+    w, cov = measure(w0)
+    D = _separation(patch, w0, cov, rng)
+    flagged = ~solve(patch, w, wrench_cov=cov).single_contact
+    assert (D > 3).sum() >= 30 and flagged[D > 3].mean() >= 0.90
