@@ -194,6 +194,29 @@ def _z(g, var):
     return np.where(np.isnan(z) & ~np.isnan(var), 0.0, z)
 
 
+def _decide(p_all, z, finite, shear, alpha, point_contact):
+    """``single, p, reason`` from the per-limit p-values ``p_all (N, 4)`` (see the module docstring)."""
+    N = len(p_all)
+    worst = np.argmin(p_all, axis=1)
+    p = p_all[np.arange(N), worst]
+    if point_contact:  # two families (the limits, the residual): Bonferroni keeps false alarms ≤ alpha
+        p = np.minimum(1.0, 2.0 * p)
+    single = p >= alpha
+    codes = np.array([SingleContactReason.PULLING, SingleContactReason.FRICTION,
+                      SingleContactReason.OUTSIDE, SingleContactReason.RESIDUAL], dtype=np.int8)
+    reason = codes[worst]
+    if shear is not None:  # the friction limit fails mostly by twist: name it torsion
+        torsion_worst = finite.copy()
+        torsion_worst[finite] = ~shear
+        reason[(worst == 1) & torsion_worst] = SingleContactReason.TORSION
+    # pushing is the first thing a friction limit needs: a pulling force is named as such
+    pulling = finite & (z[:, 0] < 0) & ~single
+    reason[pulling & (ndtr(z[:, 0]) < alpha)] = SingleContactReason.PULLING
+    reason[~finite] = SingleContactReason.NO_SOLUTION
+    reason[single] = SingleContactReason.NONE
+    return single, p, reason
+
+
 def single_contact_test(c, n, f, tau, w, variance, T, shape_op, W=None, *,
                         boundary=None, mu=DEFAULT_FRICTION, torsion_radius=DEFAULT_TORSION_RADIUS,
                         alpha=SINGLE_CONTACT_ALPHA, point_contact=False) -> SingleContactTest:
@@ -251,21 +274,5 @@ def single_contact_test(c, n, f, tau, w, variance, T, shape_op, W=None, *,
             z[i, 3] = np.sqrt(np.maximum(r2, 0.0))
             p_all[i, 3] = chdtrc(1, r2)
     p_all[~finite] = 0.0
-    worst = np.argmin(p_all, axis=1)
-    p = p_all[np.arange(N), worst]
-    if point_contact:  # two families (the limits, the residual): Bonferroni keeps false alarms ≤ alpha
-        p = np.minimum(1.0, 2.0 * p)
-    single = p >= alpha
-    codes = np.array([SingleContactReason.PULLING, SingleContactReason.FRICTION,
-                      SingleContactReason.OUTSIDE, SingleContactReason.RESIDUAL], dtype=np.int8)
-    reason = codes[worst]
-    if finite.any():
-        torsion_worst = finite.copy()
-        torsion_worst[finite] = ~shear
-        reason[(worst == 1) & torsion_worst] = SingleContactReason.TORSION
-    # pushing is the first thing a friction limit needs: a pulling force is named as such
-    pulling = finite & (z[:, 0] < 0) & ~single
-    reason[pulling & (ndtr(z[:, 0]) < alpha)] = SingleContactReason.PULLING
-    reason[~finite] = SingleContactReason.NO_SOLUTION
-    reason[single] = SingleContactReason.NONE
+    single, p, reason = _decide(p_all, z, finite, shear if finite.any() else None, alpha, point_contact)
     return SingleContactTest(single, p, reason, z)
