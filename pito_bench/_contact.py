@@ -178,12 +178,9 @@ def _error_ratio(est, c, crb_tr, ok):
 
 
 def task_contact(n_speed=100_000, n_acc=20_000, n_scipy=200, surfaces=SURFACES, levels=tuple(NOISE_LEVELS),
-                 scipy_levels=("mid",), repeat=3, seed=0, n_single=4000, n_two=2000) -> dict:
-    """Speed and accuracy of ``solve`` and of the scipy baseline on every surface and scenario,
-    and the single-contact test's false alarms and detection (``_single_contact``)."""
+                 scipy_levels=("mid",), repeat=3, seed=0) -> dict:
+    """Speed and accuracy of ``solve`` and of the scipy baseline on every surface and scenario."""
     from pito_core.contact import contact_crb, solve
-
-    from ._single_contact import task_single_contact
 
     rng = np.random.default_rng(seed)
     speed_rows, acc_rows = [], []
@@ -251,8 +248,7 @@ def task_contact(n_speed=100_000, n_acc=20_000, n_scipy=200, surfaces=SURFACES, 
                     row.update({"scipy_n": k, "scipy_crb_ratio": r_s, "scipy_valid_fraction": float(okk.mean()), "pito_crb_ratio_same_subset": r_p,
                                 "error_ratio_scipy": e_p / e_s if e_s > 0 else float("nan")})
                 acc_rows.append(row)
-    single = task_single_contact(n_single=n_single, n_two=n_two, surfaces=surfaces, seed=seed + 1)
-    return {"speed": speed_rows, "accuracy": acc_rows, "single": single}
+    return {"speed": speed_rows, "accuracy": acc_rows}
 
 
 def _beyond_crb(surface, scenario, c, f, w0, est, crb, nrm, cov, ok, n_mesh=2000) -> dict:
@@ -326,7 +322,10 @@ def run_contact(*, quick: bool = False, threads: int = 1, n_speed=None, n_acc=No
         if v is not None:
             params[k] = int(v)
     progress("contact: solves per second and error against the Cramér–Rao bound")
+    single_params = {k: params.pop(k) for k in ("n_single", "n_two") if k in params}
     r = run_worker("contact", params, threads=threads)
+    progress("contact: the single-contact test's false alarms and detection")
+    r["single"] = run_worker("contact_single", single_params, threads=threads)
     return {
         "data": "simulated contacts on benchmark patches (face frame); Gaussian wrench noise",
         "threads": threads,

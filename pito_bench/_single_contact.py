@@ -25,6 +25,8 @@ import warnings
 
 import numpy as np
 
+from ._contact import make_surface, sample_contacts
+
 __all__ = ["SEPARATION_BINS", "CAL_ERROR", "task_single_contact", "limit_margins", "two_finger_touches",
            "single_table_rows", "plot_single"]
 
@@ -39,8 +41,6 @@ _SCALE = np.array([1.0, 1.0, 1.0, 0.02, 0.02, 0.02])
 def bench_patch(kind: str):
     """The contact benchmark's surface of ``kind`` with a boundary: a ``Patch``."""
     from pito_core.contact import Patch, PatchBoundary
-
-    from ._contact import make_surface
 
     surface = make_surface(kind)
     if kind in ("plane", "mesh"):
@@ -63,8 +63,6 @@ def _cal_noise(w, sigma, rng):
 
 def _on_patch(patch, n, rng, inset=0.002):
     """Random points ``(n, 3)`` on the patch (at least ``inset`` m inside its edge) and normals."""
-    from ._contact import sample_contacts
-
     c = np.empty((0, 3))
     nrm = np.empty((0, 3))
     while len(c) < n:
@@ -138,7 +136,7 @@ def separation(patch, w0, cov, rng, repeats=100):
     return np.where(np.isfinite(est0.point).all(axis=1), D, np.inf)
 
 
-def task_single_contact(n_single=4000, n_two=1000, repeats=100, surfaces=("plane", "sphere", "ellipsoid", "mesh"),
+def task_single_contact(n_single=4000, n_two=2000, repeats=100, surfaces=("plane", "sphere", "ellipsoid", "mesh"),
                         sigma=(0.02, 2e-4), seed=1) -> dict:
     """False alarms, detection per separation bin and the indistinguishable share per patch kind."""
     from pito_core.contact import reason_names, solve
