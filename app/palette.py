@@ -8,7 +8,7 @@ hue (faces 1 and 5 were two blues). The contact itself is drawn in :data:`CONTAC
 
 from __future__ import annotations
 
-__all__ = ["FACE_COLORS", "CONTACT_COLOR", "hex_rgb"]
+__all__ = ["FACE_COLORS", "CONTACT_COLOR", "FLAGGED_CONTACT_COLOR", "hex_rgb"]
 
 #: face (1..6) → colour ``#rrggbb``
 FACE_COLORS = {
@@ -22,6 +22,9 @@ FACE_COLORS = {
 
 #: the contact sphere: high contrast against the patches and the dark background
 CONTACT_COLOR = "#ffffff"
+
+#: the sphere of a contact that one fingertip cannot explain (``ObjectContacts.single_contact`` False)
+FLAGGED_CONTACT_COLOR = "#ff3b6b"
 
 
 def hex_rgb(color: str) -> tuple[float, float, float]:

@@ -15,7 +15,8 @@ the best any unbiased estimator can do. Side by side, the same model solved per 
 ``scipy.optimize.least_squares`` (unknowns: chart coordinates of the point on the patch,
 the force, the torsion; whitened residual; Levenberg–Marquardt from the patch apex, with
 restarts when that does not end on a pushing contact) on a
-subset of the same samples (no baseline on the mesh: it has no smooth chart). Speeds are on batches of ``n_speed`` wrenches, one thread.
+subset of the same samples (no baseline on the mesh: it has no smooth chart). Speeds are on batches of ``n_speed`` wrenches, one thread; the solver rows
+run without the single-contact test (``single_contact=False``), whose cost has its own row.
 """
 
 from __future__ import annotations
@@ -187,10 +188,11 @@ def task_contact(n_speed=100_000, n_acc=20_000, n_scipy=200, surfaces=SURFACES, 
         c, nrm, f, tau = sample_contacts(surface, n_speed, "soft", rng)
         cov = _noise_cov("mid")
         W = _wrench(c, nrm, f, tau) + rng.normal(size=(n_speed, 6)) * np.sqrt(np.diag(cov))
-        modes = {
-            "closed form (soft finger)": dict(),
-            "point contact (weighted LS)": dict(point_contact=True, wrench_cov=cov),
-            "soft finger + CRB covariance": dict(wrench_cov=cov),
+        modes = {  # the solvers alone; the single-contact test's cost on its own row
+            "closed form (soft finger)": dict(single_contact=False),
+            "point contact (weighted LS)": dict(point_contact=True, wrench_cov=cov, single_contact=False),
+            "soft finger + CRB covariance": dict(wrench_cov=cov, single_contact=False),
+            "soft finger + single-contact test": dict(wrench_cov=cov),
         }
         rates = {}
         for name, kw in modes.items():
@@ -219,7 +221,7 @@ def task_contact(n_speed=100_000, n_acc=20_000, n_scipy=200, surfaces=SURFACES, 
             for level in levels:
                 cov = _noise_cov(level)
                 w = w0 + rng.normal(size=w0.shape) * np.sqrt(np.diag(cov))
-                est = solve(surface, w, point_contact=pc, wrench_cov=cov if pc else None)
+                est = solve(surface, w, point_contact=pc, wrench_cov=cov)
                 crb = contact_crb(surface, c, f, cov, torsion=tau, normal=nrm, point_contact=pc)
                 crb_tr = np.trace(crb.point_cov, axis1=1, axis2=2)
                 ok = est.valid & np.isfinite(crb_tr)
@@ -230,7 +232,11 @@ def task_contact(n_speed=100_000, n_acc=20_000, n_scipy=200, surfaces=SURFACES, 
                        "sigma_force_N": NOISE_LEVELS[level][0], "sigma_moment_Nm": NOISE_LEVELS[level][1],
                        "n": n_acc, "valid_fraction": float(est.valid.mean()),
                        "rms_point_error_m": err, "crb_rms_m": float(np.sqrt(np.mean(crb_tr[ok]))) if ok.any() else np.nan,
-                       "crb_ratio": ratio, "force_crb_ratio": float(ferr / fbound)}
+                       "crb_ratio": ratio, "force_crb_ratio": float(ferr / fbound),
+                       "flagged_fraction": float(1.0 - est.single_contact.mean()),
+                       "flag_reason": _main_reason(est)}
+                est.noise = w - w0  # for _beyond_crb
+                row.update(_beyond_crb(surface, scenario, c, f, w0, est, crb, nrm, cov, ok))
                 if kind != "mesh" and level in scipy_levels:
                     k = min(n_scipy, n_acc)
                     sc = scipy_solve(surface, w[:k], cov, point_contact=pc)
@@ -243,6 +249,35 @@ def task_contact(n_speed=100_000, n_acc=20_000, n_scipy=200, surfaces=SURFACES, 
     return {"speed": speed_rows, "accuracy": acc_rows}
 
 
+def _beyond_crb(surface, scenario, c, f, w0, est, crb, nrm, cov, ok, n_mesh=2000) -> dict:
+    """Where the bound is out of reach (``_contact_bounds``): the share of samples whose normal force
+    is within 5 σ of its noise and the error ratio on the others; on the mesh, the share of samples
+    with two exact solutions (noise-free or noisy) and the error ratio on the others."""
+    from ._contact_bounds import mesh_exact_solutions, normal_snr_split
+
+    crb_tr = np.trace(crb.point_cov, axis1=1, axis2=2)
+    out = normal_snr_split(est.point, c, f, nrm, crb_tr, ok, float(np.sqrt(cov[2, 2])))
+    if surface.kind == "mesh" and scenario != "point":
+        k = min(n_mesh, len(c))
+        one = (mesh_exact_solutions(surface, w0[:k]) <= 1)
+        one_noisy = one & (mesh_exact_solutions(surface, w0[:k] + est.noise[:k]) <= 1)
+        _, r = _error_ratio(est.point[:k], c[:k], crb_tr[:k], ok[:k] & one_noisy)
+        out.update({"ambiguous_fraction": float(1.0 - one.mean()),
+                    "ambiguous_fraction_noisy": float(1.0 - one_noisy.mean()), "crb_ratio_unambiguous": r})
+    return out
+
+
+def _main_reason(est) -> str:
+    """The most common reason among flagged estimates ("" if none is flagged)."""
+    from pito_core.contact import reason_names
+
+    bad = ~est.single_contact
+    if not bad.any():
+        return ""
+    names, counts = np.unique(reason_names(est.single_contact_reason[bad]), return_counts=True)
+    return str(names[np.argmax(counts)])
+
+
 def pareto(speed_rows, acc_rows) -> list[dict]:
     """Speed-vs-error points per surface and solver, with the Pareto-optimal ones marked.
 
@@ -252,7 +287,7 @@ def pareto(speed_rows, acc_rows) -> list[dict]:
     pts = []
     for s in speed_rows:
         kind, solver = s["surface"], s["solver"]
-        if solver.startswith("soft finger + CRB"):
+        if solver.startswith("soft finger +"):
             continue
         if solver.startswith("closed form"):
             rs = [a["crb_ratio"] for a in acc_rows if a["surface"] == kind and a["scenario"] != "point"]
@@ -274,16 +309,21 @@ def pareto(speed_rows, acc_rows) -> list[dict]:
     return pts
 
 
-def run_contact(*, quick: bool = False, threads: int = 1, n_speed=None, n_acc=None, n_scipy=None, progress=print) -> dict:
+def run_contact(*, quick: bool = False, threads: int = 1, n_speed=None, n_acc=None, n_scipy=None, n_single=None,
+                n_two=None, progress=print) -> dict:
     """Run the contact benchmark in a one-thread subprocess; returns the JSON section."""
     params = {"n_speed": 100_000, "n_acc": 20_000, "n_scipy": 100, "scipy_levels": list(NOISE_LEVELS)}
     if quick:
-        params.update({"n_acc": 4000, "n_scipy": 20, "scipy_levels": ["mid"], "repeat": 2})
-    for k, v in (("n_speed", n_speed), ("n_acc", n_acc), ("n_scipy", n_scipy)):
+        params.update({"n_acc": 4000, "n_scipy": 20, "scipy_levels": ["mid"], "repeat": 2, "n_single": 1000,
+                       "n_two": 400})
+    for k, v in (("n_speed", n_speed), ("n_acc", n_acc), ("n_scipy", n_scipy), ("n_single", n_single), ("n_two", n_two)):
         if v is not None:
             params[k] = int(v)
     progress("contact: solves per second and error against the Cramér–Rao bound")
+    single_params = {k: params.pop(k) for k in ("n_single", "n_two") if k in params}
     r = run_worker("contact", params, threads=threads)
+    progress("contact: the single-contact test's false alarms and detection")
+    r["single"] = run_worker("contact_single", single_params, threads=threads)
     return {
         "data": "simulated contacts on benchmark patches (face frame); Gaussian wrench noise",
         "threads": threads,
@@ -292,4 +332,5 @@ def run_contact(*, quick: bool = False, threads: int = 1, n_speed=None, n_acc=No
         "speed": r["speed"],
         "accuracy": r["accuracy"],
         "pareto": pareto(r["speed"], r["accuracy"]),
+        "single": r["single"],
     }

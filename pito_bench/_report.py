@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 import os
 
+from ._single_contact import plot_single, single_table_rows
+
 __all__ = ["format_report", "targets", "write_plots", "text_table"]
 
 
@@ -74,6 +76,13 @@ def targets(result: dict) -> list[dict]:
                         "measured": f"{len(acc) - len(bad)}/{len(acc)} scenarios; worst {worst['crb_ratio']:.2f} "
                                     f"({worst['surface']}, {worst['scenario']}, {worst['noise']} noise)",
                         "met": not bad})
+        for r in (con.get("single") or {}).get("rows", []):
+            fa = max(r["false_alarm"], r["false_alarm_point_contact"])
+            det = _n(r["detected_beyond_3sigma"])
+            out.append({"target": f"single-contact test on the {r['surface']}: false alarms ≤ 5 %, "
+                                  "two-finger touches beyond 3 σ flagged ≥ 90 %",
+                        "measured": f"false alarms {100 * fa:.1f} %, detected {100 * det:.1f} %",
+                        "met": fa <= 0.05 and det >= 0.90})
     pipe = result.get("pipeline")
     if pipe:
         rows = pipe["decode"]["rows"]
@@ -164,6 +173,24 @@ def format_report(result: dict) -> str:
             "Contact accuracy: RMS point error over valid estimates vs the Cramér–Rao bound (1.00 = efficient)",
             ["surface", "scenario", "noise (σF, σM)", "valid (%)", "RMS error (mm)", "CRB (mm)", "error/CRB",
              "force error/CRB", "scipy error/CRB", "pito/scipy error"], rows))
+        rows = [[a["surface"], a["scenario"], a["noise"], _f(a["crb_ratio"]),
+                 _f(100 * _n(a.get("flagged_fraction"))), a.get("flag_reason", ""),
+                 _f(100 * _n(a.get("share_fn_below_5sigma"))), _f(a.get("crb_ratio_fn_5sigma")),
+                 _f(100 * _n(a.get("ambiguous_fraction"))), _f(100 * _n(a.get("ambiguous_fraction_noisy"))),
+                 _f(a.get("crb_ratio_unambiguous"))] for a in con["accuracy"] if "flagged_fraction" in a]
+        if rows:
+            parts.append(text_table(
+                "Contact: beside the CRB ratio, the single-contact flag and where the bound is out of reach",
+                ["surface", "scenario", "noise", "error/CRB", "flagged not single (%)", "main reason",
+                 "f_n < 5σ (%)", "error/CRB f_n ≥ 5σ", "two exact solutions (%)", "… noisy (%)",
+                 "error/CRB one solution"], rows))
+        if con.get("single"):
+            sc = con["single"]
+            header, rows = single_table_rows(sc)
+            parts.append(text_table(
+                f"Single-contact test (simulated; noise σF {sc['sigma_force_N']:g} N, σM {sc['sigma_moment_Nm']:g} N·m, "
+                f"calibration error {100 * sc['calibration_error']:g} %): false alarms on single touches, "
+                "detection of two-finger touches by separation D", header, rows))
         rows = [[p["surface"], p["solver"], _f(p["solves_per_s"]), _f(p["worst_crb_ratio"]), "yes" if p["pareto"] else ""]
                 for p in con["pareto"]]
         parts.append(text_table("Contact speed vs error (Pareto; error = worst error/CRB over the scenarios the solver handles)",
@@ -294,4 +321,8 @@ def write_plots(result: dict, out_dir) -> list[str]:
         ax.set_ylabel("RMS point error / Cramér–Rao bound (1)")
         ax.set_title("Contact: error against the bound per scenario" + tag)
         paths.append(_save(fig, out_dir, "contact_crb_ratio.png"))
+    if con and con.get("single"):
+        fig, axes = plt.subplots(1, 2, figsize=(12, 5))
+        plot_single(con["single"], axes, tag)
+        paths.append(_save(fig, out_dir, "contact_single.png"))
     return paths

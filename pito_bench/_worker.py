@@ -18,6 +18,7 @@ TASKS = {
     "cal_random": ("_calibration", "task_random_cubes"),
     "cal_stream": ("_calibration", "task_stream"),
     "contact": ("_contact", "task_contact"),
+    "contact_single": ("_single_contact", "task_single_contact"),
     "pipeline": ("_pipeline", "task_pipeline"),
 }
 

@@ -25,7 +25,12 @@ Measure what pito exists for and print tables with units.
                scenario (soft finger, near-tangent force, exact point contact) and
                wrench noise level (σ in N and N·m), side by side with a per-sample
                scipy.optimize.least_squares solve of the same model; a speed-vs-error
-               (Pareto) table.
+               (Pareto) table. Beside the ratios: the share flagged as no single
+               contact, and where the bound is out of reach (normal force within
+               5 σ, mesh wrenches with two exact solutions). The single-contact test:
+               false alarms (%) on simulated single touches and detection (%) of
+               two-finger touches by separation D (σ), the share no method can tell
+               from one touch (D ≤ 0), per patch kind.
   pipeline     serial frames decoded per second (× real time at 1 kHz); cost per
                display tick (ms) of finding the new samples by copying the ring windows
                vs by write cursor, and of the whole pipeline step; latency (ms) from a

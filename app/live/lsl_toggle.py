@@ -36,7 +36,7 @@ class LslToggle(QWidget):
         self.button = QPushButton("LSL")
         self.button.setCheckable(True)
         self.button.setToolTip("Publish the face wrenches (pito-wrenches, Force, 36 ch) and contacts "
-                               "(pito-contacts, Contact, 66 ch) as Lab Streaming Layer streams")
+                               "(pito-contacts, Contact, 72 ch) as Lab Streaming Layer streams")
         self.label = QLabel("")
         lay = QHBoxLayout(self)
         lay.setContentsMargins(0, 0, 0, 0)

@@ -13,7 +13,7 @@ import pyvista as pv
 from pito_core.defaults import SHOW_CONTACT_FORCE_N
 from pito_core.frames import FACES
 
-from ..palette import CONTACT_COLOR, FACE_COLORS, hex_rgb
+from ..palette import CONTACT_COLOR, FACE_COLORS, FLAGGED_CONTACT_COLOR, hex_rgb
 from ._poses import arrow_matrix, disc_matrix, ellipsoid_matrix
 
 __all__ = ["ContactGlyphs", "FULL_SCALE_FORCE"]
@@ -40,6 +40,11 @@ class ContactGlyphs:
     over ``max_ellipsoid`` (half the cube's edge: a light touch whose point the face cannot
     place), nor when it fits inside the contact sphere (a firm touch: the point is known
     better than the sphere's radius). :attr:`ellipsoid_state` tells which, per face.
+
+    A contact that one fingertip cannot explain (``single_contact`` False: two fingers on
+    one patch, or a load beyond a fingertip's friction; docs/contact.md) gets a red-pink
+    sphere (:data:`~app.palette.FLAGGED_CONTACT_COLOR`) instead of the white one;
+    :attr:`flagged` (6,) says which.
 
     :meth:`set_contact_color` is the per-contact state hook: a face's sphere takes the given
     colour (e.g. a flagged contact) until it is reset to ``None``.
@@ -85,6 +90,7 @@ class ContactGlyphs:
             self.ellipsoids[i] = plotter.add_mesh(unit_sphere.copy(), color=c, opacity=0.25, name=f"uncertainty_{i}", reset_camera=False)
         self.shown = np.zeros(6, dtype=bool)
         self.clamped = np.zeros(6, dtype=bool)
+        self.flagged = np.zeros(6, dtype=bool)
         #: per face (1..6): "drawn", "inside sphere", "too wide", or "" (no covariance / not shown)
         self.ellipsoid_state = {i: "" for i in FACES}
         self._contact_colors: dict[int, str] = {}  # face -> sphere colour (the state hook)
@@ -154,6 +160,8 @@ class ContactGlyphs:
         forces = np.asarray(contacts.force, dtype=float)
         shown = self.visible(contacts)
         clamped = shown & (np.linalg.norm(forces, axis=1) > self.full_scale)
+        single = getattr(contacts, "single_contact", None)  # None: a record without the single-contact test
+        flagged = shown & ~np.asarray(single, dtype=bool) if single is not None else np.zeros(6, dtype=bool)
         for k, i in enumerate(FACES):
             on = bool(shown[k])
             self.spheres[i].SetVisibility(on)
@@ -167,20 +175,22 @@ class ContactGlyphs:
             cov_on = state == "drawn"
             self.ellipsoids[i].SetVisibility(cov_on)
             if on:
-                self._move(i, points[k], forces[k], bool(clamped[k]))
+                self._move(i, points[k], forces[k], bool(clamped[k]), bool(flagged[k]))
             if ring_on:
                 self._move_ring(i, points[k], normals[k], tor)
             if cov_on:
                 self.ellipsoids[i].user_matrix = ellipsoid_matrix(points[k], covariances[k])
         self.shown = shown
         self.clamped = clamped
+        self.flagged = flagged
         self.updates += 1
         return shown
 
-    def _move(self, i: int, point, force, clamped: bool) -> None:
-        """Face ``i``'s sphere to ``point`` (m), its arrow to ``force`` (N) there, its collar if ``clamped``."""
+    def _move(self, i: int, point, force, clamped: bool, flagged: bool = False) -> None:
+        """Face ``i``'s sphere to ``point`` (m), its arrow to ``force`` (N) there, its collar if ``clamped``;
+        the sphere red-pink if ``flagged`` (unless :meth:`set_contact_color` says otherwise)."""
         self.spheres[i].SetPosition(*point)
-        color = self._contact_colors.get(i, CONTACT_COLOR)
+        color = self._contact_colors.get(i, FLAGGED_CONTACT_COLOR if flagged else CONTACT_COLOR)
         if self._sphere_color[i] != color:  # (a colour set costs a pyvista round trip)
             self._sphere_color[i] = color
             self.spheres[i].prop.color = color

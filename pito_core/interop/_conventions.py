@@ -10,11 +10,15 @@ WRENCH_STREAM = "pito-wrenches"
 WRENCH_TYPE = "Force"
 CONTACT_STREAM = "pito-contacts"
 CONTACT_TYPE = "Contact"
-#: Per face, the 11 channels of ``pito-contacts``: (label suffix, unit, type).
+#: Per face, the 12 channels of ``pito-contacts``: (label suffix, unit, type). ``single``: 1 where
+#: one fingertip on the patch can produce the face's wrench (``ObjectContacts.single_contact``), 0
+#: where not (a valid contact with ``single`` 0 is flagged), NaN where not tested.
 CONTACT_CHANNELS = (("px", "m", "Position"), ("py", "m", "Position"), ("pz", "m", "Position"),
                     ("nx", "1", "Normal"), ("ny", "1", "Normal"), ("nz", "1", "Normal"),
                     ("fx", "N", "Force"), ("fy", "N", "Force"), ("fz", "N", "Force"),
-                    ("torsion", "N*m", "Torque"), ("valid", "1", "Valid"))
+                    ("torsion", "N*m", "Torque"), ("valid", "1", "Valid"), ("single", "1", "SingleContact"))
+#: Channels of ``pito-contacts``: six faces of ``len(CONTACT_CHANNELS)``.
+CONTACT_CHANNEL_COUNT = 6 * len(CONTACT_CHANNELS)
 #: Per face, the 6 channels of ``pito-wrenches``.
 WRENCH_CHANNELS = (("fx", "N", "Force"), ("fy", "N", "Force"), ("fz", "N", "Force"),
                    ("tx", "N*m", "Torque"), ("ty", "N*m", "Torque"), ("tz", "N*m", "Torque"))

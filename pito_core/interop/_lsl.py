@@ -3,9 +3,11 @@
 - ``pito-wrenches``, type ``Force``, 36 float32 channels at the cube's rate: face i
   (1..6) gives channels ``6(i−1) .. 6(i−1)+5`` = ``F{i}_fx F{i}_fy F{i}_fz F{i}_tx F{i}_ty F{i}_tz``
   in face i's own frame, N and N·m.
-- ``pito-contacts``, type ``Contact``, 66 float32 channels at the same rate: face i gives
-  11 channels ``C{i}_px py pz`` (m, core frame), ``nx ny nz`` (unit), ``fx fy fz`` (N, core
-  frame), ``torsion`` (N·m), ``valid`` (0/1); NaN where no contact.
+- ``pito-contacts``, type ``Contact``, 72 float32 channels at the same rate: face i gives
+  12 channels ``C{i}_px py pz`` (m, core frame), ``nx ny nz`` (unit), ``fx fy fz`` (N, core
+  frame), ``torsion`` (N·m), ``valid`` (0/1) — NaN where no contact — and ``single`` (1: one
+  fingertip can produce the face's wrench, 0: it cannot or there is no force; a valid contact
+  with ``single`` 0 is flagged; ``ObjectContacts.single_contact``).
 - ``desc``: ``channels/channel`` (``label``, ``unit``, ``type``, ``face``), ``acquisition``
   (manufacturer, model), ``reference_frame``, ``calibration`` (method, date, hash, source),
   ``assembly`` (name, patch per face), ``simulated``.
@@ -29,6 +31,7 @@ import time
 import numpy as np
 
 from ._conventions import (
+    CONTACT_CHANNEL_COUNT,
     CONTACT_CHANNELS,
     CONTACT_STREAM,
     CONTACT_TYPE,
@@ -82,13 +85,22 @@ def wrench_samples(face_wrenches) -> np.ndarray:
 
 
 def contact_samples(contacts) -> np.ndarray:
-    """``ObjectContacts`` with shapes ``(n, 6, …)`` → ``(n, 66)`` ``pito-contacts`` samples (face-major)."""
+    """``ObjectContacts`` with shapes ``(n, 6, …)`` → ``(n, 72)`` ``pito-contacts`` samples (face-major)."""
     p = np.asarray(contacts.point, np.float32)
     if p.ndim != 3 or p.shape[1:] != (6, 3):
         raise ValueError(f"contacts.point: expected shape (n, 6, 3), got {p.shape}")
     return np.concatenate([p, np.asarray(contacts.normal, np.float32), np.asarray(contacts.force, np.float32),
                            np.asarray(contacts.torsion, np.float32)[..., None],
-                           np.asarray(contacts.valid, np.float32)[..., None]], axis=2).reshape(p.shape[0], 66)
+                           np.asarray(contacts.valid, np.float32)[..., None],
+                           _single(contacts, p.shape[:2])[..., None]], axis=2).reshape(p.shape[0], CONTACT_CHANNEL_COUNT)
+
+
+def _single(contacts, shape) -> np.ndarray:
+    """``single`` channel ``(n, 6)``: 1/0 from ``single_contact``, NaN without the test."""
+    s = getattr(contacts, "single_contact", None)
+    if s is None:
+        return np.full(shape, np.nan, np.float32)
+    return np.asarray(s, np.float32).reshape(shape)
 
 
 def _channels(desc, spec, prefix, frames):
@@ -130,7 +142,8 @@ def lsl_stream_infos(calibration: dict | None, assembly: dict | None, *, rate_hz
     _channels(d, WRENCH_CHANNELS, "F", lambda i, kind: f"pito_face_{i}")
     d.append_child_value("reference_frame", FACE_FRAME.format(i="i"))
     _common(d, calibration, assembly, simulated)
-    ci = pylsl.StreamInfo(CONTACT_STREAM, CONTACT_TYPE, 66, float(rate_hz), "float32", f"{source_id}-contacts")
+    ci = pylsl.StreamInfo(CONTACT_STREAM, CONTACT_TYPE, CONTACT_CHANNEL_COUNT, float(rate_hz), "float32",
+                          f"{source_id}-contacts")
     d = ci.desc()
     _channels(d, CONTACT_CHANNELS, "C", lambda i, kind: "pito_core")
     d.append_child_value("reference_frame", CORE_FRAME)

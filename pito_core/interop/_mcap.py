@@ -7,7 +7,10 @@ Topics (profile ``ros2``, encoding ``cdr``; stamps = recording start (UNIX) + sa
 - ``/pito/face_{i}/contact/point`` — ``geometry_msgs/msg/PointStamped``, frame ``pito_core``:
   the contact point (m), only at samples where face i carries a contact;
   ``/pito/face_{i}/contact/wrench`` — ``WrenchStamped``, frame ``pito_core``: the finger force
-  (N) and the torsion as a torque along the normal (N·m), acting at that point.
+  (N) and the torsion as a torque along the normal (N·m), acting at that point;
+  ``/pito/face_{i}/contact/single_contact`` — ``std_msgs/msg/Float64MultiArray``, at the same
+  samples: ``[single (1/0), p (0..1), reason code]`` of the single-contact test
+  (``ObjectContacts.single_contact``; reason codes ``pito_core.contact.SingleContactReason``).
 - ``/pito/reference/wrench`` — ``WrenchStamped``, frame ``pito_reference`` (S_A), tared; only at
   samples with a reference value (no message carries NaN).
 - ``/tf_static`` — ``tf2_msgs/msg/TFMessage``: ``pito_core`` → ``pito_face_{i}`` (i = 1..6).
@@ -59,6 +62,10 @@ MSGDEFS = {
         "std_msgs/MultiArrayLayout layout\nint32[] data\n",
         ("std_msgs/MultiArrayLayout", "std_msgs/MultiArrayDimension[] dim\nuint32 data_offset\n"),
         ("std_msgs/MultiArrayDimension", "string label\nuint32 size\nuint32 stride\n")),
+    "std_msgs/msg/Float64MultiArray": _defs(
+        "std_msgs/MultiArrayLayout layout\nfloat64[] data\n",
+        ("std_msgs/MultiArrayLayout", "std_msgs/MultiArrayDimension[] dim\nuint32 data_offset\n"),
+        ("std_msgs/MultiArrayDimension", "string label\nuint32 size\nuint32 stride\n")),
 }
 
 
@@ -90,6 +97,18 @@ def _int32_array(values: np.ndarray) -> np.ndarray:
     out = np.empty((n, len(head) + 4 * k), np.uint8)
     out[:, :len(head)] = np.frombuffer(head, np.uint8)
     out[:, len(head):] = values.view(np.uint8).reshape(n, 4 * k)
+    return out
+
+
+def _float64_array(values: np.ndarray) -> np.ndarray:
+    """CDR of ``n`` ``std_msgs/Float64MultiArray`` with empty layout and ``k`` float64: ``(n, size)`` uint8."""
+    values = np.ascontiguousarray(values, dtype="<f8")
+    n, k = values.shape
+    # dim[] = 0, data_offset = 0, data length k, 4 bytes to align the float64 data on 8
+    head = np.array([0, 1, 0, 0], np.uint8).tobytes() + np.array([0, 0, k, 0], "<u4").tobytes()
+    out = np.empty((n, len(head) + 8 * k), np.uint8)
+    out[:, :len(head)] = np.frombuffer(head, np.uint8)
+    out[:, len(head):] = values.view(np.uint8).reshape(n, 8 * k)
     return out
 
 
@@ -182,6 +201,10 @@ def write_mcap(data, path, *, raw_counts: bool = True, progress=None) -> dict:
                 wr = np.concatenate([c.force[v, k], c.torsion[v, k, None] * c.normal[v, k]], axis=1)
                 put(f"/pito/face_{i}/contact/wrench", "geometry_msgs/msg/WrenchStamped", st,
                     _stamped(st, ROS_CORE_FRAME, wr))
+                if getattr(c, "single_contact", None) is not None:
+                    flag = np.c_[c.single_contact[v, k], c.single_contact_p[v, k], c.single_contact_reason[v, k]]
+                    put(f"/pito/face_{i}/contact/single_contact", "std_msgs/msg/Float64MultiArray", st,
+                        _float64_array(flag))
                 advance(f"mcap: contacts {i}")
         w.finish()
     report(1.0, "mcap: done")

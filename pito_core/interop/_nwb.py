@@ -9,7 +9,10 @@ Layout (all series share the cube's timestamps, s from ``session_start_time``):
   N / N·m, ``[x, y, z]`` in face i's own frame (one unit per series).
 - ``processing/behavior/contact_face_{i}`` — ``Position`` holding ``SpatialSeries``
   ``point`` (m, ``reference_frame`` = the core frame), plus ``TimeSeries``
-  ``contact_face_{i}_normal`` (unit vector), ``_force`` (N), ``_torsion`` (N·m), ``_valid`` (0/1).
+  ``contact_face_{i}_normal`` (unit vector), ``_force`` (N), ``_torsion`` (N·m), ``_valid`` (0/1),
+  ``_single_contact`` (1: one fingertip can produce the wrench, 0: flagged or no force),
+  ``_single_contact_p`` (its p-value, 0..1) and ``_single_contact_reason`` (code, names in the
+  description).
 - ``processing/misc/calibration_matrix`` — ``DynamicTable``, one row per matrix
   row: ``face``, ``component``, ``unit``, ``coefficients`` (36, N or N·m per count),
   ``offset_counts`` as its own table; the full provenance record (method, date, hash,
@@ -28,6 +31,7 @@ import json
 
 import numpy as np
 
+from ..contact import SingleContactReason
 from ._conventions import CORE_FRAME, FACE_FRAME
 
 __all__ = ["write_nwb", "missing_metadata", "KEYWORDS", "BEHAVIOR_MODULE", "MISC_MODULE"]
@@ -132,6 +136,8 @@ def write_nwb(data, path, *, subject_id: str | None = None, species: str | None 
                                description="torsion about the normal"))
             mod.add(TimeSeries(name=f"contact_face_{i}_valid", data=c.valid[:, k].astype(np.uint8), unit="1",
                                timestamps=counts, description="1 where the face carries a contact, else 0"))
+            if getattr(c, "single_contact", None) is not None:
+                _add_single_contact(mod, c, i, counts)
     if data.calibration is not None:
         cal = data.calibration
         M = np.asarray(cal["matrix"], float)
@@ -166,3 +172,19 @@ def missing_metadata(*, subject_id=None, species=None, sex=None, age=None, exper
     given = {"--subject-id": subject_id, "--species": species, "--sex": sex, "--age": age,
              "--experimenter": experimenter, "--institution": institution}
     return [name for name, value in given.items() if not value]
+
+
+def _add_single_contact(mod, c, i, timestamps) -> None:
+    """The single-contact test of face ``i`` (``ObjectContacts.single_contact*``) as three series."""
+    from pynwb import TimeSeries  # deferred: pynwb is an optional dependency
+
+    k = i - 1
+    names = ", ".join(f"{r.value} {r.name.lower()}" for r in SingleContactReason)
+    mod.add(TimeSeries(name=f"contact_face_{i}_single_contact", data=c.single_contact[:, k].astype(np.uint8),
+                       unit="1", timestamps=timestamps,
+                       description="1 where one fingertip on the patch can produce the face's wrench within its "
+                                   "noise, 0 where not (a valid contact with 0 is flagged) or no force"))
+    mod.add(TimeSeries(name=f"contact_face_{i}_single_contact_p", data=c.single_contact_p[:, k], unit="1",
+                       timestamps=timestamps, description="p-value of the single-contact test (0..1; NaN: no force)"))
+    mod.add(TimeSeries(name=f"contact_face_{i}_single_contact_reason", data=c.single_contact_reason[:, k],
+                       unit="1", timestamps=timestamps, description=f"why the test fails: {names}"))

@@ -21,7 +21,7 @@ def quick_result(tmp_path_factory):
     return _run.run_bench(
         quick=True, sections=("calibration", "contact"), sizes=[1000, 2000],
         workdir=str(tmp_path_factory.mktemp("bench")),
-        contact_sizes={"n_speed": 2000, "n_acc": 400, "n_scipy": 3},
+        contact_sizes={"n_speed": 2000, "n_acc": 400, "n_scipy": 3, "n_single": 300, "n_two": 100},
     )
 
 
@@ -53,6 +53,10 @@ def test_quick_run_json_has_calibration_and_contact_ratios(quick_result):
     assert all(p["solves_per_s"] > 0 for p in con["pareto"])
     assert any(p["pareto"] for p in con["pareto"])
     assert any(t["target"].startswith("contact error") for t in doc["targets"])
+    single = con["single"]["rows"]  # the single-contact test beside the CRB ratios, per patch kind
+    assert [r["surface"] for r in single] == list(SURFACES)
+    assert all(0 <= r["false_alarm"] <= 1 and 0 <= r["indistinguishable"] <= 1 for r in single)
+    assert all("flagged_fraction" in a for a in con["accuracy"])
 
 
 @pytest.mark.slow
@@ -61,7 +65,7 @@ def test_report_text_has_units_and_plots(quick_result, tmp_path):
     for unit in ("(ms)", "(N)", "(N·m)", "(MB)", "solves/s", "error/CRB", "Targets"):
         assert unit in text
     paths = _report.write_plots(quick_result, tmp_path)
-    assert len(paths) == 3
+    assert len(paths) == 4 and any(p.endswith("contact_single.png") for p in paths)
     assert all(p.endswith(".png") and (tmp_path / p.split("/")[-1]).stat().st_size > 1000 for p in paths)
 
 

@@ -92,7 +92,7 @@ def main(rec_path: str, cal_path: str, assembly: str) -> None:
         "timestamps_max_abs_diff": float(np.max(np.abs(tw - sent_t))) if len(tw) == len(sent_t) else None,
         "timestamps_monotonic": bool(np.all(np.diff(tw) >= 0) and np.all(np.diff(tc) >= 0)),
         "timestamps_strictly_increasing": bool(np.all(np.diff(tw) > 0)),
-        "valid_contacts": int(np.nansum(gc.reshape(-1, 6, 11)[:, :, 10])) if len(tc) else 0,
+        "valid_contacts": int(np.nansum(gc.reshape(-1, 6, 12)[:, :, 10])) if len(tc) else 0,
     }
     print("RESULT " + json.dumps(out), flush=True)
     for inlet in inlets.values():

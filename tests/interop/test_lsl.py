@@ -70,12 +70,13 @@ def test_recording_through_the_outlets_arrives_exactly(namespace, interop_files)
     out = in_namespace(namespace, f"{sys.executable} {CHILD} {rec} {cal} {ASSEMBLY}")
     w, c = out["infos"]["pito-wrenches"], out["infos"]["pito-contacts"]
     assert (w["type"], w["channel_count"], w["rate"]) == ("Force", 36, 1000.0)
-    assert (c["type"], c["channel_count"]) == ("Contact", 66)
+    assert (c["type"], c["channel_count"]) == ("Contact", 72)
     assert [ch["label"] for ch in w["channels"][:7]] == ["F1_fx", "F1_fy", "F1_fz", "F1_tx", "F1_ty", "F1_tz", "F2_fx"]
     assert [ch["unit"] for ch in w["channels"][:6]] == ["N", "N", "N", "N*m", "N*m", "N*m"]
     assert {ch["face"] for ch in w["channels"]} == {str(i) for i in range(1, 7)}
-    assert [ch["label"] for ch in c["channels"][:11]] == ["C1_px", "C1_py", "C1_pz", "C1_nx", "C1_ny", "C1_nz",
-                                                          "C1_fx", "C1_fy", "C1_fz", "C1_torsion", "C1_valid"]
+    assert [ch["label"] for ch in c["channels"][:13]] == ["C1_px", "C1_py", "C1_pz", "C1_nx", "C1_ny", "C1_nz",
+                                                          "C1_fx", "C1_fy", "C1_fz", "C1_torsion", "C1_valid",
+                                                          "C1_single", "C2_px"]
     assert c["channels"][0]["unit"] == "m" and c["channels"][9]["unit"] == "N*m"
     for info in (w, c):
         assert info["calibration"]["hash"] == calibration_hash(ideal_calibration())
@@ -95,7 +96,7 @@ def test_pito_stream_from_simulated_devices(namespace, interop_files):
     pito = f"{sys.executable} -c 'import sys; from pito_core.cli import main; sys.exit(main())'"
     out = in_namespace(namespace, f"{pito} stream --pito sim --ati sim --calibration {cal} --object {ASSEMBLY} "
                                   f"--duration 8 & {sys.executable} {CHILD} receive 3; wait")
-    for name, kind, n_ch in (("pito-wrenches", "Force", 36), ("pito-contacts", "Contact", 66)):
+    for name, kind, n_ch in (("pito-wrenches", "Force", 36), ("pito-contacts", "Contact", 72)):
         s = out[name]
         assert (s["type"], s["channel_count"]) == (kind, n_ch)
         assert s["n"] > 0 and s["monotonic"] and s["simulated"] == "true"

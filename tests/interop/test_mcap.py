@@ -60,6 +60,12 @@ def test_mcap_round_trip(mcap_file):
             cw = msgs[f"/pito/face_{i}/contact/wrench"]
             np.testing.assert_array_equal([[m.wrench.force.x, m.wrench.force.y, m.wrench.force.z] for _, _, m in cw],
                                           data.contacts.force[v, i - 1])
+            sc = msgs[f"/pito/face_{i}/contact/single_contact"]
+            assert sc[0][0] == "std_msgs/msg/Float64MultiArray" and [t for _, t, _ in sc] == [t for _, t, _ in pts]
+            got = np.array([list(m.data) for _, _, m in sc])
+            np.testing.assert_array_equal(got, np.c_[data.contacts.single_contact[v, i - 1],
+                                                     data.contacts.single_contact_p[v, i - 1],
+                                                     data.contacts.single_contact_reason[v, i - 1]])
     assert sum(len(msgs.get(f"/pito/face_{i}/contact/point", [])) for i in range(1, 7)) > 0
     raw = msgs["/pito/raw_counts"]
     np.testing.assert_array_equal(np.array([list(m.data) for _, _, m in raw]), data.counts)

@@ -51,6 +51,9 @@ def test_nwb_round_trip(nwb_file):
             valid = c[f"contact_face_{i}_valid"].data[:]
             np.testing.assert_array_equal(valid, data.contacts.valid[:, i - 1])
             valid_any |= bool(valid.any())
+            for key in ("single_contact", "single_contact_p", "single_contact_reason"):
+                np.testing.assert_array_equal(c[f"contact_face_{i}_{key}"].data[:], getattr(data.contacts, key)[:, i - 1])
+            assert "torsion" in c[f"contact_face_{i}_single_contact_reason"].description
         assert valid_any, "the simulated grasp touches at least one face"
         cm = f.processing["misc"]["calibration_matrix"].to_dataframe()
         np.testing.assert_allclose(np.stack(cm["coefficients"].to_numpy()), np.asarray(data.calibration["matrix"]))
