@@ -1,6 +1,7 @@
 """Calibration: sessions, the method table, the least-squares core, Calibration, evaluation."""
 
 from ._calibration import Calibration, load_calibration
+from ._coverage import NOT_MEASURED_TEXT, CompletingMount, Coverage, completing_mount, measured_directions
 from ._evaluate import (
     DEFAULT_FORCE_THRESHOLD,
     DEFAULT_TORQUE_THRESHOLD,
@@ -29,6 +30,11 @@ from ._methods import METHODS, MethodSpec, get_method
 from ._session import DEFAULT_COUNTS_RANGE, FLANGES, N_GAUGES, CalibrationSession, SessionBlock
 
 __all__ = [
+    "NOT_MEASURED_TEXT",
+    "CompletingMount",
+    "Coverage",
+    "completing_mount",
+    "measured_directions",
     "ExcitationError",
     "RankDeficientError",
     "DEFAULT_FORCE_THRESHOLD",

@@ -132,6 +132,7 @@ class Pipeline:
         self.smooth = int(smooth)
         self.max_wait = float(max_wait)
         self.calibration = None
+        self.coverage = None
         self.counts_offset = None
         self.reference_bias = np.zeros(6)
         self.cog = np.zeros(3)
@@ -157,13 +158,15 @@ class Pipeline:
         made again), so every record passed after this call has the new calibration.
         """
         self.calibration = calibration
+        # readings the calibration does not measure are NaN from here on (issue 21: never a silent 0)
+        self.coverage = None if calibration is None else calibration.coverage
         self.counts_offset = None
         self._wtail.clear()
         rows = self._pending
         if rows is not None:
             rows.pop("w", None)
             if calibration is not None:
-                rows["w"] = calibration.wrenches(rows["counts"])
+                rows["w"] = self.coverage.mask(calibration.wrenches(rows["counts"]))
 
     def set_assembly(self, assembly, wrench_cov=None) -> None:
         """The object whose patches carry the contacts (an ``Assembly``, a library name, or None: the bare cube)."""
@@ -296,6 +299,9 @@ class Pipeline:
                 b.wrenches = latest
                 b.contacts_time = float(arrived["time"][-1])
                 b.sum_force, b.sum_torque = face_sums(latest, self.core, self.cog)
+                if not self.coverage.net_load:  # a sum over unmeasured directions: none
+                    b.sum_force, b.sum_torque = np.full(3, np.nan), np.full(3, np.nan)
+                b.measured = self.coverage.faces
                 b.contacts = self.contacts(latest, self._latest_cov(tail["counts"]))
                 # issue 13: a gauge at its ADC limit in the samples behind the latest wrenches: no valid
                 # contact (every face's wrench depends on all 36 gauges through the calibration matrix)
@@ -312,7 +318,7 @@ class Pipeline:
         n = new["time"].size
         new["bias"] = np.broadcast_to(self.reference_bias, (n, 6))  # the reference's tare, applied when paired
         if self.calibration is not None:
-            new["w"] = self.calibration.wrenches(new["counts"], offset=self.counts_offset)
+            new["w"] = self.coverage.mask(self.calibration.wrenches(new["counts"], offset=self.counts_offset))
         tick = new.get("tick")
         if tick is not None and tick.size:
             self.last_tick = int(tick[-1])
