@@ -83,7 +83,10 @@ class MountPage(WizardPage):
         self.confirm.setChecked(False)
         self.confirm.blockSignals(False)
         self.set_ready(False)
-        self.flange_label.setText(f"Method {m.method}: flange '{m.flange}' on face {m.connected_face}")
+        text = f"Method {m.method}: flange '{m.flange}' on face {m.connected_face}"
+        if m.current.kind == "completing":
+            text = f"Second mount — {text}.<br>{m.current.why}"
+        self.flange_label.setText(text)
         self.steps.setText("<ol>" + "".join(f"<li style='margin-bottom:6px'>{s}</li>" for s in mount_steps(m.flange, m.connected_face, m.faces)) + "</ol>")
         self.scene.set_mount(m.flange, m.connected_face, flange_opacity=0.45)  # see the orange face through it
         self.scene.highlight(connected_face=m.connected_face)

@@ -27,9 +27,15 @@ from ._fit import (
 )
 from ._uncertainty import CalibrationCovariance, CovarianceGroup
 from ._methods import METHODS, MethodSpec, get_method
+from ._session_build import saturated_samples, session_from_arrays
+from ._validation import ValidationFigures, validation_figures
 from ._session import DEFAULT_COUNTS_RANGE, FLANGES, N_GAUGES, CalibrationSession, SessionBlock
 
 __all__ = [
+    "ValidationFigures",
+    "validation_figures",
+    "saturated_samples",
+    "session_from_arrays",
     "NOT_MEASURED_TEXT",
     "CompletingMount",
     "Coverage",
