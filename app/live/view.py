@@ -24,10 +24,22 @@ from PySide6.QtWidgets import (
     QSplitter, QVBoxLayout, QWidget,
 )
 
+from pito_core.calibration import NOT_MEASURED_TEXT
+
 from ..scene import CubeScene
 from ..widgets.plots import EquilibriumPlot, FaceForcePlot
 
-__all__ = ["LiveView"]
+__all__ = ["LiveView", "unmeasured_faces_text"]
+
+
+def unmeasured_faces_text(measured) -> str:
+    """``"   face 6: not measured by this calibration"`` for faces with an axis the calibration does not measure."""
+    if measured is None:
+        return ""
+    faces = [str(i + 1) for i in range(6) if not np.all(measured[i])]
+    if not faces:
+        return ""
+    return f"   face{'s' if len(faces) > 1 else ''} {', '.join(faces)}: {NOT_MEASURED_TEXT}"
 
 
 class LiveView(QWidget):
@@ -40,6 +52,7 @@ class LiveView(QWidget):
     """
 
     tare_requested = Signal()
+    undo_tare_requested = Signal()
     pause_toggled = Signal(bool)
     record_toggled = Signal(bool)
     replay_requested = Signal()
@@ -67,6 +80,12 @@ class LiveView(QWidget):
         self.assembly.addItems(list(assemblies) or ["cube"])
         self.load_cal = QPushButton("Load calibration…")
         self.tare = QPushButton("Tare")
+        self.tare.setToolTip("Zero the cube on the last 0.5 s — only when it is still and nothing loads it "
+                             "(the wizard's checks); refused otherwise, with the reason")
+        self.undo_tare = QPushButton("Undo tare")
+        self.undo_tare.setEnabled(False)
+        self.tare_label = QLabel("Tare: the calibration's own zero")
+        self.tare_label.setObjectName("tareStatus")
         self.pause = QPushButton("Pause")
         self.pause.setCheckable(True)
         self.record = QPushButton("● Record")
@@ -75,9 +94,10 @@ class LiveView(QWidget):
         self.replay = QPushButton("Replay…")
         self.back_live = QPushButton("Back to live")
         self.back_live.setVisible(False)
-        for w in (QLabel("Object"), self.assembly, self.load_cal, self.tare, self.pause, self.record, self.replay, self.back_live):
+        for w in (QLabel("Object"), self.assembly, self.load_cal, self.tare, self.undo_tare, self.pause, self.record,
+                  self.replay, self.back_live):
             bar.addWidget(w)
-        bar.addStretch(1)
+        bar.addWidget(self.tare_label, 1)
         self.readout = QLabel("")
         self.readout.setObjectName("value")
         bar.addWidget(self.readout)
@@ -139,6 +159,7 @@ class LiveView(QWidget):
         self.show_torsion.toggled.connect(self._options_changed)
         self.show_uncertainty.toggled.connect(self._options_changed)
         self.tare.clicked.connect(self.tare_requested)
+        self.undo_tare.clicked.connect(self.undo_tare_requested)
         self.pause.toggled.connect(self._pause)
         self.record.toggled.connect(self._record)
         self.replay.clicked.connect(self.replay_requested)
@@ -151,7 +172,8 @@ class LiveView(QWidget):
         #: the main window while this view is the current tab); on_bundle then only counts them
         self.direct_contacts = False
         self._n_shown = 0
-        self._sums = None  # (‖ΣF‖ N, ‖ΣT‖ N·m) of the latest bundle
+        self._sums = None  # (‖ΣF‖ N, ‖ΣT‖ N·m) of the latest bundle (NaN: not measured by the calibration)
+        self._measured = None  # (6, 6) bool: face axes the calibration measures
         #: Hz: most frames a second (scene and plots); the pacer draws only when data are new
         self.display_rate = 60.0
         self.readout_rate = 5.0  # Hz: text that a person reads
@@ -269,9 +291,18 @@ class LiveView(QWidget):
                 self.force_plot.append(t, np.linalg.norm(b.wrenches[:, :3], axis=1))
             if b.sum_force is not None:
                 self._sums = (float(np.linalg.norm(b.sum_force)), float(np.linalg.norm(b.sum_torque)))
-                self.equilibrium.append(t, *self._sums)
+                if np.isfinite(self._sums[0]):  # NaN: the calibration does not measure the net load
+                    self.equilibrium.append(t, *self._sums)
+            self._measured = b.measured
         self.bundles_shown += 1
         self.request_display()
+
+    def set_tare_status(self, text: str, can_undo: bool) -> None:
+        """The tare in force (or why a tare was refused), and whether Undo tare has something to undo."""
+        self.tare_label.setText(text)
+        self.tare_label.setProperty("ok", not text.startswith("✘"))
+        self.tare_label.style().polish(self.tare_label)
+        self.undo_tare.setEnabled(bool(can_undo))
 
     # ------------------------------------------------------------ drawing, paced by the display
     def request_display(self) -> None:
@@ -288,7 +319,9 @@ class LiveView(QWidget):
         if self._sums is not None:
             fs, ts = self._sums
             n = self._n_shown
-            self._readout_text = f"{n} contact{'s' if n != 1 else ''}   ‖ΣF‖ {fs:5.2f} N   ‖ΣT‖ {ts * 1000:5.1f} mN·m"
+            self._readout_text = f"{n} contact{'s' if n != 1 else ''}   " + (
+                f"‖ΣF‖ {fs:5.2f} N   ‖ΣT‖ {ts * 1000:5.1f} mN·m" if np.isfinite(fs)
+                else f"‖ΣF‖, ‖ΣT‖: {NOT_MEASURED_TEXT}") + unmeasured_faces_text(self._measured)
         if self.force_plot.isVisible():
             self.force_plot.refresh()
             self.equilibrium.refresh()

@@ -19,6 +19,8 @@ for the tare and the smoothing are fixed-size rings read as contiguous views.
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 from ..contact import Assembly, ObjectContacts, load_assembly, solve_object
@@ -219,6 +221,7 @@ class Pipeline:
             if not verdict.ok:
                 raise TareRefused(verdict)
             extra["checked"] = True
+        extra["taken_at"] = time.time()  # wall clock, s: for the operator's "tare taken at"
         event = tare_event(tail["counts"][sel], tail["reference"][sel], duration=duration,
                            previous_bias=self.reference_bias,
                            from_tick=None if self.last_tick is None else self.last_tick + 1, **extra)

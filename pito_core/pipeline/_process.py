@@ -218,7 +218,8 @@ class PipelineProcess:
             ok, value = self._replies.pop(rid)
         if not ok:
             kind, message = value
-            raise ValueError(message) if kind == "ValueError" else PipelineProcessError(f"{name}: {message}")
+            # a refused tare is a ValueError with its reason (TareRefused's message)
+            raise ValueError(message) if kind in ("ValueError", "TareRefused") else PipelineProcessError(f"{name}: {message}")
         return value
 
     # ------------------------------------------------------------------ settings of the pipeline
@@ -230,9 +231,19 @@ class PipelineProcess:
         """:meth:`Pipeline.set_assembly` in the child (a library assembly goes by name)."""
         self._request("set_assembly", assembly, wrench_cov)
 
-    def tare(self, duration: float = 0.5) -> dict:
-        """:meth:`Pipeline.tare` in the child; the event is recorded there when recording. Returns the event."""
-        return self._request("tare", float(duration))
+    def tare(self, duration: float = 0.5, check: bool = False) -> dict:
+        """:meth:`Pipeline.tare` in the child; the event is recorded there when recording. Returns the event.
+
+        A refused tare (``check``) raises ``ValueError`` with the reason."""
+        return self._request("tare", float(duration), bool(check))
+
+    def undo_tare(self) -> dict:
+        """:meth:`Pipeline.undo_tare` in the child (recorded there when recording). Returns the event."""
+        return self._request("undo_tare")
+
+    def apply_tare(self, event: dict) -> None:
+        """:meth:`Pipeline.apply_tare` in the child (a tare taken before this process: Back to live)."""
+        self._request("apply_tare", dict(event))
 
     def reset(self) -> None:
         """:meth:`Pipeline.reset` in the child."""
@@ -328,10 +339,12 @@ class _Child:
             return p.set_calibration(*args)
         if name == "set_assembly":
             return p.set_assembly(*args)
-        if name == "tare":
-            event = p.tare(*args)
+        if name in ("tare", "undo_tare"):
+            event = p.tare(args[0], check=bool(args[1])) if name == "tare" else p.undo_tare()
             acq.record_event(event)
             return event
+        if name == "apply_tare":
+            return p.apply_tare(*args)
         if name == "reset":
             return p.reset()
         if name == "open_recording":
