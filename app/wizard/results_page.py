@@ -301,8 +301,8 @@ class ResultsPage(WizardPage):
             status += " — minimum-norm fit: some directions were weakly loaded (see tooltip)"
         self.values["status"].setText(status)
         self.values["status"].setToolTip(self.note)
-        if worst_f:
-            self.redo_face.setCurrentIndex(max(0, self.redo_face.findData(worst_f)))
+        if self._worst:
+            self.redo_face.setCurrentIndex(max(0, self.redo_face.findData(self._worst)))
         if self._images_for is not ev:
             self._render_figures(ev)
         self.set_ready(m.accepted)
@@ -313,6 +313,7 @@ class ResultsPage(WizardPage):
         main = m.stages[0]
         reaction = main.connected_face if main.flange == "face" else None
         fig = getattr(self, "figures", None)
+        self._worst = None
         v["method"].setText(f"{cal.method}  (faces {', '.join(map(str, cal.output_faces))} out, "
                             f"{'SIMULATED' if m.simulated else 'real'} devices)")
         v["icn"].setText(f"{cal.inverse_condition_number:.3e}")
@@ -320,6 +321,7 @@ class ResultsPage(WizardPage):
         v["samples"].setText(f"{cal.meta.get('n_samples_fitted', '?')} fitted / {n_val}")
         if fig is not None:
             wf, wt = int(np.nanargmax(fig.rmse_force)) + 1, int(np.nanargmax(fig.rmse_torque)) + 1
+            self._worst = wf
             v["force"].setText(f"{fig.worst_force:.3f} N (face {wf}); 95 % interval "
                                f"{fig.worst_force_ci[0]:.3f}–{fig.worst_force_ci[1]:.3f} N")
             v["torque"].setText(f"{fig.worst_torque * 1000:.2f} mN·m (face {wt}); 95 % interval "

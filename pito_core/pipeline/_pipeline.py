@@ -164,14 +164,14 @@ class Pipeline:
         self._tare_history.clear()  # a new calibration starts from its own zero
         self._tare_event = None
         # readings the calibration does not measure are NaN from here on (issue 21: never a silent 0)
-        self.coverage = None if calibration is None else calibration.coverage
+        self.coverage = getattr(calibration, "coverage", None)  # (duck-typed calibrations without one: unmasked)
         self.counts_offset = None
         self._wtail.clear()
         rows = self._pending
         if rows is not None:
             rows.pop("w", None)
             if calibration is not None:
-                rows["w"] = self.coverage.mask(calibration.wrenches(rows["counts"]))
+                rows["w"] = self._masked(calibration.wrenches(rows["counts"]))
 
     def set_assembly(self, assembly, wrench_cov=None) -> None:
         """The object whose patches carry the contacts (an ``Assembly``, a library name, or None: the bare cube)."""
@@ -345,9 +345,10 @@ class Pipeline:
                 b.wrenches = latest
                 b.contacts_time = float(arrived["time"][-1])
                 b.sum_force, b.sum_torque = face_sums(latest, self.core, self.cog)
-                if not self.coverage.net_load:  # a sum over unmeasured directions: none
-                    b.sum_force, b.sum_torque = np.full(3, np.nan), np.full(3, np.nan)
-                b.measured = self.coverage.faces
+                if self.coverage is not None:
+                    if not self.coverage.net_load:  # a sum over unmeasured directions: none
+                        b.sum_force, b.sum_torque = np.full(3, np.nan), np.full(3, np.nan)
+                    b.measured = self.coverage.faces
                 b.contacts = self.contacts(latest, self._latest_cov(tail["counts"]))
                 # issue 13: a gauge at its ADC limit in the samples behind the latest wrenches: no valid
                 # contact (every face's wrench depends on all 36 gauges through the calibration matrix)
@@ -364,11 +365,15 @@ class Pipeline:
         n = new["time"].size
         new["bias"] = np.broadcast_to(self.reference_bias, (n, 6))  # the reference's tare, applied when paired
         if self.calibration is not None:
-            new["w"] = self.coverage.mask(self.calibration.wrenches(new["counts"], offset=self.counts_offset))
+            new["w"] = self._masked(self.calibration.wrenches(new["counts"], offset=self.counts_offset))
         tick = new.get("tick")
         if tick is not None and tick.size:
             self.last_tick = int(tick[-1])
         return new
+
+    def _masked(self, W):
+        """Face wrenches with NaN where the calibration does not measure (``Calibration.coverage``)."""
+        return W if self.coverage is None else self.coverage.mask(W)
 
     def _latest_cov(self, counts):
         """The wrench covariance for the latest contacts (``wrench_cov``; see the class docstring) at ``counts (k, 36)``."""
