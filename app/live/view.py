@@ -20,7 +20,7 @@ import time
 import numpy as np
 from PySide6.QtCore import Qt, QTimer, Signal
 from PySide6.QtWidgets import (
-    QCheckBox, QComboBox, QDoubleSpinBox, QFormLayout, QGroupBox, QHBoxLayout, QLabel, QPushButton, QSlider,
+    QCheckBox, QComboBox, QDoubleSpinBox, QFormLayout, QGroupBox, QHBoxLayout, QLabel, QPushButton, QSizePolicy, QSlider,
     QSplitter, QVBoxLayout, QWidget,
 )
 
@@ -32,14 +32,18 @@ from ..widgets.plots import EquilibriumPlot, FaceForcePlot
 __all__ = ["LiveView", "unmeasured_faces_text"]
 
 
-def unmeasured_faces_text(measured) -> str:
-    """``"   face 6: not measured by this calibration"`` for faces with an axis the calibration does not measure."""
-    if measured is None:
-        return ""
-    faces = [str(i + 1) for i in range(6) if not np.all(measured[i])]
-    if not faces:
-        return ""
-    return f"   face{'s' if len(faces) > 1 else ''} {', '.join(faces)}: {NOT_MEASURED_TEXT}"
+def unmeasured_faces_text(measured, sums: bool = False) -> str:
+    """What the calibration does not measure, in words: ``"   face 6: not measured by this calibration"``.
+
+    ``measured`` (6, 6) bool (a bundle's ``measured``); with ``sums`` the net load (‖ΣF‖, ‖ΣT‖) too.
+    """
+    faces = [] if measured is None else [i + 1 for i in range(6) if not np.all(measured[i])]
+    parts = ["‖ΣF‖, ‖ΣT‖"] if sums else []
+    if len(faces) == 6:
+        parts.append("every face")
+    elif faces:
+        parts.append(f"face{'s' if len(faces) > 1 else ''} {', '.join(map(str, faces))}")
+    return f"   {' and '.join(parts)}: {NOT_MEASURED_TEXT}" if parts else ""
 
 
 class LiveView(QWidget):
@@ -97,10 +101,15 @@ class LiveView(QWidget):
         for w in (QLabel("Object"), self.assembly, self.load_cal, self.tare, self.undo_tare, self.pause, self.record,
                   self.replay, self.back_live):
             bar.addWidget(w)
-        bar.addWidget(self.tare_label, 1)
+        bar.addStretch(1)
         self.readout = QLabel("")
         self.readout.setObjectName("value")
         bar.addWidget(self.readout)
+        # the tare in force (or why one was refused): a line of its own, wrapped, never widening the window
+        status = QHBoxLayout()
+        self.tare_label.setWordWrap(True)
+        self.tare_label.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Preferred)
+        status.addWidget(self.tare_label, 1)
 
         # --- timeline (replay)
         tl = QHBoxLayout()
@@ -149,6 +158,7 @@ class LiveView(QWidget):
         lay = QVBoxLayout(self)
         lay.setContentsMargins(6, 6, 6, 6)
         lay.addLayout(bar)
+        lay.addLayout(status)
         lay.addWidget(split, 1)
         lay.addLayout(tl)
 
@@ -320,8 +330,8 @@ class LiveView(QWidget):
             fs, ts = self._sums
             n = self._n_shown
             self._readout_text = f"{n} contact{'s' if n != 1 else ''}   " + (
-                f"‖ΣF‖ {fs:5.2f} N   ‖ΣT‖ {ts * 1000:5.1f} mN·m" if np.isfinite(fs)
-                else f"‖ΣF‖, ‖ΣT‖: {NOT_MEASURED_TEXT}") + unmeasured_faces_text(self._measured)
+                f"‖ΣF‖ {fs:5.2f} N   ‖ΣT‖ {ts * 1000:5.1f} mN·m" + unmeasured_faces_text(self._measured)
+                if np.isfinite(fs) else unmeasured_faces_text(self._measured, sums=True).strip())
         if self.force_plot.isVisible():
             self.force_plot.refresh()
             self.equilibrium.refresh()

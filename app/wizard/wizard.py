@@ -104,12 +104,13 @@ class CalibrationWizard(QWidget):
         else:
             self.go(self.index - 1)
 
-    def _stage_text(self) -> str:
-        st = self.model.current
-        if st.kind == "validation":
-            return "  (validation)"
-        if st.kind == "completing":
-            return "  (2nd mount)"
+    def _stage_text(self, page: str) -> str:
+        """The stage a step list item runs now (a second line), or ""."""
+        kind = self.model.current.kind
+        if kind == "validation" and page == "load":
+            return "\n     validation"
+        if kind == "completing" and page in ("mount", "tare", "load"):
+            return "\n     2nd mount"
         return ""
 
     def go(self, index) -> None:
@@ -125,7 +126,7 @@ class CalibrationWizard(QWidget):
         for k in range(self.steps.count()):
             it = self.steps.item(k)
             page = self.pages[names[k]]
-            it.setText(page.title + (self._stage_text() if names[k] in ("mount", "tare", "load") else ""))
+            it.setText(page.title + self._stage_text(names[k]))
             it.setSelected(k == index)
             f = it.font()
             f.setBold(k == index)
