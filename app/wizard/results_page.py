@@ -388,9 +388,16 @@ class ResultsPage(WizardPage):
             folder = QFileDialog.getExistingDirectory(self, "Export the report into a folder")
             if not folder:
                 return None
+        main = m.stages[0]
         info = {
-            "method": m.method, "flange": m.flange, "connected face": m.connected_face,
-            "faces loaded": ", ".join(map(str, m.faces)), "samples per face (k)": m.rules.k,
+            "method": m.method, "flange": main.flange, "connected face": main.connected_face,
+            "faces loaded": ", ".join(map(str, main.faces)), "samples per face (k)": m.base_rules.k,
+            "reactions only": f"face {main.connected_face}" if main.flange == "face" else "none",
+            "second mount": next((f"{st.flange} on face {st.connected_face}, faces {', '.join(map(str, st.faces))}: "
+                                  f"{st.why}" for st in m.stages if st.kind == "completing"), "none"),
+            "headline": "validation pass of fresh loads (not fitted)" if m.heldout is not m.evaluation
+                        else "held-out samples of the fitted captures",
+            "measures": m.calibration.coverage.describe(),
             "simulated": m.simulated, "calibration file": m.saved_path or "(not saved)",
         }
         cal, ev = m.calibration, m.evaluation

@@ -13,6 +13,7 @@ import pytest
 from wizard_sim import run_wizard_model
 
 from pito_core.calibration import calibrate, evaluate
+from pito_core.defaults import CUBE_ADC_LIMIT
 from pito_core.pipeline import Pipeline
 from pito_core.sim import VirtualCube, simulate_calibration, simulate_free_grasp
 
@@ -111,9 +112,24 @@ def test_validation_headline_agrees_with_evaluate_on_a_new_session(qapp):
 
 def test_a_calibration_without_the_completing_mount_says_so_live(qapp, grasp):
     model, *_ = run_method("unloaded_frame")
-    cal = calibrate(model.stages[0] and model.stage_session(model.stages[0]), "unloaded_frame")
+    cal = calibrate(model.session(), "unloaded_frame")  # the main mount alone, as the old wizard ended
     cov = cal.coverage
     assert not cov.net_load and not cov.faces.any() and "not measured by this calibration" in cov.describe()
     _, _, b = live_errors(cal, grasp, range(200, 900, 100))
     assert np.isnan(b.sum_force).all() and np.isnan(b.wrenches).all() and not b.contacts.valid.any()
     assert (b.measured == cov.faces).all()
+
+
+def test_the_wizard_builds_its_sessions_with_the_one_saturation_rule(qapp):
+    from app.wizard.capture import Capture
+    from app.wizard.model import WizardModel
+
+    model = WizardModel()
+    rng = np.random.default_rng(1)
+    counts, ref, t = rng.integers(-1000, 1000, (50, 36)), rng.standard_normal((50, 6)), np.arange(50) / 1000.0
+    model.set_tare(counts[:20], ref[:20], True)
+    cap = counts[20:].copy()
+    cap[0, 0] = CUBE_ADC_LIMIT  # a saturated sample in a capture never enters the fit
+    model.captures[1].captures.append(Capture(cap, ref[20:], t[20:], ref[20:]))
+    s = model.session()
+    assert len(s) == 49 and s.meta["excluded_saturated_samples"] == 1 and s.loaded[:, 0].sum() == 29
