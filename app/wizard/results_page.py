@@ -78,13 +78,21 @@ def fit_job(sessions, method: str, sizes: dict, validation=None, progress=None):
     cal, ev, note, heldout, figures = fit_and_evaluate(sessions, method, progress=progress, validation=validation)
     if progress is not None:
         progress(0.9, "drawing the figures")
-    return cal, ev, note, heldout, figures, render_figures(ev, sizes)
+    return cal, ev, note, heldout, figures, render_figures(ev, sizes, rmse_options(sessions, validation))
 
 
-def render_figures(evaluation, sizes: dict) -> dict:
+def rmse_options(sessions, validation) -> dict:
+    """The RMSE figure's labels: the flange's face as "reactions", and where the figures come from."""
+    main = sessions if hasattr(sessions, "flange") else sessions[0]
+    return {"reactions": main.connected_face if main.flange == "face" else None,
+            "kind": "validation" if validation is not None else "held-out"}
+
+
+def render_figures(evaluation, sizes: dict, rmse: dict | None = None) -> dict:
     """The results figures of ``evaluation`` as RGBA images ``(h, w, 4) uint8`` (Agg, any thread).
 
-    ``sizes``: name (``rmse``, ``ident``, ``comp``) → ``(width, height)`` px.
+    ``sizes``: name (``rmse``, ``ident``, ``comp``) → ``(width, height)`` px; ``rmse``: options of
+    the RMSE figure (:func:`rmse_options`).
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
@@ -93,7 +101,7 @@ def render_figures(evaluation, sizes: dict) -> dict:
     for name, (w, h) in sizes.items():
         fig = Figure(figsize=(w / 90, h / 90), dpi=90)
         canvas = FigureCanvasAgg(fig)
-        draw[name](evaluation, fig)
+        draw[name](evaluation, fig, **(rmse or {})) if name == "rmse" else draw[name](evaluation, fig)
         canvas.draw()
         out[name] = np.asarray(canvas.buffer_rgba()).copy()
     return out
@@ -147,7 +155,8 @@ class ResultsPage(WizardPage):
     parent : QWidget, optional
     """
     title = "6 · Results"
-    help = ("The calibration was fitted on 75 % of the kept samples and checked on the held-out rest. "
+    help = ("The calibration was fitted on 75 % of the kept samples; its figures come from the validation pass of "
+            "fresh loads (the held-out rest is a secondary line). "
             "Accept it, or redo a face whose error is too high; then save the calibration and export the report.")
 
     def __init__(self, model, parent=None):
@@ -159,12 +168,12 @@ class ResultsPage(WizardPage):
         for r, (key, text) in enumerate((
             ("method", "Method"),
             ("icn", "Inverse condition number σmin/σmax"),
-            ("samples", "Samples: fitted / held out"),
-            ("force", "Validation, fresh loads: worst face force RMSE"),
-            ("torque", "Validation, fresh loads: worst face torque RMSE"),
+            ("samples", "Samples: fitted / validation"),
+            ("force", "Worst face force RMSE (validation)"),
+            ("torque", "Worst face torque RMSE (validation)"),
             ("ident", "Face identification (validation)"),
             ("reactions", "Connected face (reactions only)"),
-            ("heldout", "Held-out samples of the fitted captures"),
+            ("heldout", "Held-out split of the fit (secondary)"),
             ("coverage", "Measures"),
             ("status", "Status"),
         )):
@@ -231,7 +240,8 @@ class ResultsPage(WizardPage):
             if self._images_for is ev:
                 self._show_images(images)
 
-        self.figure_task = run_task(lambda progress: render_figures(ev, sizes), "Drawing the figures", done,
+        options = getattr(self, "_rmse_options", None)
+        self.figure_task = run_task(lambda progress: render_figures(ev, sizes, options), "Drawing the figures", done,
                                     lambda msg: self.values["status"].setText(f"✘ figures: {msg}"), owner=self)
 
     def _show_images(self, images: dict) -> None:
@@ -250,6 +260,7 @@ class ResultsPage(WizardPage):
             self.task.cancel()
         sessions = self.model.training_sessions() if session is None else session
         validation = self.model.validation_session() if session is None else None
+        self._rmse_options = rmse_options(sessions, validation)
         method = self.model.method
         self.note = ""
 
@@ -314,21 +325,24 @@ class ResultsPage(WizardPage):
         reaction = main.connected_face if main.flange == "face" else None
         fig = getattr(self, "figures", None)
         self._worst = None
-        v["method"].setText(f"{cal.method}  (faces {', '.join(map(str, cal.output_faces))} out, "
-                            f"{'SIMULATED' if m.simulated else 'real'} devices)")
+        faces = cal.output_faces
+        out = f"faces {faces[0]}–{faces[-1]}" if faces == tuple(range(faces[0], faces[-1] + 1)) else \
+            f"faces {', '.join(map(str, faces))}"
+        v["method"].setText(f"{cal.method} ({out}, {'SIMULATED' if m.simulated else 'real'})")
         v["icn"].setText(f"{cal.inverse_condition_number:.3e}")
-        n_val = f"{fig.n_samples} validation ({fig.n_captures} captures)" if fig is not None else "no validation pass"
-        v["samples"].setText(f"{cal.meta.get('n_samples_fitted', '?')} fitted / {n_val}")
+        n_val = f"{fig.n_samples} ({fig.n_captures} captures)" if fig is not None else "none"
+        v["samples"].setText(f"{cal.meta.get('n_samples_fitted', '?')} / {n_val}")
         if fig is not None:
             wf, wt = int(np.nanargmax(fig.rmse_force)) + 1, int(np.nanargmax(fig.rmse_torque)) + 1
             self._worst = wf
-            v["force"].setText(f"{fig.worst_force:.3f} N (face {wf}); 95 % interval "
-                               f"{fig.worst_force_ci[0]:.3f}–{fig.worst_force_ci[1]:.3f} N")
-            v["torque"].setText(f"{fig.worst_torque * 1000:.2f} mN·m (face {wt}); 95 % interval "
-                                f"{fig.worst_torque_ci[0] * 1000:.2f}–{fig.worst_torque_ci[1] * 1000:.2f} mN·m")
-            v["reactions"].setText(f"face {reaction}: {fig.reaction_force:.3f} N, {fig.reaction_torque * 1000:.2f} mN·m "
-                                   "(it carried the reactions of the others' loads, never a load of its own)"
+            v["force"].setText(f"{fig.worst_force:.3f} N (face {wf}), 95 %: "
+                               f"{fig.worst_force_ci[0]:.3f}–{fig.worst_force_ci[1]:.3f}")
+            v["torque"].setText(f"{fig.worst_torque * 1000:.2f} mN·m (face {wt}), 95 %: "
+                                f"{fig.worst_torque_ci[0] * 1000:.2f}–{fig.worst_torque_ci[1] * 1000:.2f}")
+            v["reactions"].setText(f"face {reaction}: {fig.reaction_force:.2f} N, {fig.reaction_torque * 1000:.1f} mN·m"
                                    if reaction else "—")
+            v["reactions"].setToolTip("The flange's face carried the reactions of the other faces' loads, never a "
+                                      "load of its own; its error is shown apart, not as a loaded face.")
         else:
             v["force"].setText("n/a (no validation pass)")
             v["torque"].setText("n/a (no validation pass)")
@@ -341,11 +355,12 @@ class ResultsPage(WizardPage):
             if reaction:
                 f, t = f.copy(), t.copy()
                 f[reaction - 1] = t[reaction - 1] = np.nan
-            v["heldout"].setText(f"worst {np.nanmax(f):.3f} N, {np.nanmax(t) * 1000:.2f} mN·m (samples of the same "
-                                 "captures as the fit: optimistic; the validation above is what a new session shows)"
+            v["heldout"].setText(f"{np.nanmax(f):.3f} N, {np.nanmax(t) * 1000:.2f} mN·m (optimistic)"
                                  if np.isfinite(f).any() else "n/a")
+            v["heldout"].setToolTip("Samples cut from the same captures as the fit share their errors: optimistic. "
+                                    "The validation pass above is what a new session shows.")
         cov = cal.coverage
-        v["coverage"].setText(("✔ " if cov.complete else "⚠ ") + cov.describe())
+        v["coverage"].setText("✔ every face and the net load" if cov.complete else "⚠ " + cov.describe())
 
     # ------------------------------------------------------------ actions
     def accept(self) -> None:
