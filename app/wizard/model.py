@@ -193,6 +193,11 @@ class WizardModel(QObject):
         self.mount_changed.emit()
         self.face_changed.emit(self.current_face)
 
+    def skip_completing(self) -> None:
+        """Leave the second mount out: the calibration will not measure what it would have (and says so)."""
+        self.stages = [st for st in self.stages if st.kind != "completing"]
+        self.set_stage(len(self.stages) - 1)
+
     def set_current_face(self, face: int) -> None:
         if face not in self.captures:
             raise ValueError(f"face: expected one of {self.faces}, got {face!r}")

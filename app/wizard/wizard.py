@@ -70,6 +70,7 @@ class CalibrationWizard(QWidget):
         self.back.clicked.connect(self.backward)
         self.next.clicked.connect(self.forward)
         self.pages["results"].redo_requested = lambda face: self.go(PAGE_NAMES.index("load"))
+        self.pages["mount"].skip_requested = lambda: self.go("results")
         self.index = 0
         self.go(0)
 

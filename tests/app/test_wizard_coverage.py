@@ -133,3 +133,30 @@ def test_the_wizard_builds_its_sessions_with_the_one_saturation_rule(qapp):
     model.captures[1].captures.append(Capture(cap, ref[20:], t[20:], ref[20:]))
     s = model.session()
     assert len(s) == 49 and s.meta["excluded_saturated_samples"] == 1 and s.loaded[:, 0].sum() == 29
+
+
+@pytest.mark.needs_display
+def test_the_second_mount_can_be_skipped_and_the_results_say_partial(qtbot, styled):
+    from app.wizard.model import WizardModel
+    from app.wizard.wizard import CalibrationWizard
+
+    model = WizardModel()
+    model.set_mount(method="unloaded_frame", flange="face", connected_face=6)
+    model.set_k(300)
+    run_wizard_model(model, CUBE, seed=2, n_stages=2)
+    wiz = CalibrationWizard(model)
+    qtbot.addWidget(wiz)
+    try:
+        wiz.go("load")
+        wiz.forward()  # after the validation pass: the second mount, its reason on the page
+        assert wiz.current_name == "mount" and model.current.kind == "completing"
+        page = wiz.pages["mount"]
+        assert page.skip.isVisibleTo(page) and "face 6" in page.flange_label.text()
+        page.skip.click()
+        assert wiz.current_name == "results" and [s.kind for s in model.stages] == ["main", "validation"]
+        qtbot.waitUntil(lambda: model.calibration is not None, timeout=120_000)
+        text = wiz.pages["results"].values["coverage"].text()
+        assert text.startswith("⚠ partial") and "net load" in text
+    finally:
+        for name in ("mount", "load"):
+            wiz.pages[name].scene.close_scene()

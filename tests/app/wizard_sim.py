@@ -22,11 +22,13 @@ def _times(t0: float, duration: float) -> np.ndarray:
 
 
 def run_wizard_model(model, cube: VirtualCube | None = None, seed: int = 0, period: float = 0.6,
-                     max_face_s: float = 120.0) -> float:
-    """Run every stage of ``model`` (already set to its method and mount); returns the sim time reached, s."""
+                     max_face_s: float = 120.0, n_stages: int | None = None) -> float:
+    """Run the stages of ``model`` (already set to its method and mount; the first ``n_stages``, default all).
+
+    Returns the sim time reached, s."""
     cube = cube or VirtualCube()
     t = 1.0
-    for index, stage in enumerate(model.stages):
+    for index, stage in enumerate(model.stages[:n_stages]):
         model.set_stage(index)
         model.T_core_ati = reference_pose(model.flange, model.connected_face, model.core)
         src = CalibrationLiveSource(model.flange, model.connected_face, seed=seed + 7 * index, model=cube,
