@@ -19,8 +19,8 @@ __all__ = ["WizardModel", "Stage", "faces_to_load", "validation_rules", "RECOMME
 RECOMMENDED_METHOD = "unloaded_frame"
 #: One line for the operator: why it is the default.
 RECOMMENDED_WHY = ("Recommended (PITO paper, III-B): every face from all 36 gauges, so the coupling between faces is "
-                   "calibrated (face_to_face ignores it and is the worst under coupling), outputs in face frames, "
-                   "no access hole needed.")
+                   "calibrated (face_to_face ignores it and is the worst under coupling), outputs in face frames; "
+                   "a short second mount on the type-2 flange then measures the connected face and the net load.")
 
 
 #: One line for the operator: why the wizard ends with a validation pass.
