@@ -45,8 +45,14 @@ def style_figure(fig: Figure, dark: bool = True) -> None:
         ax.title.set_color(DARK["fg"])
 
 
-def rmse_figure(evaluation, fig: Figure | None = None, dark: bool = True) -> Figure:
-    """Held-out RMSE per face: force (N) and torque (mN·m), each bar one face's loads."""
+def rmse_figure(evaluation, fig: Figure | None = None, dark: bool = True, *, reactions: int | None = None,
+                kind: str = "held-out") -> Figure:
+    """RMSE per face: force (N) and torque (mN·m), each bar one face's loads.
+
+    ``reactions``: the connected face of a face flange, which carried only the reactions of the
+    others' loads (its bar is hatched and labelled so); ``kind``: what the figures come from
+    ("validation", "held-out"), in the titles.
+    """
     fig = fig or Figure(figsize=(6.4, 2.8), dpi=100)
     fig.clear()
     axf, axt = fig.subplots(1, 2)
@@ -62,10 +68,12 @@ def rmse_figure(evaluation, fig: Figure | None = None, dark: bool = True) -> Fig
                         color=DARK["fg"] if dark else "black")
         for x in faces[~ok]:
             ax.annotate("n/a", (x, 0), ha="center", va="bottom", fontsize=SMALL, color="#888888")
-        ax.set_xticks(faces)
-        ax.set_xlabel("loaded face", fontsize=SMALL)
+        ax.set_xticks(faces, [f"{i}\nreactions" if i == reactions else str(i) for i in faces])
+        if reactions is not None and ok[reactions - 1]:
+            ax.patches[int(np.flatnonzero(ok).tolist().index(reactions - 1))].set_hatch("///")
+        ax.set_xlabel("loaded face" if reactions is None else "face (loaded; the flange's face: reactions only)", fontsize=SMALL)
         ax.set_ylabel(f"{title} ({unit})", fontsize=SMALL)
-        ax.set_title(f"held-out {title} ({unit})", fontsize=TITLE)
+        ax.set_title(f"{kind} {title} ({unit})", fontsize=TITLE)
         top = np.nanmax(v) if ok.any() else 1.0
         unc = getattr(evaluation, "uncertainty95", None)  # (6, 6) half-widths of the 95 % intervals, or None
         if unc is not None:

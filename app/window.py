@@ -112,6 +112,8 @@ class MainWindow(QMainWindow):
         self.tabs.currentChanged.connect(self._tab_changed)
         self.wizard.pages["devices"].connect_requested.connect(self.connect_devices)
         self.live.tare_requested.connect(lambda: self.worker.post(self.worker.tare))
+        self.live.undo_tare_requested.connect(lambda: self.worker.post(self.worker.undo_tare))
+        self.worker.tare_status.connect(self.live.set_tare_status)
         self.live.record_toggled.connect(self.toggle_recording)
         self.live.replay_requested.connect(self.open_replay)
         self.live.live_requested.connect(self.back_to_live)

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import queue
 import threading
+import time
 from typing import Callable, Protocol
 
 import numpy as np
@@ -28,7 +29,7 @@ from PySide6.QtCore import QObject, Qt, QThread, QTimer, Signal, Slot
 
 from pito_core.frames import CubeCore
 from pito_core.interop import provenance_meta
-from pito_core.pipeline import LiveBundle, NewSamples, Pipeline, face_sums
+from pito_core.pipeline import LiveBundle, NewSamples, Pipeline, TareRefused, face_sums
 
 __all__ = ["Source", "Bundle", "DeviceWorker", "WorkerThread", "face_sums", "merge_bundles"]
 
@@ -79,6 +80,8 @@ class DeviceWorker(QObject):
     error = Signal(str)
     recording_closed = Signal(str, int)
     recording_failed = Signal(str)
+    #: the tare in force or a refusal, in words; and whether a tare can be undone
+    tare_status = Signal(str, bool)
     _wake = Signal()  # posted commands are waiting (queued to the worker's thread)
     _arrived = Signal()  # a pipeline process sent a bundle (emitted in its receiving thread)
     _acked = Signal()  # the GUI has shown the last bundle (emitted in the GUI thread)
@@ -98,6 +101,8 @@ class DeviceWorker(QObject):
         self._consumed = threading.Event()
         self._consumed.set()
         self._recording_path: str | None = None
+        #: the last tare taken live (its event); a replay applies its own, Back to live this one again
+        self.live_tare: dict | None = None
         #: ``fn(contacts, sample_time)`` called in the worker's thread with each bundle's contacts,
         #: before the bundle goes to the GUI thread (the live view's drawing thread takes them
         #: from here, so the 3D view does not wait for a busy GUI thread); must be thread-safe
@@ -235,14 +240,21 @@ class DeviceWorker(QObject):
         self.source = source
         self.pipeline.has_reference = bool(getattr(source, "has_reference", True))
         self.pipeline.reset()
+        if not self.replaying and self.live_tare is not None and self.pipeline.tare_in_force is not self.live_tare:
+            self.pipeline.apply_tare(self.live_tare)  # Back to live: the live tare again, not the replay's
         if self._remote:  # the settings shown in this process hold in the source's process too
             source.reset()
             source.set_calibration(self.pipeline.calibration)
             source.set_assembly(self.pipeline.assembly, self.pipeline.wrench_cov)
+            if self.live_tare is not None:
+                source.apply_tare(self.live_tare)
             self._listen(self._arrived.emit)
+        self.tare_status.emit(self.tare_text(), self.pipeline.tare_in_force is not None)
 
     def set_calibration(self, calibration) -> None:
         self.pipeline.set_calibration(calibration)
+        self.live_tare = None  # a new calibration starts from its own zero
+        self.tare_status.emit(self.tare_text(), False)
         if self._remote:
             self.source.set_calibration(calibration)
 
@@ -253,16 +265,61 @@ class DeviceWorker(QObject):
             self.source.set_assembly(self.pipeline.assembly, self.pipeline.wrench_cov)
 
     def tare(self) -> None:
-        """Zero the face wrenches and the reference on the last ~0.5 s (recorded as an event when recording)."""
+        """Zero the face wrenches and the reference on the last 0.5 s — only if still and unloaded.
+
+        The checks are the wizard's (:func:`pito_core.pipeline.check_tare`); a refusal is
+        reported with its reason on ``tare_status``. The tare is recorded as an event when
+        recording, and kept as the live tare (it survives a replay: Back to live restores it).
+        """
+        if self.replaying:
+            self.tare_status.emit("✘ Tare: not during a replay (the recording's own tares apply)", False)
+            return
         try:
-            if self._remote:  # tared where the samples are (and recorded there)
-                self.pipeline.apply_tare(self.source.tare())
-                return
-            event = self.pipeline.tare()
-        except ValueError:
-            return  # nothing seen yet: nothing to zero
-        if self._recording is not None:
-            self._recording[0].record_event(event)
+            if self._remote:  # checked and tared where the samples are (and recorded there)
+                event = self.source.tare(0.5, True)
+                self.pipeline.apply_tare(event)
+            else:
+                event = self.pipeline.tare(0.5, check=True)
+                if self._recording is not None:
+                    self._recording[0].record_event(event)
+        except ValueError as exc:  # TareRefused (reason), or nothing seen yet
+            reason = exc.check.reason if isinstance(exc, TareRefused) else str(exc).removeprefix("tare refused: ")
+            self.tare_status.emit(f"✘ Tare refused: {reason}", self.pipeline.tare_in_force is not None)
+            return
+        self.live_tare = event
+        self.tare_status.emit(self.tare_text(), True)
+
+    def undo_tare(self) -> None:
+        """Bring back the tare before the last one (the calibration's own zero if none)."""
+        if self.replaying:
+            return
+        try:
+            if self._remote:
+                self.source.undo_tare()
+                self.pipeline.undo_tare()
+            else:
+                event = self.pipeline.undo_tare()
+                if self._recording is not None:
+                    self._recording[0].record_event(event)
+        except ValueError as exc:
+            self.tare_status.emit(f"✘ Undo tare: {exc}", self.pipeline.tare_in_force is not None)
+            return
+        self.live_tare = self.pipeline.tare_in_force
+        self.tare_status.emit(self.tare_text(), self.live_tare is not None)
+
+    def tare_text(self) -> str:
+        """The tare in force, in words."""
+        ev = self.pipeline.tare_in_force
+        if self.replaying:
+            return "Tare: as recorded (replay)"
+        if ev is None:
+            return "Tare: the calibration's own zero"
+        when = time.strftime("%H:%M:%S", time.localtime(ev.get("taken_at", time.time())))
+        return f"Tare: taken {when} ({ev.get('duration', 0.5):g} s, still and unloaded)"
+
+    @property
+    def replaying(self) -> bool:
+        return self.source is not None and hasattr(self.source, "seek")
 
     def start_recording(self, path, simulated: bool = False, meta: dict | None = None) -> None:
         """Record every raw sample of both devices to ``path`` (``pito-recording`` format).

@@ -19,7 +19,20 @@ __all__ = [
     "SHOW_CONTACT_FORCE_N",
     "LOADED_FORCE_N",
     "LOADED_TORQUE_NM",
+    "TARE_STILL_FORCE_STD_N",
+    "TARE_STILL_TORQUE_STD_NM",
+    "TARE_NO_LOAD_FORCE_N",
+    "TARE_NO_LOAD_TORQUE_NM",
 ]
+
+#: A tare is still when the reference's standard deviation over it stays under these (N, N·m)
+#: (the wizard's and the live view's tare: ``pito_core.pipeline.check_tare``).
+TARE_STILL_FORCE_STD_N = 0.05
+TARE_STILL_TORQUE_STD_NM = 0.0005
+#: A tare is unloaded when no face reads more than these from the calibration's own zero (N, N·m);
+#: the face wrenches' spread over the tare must stay under the stillness limits times 4 (cube noise).
+TARE_NO_LOAD_FORCE_N = 0.5
+TARE_NO_LOAD_TORQUE_NM = 0.01
 
 #: Calibration load range of one face, per force axis, N (the papers' protocol: ±15 N).
 FULL_SCALE_FORCE_N = 15.0

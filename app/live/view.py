@@ -20,14 +20,30 @@ import time
 import numpy as np
 from PySide6.QtCore import Qt, QTimer, Signal
 from PySide6.QtWidgets import (
-    QCheckBox, QComboBox, QDoubleSpinBox, QFormLayout, QGroupBox, QHBoxLayout, QLabel, QPushButton, QSlider,
+    QCheckBox, QComboBox, QDoubleSpinBox, QFormLayout, QGroupBox, QHBoxLayout, QLabel, QPushButton, QSizePolicy, QSlider,
     QSplitter, QVBoxLayout, QWidget,
 )
+
+from pito_core.calibration import NOT_MEASURED_TEXT
 
 from ..scene import CubeScene
 from ..widgets.plots import EquilibriumPlot, FaceForcePlot
 
-__all__ = ["LiveView"]
+__all__ = ["LiveView", "unmeasured_faces_text"]
+
+
+def unmeasured_faces_text(measured, sums: bool = False) -> str:
+    """What the calibration does not measure, in words: ``"   face 6: not measured by this calibration"``.
+
+    ``measured`` (6, 6) bool (a bundle's ``measured``); with ``sums`` the net load (‖ΣF‖, ‖ΣT‖) too.
+    """
+    faces = [] if measured is None else [i + 1 for i in range(6) if not np.all(measured[i])]
+    parts = ["‖ΣF‖, ‖ΣT‖"] if sums else []
+    if len(faces) == 6:
+        parts.append("every face")
+    elif faces:
+        parts.append(f"face{'s' if len(faces) > 1 else ''} {', '.join(map(str, faces))}")
+    return f"   {' and '.join(parts)}: {NOT_MEASURED_TEXT}" if parts else ""
 
 
 class LiveView(QWidget):
@@ -40,6 +56,7 @@ class LiveView(QWidget):
     """
 
     tare_requested = Signal()
+    undo_tare_requested = Signal()
     pause_toggled = Signal(bool)
     record_toggled = Signal(bool)
     replay_requested = Signal()
@@ -67,6 +84,12 @@ class LiveView(QWidget):
         self.assembly.addItems(list(assemblies) or ["cube"])
         self.load_cal = QPushButton("Load calibration…")
         self.tare = QPushButton("Tare")
+        self.tare.setToolTip("Zero the cube on the last 0.5 s — only when it is still and nothing loads it "
+                             "(the wizard's checks); refused otherwise, with the reason")
+        self.undo_tare = QPushButton("Undo tare")
+        self.undo_tare.setEnabled(False)
+        self.tare_label = QLabel("Tare: the calibration's own zero")
+        self.tare_label.setObjectName("tareStatus")
         self.pause = QPushButton("Pause")
         self.pause.setCheckable(True)
         self.record = QPushButton("● Record")
@@ -75,12 +98,18 @@ class LiveView(QWidget):
         self.replay = QPushButton("Replay…")
         self.back_live = QPushButton("Back to live")
         self.back_live.setVisible(False)
-        for w in (QLabel("Object"), self.assembly, self.load_cal, self.tare, self.pause, self.record, self.replay, self.back_live):
+        for w in (QLabel("Object"), self.assembly, self.load_cal, self.tare, self.undo_tare, self.pause, self.record,
+                  self.replay, self.back_live):
             bar.addWidget(w)
         bar.addStretch(1)
         self.readout = QLabel("")
         self.readout.setObjectName("value")
         bar.addWidget(self.readout)
+        # the tare in force (or why one was refused): a line of its own, wrapped, never widening the window
+        status = QHBoxLayout()
+        self.tare_label.setWordWrap(True)
+        self.tare_label.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Preferred)
+        status.addWidget(self.tare_label, 1)
 
         # --- a notice over the view: what is wrong and what to do (e.g. no calibration)
         self.notice = QLabel("")
@@ -142,6 +171,7 @@ class LiveView(QWidget):
         lay = QVBoxLayout(self)
         lay.setContentsMargins(6, 6, 6, 6)
         lay.addLayout(bar)
+        lay.addLayout(status)
         lay.addWidget(self.notice)
         lay.addWidget(split, 1)
         lay.addLayout(tl)
@@ -153,6 +183,7 @@ class LiveView(QWidget):
         self.show_torsion.toggled.connect(self._options_changed)
         self.show_uncertainty.toggled.connect(self._options_changed)
         self.tare.clicked.connect(self.tare_requested)
+        self.undo_tare.clicked.connect(self.undo_tare_requested)
         self.pause.toggled.connect(self._pause)
         self.record.toggled.connect(self._record)
         self.replay.clicked.connect(self.replay_requested)
@@ -166,7 +197,8 @@ class LiveView(QWidget):
         #: the main window while this view is the current tab); on_bundle then only counts them
         self.direct_contacts = False
         self._n_shown = 0
-        self._sums = None  # (‖ΣF‖ N, ‖ΣT‖ N·m) of the latest bundle
+        self._sums = None  # (‖ΣF‖ N, ‖ΣT‖ N·m) of the latest bundle (NaN: not measured by the calibration)
+        self._measured = None  # (6, 6) bool: face axes the calibration measures
         #: Hz: most frames a second (scene and plots); the pacer draws only when data are new
         self.display_rate = 60.0
         self.readout_rate = 5.0  # Hz: text that a person reads
@@ -303,7 +335,16 @@ class LiveView(QWidget):
                 self.force_plot.append(t, np.linalg.norm(b.wrenches[:, :3], axis=1))
             if b.sum_force is not None:
                 self._sums = (float(np.linalg.norm(b.sum_force)), float(np.linalg.norm(b.sum_torque)))
-                self.equilibrium.append(t, *self._sums)
+                if np.isfinite(self._sums[0]):  # NaN: the calibration does not measure the net load
+                    self.equilibrium.append(t, *self._sums)
+            self._measured = b.measured
+
+    def set_tare_status(self, text: str, can_undo: bool) -> None:
+        """The tare in force (or why a tare was refused), and whether Undo tare has something to undo."""
+        self.tare_label.setText(text)
+        self.tare_label.setProperty("ok", not text.startswith("✘"))
+        self.tare_label.style().polish(self.tare_label)
+        self.undo_tare.setEnabled(bool(can_undo))
 
     # ------------------------------------------------------------ drawing, paced by the display
     def request_display(self) -> None:
@@ -320,7 +361,9 @@ class LiveView(QWidget):
         if self._sums is not None:
             fs, ts = self._sums
             n = self._n_shown
-            self._readout_text = f"{n} contact{'s' if n != 1 else ''}   ‖ΣF‖ {fs:5.2f} N   ‖ΣT‖ {ts * 1000:5.1f} mN·m"
+            self._readout_text = f"{n} contact{'s' if n != 1 else ''}   " + (
+                f"‖ΣF‖ {fs:5.2f} N   ‖ΣT‖ {ts * 1000:5.1f} mN·m" + unmeasured_faces_text(self._measured)
+                if np.isfinite(fs) else unmeasured_faces_text(self._measured, sums=True).strip())
         if self.force_plot.isVisible():
             self.force_plot.refresh()
             self.equilibrium.refresh()

@@ -61,16 +61,7 @@ def run_to_page(window, target: str = "results", *, method: str = "loaded_frame"
     if target == "devices":
         return
     wiz.next.click()
-    tare = wiz.pages["tare"]
-    tare.duration.setValue(1.0)
-    process_for(0.5)  # the operator lets go
-    for _ in range(3):
-        tare.record.click()
-        _wait(lambda: not tare.recording, 30, "tare")
-        if tare.is_ready():
-            break
-        process_for(0.5)
-    _wait(tare.is_ready, 1, "tare (stillness)")
+    _record_tare(wiz)
     if target == "tare":
         return
     wiz.next.click()
@@ -90,8 +81,41 @@ def run_to_page(window, target: str = "results", *, method: str = "loaded_frame"
     finish(window, save_path, report_dir)
 
 
-def complete_loading(window, timeout: float = 120.0) -> None:
-    """On the loading page: load every face that is not done yet, until Next is enabled."""
+def _record_tare(wiz) -> None:
+    """On the tare page: record until the tare is kept (still, unloaded)."""
+    tare = wiz.pages["tare"]
+    tare.duration.setValue(1.0)
+    process_for(0.5)  # the operator lets go
+    for _ in range(3):
+        tare.record.click()
+        _wait(lambda: not tare.recording, 30, "tare")
+        if tare.is_ready():
+            break
+        process_for(0.5)
+    _wait(tare.is_ready, 1, "tare (stillness)")
+
+
+def complete_loading(window, timeout: float = 120.0, *, stages: bool = True) -> None:
+    """On the loading page: load every face that is not done yet, until Next is enabled.
+
+    With ``stages`` also the stages after it: the validation pass, and the second mount (confirm
+    it, record its tare, load its faces); it ends on the last loading page.
+    """
+    wiz, model = window.wizard, window.model
+    _load_stage(window, timeout)
+    while stages and model.stage + 1 < len(model.stages):
+        wiz.next.click()
+        if model.current.kind == "completing":
+            _wait(lambda: wiz.current_name == "mount", 5, "second mount page")
+            wiz.pages["mount"].confirm.setChecked(True)
+            process_for(0.2)
+            wiz.next.click()
+            _record_tare(wiz)
+            wiz.next.click()
+        _load_stage(window, timeout)
+
+
+def _load_stage(window, timeout: float) -> None:
     wiz, model = window.wizard, window.model
     load = wiz.pages["load"]
     for face in model.faces:

@@ -88,6 +88,10 @@ class LoadPage(WizardPage):
         row.addLayout(left, 5)
 
         right = QVBoxLayout()
+        self.stage_note = QLabel()  # the validation pass or the second mount: what it is for, in one line
+        self.stage_note.setObjectName("emphasis")
+        self.stage_note.setWordWrap(True)
+        right.addWidget(self.stage_note)
         self.face_title = QLabel()
         self.face_title.setObjectName("bigFace")
         right.addWidget(self.face_title)
@@ -142,6 +146,8 @@ class LoadPage(WizardPage):
     def _on_mount(self) -> None:
         m = self.model
         self.scene.set_mount(m.flange, m.connected_face)
+        self.stage_note.setText(m.current.why)
+        self.stage_note.setVisible(bool(m.current.why))
         for i, b in self.chips.items():
             b.setVisible(i in m.faces)
         self._on_face(m.current_face)

@@ -91,7 +91,7 @@ class MethodPage(WizardPage):
 
     def _ui_flange(self, index: int) -> None:
         flange = self.flange.itemData(index)
-        if flange and flange != self.model.flange:
+        if flange and flange != self.model.main_flange:
             self.model.set_mount(flange=flange)
 
     def sync(self) -> None:
@@ -103,14 +103,17 @@ class MethodPage(WizardPage):
         self.flange.clear()
         for f in m.spec.flanges:
             self.flange.addItem(f"{f}: {FLANGE_TEXT[f]}", f)
-        self.flange.setCurrentIndex(list(m.spec.flanges).index(m.flange))
-        self.face.setValue(m.connected_face)
-        self.k.setValue(m.rules.k)
+        self.flange.setCurrentIndex(list(m.spec.flanges).index(m.main_flange))
+        self.face.setValue(m.main_connected_face)
+        self.k.setValue(m.base_rules.k)
         for w in (self.flange, self.face, self.k, *self.buttons.values()):
             w.blockSignals(False)
-        faces = faces_to_load(m.method, m.flange, m.connected_face)
-        self.summary.setText(
-            f"You will load faces {', '.join(map(str, faces))} one at a time "
-            f"(at least {m.rules.k} samples each; usually more, until the coverage bars are green), "
-            f"with the flange on face {m.connected_face}."
-        )
+        faces = faces_to_load(m.method, m.main_flange, m.main_connected_face)
+        text = (f"You will load faces {', '.join(map(str, faces))} one at a time "
+                f"(at least {m.base_rules.k} samples each; usually more, until the coverage bars are green), with the flange on face {m.main_connected_face}; "
+                f"then a short validation pass of fresh loads.")
+        extra = m.completing
+        if extra is not None:
+            text += (f"<br><b>Then a second mount</b> ('{extra.flange}' on face {extra.connected_face}, "
+                     f"face{'s' if len(extra.faces) > 1 else ''} {', '.join(map(str, extra.faces))}): {extra.why}")
+        self.summary.setText(text)

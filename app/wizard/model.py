@@ -2,22 +2,63 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field, replace
+
 import numpy as np
 from PySide6.QtCore import QObject, Signal
 
-from pito_core.calibration import METHODS, CalibrationSession, get_method
+from pito_core.calibration import METHODS, CalibrationSession, completing_mount, get_method, session_from_arrays
 from pito_core.frames import FACES, CubeCore, invert_pose
 
 from .capture import CaptureRules, FaceCaptures
 
-__all__ = ["WizardModel", "faces_to_load", "RECOMMENDED_METHOD", "RECOMMENDED_WHY"]
+__all__ = ["WizardModel", "Stage", "faces_to_load", "validation_rules", "RECOMMENDED_METHOD", "RECOMMENDED_WHY",
+           "VALIDATION_WHY"]
 
 #: The wizard's default: the method the PITO paper recommends (III-B).
 RECOMMENDED_METHOD = "unloaded_frame"
 #: One line for the operator: why it is the default.
 RECOMMENDED_WHY = ("Recommended (PITO paper, III-B): every face from all 36 gauges, so the coupling between faces is "
-                   "calibrated (face_to_face ignores it and is the worst under coupling), outputs in face frames, "
-                   "no access hole needed.")
+                   "calibrated (face_to_face ignores it and is the worst under coupling), outputs in face frames; "
+                   "a short second mount on the type-2 flange then measures the connected face and the net load.")
+
+
+#: One line for the operator: why the wizard ends with a validation pass.
+VALIDATION_WHY = ("Validation: load each face again with fresh loads. They are not used in the fit: the results "
+                  "headline these figures, which is what a new session will show.")
+
+
+def validation_rules(rules: CaptureRules) -> CaptureRules:
+    """The capture rules of the validation pass: a quarter of the samples, fewer distinct loads."""
+    return replace(rules, k=max(100, rules.k // 4), min_captures=max(6, rules.min_captures // 2))
+
+
+@dataclass
+class Stage:
+    """One pass of the wizard on one mount: its tare and its captures per face.
+
+    ``kind``: ``main`` (the method's mount), ``validation`` (fresh loads on the main mount,
+    not fitted) or ``completing`` (the extra mount that measures the rest; ``why`` says why).
+    """
+
+    kind: str
+    flange: str
+    connected_face: int
+    faces: tuple
+    rules: CaptureRules
+    why: str = ""
+    T_core_ati: np.ndarray = field(default_factory=lambda: np.eye(4))
+    captures: dict = field(default_factory=dict)
+    tare_counts: np.ndarray = field(default_factory=lambda: np.zeros((0, 36)))
+    tare_reference: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
+    tare_still: bool = False
+
+    def __post_init__(self):
+        self.captures = {i: FaceCaptures(i, self.rules) for i in self.faces}
+
+    @property
+    def done(self) -> bool:
+        return all(c.sufficient for c in self.captures.values())
 
 
 def faces_to_load(method: str, flange: str, connected_face: int) -> tuple[int, ...]:
@@ -37,10 +78,15 @@ def faces_to_load(method: str, flange: str, connected_face: int) -> tuple[int, .
 
 
 class WizardModel(QObject):
-    """State of one guided calibration.
+    """State of one guided calibration: its stages (mounts and passes), tare and captures per face.
 
-    Signals: ``mount_changed`` (method, flange, connected face), ``face_changed`` (the face
-    being loaded), ``captures_changed`` (face), ``tare_changed``, ``result_changed``.
+    The stages are the method's mount (``main``), a validation pass of fresh loads on it, and,
+    where the method's mount leaves readings unmeasured, the extra mount that measures them
+    (:func:`pito_core.calibration.completing_mount`). ``flange``, ``connected_face``, ``faces``,
+    ``captures``, ``rules`` and the tare are those of the current stage.
+
+    Signals: ``mount_changed`` (method, flange, connected face, or stage), ``face_changed`` (the
+    face being loaded), ``captures_changed`` (face), ``tare_changed``, ``result_changed``.
     """
 
     mount_changed = Signal()
@@ -52,20 +98,18 @@ class WizardModel(QObject):
     def __init__(self, core: CubeCore | None = None, rules: CaptureRules | None = None, parent=None):
         super().__init__(parent)
         self.core = core or CubeCore()
-        self.rules = rules or CaptureRules()
+        self.base_rules = rules or CaptureRules()
         # the PITO paper's recommended method (see RECOMMENDED_WHY in the method page)
         self.method = RECOMMENDED_METHOD
-        self.flange = "face"
-        self.connected_face = 6
-        self.T_core_ati = np.eye(4)
+        self.main_flange = "face"
+        self.main_connected_face = 6
         self.simulated = False
         self.current_face = 1
-        self.captures: dict[int, FaceCaptures] = {}
-        self.tare_counts = np.zeros((0, 36))
-        self.tare_reference = np.zeros((0, 6))
-        self.tare_still = False
+        self.stages: list[Stage] = []
+        self.stage = 0
         self.calibration = None
-        self.evaluation = None
+        self.evaluation = None  # the headline: the validation pass (else the held-out split)
+        self.heldout = None  # the secondary figure: held-out samples of the fitted captures
         self.accepted = False
         self.saved_path = None
         self._reset_captures()
@@ -75,14 +119,14 @@ class WizardModel(QObject):
         if method is not None:
             spec = get_method(method)
             self.method = spec.name
-            if self.flange not in spec.flanges:
-                self.flange = spec.flanges[0] if "frame_hole" not in spec.flanges else "frame_hole"
+            if self.main_flange not in spec.flanges:
+                self.main_flange = spec.flanges[0] if "frame_hole" not in spec.flanges else "frame_hole"
         if flange is not None:
             if flange not in get_method(self.method).flanges:
                 raise ValueError(f"flange: method '{self.method}' needs one of {get_method(self.method).flanges}, got {flange!r}")
-            self.flange = flange
+            self.main_flange = flange
         if connected_face is not None:
-            self.connected_face = int(connected_face)
+            self.main_connected_face = int(connected_face)
         self._reset_captures()
         self.mount_changed.emit()
 
@@ -91,15 +135,68 @@ class WizardModel(QObject):
         return METHODS[self.method]
 
     @property
-    def faces(self) -> tuple[int, ...]:
-        return faces_to_load(self.method, self.flange, self.connected_face)
+    def current(self) -> Stage:
+        """The stage being run."""
+        return self.stages[self.stage]
+
+    @property
+    def completing(self):
+        """The extra mount this method needs (``CompletingMount``), or None."""
+        return completing_mount(self.method, self.main_flange, self.main_connected_face)
+
+    # the current stage's mount and data (the pages read these)
+    flange = property(lambda self: self.current.flange)
+    connected_face = property(lambda self: self.current.connected_face)
+    faces = property(lambda self: self.current.faces)
+    captures = property(lambda self: self.current.captures)
+    rules = property(lambda self: self.current.rules)
+    tare_counts = property(lambda self: self.current.tare_counts)
+    tare_reference = property(lambda self: self.current.tare_reference)
+    tare_still = property(lambda self: self.current.tare_still)
+
+    @property
+    def T_core_ati(self) -> np.ndarray:
+        return self.current.T_core_ati
+
+    @T_core_ati.setter
+    def T_core_ati(self, value) -> None:
+        self.current.T_core_ati = np.asarray(value, dtype=float)
+        if self.current.kind == "main":  # the validation pass runs on the same mount
+            for st in self.stages:
+                if st.kind == "validation":
+                    st.T_core_ati = self.current.T_core_ati
 
     def _reset_captures(self) -> None:
-        self.captures = {i: FaceCaptures(i, self.rules) for i in self.faces}
+        flange, c = self.main_flange, self.main_connected_face
+        faces = faces_to_load(self.method, flange, c)
+        old_T = self.stages[0].T_core_ati if self.stages else np.eye(4)
+        self.stages = [Stage("main", flange, c, faces, self.base_rules, T_core_ati=old_T),
+                       Stage("validation", flange, c, faces, validation_rules(self.base_rules), VALIDATION_WHY,
+                             T_core_ati=old_T)]
+        extra = self.completing
+        if extra is not None:
+            self.stages.append(Stage("completing", extra.flange, extra.connected_face, extra.faces, self.base_rules,
+                                     extra.why))
+        self.stage = 0
         self.current_face = self.faces[0]
         self.calibration = None
         self.evaluation = None
+        self.heldout = None
         self.accepted = False
+
+    def set_stage(self, index: int) -> None:
+        """Run stage ``index`` (its mount, tare and captures; what was kept in the others stays)."""
+        if not 0 <= int(index) < len(self.stages):
+            raise ValueError(f"index: expected a stage 0..{len(self.stages) - 1}, got {index!r}")
+        self.stage = int(index)
+        self.current_face = self.faces[0]
+        self.mount_changed.emit()
+        self.face_changed.emit(self.current_face)
+
+    def skip_completing(self) -> None:
+        """Leave the second mount out: the calibration will not measure what it would have (and says so)."""
+        self.stages = [st for st in self.stages if st.kind != "completing"]
+        self.set_stage(len(self.stages) - 1)
 
     def set_current_face(self, face: int) -> None:
         if face not in self.captures:
@@ -108,63 +205,104 @@ class WizardModel(QObject):
         self.face_changed.emit(self.current_face)
 
     def set_k(self, k: int) -> None:
-        self.rules.k = int(k)
-        for c in self.captures.values():
-            c.rules = self.rules
+        self.base_rules.k = int(k)
+        self._sync_validation_rules()
+
+    def _sync_validation_rules(self) -> None:
+        for st in self.stages:
+            if st.kind == "validation":
+                st.rules = validation_rules(self.base_rules)
+                for c in st.captures.values():
+                    c.rules = st.rules
 
     # ------------------------------------------------------------ geometry
     def T_ati_face(self, face: int) -> np.ndarray:
-        """``T_ati_face`` (4, 4): face ``face``'s frame in the reference frame."""
+        """``T_ati_face`` (4, 4): face ``face``'s frame in the reference frame of the current mount."""
         return invert_pose(self.T_core_ati) @ self.core.face_pose(face)
 
     # ------------------------------------------------------------ data
     def set_tare(self, counts, reference, still: bool) -> None:
-        self.tare_counts = np.asarray(counts, dtype=float)
-        self.tare_reference = np.asarray(reference, dtype=float)
-        self.tare_still = bool(still)
+        st = self.current
+        st.tare_counts = np.asarray(counts, dtype=float)
+        st.tare_reference = np.asarray(reference, dtype=float)
+        st.tare_still = bool(still)
         self.tare_changed.emit()
+
+    def _tare_stage(self, stage: Stage) -> Stage:
+        """The stage whose tare ``stage`` uses (the validation pass: the main mount's)."""
+        return self.stages[0] if stage.kind == "validation" else stage
 
     @property
     def has_tare(self) -> bool:
-        return self.tare_counts.shape[0] > 0 and self.tare_still
+        st = self._tare_stage(self.current)
+        return st.tare_counts.shape[0] > 0 and st.tare_still
 
     def face_done(self, face: int) -> bool:
         return self.captures[face].sufficient
 
     @property
     def all_faces_done(self) -> bool:
-        return all(c.sufficient for c in self.captures.values())
+        return self.current.done
+
+    @property
+    def all_stages_done(self) -> bool:
+        return all(st.done for st in self.stages)
 
     def clear_face(self, face: int) -> None:
         self.captures[face].clear()
         self.calibration = None
         self.evaluation = None
+        self.heldout = None
         self.accepted = False
         self.captures_changed.emit(face)
 
-    def session(self) -> CalibrationSession:
-        """All kept samples as one :class:`CalibrationSession`: the tare (unloaded), then each face's captures."""
-        counts = [self.tare_counts]
-        reference = [self.tare_reference]
-        loaded = [np.zeros((self.tare_counts.shape[0], 6), dtype=bool)]
-        times = [np.zeros(self.tare_counts.shape[0])]
-        for face, fc in self.captures.items():
-            for c in fc.captures:
-                counts.append(c.counts)
-                reference.append(c.reference)
-                m = np.zeros((c.counts.shape[0], 6), dtype=bool)
-                m[:, face - 1] = True
-                loaded.append(m)
-                times.append(c.time)
-        return CalibrationSession(
-            np.concatenate(counts), np.concatenate(reference), np.concatenate(loaded), self.T_core_ati,
-            self.flange, self.connected_face, core=self.core, time=np.concatenate(times),
-            meta={"simulated": self.simulated, "source": "pito-app calibration wizard", "method": self.method},
-        )
+    def stage_session(self, stage: Stage) -> CalibrationSession:
+        """One stage's kept samples as a :class:`CalibrationSession`: its tare (unloaded), then each face's captures."""
+        tare = self._tare_stage(stage)
+        parts = [(tare.tare_counts, tare.tare_reference, np.zeros(tare.tare_counts.shape[0]), 0)]
+        for face, fc in stage.captures.items():
+            parts += [(c.counts, c.reference, c.time, face) for c in fc.captures]
+        return session_from_parts(parts, stage.T_core_ati, stage.flange, stage.connected_face, self.core, meta={
+            "simulated": self.simulated, "source": "pito-app calibration wizard", "method": self.method,
+            "stage": stage.kind})
 
-    def set_result(self, calibration, evaluation) -> None:
+    def session(self) -> CalibrationSession:
+        """The main mount's kept samples (the fit's main session)."""
+        return self.stage_session(self.stages[0])
+
+    def training_sessions(self) -> list:
+        """Sessions the fit uses: the main mount's and the completing mount's (never the validation pass)."""
+        return [self.stage_session(st) for st in self.stages if st.kind != "validation"]
+
+    def validation_session(self) -> CalibrationSession | None:
+        """The validation pass (fresh loads on the main mount, not fitted), or None if it has no capture."""
+        st = next((s for s in self.stages if s.kind == "validation"), None)
+        if st is None or not any(fc.captures for fc in st.captures.values()):
+            return None
+        return self.stage_session(st)
+
+    def set_result(self, calibration, evaluation, heldout=None) -> None:
         self.calibration = calibration
         self.evaluation = evaluation
+        self.heldout = heldout
         self.accepted = False
         self.result_changed.emit()
 
+
+def session_from_parts(parts, T_core_ati, flange, connected_face, core, meta) -> CalibrationSession:
+    """A session from ``[(counts (n, 36), reference (n, 6), time (n,), loaded face or 0), ...]``.
+
+    Samples at or beyond the cube's ADC range are dropped (the one saturation rule of
+    :func:`pito_core.calibration.session_from_arrays`).
+    """
+    counts = np.concatenate([p[0] for p in parts])
+    reference = np.concatenate([p[1] for p in parts])
+    time = np.concatenate([p[2] for p in parts])
+    loaded = np.zeros((counts.shape[0], 6), dtype=bool)
+    k = 0
+    for c, _, _, face in parts:
+        if face:
+            loaded[k:k + c.shape[0], face - 1] = True
+        k += c.shape[0]
+    return session_from_arrays(counts, reference, loaded, time, T_core_ati=T_core_ati, flange=flange,
+                               connected_face=connected_face, core=core, meta=meta)

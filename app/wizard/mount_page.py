@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from PySide6.QtWidgets import QCheckBox, QHBoxLayout, QLabel, QVBoxLayout
+from PySide6.QtWidgets import QCheckBox, QHBoxLayout, QLabel, QPushButton, QVBoxLayout
 
 from ..scene import CubeScene
 from .page import WizardPage
@@ -67,15 +67,26 @@ class MountPage(WizardPage):
         self.steps.setObjectName("steps")
         self.confirm = QCheckBox("The cube is mounted as shown")
         self.confirm.setObjectName("confirm")
+        # the second mount can be left out: the calibration then says what it does not measure
+        self.skip = QPushButton("Skip the second mount (the calibration will be partial, and say so)")
         side.addWidget(self.flange_label)
         side.addWidget(self.steps)
         side.addStretch(1)
+        side.addWidget(self.skip)
         side.addWidget(self.confirm)
         row.addLayout(side, 2)
         self.body.addLayout(row, 1)
         self.confirm.toggled.connect(self.set_ready)
+        self.skip.clicked.connect(self._skip)
+        #: set by the wizard: go on to the results after a skip
+        self.skip_requested = None
         model.mount_changed.connect(self.sync)
         self.sync()
+
+    def _skip(self) -> None:
+        self.model.skip_completing()
+        if self.skip_requested is not None:
+            self.skip_requested()
 
     def sync(self) -> None:
         m = self.model
@@ -83,7 +94,11 @@ class MountPage(WizardPage):
         self.confirm.setChecked(False)
         self.confirm.blockSignals(False)
         self.set_ready(False)
-        self.flange_label.setText(f"Method {m.method}: flange '{m.flange}' on face {m.connected_face}")
+        text = f"Method {m.method}: flange '{m.flange}' on face {m.connected_face}"
+        if m.current.kind == "completing":
+            text = f"Second mount — {text}.<br>{m.current.why}"
+        self.flange_label.setText(text)
+        self.skip.setVisible(m.current.kind == "completing")
         self.steps.setText("<ol>" + "".join(f"<li style='margin-bottom:6px'>{s}</li>" for s in mount_steps(m.flange, m.connected_face, m.faces)) + "</ol>")
         self.scene.set_mount(m.flange, m.connected_face, flange_opacity=0.45)  # see the orange face through it
         self.scene.highlight(connected_face=m.connected_face)

@@ -13,7 +13,7 @@ from PySide6.QtWidgets import (
     QComboBox, QFileDialog, QGridLayout, QGroupBox, QHBoxLayout, QLabel, QPushButton,
 )
 
-from pito_core.calibration import RankDeficientError, calibrate, evaluate
+from pito_core.calibration import CalibrationSession, RankDeficientError, calibrate, evaluate, validation_figures
 
 from .. import report
 from ..filetypes import CALIBRATION_SAVE_FILTER, CALIBRATION_SUFFIX
@@ -26,23 +26,32 @@ __all__ = ["ResultsPage", "fit_and_evaluate", "render_figures"]
 FIT_BLOCK = 8192
 
 
-def fit_and_evaluate(session, method: str, holdout: float = 0.25, seed: int = 0, progress=None):
-    """Fit ``method`` on a training split of ``session`` and evaluate it on the held-out rest.
+def fit_and_evaluate(sessions, method: str, holdout: float = 0.25, seed: int = 0, progress=None, validation=None):
+    """Fit ``method`` on the training split of ``sessions``; evaluate on the held-out rest and the validation pass.
 
-    Returns ``(calibration, evaluation, note)``; ``note`` says if a minimum-norm fit was needed.
-    ``progress(fraction, text)``, if given, is called between the steps (and may raise to cancel).
+    ``sessions``: the main mount's session, or a list (the main mount's first; an extra mount's
+    after it, fitted whole). ``validation``: fresh loads not used in the fit (a session), or None.
+
+    Returns ``(calibration, headline, note, heldout, figures)``: ``headline`` is the evaluation
+    of the validation pass (the held-out split's without one), ``heldout`` that of the held-out
+    split of the main session, ``figures`` the validation's
+    :class:`~pito_core.calibration.ValidationFigures` (None without a validation pass); ``note``
+    says if a minimum-norm fit was needed. ``progress(fraction, text)``, if given, is called
+    between the steps (and may raise to cancel).
     """
+    sessions = [sessions] if isinstance(sessions, CalibrationSession) else list(sessions)
     progress = progress or (lambda *_: None)
     progress(0.0, "splitting the samples")
     # blocks of 50 samples: every kept capture (a few hundred still samples) feeds both sides,
     # so the fit keeps every loaded direction and the held-out samples test it on new noise
-    train, test = session.split(holdout=holdout, block=50, seed=seed)
-    n_fit = train.counts.shape[0]
+    train, test = sessions[0].split(holdout=holdout, block=50, seed=seed)
+    train = [train, *sessions[1:]]
+    n_fit = sum(s.counts.shape[0] for s in train)
     progress(0.1, f"fitting {method} on {n_fit} samples")
     # small blocks: LAPACK holds the GIL through each block's QR, and the GUI thread needs it
     # every few ms; the fit's own progress is also where a cancel stops it
     fit_options = {"block_size": FIT_BLOCK,
-                   "progress": lambda done, total: progress(0.1 + 0.6 * done / max(total, 1),
+                   "progress": lambda done, total: progress(0.1 + 0.55 * done / max(total, 1),
                                                             f"fitting {method}: {done} / {total} samples")}
     note = ""
     try:
@@ -52,24 +61,37 @@ def fit_and_evaluate(session, method: str, holdout: float = 0.25, seed: int = 0,
             warnings.simplefilter("ignore")
             cal = calibrate(train, method, allow_rank_deficient=True, **fit_options)
         note = f"minimum-norm fit — {exc}"
-    progress(0.75, f"evaluating on {test.counts.shape[0]} held-out samples")
-    ev = evaluate(cal, test)
+    progress(0.7, f"evaluating on {test.counts.shape[0]} held-out samples")
+    heldout = evaluate(cal, test)
+    headline, figures = heldout, None
+    if validation is not None:
+        progress(0.8, f"validating on {validation.counts.shape[0]} fresh samples")
+        headline = evaluate(cal, validation)
+        figures = validation_figures(cal, validation, seed=seed)
     progress(1.0, "done")
-    return cal, ev, note
+    return cal, headline, note, heldout, figures
 
 
-def fit_job(session, method: str, sizes: dict, progress=None):
-    """Fit, evaluate and draw the figures (any process): ``(calibration, evaluation, note, images)``."""
-    cal, ev, note = fit_and_evaluate(session, method, progress=progress)
+def fit_job(sessions, method: str, sizes: dict, validation=None, progress=None):
+    """Fit, evaluate and draw the figures (any process): ``(calibration, headline, note, heldout, figures, images)``."""
+    cal, ev, note, heldout, figures = fit_and_evaluate(sessions, method, progress=progress, validation=validation)
     if progress is not None:
         progress(0.9, "drawing the figures")
-    return cal, ev, note, render_figures(ev, sizes)
+    return cal, ev, note, heldout, figures, render_figures(ev, sizes, rmse_options(sessions, validation))
 
 
-def render_figures(evaluation, sizes: dict) -> dict:
+def rmse_options(sessions, validation) -> dict:
+    """The RMSE figure's labels: the flange's face as "reactions", and where the figures come from."""
+    main = sessions if hasattr(sessions, "flange") else sessions[0]
+    return {"reactions": main.connected_face if main.flange == "face" else None,
+            "kind": "validation" if validation is not None else "held-out"}
+
+
+def render_figures(evaluation, sizes: dict, rmse: dict | None = None) -> dict:
     """The results figures of ``evaluation`` as RGBA images ``(h, w, 4) uint8`` (Agg, any thread).
 
-    ``sizes``: name (``rmse``, ``ident``, ``comp``) → ``(width, height)`` px.
+    ``sizes``: name (``rmse``, ``ident``, ``comp``) → ``(width, height)`` px; ``rmse``: options of
+    the RMSE figure (:func:`rmse_options`).
     """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
@@ -78,7 +100,7 @@ def render_figures(evaluation, sizes: dict) -> dict:
     for name, (w, h) in sizes.items():
         fig = Figure(figsize=(w / report.SCREEN_DPI, h / report.SCREEN_DPI), dpi=report.SCREEN_DPI)  # 9 pt = 12 px
         canvas = FigureCanvasAgg(fig)
-        draw[name](evaluation, fig)
+        draw[name](evaluation, fig, **(rmse or {})) if name == "rmse" else draw[name](evaluation, fig)
         canvas.draw()
         out[name] = np.asarray(canvas.buffer_rgba()).copy()
     return out
@@ -132,7 +154,8 @@ class ResultsPage(WizardPage):
     parent : QWidget, optional
     """
     title = "6 · Results"
-    help = ("The calibration was fitted on 75 % of the kept samples and checked on the held-out rest. "
+    help = ("The calibration was fitted on 75 % of the kept samples; its figures come from the validation pass of "
+            "fresh loads (the held-out rest is a secondary line). "
             "Accept it, or redo a face whose error is too high; then save the calibration and export the report.")
 
     def __init__(self, model, parent=None):
@@ -144,10 +167,13 @@ class ResultsPage(WizardPage):
         for r, (key, text) in enumerate((
             ("method", "Method"),
             ("icn", "Inverse condition number σmin/σmax"),
-            ("samples", "Samples: fitted / held out"),
-            ("force", "Worst face force RMSE"),
-            ("torque", "Worst face torque RMSE"),
-            ("ident", "Face identification (held out)"),
+            ("samples", "Samples: fitted / validation"),
+            ("force", "Worst face force RMSE (validation)"),
+            ("torque", "Worst face torque RMSE (validation)"),
+            ("ident", "Face identification (validation)"),
+            ("reactions", "Connected face (reactions only)"),
+            ("heldout", "Held-out split of the fit (secondary)"),
+            ("coverage", "Measures"),
             ("status", "Status"),
         )):
             grid.addWidget(QLabel(text), r, 0)
@@ -221,7 +247,8 @@ class ResultsPage(WizardPage):
             if self._images_for is ev:
                 self._show_images(images)
 
-        self.figure_task = run_task(lambda progress: render_figures(ev, sizes), "Drawing the figures", done,
+        options = getattr(self, "_rmse_options", None)
+        self.figure_task = run_task(lambda progress: render_figures(ev, sizes, options), "Drawing the figures", done,
                                     lambda msg: self.values["status"].setText(f"✘ figures: {msg}"), owner=self)
 
     def _show_images(self, images: dict) -> None:
@@ -238,15 +265,17 @@ class ResultsPage(WizardPage):
         ``session`` defaults to the wizard's kept samples."""
         if self.fitting:
             self.task.cancel()
-        session = self.model.session() if session is None else session
+        sessions = self.model.training_sessions() if session is None else session
+        validation = self.model.validation_session() if session is None else None
+        self._rmse_options = rmse_options(sessions, validation)
         method = self.model.method
         self.note = ""
 
         def done(result):
-            cal, ev, self.note, images = result
+            cal, ev, self.note, heldout, self.figures, images = result
             self._images_for = ev
             self._show_images(images)
-            self.model.set_result(cal, ev)
+            self.model.set_result(cal, ev, heldout)
             self.refresh()
 
         def failed(message):
@@ -256,8 +285,9 @@ class ResultsPage(WizardPage):
 
         sizes = self._figure_sizes()
         # in a child process: the fit's LAPACK calls hold the GIL for long stretches
-        self.task = run_in_process(fit_job, (session, method, sizes),
-                                   f"Fitting {method} on {session.counts.shape[0]} samples", done, failed,
+        n = sum(s.counts.shape[0] for s in ([sessions] if hasattr(sessions, "counts") else sessions))
+        self.task = run_in_process(fit_job, (sessions, method, sizes, validation),
+                                   f"Fitting {method} on {n} samples", done, failed,
                                    bar=self.taskbar, owner=self)
         self.task.ended.connect(self.refresh)
 
@@ -265,7 +295,7 @@ class ResultsPage(WizardPage):
         m = self.model
         cal, ev = m.calibration, m.evaluation
         self.redo_face.clear()
-        for f in m.faces:
+        for f in m.stages[0].faces:
             self.redo_face.addItem(f"face {f}", f)
         has = cal is not None and ev is not None
         for b in (self.accept_btn, self.save_btn, self.export_btn):
@@ -283,26 +313,7 @@ class ResultsPage(WizardPage):
                 self.values["status"].setText(f"✘ fit failed: {self.note}")
             self.set_ready(False)
             return
-        f, t = ev.rmse_force(), ev.rmse_torque()
-        worst_f = int(np.nanargmax(f)) + 1 if np.isfinite(f).any() else None
-        worst_t = int(np.nanargmax(t)) + 1 if np.isfinite(t).any() else None
-        self.values["method"].setText(f"{cal.method}  (faces {', '.join(map(str, cal.output_faces))} out, "
-                                      f"{'SIMULATED' if m.simulated else 'real'} devices)")
-        self.values["icn"].setText(f"{cal.inverse_condition_number:.3e}")
-        self.values["samples"].setText(f"{cal.meta.get('n_samples_fitted', '?')} / {ev.n_single}")
-        self.values["force"].setText(f"{np.nanmax(f):.3f} N (face {worst_f})" if worst_f else "n/a")
-        self.values["torque"].setText(f"{np.nanmax(t) * 1000:.2f} mN·m (face {worst_t})" if worst_t else "n/a")
-        head = ev.identification_headline()  # the papers' rule: single by force, squeeze by torque
-        self.values["ident"].setText("; ".join(h["text"] for h in head) if head else "n/a")
-        self.values["ident"].setWordWrap(True)
-        unc = ev.uncertainty95
-        if unc is not None and worst_f and worst_t:
-            self.values["force"].setText(self.values["force"].text()
-                                         + f", ± {np.nanmax(unc[worst_f - 1, :3]):.3f} N (95 %, calibration's own)")
-            self.values["torque"].setText(self.values["torque"].text()
-                                          + f", ± {np.nanmax(unc[worst_t - 1, 3:]) * 1000:.2f} mN·m (95 %)")
-        self.values["method"].setText(self.values["method"].text()
-                                      + f"; net force of a free grasp: {cal.meta.get('net_load', 'not recorded')}")
+        self._show_figures(cal, ev, m)
         status = "✔ accepted — the live view uses it" if m.accepted else "awaiting your decision"
         if m.saved_path:
             status += f" — saved to {Path(m.saved_path).name}"
@@ -312,11 +323,55 @@ class ResultsPage(WizardPage):
             status += " — minimum-norm fit: some directions were weakly loaded (see tooltip)"
         self.values["status"].setText(status)
         self.values["status"].setToolTip(self.note)
-        if worst_f:
-            self.redo_face.setCurrentIndex(max(0, self.redo_face.findData(worst_f)))
+        if self._worst:
+            self.redo_face.setCurrentIndex(max(0, self.redo_face.findData(self._worst)))
         if self._images_for is not ev:
             self._render_figures(ev)
         self.set_ready(m.accepted)
+
+    def _show_figures(self, cal, ev, m) -> None:
+        """The headline (validation pass, with 95 % intervals), the reactions, the held-out split, the coverage."""
+        v = self.values
+        main = m.stages[0]
+        reaction = main.connected_face if main.flange == "face" else None
+        fig = getattr(self, "figures", None)
+        self._worst = None
+        faces = cal.output_faces
+        out = f"faces {faces[0]}–{faces[-1]}" if faces == tuple(range(faces[0], faces[-1] + 1)) else \
+            f"faces {', '.join(map(str, faces))}"
+        v["method"].setText(f"{cal.method} ({out}, {'SIMULATED' if m.simulated else 'real'})")
+        v["icn"].setText(f"{cal.inverse_condition_number:.3e}")
+        n_val = f"{fig.n_samples} ({fig.n_captures} captures)" if fig is not None else "none"
+        v["samples"].setText(f"{cal.meta.get('n_samples_fitted', '?')} / {n_val}")
+        if fig is not None:
+            wf, wt = int(np.nanargmax(fig.rmse_force)) + 1, int(np.nanargmax(fig.rmse_torque)) + 1
+            self._worst = wf
+            v["force"].setText(f"{fig.worst_force:.3f} N (face {wf}), 95 %: "
+                               f"{fig.worst_force_ci[0]:.3f}–{fig.worst_force_ci[1]:.3f}")
+            v["torque"].setText(f"{fig.worst_torque * 1000:.2f} mN·m (face {wt}), 95 %: "
+                                f"{fig.worst_torque_ci[0] * 1000:.2f}–{fig.worst_torque_ci[1] * 1000:.2f}")
+            v["reactions"].setText(f"face {reaction}: {fig.reaction_force:.2f} N, {fig.reaction_torque * 1000:.1f} mN·m"
+                                   if reaction else "—")
+            v["reactions"].setToolTip("The flange's face carried the reactions of the other faces' loads, never a "
+                                      "load of its own; its error is shown apart, not as a loaded face.")
+        else:
+            v["force"].setText("n/a (no validation pass)")
+            v["torque"].setText("n/a (no validation pass)")
+            v["reactions"].setText("—")
+        head = ev.identification_headline()  # the papers' rule: single by force, squeeze by torque
+        v["ident"].setText("; ".join(h["text"] for h in head) if head else "n/a")
+        ho = m.heldout
+        if ho is not None:
+            f, t = ho.rmse_force(), ho.rmse_torque()
+            if reaction:
+                f, t = f.copy(), t.copy()
+                f[reaction - 1] = t[reaction - 1] = np.nan
+            v["heldout"].setText(f"{np.nanmax(f):.3f} N, {np.nanmax(t) * 1000:.2f} mN·m (optimistic)"
+                                 if np.isfinite(f).any() else "n/a")
+            v["heldout"].setToolTip("Samples cut from the same captures as the fit share their errors: optimistic. "
+                                    "The validation pass above is what a new session shows.")
+        cov = cal.coverage
+        v["coverage"].setText("✔ every face and the net load" if cov.complete else "⚠ " + cov.describe())
 
     # ------------------------------------------------------------ actions
     def accept(self) -> None:
@@ -332,6 +387,7 @@ class ResultsPage(WizardPage):
 
     def redo(self, face: int) -> None:
         """Drop the face's captures and go back to loading it."""
+        self.model.set_stage(0)  # the method's mount: the faces the fit rests on
         self.model.clear_face(face)
         self.model.set_current_face(face)
         if self.redo_requested is not None:
@@ -362,9 +418,16 @@ class ResultsPage(WizardPage):
             folder = QFileDialog.getExistingDirectory(self, "Export the report into a folder")
             if not folder:
                 return None
+        main = m.stages[0]
         info = {
-            "method": m.method, "flange": m.flange, "connected face": m.connected_face,
-            "faces loaded": ", ".join(map(str, m.faces)), "samples per face (k)": m.rules.k,
+            "method": m.method, "flange": main.flange, "connected face": main.connected_face,
+            "faces loaded": ", ".join(map(str, main.faces)), "samples per face (k)": m.base_rules.k,
+            "reactions only": f"face {main.connected_face}" if main.flange == "face" else "none",
+            "second mount": next((f"{st.flange} on face {st.connected_face}, faces {', '.join(map(str, st.faces))}: "
+                                  f"{st.why}" for st in m.stages if st.kind == "completing"), "none"),
+            "headline": "validation pass of fresh loads (not fitted)" if m.heldout is not m.evaluation
+                        else "held-out samples of the fitted captures",
+            "measures": m.calibration.coverage.describe(),
             "simulated": m.simulated, "calibration file": m.saved_path or "(not saved)",
         }
         cal, ev = m.calibration, m.evaluation

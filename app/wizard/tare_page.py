@@ -5,24 +5,17 @@ from __future__ import annotations
 import numpy as np
 from PySide6.QtWidgets import QGridLayout, QGroupBox, QLabel, QProgressBar, QPushButton, QDoubleSpinBox, QHBoxLayout
 
+from pito_core.defaults import TARE_STILL_FORCE_STD_N, TARE_STILL_TORQUE_STD_NM
+from pito_core.pipeline import check_tare
+
 from .page import WizardPage
 
 __all__ = ["TarePage", "STILL_FORCE_STD", "STILL_TORQUE_STD"]
 
-#: Largest standard deviation of the reference during the tare: N and N·m.
-STILL_FORCE_STD = 0.05
-STILL_TORQUE_STD = 0.0005
-
-
-def tare_still(reference) -> tuple[bool, float, float]:
-    """Stillness of an unloaded recording ``reference (n, 6)``: (still, max force std N, max torque std N·m)."""
-    r = np.asarray(reference, dtype=float)
-    r = r[np.isfinite(r).all(axis=1)]
-    if r.shape[0] < 10:
-        return False, float("nan"), float("nan")
-    sf = float(r[:, :3].std(axis=0).max())
-    st = float(r[:, 3:].std(axis=0).max())
-    return (sf < STILL_FORCE_STD and st < STILL_TORQUE_STD), sf, st
+#: Largest standard deviation of the reference during the tare: N and N·m (the one tare check's,
+#: ``pito_core.pipeline.check_tare``, which the live view's Tare uses too).
+STILL_FORCE_STD = TARE_STILL_FORCE_STD_N
+STILL_TORQUE_STD = TARE_STILL_TORQUE_STD_NM
 
 
 class TarePage(WizardPage):
@@ -81,6 +74,10 @@ class TarePage(WizardPage):
     def enter(self) -> None:
         if self.operator is not None:
             self.operator(None)
+        if not self.model.has_tare:  # a new mount (the second): its own tare
+            for lab in self.labels.values():
+                lab.setText("—")
+            self.progress.setValue(0)
         self.set_ready(self.model.has_tare)
 
     def start_recording(self) -> None:
@@ -107,12 +104,13 @@ class TarePage(WizardPage):
         chunks, self._chunks = self._chunks, None
         counts = np.concatenate([c[1] for c in chunks])
         reference = np.concatenate([c[2] for c in chunks])
-        still, sf, st = tare_still(reference)
+        check = check_tare(counts, reference)  # the live view's Tare checks the same way
+        still, sf, st = check.ok, check.reference_force_std, check.reference_torque_std
         self.labels["samples"].setText(f"{counts.shape[0]}")
         self.labels["force_std"].setText(f"{sf:.3f} N")
         self.labels["torque_std"].setText(f"{st * 1000:.3f} mN·m")
         self.labels["counts_std"].setText(f"{np.median(counts.std(axis=0)):.0f}")
-        self.labels["verdict"].setText("✔ still — offsets kept" if still else "✘ the cube moved — record again")
+        self.labels["verdict"].setText("✔ still — offsets kept" if still else f"✘ {check.reason} — record again")
         self.labels["verdict"].setProperty("ok", still)
         self.labels["verdict"].style().polish(self.labels["verdict"])
         self.model.set_tare(counts, reference, still)

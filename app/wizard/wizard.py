@@ -67,9 +67,10 @@ class CalibrationWizard(QWidget):
         lay.setContentsMargins(6, 6, 6, 6)
         lay.addWidget(self.steps)
         lay.addLayout(right, 1)
-        self.back.clicked.connect(lambda: self.go(self.index - 1))
-        self.next.clicked.connect(lambda: self.go(self.index + 1))
+        self.back.clicked.connect(self.backward)
+        self.next.clicked.connect(self.forward)
         self.pages["results"].redo_requested = lambda face: self.go(PAGE_NAMES.index("load"))
+        self.pages["mount"].skip_requested = lambda: self.go("results")
         self.index = 0
         self.go(0)
 
@@ -81,6 +82,38 @@ class CalibrationWizard(QWidget):
     def current_name(self) -> str:
         return PAGE_NAMES[self.index]
 
+    def forward(self) -> None:
+        """Next: the next page, or the next stage (validation pass, extra mount) after a loading page."""
+        m = self.model
+        if self.current_name == "load" and m.stage + 1 < len(m.stages):
+            m.set_stage(m.stage + 1)
+            self.go("load" if m.current.kind == "validation" else "mount")
+        elif self.current_name == "mount" and m.stage > 0:
+            self.go("tare")  # the devices are connected already
+        else:
+            self.go(self.index + 1)
+
+    def backward(self) -> None:
+        """Back: the previous page, or the previous stage's loading page."""
+        m = self.model
+        if (self.current_name == "load" and m.current.kind == "validation") or (
+                self.current_name == "mount" and m.stage > 0):
+            m.set_stage(m.stage - 1)
+            self.go("load")
+        elif self.current_name == "tare" and m.stage > 0:
+            self.go("mount")
+        else:
+            self.go(self.index - 1)
+
+    def _stage_text(self, page: str) -> str:
+        """The stage a step list item runs now (a second line), or ""."""
+        kind = self.model.current.kind
+        if kind == "validation" and page == "load":
+            return "\n     validation"
+        if kind == "completing" and page in ("mount", "tare", "load"):
+            return "\n     2nd mount"
+        return ""
+
     def go(self, index) -> None:
         """Show page ``index`` (int or name); forward moves need the current page ready."""
         if isinstance(index, str):
@@ -90,8 +123,11 @@ class CalibrationWizard(QWidget):
             self.current.leave()
         self.index = index
         self.stack.setCurrentIndex(index)
+        names = list(self.pages)
         for k in range(self.steps.count()):
             it = self.steps.item(k)
+            page = self.pages[names[k]]
+            it.setText(page.title + self._stage_text(names[k]))
             it.setSelected(k == index)
             f = it.font()
             f.setBold(k == index)
@@ -112,7 +148,10 @@ class CalibrationWizard(QWidget):
             "mount": "Confirm the mount to go on.",
             "devices": "Connect both devices; Next when data flows.",
             "tare": "Record a still tare to go on.",
-            "load": "Next when every face is covered (✔).",
+            "load": "Next when every face is covered (✔)." + (
+                " Then: " + ("the validation pass." if self.model.stage + 1 < len(self.model.stages)
+                             and self.model.stages[self.model.stage + 1].kind == "validation"
+                             else "the second mount.") if self.model.stage + 1 < len(self.model.stages) else ""),
             "results": "Accept, then save the calibration and export the report.",
         }
         self.hint.setText("" if page.is_ready() and not last else hints[self.current_name])

@@ -4,6 +4,7 @@ Sessions are :mod:`pito_core.io`'s (``CalibrationSession`` is re-exported here).
 """
 
 from ._calibration import Calibration, load_calibration
+from ._coverage import NOT_MEASURED_TEXT, CompletingMount, Coverage, completing_mount, measured_directions
 from ._evaluate import (
     DEFAULT_FORCE_THRESHOLD,
     DEFAULT_TORQUE_THRESHOLD,
@@ -32,9 +33,21 @@ from ._uncertainty import CalibrationCovariance, CovarianceGroup
 from ._lstsq import LstsqResult, StreamedQR
 from ._methods import METHODS, MethodSpec, get_method
 from ._targets import MountGeometry, block_targets
-from ..io import DEFAULT_COUNTS_RANGE, FLANGES, CalibrationSession, SessionBlock  # the session format (io), re-exported
+from ..io import (  # the session format and its one builder (io), re-exported
+    DEFAULT_COUNTS_RANGE, FLANGES, CalibrationSession, SessionBlock, saturated_samples, session_from_arrays,
+)
+from ._validation import ValidationFigures, validation_figures
 
 __all__ = [
+    "ValidationFigures",
+    "validation_figures",
+    "saturated_samples",
+    "session_from_arrays",
+    "NOT_MEASURED_TEXT",
+    "CompletingMount",
+    "Coverage",
+    "completing_mount",
+    "measured_directions",
     "ExcitationError",
     "RankDeficientError",
     "DEFAULT_FORCE_THRESHOLD",

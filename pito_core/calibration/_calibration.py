@@ -6,6 +6,7 @@ import numpy as np
 
 from ..frames import FACES, CubeCore, check_pose, invert_pose, wrench_adjoint
 from ..io import FileFormatError, read_calibration_fields, write_calibration
+from ._coverage import Coverage
 from ._uncertainty import CalibrationCovariance, CovarianceGroup
 
 __all__ = ["Calibration", "load_calibration"]
@@ -93,6 +94,15 @@ class Calibration:
         m = np.zeros(6, dtype=bool)
         m[[f - 1 for f in self.output_faces]] = True
         return m
+
+    @property
+    def coverage(self) -> Coverage:
+        """What this calibration measures: each face's axes and the net load (``meta["coverage"]``).
+
+        Files written before pito recorded it get a coverage derived from ``meta["net_load"]``
+        (``Coverage.known`` is then False).
+        """
+        return Coverage.from_meta(self.meta, self.has_output)
 
     def wrenches(self, counts, offset=None, *, return_cov: bool = False):
         """Wrench on each face in that face's frame (and its covariance).

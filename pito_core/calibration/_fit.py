@@ -21,6 +21,7 @@ from threadpoolctl import threadpool_limits
 from ..defaults import FULL_SCALE_FACE
 from ..frames import FACES
 from ._calibration import Calibration
+from ._coverage import measured_directions
 from ._lstsq import RANK_RTOL, StreamedQR
 from ._methods import MethodSpec, get_method
 from ..io import CalibrationSession, few_indices as _few
@@ -432,6 +433,8 @@ class Calibrator:
                 "not_identified": int(36 - load_rank) if net_load == NET_LOAD_UNIDENTIFIED else 0,
             },
             "simulated": any(bool(s.meta.get("simulated", False)) for s in sessions),
+            # which face axes and whether the net load the training loads measured (_coverage.py)
+            "coverage": measured_directions(gram, out_faces, spec.output_frame, s0.core).to_meta(),
         }
         cal = Calibration(spec.name, matrix, out_faces, spec.output_frame, np.mean(offsets, axis=0), s0.core,
                           s0.T_core_ati, meta)

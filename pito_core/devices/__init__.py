@@ -5,6 +5,7 @@ loopback UDP); ``devices`` never imports ``sim``.
 """
 
 from ._acquisition import Acquisition
+from ._tare import TareCheck, TareRefused, check_tare, tare_event
 from ._clock import PAIRING_RULE, StreamClock, TickUnwrapper, pair_reference
 from ._atical import DIST_UNITS, AtiCalibration, load_ati_calibration
 from ._frame import (
@@ -42,6 +43,10 @@ from ._open import SIM, open_devices, parse_ati_address
 from ._serial import DEFAULT_BAUDRATE, DeviceError, PitoBatch, PitoSerial, list_serial_ports
 
 __all__ = [
+    "TareCheck",
+    "TareRefused",
+    "check_tare",
+    "tare_event",
     "Acquisition",
     "SIM",
     "open_devices",

@@ -23,11 +23,12 @@ import time
 
 import numpy as np
 
-from ..frames import CUBE_ADC_LIMIT, N_GAUGES, check_face
-from ..io import CalibrationSession, RecordingWriter
+from ..frames import N_GAUGES, check_face
+from ..io import RecordingWriter, session_from_arrays
 from ._clock import PAIRING_RULE, StreamClock, TickUnwrapper, pair_reference
 from ._netft import NetFTBatch
 from ._serial import PitoBatch
+from ._tare import tare_event
 
 __all__ = ["Acquisition"]
 
@@ -361,19 +362,19 @@ class Acquisition(RingReader):
         p = self._window(self._pito_ring, now - duration, None)
         if p["counts"].shape[0] == 0:
             raise ValueError(f"duration: no cube sample in the last {duration} s")
-        counts_offset = p["counts"].mean(axis=0)
-        bias = self.reference_bias
+        wrench = np.zeros((0, 6))
         if self.netft is not None:
             f = self._window(self._ft_ring, now - duration, None)
             if f["wrench"].shape[0] == 0:
                 raise ValueError(f"duration: no reference sample in the last {duration} s")
-            bias = f["wrench"].mean(axis=0)
-        self.counts_offset, self.reference_bias, self.tared_at = counts_offset, bias, now
-        # the same event as ``Pipeline.tare``: replay applies it from the next cube sample
-        out = {"counts_offset": counts_offset.tolist(), "reference_bias": bias.tolist(), "host_time": now,
-               "duration": duration, "from_tick": int(p["tick"][-1]) + 1}
+            wrench = f["wrench"]
+        # the one tare event (``Pipeline.tare``'s): replay applies it from the next cube sample
+        out = tare_event(p["counts"], wrench, from_tick=int(p["tick"][-1]) + 1, duration=duration,
+                         previous_bias=self.reference_bias, host_time=now)
+        self.counts_offset = np.asarray(out["counts_offset"])
+        self.reference_bias, self.tared_at = np.asarray(out["reference_bias"]), now
         if self.recorder is not None:
-            self.recorder.append_event({"type": "tare", **out})
+            self.recorder.append_event(out)
         return out
 
     def stats(self) -> dict:
@@ -439,15 +440,8 @@ class Acquisition(RingReader):
             raise ValueError("t0, t1: no cube sample inside the reference's time span")
         # issue 13: a sample paired with a saturated reference record, or with a cube gauge at its
         # ADC limit, never enters a calibration
-        sat_ref = pair_reference(t_cube[sel], t_ref, np.repeat(f["saturated"].astype(float)[:, None], 6, axis=1))[:, 0] > 0
-        sat_cube = (np.abs(p["counts"][sel]) >= CUBE_ADC_LIMIT).any(axis=1)
-        n_excluded = int((sat_ref | sat_cube).sum())
-        keep = np.flatnonzero(sel)[~(sat_ref | sat_cube)]
-        sel = np.zeros_like(sel)
-        sel[keep] = True
-        if not sel.any():
-            raise ValueError("t0, t1: every sample in the window is saturated (reference status or cube ADC limit)")
         t = t_cube[sel]
+        sat_ref = pair_reference(t, t_ref, np.repeat(f["saturated"].astype(float)[:, None], 6, axis=1))[:, 0] > 0
         reference = pair_reference(t, t_ref, f["wrench"]) - self.reference_bias
         loaded_arr = self._loaded(loaded, t)
         info = dict(self.meta)
@@ -459,10 +453,16 @@ class Acquisition(RingReader):
             "reference_bias": self.reference_bias.tolist(),
             "counts_offset": self.counts_offset.tolist(),
             "saturated_reference_samples": int(f["saturated"].sum()),
-            "excluded_saturated_samples": n_excluded,
         }
-        return CalibrationSession(p["counts"][sel], reference, loaded_arr, T_core_ati, flange, connected_face,
-                                  core=core, time=t, meta=info)
+        try:  # the one session builder and saturation rule (the wizard's too)
+            session = session_from_arrays(p["counts"][sel], reference, loaded_arr, t, T_core_ati=T_core_ati,
+                                          flange=flange, connected_face=connected_face, core=core, meta=info,
+                                          reference_saturated=sat_ref)
+        except ValueError as exc:
+            raise ValueError(f"t0, t1: {exc} in the window") from None
+        info["acquisition"]["excluded_saturated_samples"] = session.meta["excluded_saturated_samples"]
+        session.meta["acquisition"] = info["acquisition"]
+        return session
 
     @staticmethod
     def _loaded(loaded, t: np.ndarray) -> np.ndarray:

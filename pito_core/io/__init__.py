@@ -6,6 +6,7 @@ from ._hdf5 import ChecksumError, FileFormatError, UnverifiedFileWarning
 from ._calhash import calibration_hash, short_hash
 from ._session_file import SESSION_FORMAT, SESSION_VERSION, read_session_fields, write_session
 from ._session import DEFAULT_COUNTS_RANGE, FLANGES, CalibrationSession, SessionBlock, few_indices
+from ._session_build import saturated_samples, session_from_arrays
 from ._recording import (
     NETFT_ROW,
     PITO_ROW,
@@ -20,6 +21,8 @@ from ._verify import verify_file
 from ._export import RECORDING_CSV_COLUMNS, export_recording_csv, export_recording_files, export_recording_mat, read_recording_csv
 
 __all__ = [
+    "saturated_samples",
+    "session_from_arrays",
     "CalibrationSession",
     "DEFAULT_COUNTS_RANGE",
     "FLANGES",

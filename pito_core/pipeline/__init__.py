@@ -11,7 +11,7 @@ The app's acquisition worker, ``pito record``, ``pito replay``/the app's timelin
 :mod:`pito_core.devices._clock` (docs/devices.md, "Pairing the cube and the reference").
 """
 
-from ..devices import PAIRING_RULE
+from ..devices import PAIRING_RULE, TareCheck, TareRefused, check_tare
 from ._bundle import LiveBundle, face_sums
 from ._pipeline import Pipeline
 from ._open import open_acquisition, open_reader
@@ -20,6 +20,9 @@ from ._readers import AcquisitionReader, NewSamples, RecordingReader, recording_
 from ._replay import replay_recording
 
 __all__ = [
+    "TareCheck",
+    "TareRefused",
+    "check_tare",
     "AcquisitionReader",
     "LiveBundle",
     "NewSamples",

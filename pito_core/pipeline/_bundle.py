@@ -37,7 +37,11 @@ class LiveBundle:
         ``(6, …)`` (face i at index i−1): ``point`` m, ``normal``, ``force`` N (on the
         object), ``torsion`` N·m, ``valid``, ``point_cov`` m² or None.
     sum_force, sum_torque : ndarray, shape (3,) or None
-        Σ of the face loads in the core frame (N; N·m about the object's centre of gravity).
+        Σ of the face loads in the core frame (N; N·m about the object's centre of gravity);
+        NaN when the calibration does not measure the net load (``Calibration.coverage``).
+    measured : ndarray of bool, shape (6, 6) or None
+        Face axes the calibration measures (``Calibration.coverage.faces``); ``wrenches``,
+        the face wrenches and the contacts are NaN / invalid elsewhere. None without a calibration.
     recorded : int
         Cube samples recorded so far in the current recording (0 when not recording).
     replay_position, replay_duration : float or None
@@ -74,6 +78,7 @@ class LiveBundle:
     arrived_time: np.ndarray | None = None
     arrived_face_wrenches: np.ndarray | None = None
     contacts_time: float = float("nan")
+    measured: np.ndarray | None = None
 
     @property
     def latest_time(self) -> float:
@@ -109,6 +114,7 @@ class LiveBundle:
         src = newer if newer.wrenches is not None else self
         out.wrenches, out.contacts, out.contacts_time = src.wrenches, src.contacts, src.contacts_time
         out.sum_force, out.sum_torque = src.sum_force, src.sum_torque
+        out.measured = src.measured
         return out
 
 

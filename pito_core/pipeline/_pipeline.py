@@ -19,13 +19,14 @@ for the tare and the smoothing are fixed-size rings read as contiguous views.
 
 from __future__ import annotations
 
+import time
 from dataclasses import fields
 
 import numpy as np
 
 from ..contact import Assembly, ObjectContacts, load_assembly, solve_object
 from ..defaults import SHOW_CONTACT_FORCE_N
-from ..devices import pair_reference
+from ..devices import TareRefused, check_tare, pair_reference, tare_event
 from ..frames import CUBE_ADC_LIMIT, N_GAUGES, CubeCore
 from ._bundle import LiveBundle, face_sums
 
@@ -130,6 +131,9 @@ class Pipeline:
         self.smooth = int(smooth)
         self.max_wait = float(max_wait)
         self.calibration = None
+        self.coverage = None
+        self._tare_history: list = []  # (counts_offset, reference_bias) before each tare, for undo_tare
+        self._tare_event = None
         self.counts_offset = None
         self.reference_bias = np.zeros(6)
         self.cog = np.zeros(3)
@@ -155,13 +159,17 @@ class Pipeline:
         made again), so every record passed after this call has the new calibration.
         """
         self.calibration = calibration
+        self._tare_history.clear()  # a new calibration starts from its own zero
+        self._tare_event = None
+        # readings the calibration does not measure are NaN from here on (issue 21: never a silent 0)
+        self.coverage = getattr(calibration, "coverage", None)  # (duck-typed calibrations without one: unmasked)
         self.counts_offset = None
         self._wtail.clear()
         rows = self._pending
         if rows is not None:
             rows.pop("w", None)
             if calibration is not None:
-                rows["w"] = calibration.wrenches(rows["counts"])
+                rows["w"] = self._masked(calibration.wrenches(rows["counts"]))
 
     def set_assembly(self, assembly, wrench_cov=None) -> None:
         """The object whose patches carry the contacts (an ``Assembly``, a library name, or None: the bare cube)."""
@@ -180,15 +188,22 @@ class Pipeline:
         self.cog = np.zeros(3) if c is None else np.asarray(c, dtype=float)
 
     # ------------------------------------------------------------ tare
-    def tare(self, duration: float = 0.5) -> dict:
+    def tare(self, duration: float = 0.5, *, check: bool = False) -> dict:
         """Zero the face wrenches and the reference on the last ``duration`` s of processed samples.
 
         Returns the tare as an event for a recording (``type`` "tare", ``counts_offset``
         (36,) counts, ``reference_bias`` (6,) N and N·m, ``from_tick``: the first cube tick
-        (µs) it applies to), which :meth:`apply_tare` replays.
+        (µs) it applies to), which :meth:`apply_tare` replays. The tare it replaces is kept:
+        :meth:`undo_tare` brings it back.
+
+        With ``check`` (the live view's Tare), the window must pass
+        :func:`~pito_core.devices.check_tare` — still, and no face loaded from the
+        calibration's own zero — the wizard's tare checks.
 
         Raises
         ------
+        TareRefused
+            ``check`` and the window is not still or not unloaded (``.check.reason`` says which).
         ValueError
             No sample processed yet, or ``duration`` not > 0.
         """
@@ -198,19 +213,53 @@ class Pipeline:
         if tail["time"].size == 0:
             raise ValueError("tare: no sample processed yet")
         sel = tail["time"] >= tail["time"][-1] - duration
-        counts_offset = tail["counts"][sel].mean(axis=0)
-        ref = tail["reference"][sel]
-        finite = np.isfinite(ref).all(axis=1)
-        bias = ref[finite].mean(axis=0) if finite.any() else self.reference_bias.copy()
-        event = {"type": "tare", "counts_offset": counts_offset.tolist(), "reference_bias": bias.tolist(),
-                 "duration": float(duration), "from_tick": None if self.last_tick is None else self.last_tick + 1}
+        extra = {}
+        if check:
+            verdict = check_tare(tail["counts"][sel], tail["reference"][sel], self.calibration)
+            if not verdict.ok:
+                raise TareRefused(verdict)
+            extra["checked"] = True
+        extra["taken_at"] = time.time()  # wall clock, s: for the operator's "tare taken at"
+        event = tare_event(tail["counts"][sel], tail["reference"][sel], duration=duration,
+                           previous_bias=self.reference_bias,
+                           from_tick=None if self.last_tick is None else self.last_tick + 1, **extra)
         self.apply_tare(event)
         return event
 
+    def undo_tare(self) -> dict:
+        """Bring back the tare before the last :meth:`tare` (the calibration's own zero if none).
+
+        Returns it as an event (``undo`` True) for a recording. Raises ``ValueError`` if there is
+        nothing to undo.
+        """
+        if not self._tare_history:
+            raise ValueError("tare: no tare to undo")
+        offset, bias = self._tare_history.pop()
+        event = {"type": "tare", "counts_offset": None if offset is None else offset.tolist(),
+                 "reference_bias": bias.tolist(), "undo": True,
+                 "from_tick": None if self.last_tick is None else self.last_tick + 1}
+        self._set_tare(offset, bias)
+        return event
+
+    @property
+    def tare_in_force(self) -> dict | None:
+        """The last tare applied (its event), or None: the calibration's own zero."""
+        return self._tare_event
+
     def apply_tare(self, event: dict) -> None:
-        """Set the tare of an event made by :meth:`tare` (replay)."""
-        self.counts_offset = np.asarray(event["counts_offset"], dtype=float)
-        self.reference_bias = np.asarray(event["reference_bias"], dtype=float)
+        """Set the tare of an event made by :meth:`tare` (replay); ``counts_offset`` None: the calibration's zero."""
+        self._tare_history.append((self.counts_offset, self.reference_bias.copy()))
+        del self._tare_history[:-20]
+        off = event.get("counts_offset")
+        self._set_tare(None if off is None else np.asarray(off, dtype=float),
+                       np.asarray(event["reference_bias"], dtype=float))
+        self._tare_event = None if off is None else dict(event)
+
+    def _set_tare(self, offset, bias) -> None:
+        self.counts_offset = offset
+        self.reference_bias = bias
+        if offset is None:
+            self._tare_event = None
         self._wtail.clear()
 
     def reset(self) -> None:
@@ -294,6 +343,10 @@ class Pipeline:
                 b.wrenches = latest
                 b.contacts_time = float(arrived["time"][-1])
                 b.sum_force, b.sum_torque = face_sums(latest, self.core, self.cog)
+                if self.coverage is not None:
+                    if not self.coverage.net_load:  # a sum over unmeasured directions: none
+                        b.sum_force, b.sum_torque = np.full(3, np.nan), np.full(3, np.nan)
+                    b.measured = self.coverage.faces
                 b.contacts = self.contacts(latest, self._latest_cov(tail["counts"]))
                 # issue 13: a gauge at its ADC limit in the samples behind the latest wrenches: no valid
                 # contact (every face's wrench depends on all 36 gauges through the calibration matrix)
@@ -310,11 +363,15 @@ class Pipeline:
         n = new["time"].size
         new["bias"] = np.broadcast_to(self.reference_bias, (n, 6))  # the reference's tare, applied when paired
         if self.calibration is not None:
-            new["w"] = self.calibration.wrenches(new["counts"], offset=self.counts_offset)
+            new["w"] = self._masked(self.calibration.wrenches(new["counts"], offset=self.counts_offset))
         tick = new.get("tick")
         if tick is not None and tick.size:
             self.last_tick = int(tick[-1])
         return new
+
+    def _masked(self, W):
+        """Face wrenches with NaN where the calibration does not measure (``Calibration.coverage``)."""
+        return W if self.coverage is None else self.coverage.mask(W)
 
     def _latest_cov(self, counts):
         """The wrench covariance for the latest contacts (``wrench_cov``; see the class docstring) at ``counts (k, 36)``."""

@@ -229,9 +229,19 @@ class PipelineProcess:
         """:meth:`Pipeline.set_assembly` in the child (a library assembly goes by name)."""
         self._request("set_assembly", assembly, wrench_cov)
 
-    def tare(self, duration: float = 0.5) -> dict:
-        """:meth:`Pipeline.tare` in the child; the event is recorded there when recording. Returns the event."""
-        return self._request("tare", float(duration))
+    def tare(self, duration: float = 0.5, check: bool = False) -> dict:
+        """:meth:`Pipeline.tare` in the child; the event is recorded there when recording. Returns the event.
+
+        A refused tare (``check``) raises ``ValueError`` with the reason."""
+        return self._request("tare", float(duration), bool(check))
+
+    def undo_tare(self) -> dict:
+        """:meth:`Pipeline.undo_tare` in the child (recorded there when recording). Returns the event."""
+        return self._request("undo_tare")
+
+    def apply_tare(self, event: dict) -> None:
+        """:meth:`Pipeline.apply_tare` in the child (a tare taken before this process: Back to live)."""
+        self._request("apply_tare", dict(event))
 
     def reset(self) -> None:
         """:meth:`Pipeline.reset` in the child."""

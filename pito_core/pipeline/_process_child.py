@@ -60,10 +60,12 @@ class _Child:
             return p.set_calibration(*args)
         if name == "set_assembly":
             return p.set_assembly(*args)
-        if name == "tare":
-            event = p.tare(*args)
+        if name in ("tare", "undo_tare"):
+            event = p.tare(args[0], check=bool(args[1])) if name == "tare" else p.undo_tare()
             acq.record_event(event)
             return event
+        if name == "apply_tare":
+            return p.apply_tare(*args)
         if name == "reset":
             return p.reset()
         if name == "open_recording":

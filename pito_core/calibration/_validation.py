@@ -1,0 +1,116 @@
+"""Figures of a validation pass (fresh loads, not fitted) with their 95 % intervals.
+
+The wizard's headline: what a new session will show. Errors of one capture (a held load)
+hold together, so the intervals come from a bootstrap over captures (runs of samples of one
+loaded face, split where the time jumps), not over samples.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._calibration import Calibration
+from ._fit import session_offsets
+from ..io import CalibrationSession
+from ._targets import MountGeometry, block_targets
+
+__all__ = ["ValidationFigures", "validation_figures"]
+
+#: Bootstrap draws of the intervals.
+N_BOOT = 400
+
+
+class ValidationFigures:
+    """RMSE of the loaded faces on a validation session, with 95 % intervals (SI units).
+
+    Attributes
+    ----------
+    rmse_force, rmse_torque : ndarray, shape (6,)
+        RMS error over the three force (N) / torque (N·m) axes of each directly loaded face; NaN
+        for faces not loaded directly (the connected face of a ``face`` flange: see ``reaction_*``).
+    worst_force, worst_torque : float
+        The largest of them, N and N·m.
+    worst_force_ci, worst_torque_ci : tuple of float
+        95 % interval of the worst figure (bootstrap over captures).
+    reaction_force, reaction_torque : float
+        RMS error of the connected face of a ``face`` flange, which carried only reactions (NaN otherwise).
+    n_samples, n_captures : int
+    """
+
+    def __init__(self, rmse_force, rmse_torque, worst_force_ci, worst_torque_ci, reaction, n_samples, n_captures):
+        self.rmse_force = rmse_force
+        self.rmse_torque = rmse_torque
+        self.worst_force = float(np.nanmax(rmse_force)) if np.isfinite(rmse_force).any() else float("nan")
+        self.worst_torque = float(np.nanmax(rmse_torque)) if np.isfinite(rmse_torque).any() else float("nan")
+        self.worst_force_ci = tuple(float(x) for x in worst_force_ci)
+        self.worst_torque_ci = tuple(float(x) for x in worst_torque_ci)
+        self.reaction_force, self.reaction_torque = (float(x) for x in reaction)
+        self.n_samples = int(n_samples)
+        self.n_captures = int(n_captures)
+
+
+def _captures(time: np.ndarray | None, face: np.ndarray) -> np.ndarray:
+    """(n,) capture index: runs of one loaded face, cut where the time jumps (> 5 median steps)."""
+    cut = np.r_[True, face[1:] != face[:-1]]
+    if time is not None and time.size > 2:
+        dt = np.diff(time)
+        step = np.median(dt[dt > 0]) if (dt > 0).any() else 0.0
+        cut[1:] |= (dt > 5 * step) | (dt < 0)
+    else:
+        cut[::200] = True
+    return np.cumsum(cut) - 1
+
+
+def _rmse(sse, n, pick):
+    """(6, 2) RMSE per face (force, torque) of the captures ``pick`` (indices)."""
+    s, m = sse[pick].sum(axis=0), n[pick].sum(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(m > 0, np.sqrt(s / np.maximum(m, 1)), np.nan)
+
+
+def validation_figures(calibration: Calibration, session: CalibrationSession, *, seed: int = 0) -> ValidationFigures:
+    """RMSE of each directly loaded face on ``session`` (tared on its own unloaded samples), with intervals.
+
+    Parameters
+    ----------
+    calibration : Calibration
+    session : CalibrationSession
+        Fresh single-face loads, not used in the fit (and its unloaded samples, the offset).
+    seed : int
+        Seed of the bootstrap.
+    """
+    offset = session_offsets(session)
+    counts, reference = np.asarray(session.counts[:], float), np.asarray(session.reference[:], float)
+    loaded = np.asarray(session.loaded[:], bool)
+    pred = calibration.wrenches(counts, offset=offset)
+    targets, carries, usable, _ = block_targets(reference, loaded, MountGeometry(session), "face")
+    one = usable & (loaded.sum(axis=1) == 1)
+    c = session.connected_face - 1
+    if session.flange == "face":
+        one &= ~loaded[:, c]  # a direct load on the flange's face goes into the flange: no face senses it
+    face = np.where(one, np.argmax(loaded, axis=1), -1)
+    cap = _captures(None if session.time is None else np.asarray(session.time[:], float), face)
+    err2 = (pred - targets) ** 2  # (n, 6, 6)
+    n_cap = int(cap.max()) + 1 if cap.size else 0
+    sse = np.zeros((n_cap, 7, 2))  # faces 0..5 loaded directly, 6: reactions of the connected face
+    cnt = np.zeros((n_cap, 7, 2))
+    rows = np.flatnonzero(one)
+    for part, ax in ((0, slice(0, 3)), (1, slice(3, 6))):
+        e_own = err2[rows, face[rows], ax].sum(axis=1)
+        np.add.at(sse[:, :, part], (cap[rows], face[rows]), e_own)
+        np.add.at(cnt[:, :, part], (cap[rows], face[rows]), 3)
+        if session.flange == "face":
+            e_re = err2[rows, c, ax].sum(axis=1)
+            np.add.at(sse[:, 6, part], cap[rows], e_re)
+            np.add.at(cnt[:, 6, part], cap[rows], 3)
+    used = np.unique(cap[rows])
+    point = _rmse(sse, cnt, used)
+    rng = np.random.default_rng(seed)
+    worst = np.full((N_BOOT, 2), np.nan)
+    by_face = [used[np.isin(used, np.unique(cap[rows][face[rows] == f]))] for f in range(6)]
+    for b in range(N_BOOT):
+        pick = np.concatenate([rng.choice(ix, ix.size) for ix in by_face if ix.size] or [np.zeros(0, int)])
+        r = _rmse(sse[:, :6], cnt[:, :6], pick)
+        worst[b] = np.nanmax(r, axis=0) if np.isfinite(r).any() else np.nan
+    lo, hi = np.nanpercentile(worst, [2.5, 97.5], axis=0) if np.isfinite(worst).any() else (np.full(2, np.nan),) * 2
+    return ValidationFigures(point[:6, 0], point[:6, 1], (lo[0], hi[0]), (lo[1], hi[1]), point[6], rows.size, used.size)
