@@ -14,7 +14,7 @@ def fitted():
     from pito_core.sim import simulate_calibration
 
     session = simulate_calibration("frame_hole", 6, k=150, seed=3)  # SIMULATED
-    cal, ev, _ = fit_and_evaluate(session, "loaded_frame")
+    cal, ev, *_ = fit_and_evaluate(session, "loaded_frame")
     return cal, ev
 
 
