@@ -25,10 +25,18 @@ from ._fit import (
     session_offsets,
 )
 from ._uncertainty import CalibrationCovariance, CovarianceGroup
+from ._cv import MODELS, ModelChoice
+from ._poly import PolyCorrection
+from ._sensor import SensorFit, fit_sensor
 from ._methods import METHODS, MethodSpec, get_method
 from ._session import DEFAULT_COUNTS_RANGE, FLANGES, N_GAUGES, CalibrationSession, SessionBlock
 
 __all__ = [
+    "MODELS",
+    "ModelChoice",
+    "PolyCorrection",
+    "SensorFit",
+    "fit_sensor",
     "ExcitationError",
     "RankDeficientError",
     "DEFAULT_FORCE_THRESHOLD",

@@ -7,6 +7,8 @@ import numpy as np
 from ..frames import FACES, CubeCore, check_pose, invert_pose, wrench_adjoint
 from ..io._calibration_file import read_calibration_fields, write_calibration
 from ..io._hdf5 import FileFormatError
+from ._cv import ModelChoice
+from ._poly import PolyCorrection
 from ._uncertainty import CalibrationCovariance, CovarianceGroup
 
 __all__ = ["Calibration", "load_calibration"]
@@ -38,10 +40,16 @@ class Calibration:
     covariance : CalibrationCovariance, optional
         The fit's uncertainty (residual covariance, design, gauge noise); None for
         calibrations without it (files of format version 1).
+    correction : PolyCorrection, optional
+        The nonlinear part (model ``poly``): rows as ``matrix``'s, of the offset-free
+        counts; None for the papers' linear model.
+    model : ModelChoice, optional
+        Which model the fit chose and the cross-validated figures that chose it
+        (default: ``linear``, as files written before the choice existed).
     """
 
     def __init__(self, method, matrix, output_faces, output_frame, offset, core, T_core_ati, meta=None,
-                 covariance=None):
+                 covariance=None, correction=None, model=None):
         self.method = str(method)
         output_faces = tuple(int(f) for f in output_faces)
         if not output_faces or any(f not in FACES for f in output_faces) or len(set(output_faces)) != len(output_faces):
@@ -68,8 +76,24 @@ class Calibration:
         if covariance is not None and not isinstance(covariance, CalibrationCovariance):
             raise ValueError(f"covariance: expected a CalibrationCovariance or None, got {type(covariance).__name__}")
         self.covariance = covariance
+        if correction is not None:
+            if not isinstance(correction, PolyCorrection):
+                raise ValueError(f"correction: expected a PolyCorrection or None, got {type(correction).__name__}")
+            if correction.coef.shape[0] != matrix.shape[0] or correction.scale.shape != (36,):
+                raise ValueError(f"correction: expected {matrix.shape[0]} rows over 36 gauges, got "
+                                 f"{correction.coef.shape[0]} rows over {correction.scale.size}")
+        self.correction = correction
+        if model is None:
+            model = ModelChoice(name="linear" if correction is None else "poly", requested="linear",
+                                reason="no model choice recorded (a calibration from before pito chose models)")
+        if not isinstance(model, ModelChoice):
+            raise ValueError(f"model: expected a ModelChoice or None, got {type(model).__name__}")
+        if (model.name == "poly") != (correction is not None):
+            raise ValueError(f"model: {model.name!r} does not match the correction ({'none' if correction is None else 'poly'})")
+        self.model = model
         self._face_from_output = self._build_adjoints()
         self._apply = self._build_apply()
+        self._apply_nl = self._build_apply_nl()
 
     def _build_adjoints(self) -> np.ndarray:
         """(6, 6, 6): each face's fitted output frame → its face frame (identity for ``face``)."""
@@ -85,6 +109,15 @@ class Calibration:
         A = np.zeros((6, 6, 36))
         for k, f in enumerate(self.output_faces):
             A[f - 1] = self._face_from_output[f - 1] @ self.matrix[6 * k : 6 * k + 6]
+        return A
+
+    def _build_apply_nl(self):
+        """(6, 6, r) maps: correction features → wrench on face i in its frame (None for ``linear``)."""
+        if self.correction is None:
+            return None
+        A = np.zeros((6, 6, self.correction.n_features))
+        for k, f in enumerate(self.output_faces):
+            A[f - 1] = self._face_from_output[f - 1] @ self.correction.coef[6 * k : 6 * k + 6]
         return A
 
     # ------------------------------------------------------------------ use
@@ -128,7 +161,10 @@ class Calibration:
         off = self.offset if offset is None else np.asarray(offset, dtype=float)
         if off.shape != (36,):
             raise ValueError(f"offset: expected shape (36,), got {off.shape}")
-        W = np.einsum("fij,nj->nfi", self._apply, c2 - off)
+        x = c2 - off
+        W = np.einsum("fij,nj->nfi", self._apply, x)
+        if self._apply_nl is not None:
+            W += np.einsum("fir,nr->nfi", self._apply_nl, self.correction.features(x))
         W[:, ~self.has_output] = np.nan
         if not return_cov:
             return W[0] if single else W
@@ -151,6 +187,7 @@ class Calibration:
             self.method, self.matrix, self.output_faces, self.output_frame, c.mean(axis=0),
             self.core, self.T_core_ati, self.meta,
             covariance=None if self.covariance is None else self.covariance.retared(c.shape[0]),
+            correction=self.correction, model=self.model,
         )
 
     @property
@@ -169,7 +206,7 @@ class Calibration:
 
     def __repr__(self) -> str:
         return (
-            f"Calibration(method={self.method!r}, matrix={self.matrix.shape[0]}×36, "
+            f"Calibration(method={self.method!r}, model={self.model.name!r}, matrix={self.matrix.shape[0]}×36, "
             f"faces={list(self.output_faces)}, frame={self.output_frame!r}, "
             f"1/cond={self.inverse_condition_number:.2e})"
         )

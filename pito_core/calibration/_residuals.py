@@ -49,7 +49,7 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
         for b in s.iter_blocks(block_size):
             targets, carries, usable, _ = block_targets(b.reference, b.loaded, mount, spec.output_frame)
             x = b.counts[usable] - o
-            Y = (x @ cal.matrix.T).reshape(-1, F, 6)
+            Y = _predict(cal, x).reshape(-1, F, 6)
             E = targets[usable][:, idx] - Y
             phi = _features(cal, x, idx)  # (n, F, 4)
             E2 = E * E
@@ -107,7 +107,7 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
         for b in s.iter_blocks(block_size):
             targets, _, usable, _ = block_targets(b.reference, b.loaded, mount, spec.output_frame)
             x = b.counts[usable] - o
-            E = (targets[usable][:, idx] - (x @ cal.matrix.T).reshape(-1, F, 6)).reshape(-1, 6 * F)
+            E = (targets[usable][:, idx] - _predict(cal, x).reshape(-1, F, 6)).reshape(-1, 6 * F)
             phi = _features(cal, x, idx)
             var = np.concatenate([phi[:, k] @ coef[6 * k : 6 * k + 6].T for k in range(F)], axis=1)  # (n, 6F)
             z = np.abs(E) / np.sqrt(np.clip(var, 1e-300, None))
@@ -117,6 +117,14 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     q95 = (np.argmax(cdf >= 0.95, axis=1) + 1) * _Z_WIDTH
     coef *= ((q95 / 1.959964) ** 2)[:, None]
     return coef, corr
+
+
+def _predict(cal, x) -> np.ndarray:
+    """``(n, 6F)`` the calibration's rows (output frame) for offset-free counts ``x (n, 36)``."""
+    Y = x @ cal.matrix.T
+    if cal.correction is not None:
+        Y += cal.correction(x)
+    return Y
 
 
 def _features(cal, x, idx) -> np.ndarray:
