@@ -213,7 +213,7 @@ class Calibration:
 
     # ------------------------------------------------------------------ files
     def save(self, path) -> None:
-        """Write exactly ``path`` (HDF5, format ``pito-calibration`` v2; docs/file-formats.md)."""
+        """Write exactly ``path`` (HDF5, format ``pito-calibration`` v3; docs/file-formats.md)."""
         write_calibration(path, self)
 
     @classmethod
@@ -231,6 +231,11 @@ def load_calibration(path) -> Calibration:
     fields = read_calibration_fields(path)
     cov = fields.pop("covariance")
     try:
+        corr = fields["correction"] and PolyCorrection(**fields["correction"])
+        model = fields["model"] and ModelChoice.from_dict(fields["model"])
+    except (ValueError, TypeError) as exc:
+        raise FileFormatError(f"{path}: model: {exc}") from None
+    try:
         if cov is not None:
             groups = [CovarianceGroup(**g) for g in cov["groups"]]
             cov = CalibrationCovariance(groups, cov["gauge_cov"], cov["n_tare"], cov["variance_coef"], cov["residual_corr"])
@@ -240,6 +245,7 @@ def load_calibration(path) -> Calibration:
         return Calibration(
             fields["method"], fields["matrix"], fields["output_faces"], fields["output_frame"], fields["offset"],
             CubeCore(fields["core_edge"]), fields["T_core_ati"], fields["meta"], covariance=cov,
+            correction=corr or None, model=model or None,
         )
     except ValueError as exc:
         raise FileFormatError(f"{path}: inconsistent calibration: {exc}") from None
