@@ -339,10 +339,11 @@ class Calibrator:
         n_int = len(sessions)
 
         # pass 1: tare means and the gauge noise at rest (refusing NaN, inf and saturated samples)
-        moments = [_tare_moments(s, self.block_size) for s in sessions]
-        tare_means = [m for m, _, _ in moments]
-        n_tare = sum(n for _, _, n in moments)
-        gauge_cov = sum(c * n for _, c, n in moments) / max(n_tare - n_int, 1)  # pooled within sessions
+        moments = [_tare_moments(s, self.block_size, with_reference=True) for s in sessions]
+        tare_means = [m[0] for m in moments]
+        n_tare = sum(m[2] for m in moments)
+        gauge_cov = sum(m[1] * m[2] for m in moments) / max(n_tare - n_int, 1)  # pooled within sessions
+        ref_covs = [m[3] * m[2] / max(m[2] - 1, 1) for m in moments]  # the reference's own noise at rest
         mounts = [MountGeometry(s) for s in sessions]
 
         # pass 2: targets, their Gram matrix (excitation, load rank) and streamed QR of the
@@ -494,7 +495,8 @@ class Calibrator:
         cal = Calibration(spec.name, matrix, out_faces, spec.output_frame, np.mean(offsets, axis=0), s0.core,
                           s0.T_core_ati, meta, correction=corr, model=choice)
         # pass 3: the error a sample brings itself (noise, what the linear model misses), against its load
-        coef, corr = fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, self.block_size)
+        coef, corr = fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, self.block_size, ref_covs,
+                                     gauge_cov)
         cal.covariance = CalibrationCovariance(groups, gauge_cov, None, coef, corr)
         self.calibration_ = cal
         return self

@@ -59,7 +59,7 @@ def test_covariance_round_trips_and_version_1_files_still_load(tmp_path):
     path = tmp_path / "c.pitocal"
     cal.save(path)
     with h5py.File(path) as f:
-        assert int(f.attrs["version"]) == 2 and "covariance" in f
+        assert int(f.attrs["version"]) == 3 and "covariance" in f
     back = load_calibration(path)
     x = np.random.default_rng(0).normal(size=(5, 36)) * 1e3 + cal.offset
     for a, b in zip(back.wrenches(x, return_cov=True), cal.wrenches(x, return_cov=True)):
