@@ -46,10 +46,13 @@ class Calibration:
     model : ModelChoice, optional
         Which model the fit chose and the cross-validated figures that chose it
         (default: ``linear``, as files written before the choice existed).
+    linear_fit : (matrix, offset), optional
+        With the ``poly`` model: the papers' linear fit of the same data (``matrix`` as
+        above, ``offset (36,)`` counts), for :meth:`linear_alternative`.
     """
 
     def __init__(self, method, matrix, output_faces, output_frame, offset, core, T_core_ati, meta=None,
-                 covariance=None, correction=None, model=None):
+                 covariance=None, correction=None, model=None, linear_fit=None):
         self.method = str(method)
         output_faces = tuple(int(f) for f in output_faces)
         if not output_faces or any(f not in FACES for f in output_faces) or len(set(output_faces)) != len(output_faces):
@@ -91,6 +94,12 @@ class Calibration:
         if (model.name == "poly") != (correction is not None):
             raise ValueError(f"model: {model.name!r} does not match the correction ({'none' if correction is None else 'poly'})")
         self.model = model
+        if linear_fit is not None:
+            lm, lo = (np.asarray(a, dtype=float) for a in linear_fit)
+            if lm.shape != matrix.shape or lo.shape != (36,):
+                raise ValueError(f"linear_fit: expected a matrix of shape {matrix.shape} and an offset of shape (36,)")
+            linear_fit = (lm, lo)
+        self.linear_fit = linear_fit
         self._face_from_output = self._build_adjoints()
         self._apply = self._build_apply()
         self._apply_nl = self._build_apply_nl()
@@ -175,6 +184,23 @@ class Calibration:
                                                explicit_offset=offset is not None)
         return (W[0], cov[0]) if single else (W, cov)
 
+    def linear_alternative(self) -> "Calibration":
+        """The papers' linear fit of the same data (``self`` if that is the model in use).
+
+        Its covariance is this calibration's (its residual part is that of the chosen model).
+        Raises ``ValueError`` for a ``poly`` calibration saved without it.
+        """
+        if self.correction is None:
+            return self
+        if self.linear_fit is None:
+            raise ValueError("linear_fit: this calibration does not keep the papers' linear fit")
+        m = ModelChoice(name="linear", requested="linear", cv_rmse=self.model.cv_rmse, cv_score=self.model.cv_score,
+                        folds_won=self.model.folds_won, n_folds=self.model.n_folds, n_segments=self.model.n_segments,
+                        reason="the papers' linear fit of the same data (switched from the polynomial model)")
+        return Calibration(self.method, self.linear_fit[0], self.output_faces, self.output_frame, self.linear_fit[1],
+                           self.core, self.T_core_ati, dict(self.meta, model="linear"), covariance=self.covariance,
+                           model=m)
+
     def tare(self, counts_unloaded) -> "Calibration":
         """A copy whose offset is the mean of ``counts_unloaded (N, 36)`` (N ≥ 1).
 
@@ -188,6 +214,7 @@ class Calibration:
             self.core, self.T_core_ati, self.meta,
             covariance=None if self.covariance is None else self.covariance.retared(c.shape[0]),
             correction=self.correction, model=self.model,
+            linear_fit=None if self.linear_fit is None else (self.linear_fit[0], c.mean(axis=0)),
         )
 
     @property
@@ -230,7 +257,12 @@ def load_calibration(path) -> Calibration:
     """
     fields = read_calibration_fields(path)
     cov = fields.pop("covariance")
+    linear_fit = None
     try:
+        if fields["correction"] is not None:
+            c = dict(fields["correction"])
+            linear_fit = (c.pop("linear_matrix"), c.pop("linear_offset"))
+            fields["correction"] = c
         corr = fields["correction"] and PolyCorrection(**fields["correction"])
         model = fields["model"] and ModelChoice.from_dict(fields["model"])
     except (ValueError, TypeError) as exc:
@@ -245,7 +277,7 @@ def load_calibration(path) -> Calibration:
         return Calibration(
             fields["method"], fields["matrix"], fields["output_faces"], fields["output_frame"], fields["offset"],
             CubeCore(fields["core_edge"]), fields["T_core_ati"], fields["meta"], covariance=cov,
-            correction=corr or None, model=model or None,
+            correction=corr or None, model=model or None, linear_fit=linear_fit,
         )
     except ValueError as exc:
         raise FileFormatError(f"{path}: inconsistent calibration: {exc}") from None

@@ -443,11 +443,12 @@ class Calibrator:
                 residual[f - 1] = res.residual_rms[6 * k : 6 * k + 6]
             groups.append(self._group(res, np.arange(36), np.arange(6 * len(out_faces)), center, weights))
 
-        choice, corr = ModelChoice(reason="the papers' affine least squares, as requested"), None
+        choice, corr, linear_fit = ModelChoice(reason="the papers' affine least squares, as requested"), None, None
         if poly is not None:
             choice, sol = poly.fit(out_faces, self.model)
             if sol is not None:
                 C, B, D, E2 = sol
+                linear_fit = (matrix.copy(), np.mean(offsets, axis=0))
                 matrix[:] = C
                 # the zero-load counts: the tare means (the intercepts, the model's wrench at rest,
                 # are the error at the unloaded samples: a shift of the counts would move the features too)
@@ -493,7 +494,8 @@ class Calibrator:
             "simulated": any(bool(s.meta.get("simulated", False)) for s in sessions),
         }
         cal = Calibration(spec.name, matrix, out_faces, spec.output_frame, np.mean(offsets, axis=0), s0.core,
-                          s0.T_core_ati, meta, correction=corr, model=choice)
+                          s0.T_core_ati, meta, correction=corr, model=choice,
+                          linear_fit=linear_fit)
         # pass 3: the error a sample brings itself (noise, what the linear model misses), against its load
         coef, corr = fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, self.block_size, ref_covs,
                                      gauge_cov)

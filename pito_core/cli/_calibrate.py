@@ -22,6 +22,13 @@ Methods (flange, faces loaded → result):
                                                      carried by it, reactions elsewhere)
   loaded_frame    frame_hole (type 2), all 6 faces → 36×36 fitted in the reference frame S_A
   unloaded_frame  face (type 3), 5 free faces      → 36×36 in face frames, connected face = −ΣW
+
+Models (--model):
+  auto    (default) the papers' linear fit, or the same with a polynomial correction of each
+          face's gauges (squares, products, cubes; ridge-regularised), whichever predicts
+          held-out loading segments better in 5-fold cross-validation (docs/calibration.md)
+  linear  the papers' linear fit C = W S⁺, exactly
+  poly    the polynomial correction, whatever the cross-validation says
 """
 
 
@@ -42,9 +49,28 @@ def register(sub) -> None:
                    help="face/frame flange without frame_hole sessions: fill the 6 unexcited load directions (the net "
                         "load) from each face's own-gauge fit (own_gauge), or not (none, default: the papers' plain "
                         "least squares). Add a frame_hole session to measure them instead")
+    p.add_argument("--model", choices=("auto", "linear", "poly"), default="auto",
+                   help="auto (default): the polynomial correction only where cross-validation over loading "
+                        "segments shows it predicts better; linear: the papers' C = W S⁺; poly: always the correction")
     p.add_argument("--flange", choices=("frame", "frame_hole", "face"), help="mount of CSV sessions")
     p.add_argument("--connected-face", type=int, choices=range(1, 7), metavar="1..6", help="connected face of CSV sessions")
     p.set_defaults(func=run)
+
+
+def print_model(model) -> None:
+    """The model in use, why, and the cross-validated RMSE of both candidates (N, N·m)."""
+    print(f"model: {model.name} — {model.reason}")
+    if model.cv_rmse:
+        for key in ("linear", "poly"):
+            r = model.cv_rmse.get(key) or []
+            force = [v for i, v in enumerate(r) if i % 6 < 3]
+            torque = [v for i, v in enumerate(r) if i % 6 >= 3]
+            if r:
+                print(f"  cross-validated RMSE, {key:6s}: forces {_rms(force):.4g} N, torques {_rms(torque):.4g} N·m")
+
+
+def _rms(v) -> float:
+    return float(sum(x * x for x in v) / max(len(v), 1)) ** 0.5
 
 
 def run(args) -> int:
@@ -66,12 +92,14 @@ def run(args) -> int:
             print(f"\rfitting: {done}/{total} samples ({100 * done / max(total, 1):.0f} %)", end="", file=sys.stderr)
 
     prior = None if args.prior == "none" else args.prior
-    cal = calibrate(train, args.method, allow_rank_deficient=args.allow_rank_deficient, progress=progress, prior=prior)
+    cal = calibrate(train, args.method, allow_rank_deficient=args.allow_rank_deficient, progress=progress, prior=prior,
+                    model=args.model)
     if sys.stderr.isatty():
         print(file=sys.stderr)
     dt = time.perf_counter() - t0
     print(f"{cal.method}: {cal.matrix.shape[0]}×36 matrix from {n} samples in {dt:.2f} s; "
           f"inverse condition number {cal.inverse_condition_number:.3e}")
+    print_model(cal.model)
     if test:
         ev = evaluate(cal, test)
         cal.meta["validation"] = ev.to_dict()

@@ -24,6 +24,7 @@ Layout (docs/file-formats.md)::
         pairs             (P, 2) int64 gauge pairs of the products u_i u_j
         cubes             (Q,) int64 gauges of the cubes u_i³
         coef              (6·F, P + Q) float64: N, N·m per feature, rows as /matrix
+        linear_matrix     (6·F, 36) float64, linear_offset (36,): the papers' linear fit of the same data
 
 Versions 1 and 2 have no model: they load as the papers' linear model.
 """
@@ -65,6 +66,8 @@ def write_calibration(path, cal) -> None:
             g = f.create_group("correction")
             for name in _CORRECTION_FIELDS:
                 checked_dataset(g, name, data=getattr(cal.correction, name))
+            checked_dataset(g, "linear_matrix", data=cal.linear_fit[0])
+            checked_dataset(g, "linear_offset", data=cal.linear_fit[1])
         cov = getattr(cal, "covariance", None)
         if cov is not None:
             g = f.create_group("covariance")
@@ -102,7 +105,8 @@ def read_calibration_fields(path) -> dict:
             offset = np.asarray(require(f, "offset", path)[()])
             T = np.asarray(require(f, "T_core_ati", path)[()])
             covariance = _read_covariance(f, path) if "covariance" in f else None
-            correction = ({name: np.asarray(require(f["correction"], name, path)[()]) for name in _CORRECTION_FIELDS}
+            correction = ({name: np.asarray(require(f["correction"], name, path)[()])
+                           for name in _CORRECTION_FIELDS + ("linear_matrix", "linear_offset")}
                           if "correction" in f else None)
         except OSError as exc:
             raise FileFormatError(f"{path}: data could not be read (truncated or corrupt?): {exc}") from None

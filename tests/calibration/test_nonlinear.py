@@ -124,3 +124,18 @@ def test_bad_model_is_refused():
     s = make_session(K, k=50, flange="face")
     with pytest.raises(ValueError, match="model: expected one of"):
         calibrate(s, "total", model="cubic")
+
+
+def test_the_papers_linear_fit_is_kept_beside_the_polynomial(tmp_path):
+    K = true_sensitivity(14, coupling=0.05)
+    s = make_session(K, k=500, flange="frame_hole", connected_face=5, noise=2.0, counts_dtype=float,
+                     response=nonlinear_response(14, K, 5, 0.1))
+    cal = calibrate(s, "loaded_frame")
+    lin = calibrate(s, "loaded_frame", model="linear")
+    alt = cal.linear_alternative()
+    assert cal.model.name == "poly" and alt.model.name == "linear" and alt.correction is None
+    np.testing.assert_allclose(alt.wrenches(s.counts[:20]), lin.wrenches(s.counts[:20]), rtol=1e-9, atol=1e-12)
+    cal.save(tmp_path / "p.h5")
+    back = type(cal).load(tmp_path / "p.h5").linear_alternative()
+    np.testing.assert_array_equal(back.matrix, alt.matrix)
+    assert lin.linear_alternative() is lin
