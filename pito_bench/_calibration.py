@@ -141,7 +141,7 @@ def task_memory(k, train, test, methods, repeat=3) -> dict:
         flange = MOUNT_OF_METHOD[method][0]
         s, te = sessions[flange], tests[flange]
         budget = 20.0
-        t_pito, cal = best_time(lambda: calibrate(s, method), repeat, budget)
+        t_pito, cal = best_time(lambda: calibrate(s, method, model="linear"), repeat, budget)
         t_lstsq, cal_l = best_time(lambda: plain_fit(s, method, cal.output_faces, "lstsq"), repeat, budget)
         t_pinv, cal_p = best_time(lambda: plain_fit(s, method, cal.output_faces, "pinv"), repeat, budget)
         row = {"method": method, "k": len(s), "mode": "memory", "fit_s": t_pito, "lstsq_fit_s": t_lstsq,
@@ -150,7 +150,7 @@ def task_memory(k, train, test, methods, repeat=3) -> dict:
             for key, v in rmse_summary(evaluate(c, te)).items():
                 row[name + key] = v
         # memory the fit allocates beyond its input (numpy reports to tracemalloc), pito vs lstsq
-        row["fit_alloc_MB"] = _traced_peak_mb(lambda: calibrate(s, method))
+        row["fit_alloc_MB"] = _traced_peak_mb(lambda: calibrate(s, method, model="linear"))
         row["lstsq_fit_alloc_MB"] = _traced_peak_mb(lambda: plain_fit(s, method, cal.output_faces, "lstsq"))
         row["alloc_ratio_lstsq"] = row["fit_alloc_MB"] / row["lstsq_fit_alloc_MB"]
         row["rmse_ratio_lstsq"] = row["rmse_force_N"] / row["lstsq_rmse_force_N"]
@@ -170,8 +170,44 @@ def task_memory(k, train, test, methods, repeat=3) -> dict:
             t_core_l, _ = best_time(lambda: np.linalg.lstsq(S, W, rcond=None), repeat, budget)
             row.update({"core_s": t_core, "lstsq_core_s": t_core_l, "core_time_ratio_lstsq": t_core / t_core_l,
                         "core_rows": int(S.shape[0]), "core_cols": f"{S.shape[1]}x{W.shape[1]}"})
+        row.update(_model_choice_row(s, te, method, cal, t_pito, repeat, budget))
         rows.append(row)
     return {"rows": rows}
+
+
+def _model_choice_row(s, te, method, cal_lin, t_lin, repeat, budget) -> dict:
+    """The default (model chosen by cross-validation) beside the linear fit: RMSE and fit-time ratios, coverage."""
+    from pito_core.calibration import calibrate, evaluate
+
+    t_auto, cal = best_time(lambda: calibrate(s, method), repeat, budget)
+    lin, auto = rmse_summary(evaluate(cal_lin, te)), rmse_summary(evaluate(cal, te))
+    return {"model": cal.model.name, "auto_fit_s": t_auto, "auto_time_ratio_linear": t_auto / t_lin,
+            "auto_rmse_force_N": auto["rmse_force_N"], "auto_rmse_torque_Nm": auto["rmse_torque_Nm"],
+            "auto_force_ratio_linear": auto["rmse_force_N"] / lin["rmse_force_N"],
+            "auto_torque_ratio_linear": auto["rmse_torque_Nm"] / lin["rmse_torque_Nm"],
+            "coverage95": interval_coverage(cal, te), "coverage95_linear": interval_coverage(cal_lin, te)}
+
+
+def interval_coverage(cal, session) -> dict:
+    """Fraction of single-face samples whose target lies within the nominal 95 % interval, per face and axis.
+
+    Targets come from the (simulated) reference, so its own noise is in them: the figure is a
+    lower bound of the coverage of the true wrench. Returns ``min``, ``median``, ``max`` over
+    faces and axes, and ``per_face`` (6 × 6, NaN where no output).
+    """
+    from pito_core.calibration._targets import MountGeometry, block_targets
+
+    counts = np.asarray(session.counts, dtype=float)
+    loaded = np.asarray(session.loaded, dtype=bool)
+    tared = cal.tare(counts[~loaded.any(axis=1)])
+    T, carries, usable, _ = block_targets(np.asarray(session.reference, float), loaded, MountGeometry(session), "face")
+    W, cov = tared.wrenches(counts[usable], return_cov=True)
+    sd = np.sqrt(np.clip(np.diagonal(cov, axis1=-2, axis2=-1), 0, None))
+    hit = np.abs(W - T[usable]) <= 1.959964 * sd
+    single = loaded[usable].sum(axis=1) == 1
+    per = np.where(cal.has_output[:, None], hit[single].mean(axis=0), np.nan)
+    v = per[np.isfinite(per)]
+    return {"min": float(v.min()), "median": float(np.median(v)), "max": float(v.max()), "per_face": per.tolist()}
 
 
 def task_stream(path, method, test_path, block_size=65536) -> dict:
@@ -309,8 +345,44 @@ def task_random_cubes(n_cubes, k_choices, seed=0, prior=False) -> dict:
             if v:
                 row[f"{key}_ratio_worst"] = float(np.max(v))
                 row[f"{key}_ratio_median"] = float(np.median(v))
+        row.update(_model_choice_row(s, te, method, cal, t_pito, repeat, budget))
         rows.append(row)
     return {"rows": rows}
+
+
+def _model_choice_row(s, te, method, cal_lin, t_lin, repeat, budget) -> dict:
+    """The default (model chosen by cross-validation) beside the linear fit: RMSE and fit-time ratios, coverage."""
+    from pito_core.calibration import calibrate, evaluate
+
+    t_auto, cal = best_time(lambda: calibrate(s, method), repeat, budget)
+    lin, auto = rmse_summary(evaluate(cal_lin, te)), rmse_summary(evaluate(cal, te))
+    return {"model": cal.model.name, "auto_fit_s": t_auto, "auto_time_ratio_linear": t_auto / t_lin,
+            "auto_rmse_force_N": auto["rmse_force_N"], "auto_rmse_torque_Nm": auto["rmse_torque_Nm"],
+            "auto_force_ratio_linear": auto["rmse_force_N"] / lin["rmse_force_N"],
+            "auto_torque_ratio_linear": auto["rmse_torque_Nm"] / lin["rmse_torque_Nm"],
+            "coverage95": interval_coverage(cal, te), "coverage95_linear": interval_coverage(cal_lin, te)}
+
+
+def interval_coverage(cal, session) -> dict:
+    """Fraction of single-face samples whose target lies within the nominal 95 % interval, per face and axis.
+
+    Targets come from the (simulated) reference, so its own noise is in them: the figure is a
+    lower bound of the coverage of the true wrench. Returns ``min``, ``median``, ``max`` over
+    faces and axes, and ``per_face`` (6 × 6, NaN where no output).
+    """
+    from pito_core.calibration._targets import MountGeometry, block_targets
+
+    counts = np.asarray(session.counts, dtype=float)
+    loaded = np.asarray(session.loaded, dtype=bool)
+    tared = cal.tare(counts[~loaded.any(axis=1)])
+    T, carries, usable, _ = block_targets(np.asarray(session.reference, float), loaded, MountGeometry(session), "face")
+    W, cov = tared.wrenches(counts[usable], return_cov=True)
+    sd = np.sqrt(np.clip(np.diagonal(cov, axis1=-2, axis2=-1), 0, None))
+    hit = np.abs(W - T[usable]) <= 1.959964 * sd
+    single = loaded[usable].sum(axis=1) == 1
+    per = np.where(cal.has_output[:, None], hit[single].mean(axis=0), np.nan)
+    v = per[np.isfinite(per)]
+    return {"min": float(v.min()), "median": float(np.median(v)), "max": float(v.max()), "per_face": per.tolist()}
 
 
 def random_cube_ratios(quick: bool = False, threads: int = 1, progress=print) -> dict:
