@@ -17,6 +17,7 @@ from pito_core.calibration import RankDeficientError, calibrate
 
 from .. import report
 from ..tasks import TaskBar, run_in_process, run_task
+from .model_choice import ModelChoiceBox
 from .page import WizardPage
 
 __all__ = ["ResultsPage", "fit_and_evaluate", "render_figures"]
@@ -25,7 +26,7 @@ __all__ = ["ResultsPage", "fit_and_evaluate", "render_figures"]
 FIT_BLOCK = 8192
 
 
-def fit_and_evaluate(session, method: str, holdout: float = 0.25, seed: int = 0, progress=None):
+def fit_and_evaluate(session, method: str, holdout: float = 0.25, seed: int = 0, progress=None, model: str = "auto"):
     """Fit ``method`` on a training split of ``session`` and evaluate it on the held-out rest.
 
     Returns ``(calibration, evaluation, note)``; ``note`` says if a minimum-norm fit was needed.
@@ -42,7 +43,7 @@ def fit_and_evaluate(session, method: str, holdout: float = 0.25, seed: int = 0,
     progress(0.1, f"fitting {method} on {n_fit} samples")
     # small blocks: LAPACK holds the GIL through each block's QR, and the GUI thread needs it
     # every few ms; the fit's own progress is also where a cancel stops it
-    fit_options = {"block_size": FIT_BLOCK,
+    fit_options = {"block_size": FIT_BLOCK, "model": model,
                    "progress": lambda done, total: progress(0.1 + 0.6 * done / max(total, 1),
                                                             f"fitting {method}: {done} / {total} samples")}
     note = ""
@@ -59,9 +60,9 @@ def fit_and_evaluate(session, method: str, holdout: float = 0.25, seed: int = 0,
     return cal, ev, note
 
 
-def fit_job(session, method: str, sizes: dict, progress=None):
+def fit_job(session, method: str, sizes: dict, model: str = "auto", progress=None):
     """Fit, evaluate and draw the figures (any process): ``(calibration, evaluation, note, images)``."""
-    cal, ev, note = fit_and_evaluate(session, method, progress=progress)
+    cal, ev, note = fit_and_evaluate(session, method, progress=progress, model=model)
     if progress is not None:
         progress(0.9, "drawing the figures")
     return cal, ev, note, render_figures(ev, sizes)
@@ -171,6 +172,9 @@ class ResultsPage(WizardPage):
         grid_l.setRowStretch(0, 1)
         grid_l.setRowStretch(1, 1)
         self.body.addLayout(grid_l, 1)
+        self.model_box = ModelChoiceBox()  # which model, why, and a switch to the papers' linear fit
+        self.model_box.requested_changed.connect(lambda _: self.compute())
+        self.body.addWidget(self.model_box)
         buttons = QHBoxLayout()
         self.accept_btn = QPushButton("Accept calibration")
         self.accept_btn.setObjectName("primary")
@@ -249,7 +253,7 @@ class ResultsPage(WizardPage):
 
         sizes = self._figure_sizes()
         # in a child process: the fit's LAPACK calls hold the GIL for long stretches
-        self.task = run_in_process(fit_job, (session, method, sizes),
+        self.task = run_in_process(fit_job, (session, method, sizes, self.model_box.requested),
                                    f"Fitting {method} on {session.counts.shape[0]} samples", done, failed,
                                    bar=self.taskbar, owner=self)
         self.task.ended.connect(self.refresh)
@@ -274,6 +278,7 @@ class ResultsPage(WizardPage):
                 self.values["status"].setText(f"✘ fit failed: {self.note}")
             self.set_ready(False)
             return
+        self.model_box.show_choice(cal.model)
         f, t = ev.rmse_force(), ev.rmse_torque()
         worst_f = int(np.nanargmax(f)) + 1 if np.isfinite(f).any() else None
         worst_t = int(np.nanargmax(t)) + 1 if np.isfinite(t).any() else None

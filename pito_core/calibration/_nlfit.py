@@ -21,6 +21,8 @@ __all__ = ["PolyAccumulator", "FULL_SCALE_WEIGHT"]
 
 #: Outputs are weighed by 1 / full scale in the model choice: ``[fx … tz]`` in 1/N and 1/(N·m).
 FULL_SCALE_WEIGHT = 1.0 / np.array([15.0, 15.0, 15.0, 0.1, 0.1, 0.1])
+#: Rows whose features are built at once (8192 × 200 columns × 8 B ≈ 13 MB).
+CHUNK = 8192
 _PAIRS, _CUBES = poly_terms([range(6 * (f - 1), 6 * f) for f in FACES])
 _N_PAIRS = _PAIRS.shape[0] // 6  # 21 per face
 
@@ -64,6 +66,11 @@ class PolyAccumulator:
         """Rows of session ``k``: ``x (n, 36)`` counts less its tare mean, ``targets (n, 6, 6)``."""
         fold = self.counter.ids(loaded, new_session=self._session != k) % self.K
         self._session = k
+        for a in range(0, x.shape[0], CHUNK):  # bounded memory: features of CHUNK rows at a time
+            sl = slice(a, a + CHUNK)
+            self._add(k, x[sl], targets[sl], usable[sl], carries[sl], loaded[sl], fold[sl])
+
+    def _add(self, k, x, targets, usable, carries, loaded, fold):
         u = x / self.scale
         phi = PolyCorrection(np.ones(36), _PAIRS, _CUBES, np.zeros((0, 162))).features(u)
         off = np.zeros((x.shape[0], self.n_int))

@@ -14,6 +14,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.optimize
 
+from ._session import SessionBlock
 from ._targets import block_targets
 from ._uncertainty import N_FEATURES, load_features
 
@@ -22,6 +23,9 @@ __all__ = ["fit_error_model", "N_CLUSTERS"]
 #: Clusters of consecutive samples for the cluster-robust variance of the coefficients:
 #: few and long, so that errors correlated over a loading gesture stay within one.
 N_CLUSTERS = 16
+#: The error model reads about this many samples (every n-th of each block beyond it): its
+#: figures are averages over the data, which a uniform subsample estimates closely.
+ERROR_MODEL_SAMPLES = 20_000
 #: Bins of |residual| / σ for the coverage calibration of the error model (pass 4): width, count.
 _Z_WIDTH, _Z_N = 0.005, 4000
 
@@ -54,16 +58,17 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     F = len(cal.output_faces)
     idx = [f - 1 for f in cal.output_faces]
     n_int = len(sessions)
+    stride = max(1, sum(len(s) for s in sessions) // ERROR_MODEL_SAMPLES)
     own_face = {id(g): (cal.output_faces[int(g.rows[0]) // 6] if g.inputs.size == 6 else None) for g in groups}
     clusters = {id(g): dict(score=np.zeros((g.design_pinv.shape[0], g.rows.size)), n=0,
-                            meat=np.zeros(g.rows.size), length=max(50, -(-g.dof // N_CLUSTERS))) for g in groups}
+                            meat=np.zeros(g.rows.size), length=max(50, -(-g.dof // (N_CLUSTERS * stride)))) for g in groups}
     PtP = np.zeros((F, N_FEATURES, N_FEATURES))
     Pte2 = np.zeros((F, N_FEATURES, 6))
     EtE = np.zeros((F, 6, 6))
     ref_covs = [None] * len(sessions) if ref_covs is None else ref_covs
     floor = np.zeros(6 * F) if gauge_cov is None else np.einsum("ia,ab,ib->i", cal.matrix, gauge_cov, cal.matrix)
     for s, mount, o, rc in zip(sessions, mounts, offsets, ref_covs):
-        for b in s.iter_blocks(block_size):
+        for b in _strided(s.iter_blocks(block_size), stride):
             targets, carries, usable, _ = block_targets(b.reference, b.loaded, mount, spec.output_frame)
             x = b.counts[usable] - o
             Y = _predict(cal, x).reshape(-1, F, 6)
@@ -101,7 +106,8 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
         cl["meat"] += np.einsum("pj,pq,qj->j", sc, g.design_pinv, sc)
         rank = max(int(np.linalg.matrix_rank(g.design_pinv, hermitian=True)), 1)
         var = np.clip(np.diag(g.residual_cov), 1e-300, None)
-        g.inflation = np.maximum(1.0, cl["meat"] / (rank * var))
+        # the scores are sums over every stride-th sample: × stride for the full data's (independent errors)
+        g.inflation = np.maximum(1.0, stride * cl["meat"] / (rank * var))
     coef = np.zeros((6 * F, N_FEATURES))
     corr = np.zeros((F, 6, 6))
     for k in range(F):
@@ -122,7 +128,7 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     hist = np.zeros((6 * F, _Z_N + 1))
     rows = np.arange(6 * F)
     for s, mount, o, rc in zip(sessions, mounts, offsets, ref_covs):
-        for b in s.iter_blocks(block_size):
+        for b in _strided(s.iter_blocks(block_size), stride):
             targets, carries, usable, _ = block_targets(b.reference, b.loaded, mount, spec.output_frame)
             x = b.counts[usable] - o
             E = (targets[usable][:, idx] - _predict(cal, x).reshape(-1, F, 6)).reshape(-1, 6 * F)
@@ -138,6 +144,12 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     q95 = (np.argmax(cdf >= 0.95, axis=1) + 1) * _Z_WIDTH
     coef *= ((q95 / 1.959964) ** 2)[:, None]
     return coef, corr
+
+
+def _strided(blocks, stride):
+    """Every ``stride``-th sample of each block (the blocks themselves when ``stride`` is 1)."""
+    for b in blocks:
+        yield b if stride == 1 else SessionBlock(b.start, b.counts[::stride], b.reference[::stride], b.loaded[::stride])
 
 
 def _predict(cal, x) -> np.ndarray:
