@@ -392,3 +392,41 @@ def random_cube_ratios(quick: bool = False, threads: int = 1, progress=print) ->
     progress(f"calibration: default vs plain least squares on {n} random cubes per method")
     r = run_worker("cal_random", {"n_cubes": n, "k_choices": k_choices, "seed": 0, "prior": True}, threads=threads)
     return {"data": "simulated: pito_core.sim.random_sensor (not the structured VirtualCube)", "rows": r["rows"]}
+
+
+# ---------------------------------------------------------------- hysteresis trial (issue 25, item 3)
+def hysteresis_trial(taus=(20, 100, 500), k: int = 3000, seed: int = 1) -> list[dict]:
+    """Cross-validated gain of giving each face's fit the recent past of its gauges.
+
+    On a simulated ``frame_hole`` session of ``pito_core.sim.VirtualCube`` (screw-joint play:
+    the counts depend on the load's history), each face's own-gauge fit gets 6 more
+    channels ``s − EMA_τ(s)`` (the counts less their exponential moving average over τ
+    samples). ``fit_sensor`` scores both by cross-validation over loading segments (held-out
+    gestures). Returns, per τ, the median over faces of the held-out score with / without
+    the channels, for the linear and the polynomial model (< 1: the recent past helps).
+    """
+    from scipy.signal import lfilter
+
+    from pito_core.calibration import fit_sensor
+    from pito_core.calibration._cv import segment_ids
+    from pito_core.calibration._targets import MountGeometry, block_targets
+    from pito_core.sim import VirtualCube, simulate_calibration
+
+    s = simulate_calibration("frame_hole", 6, k=k, seed=seed, model=VirtualCube(seed=0))
+    c, L = np.asarray(s.counts, float), np.asarray(s.loaded)
+    T, carries, usable, _ = block_targets(np.asarray(s.reference, float), L, MountGeometry(s), "face")
+    g = segment_ids(L)
+    out = []
+    for tau in taus:
+        a = 1.0 / tau
+        recent = c - (lfilter([a], [1, -(1 - a)], c - c[0], axis=0) + c[0])
+        r = []
+        for f in range(1, 7):
+            rows = usable & (carries[:, f - 1] | ~L.any(axis=1))
+            cols = slice(6 * (f - 1), 6 * f)
+            base = fit_sensor(c[rows][:, cols], T[rows, f - 1], g[rows]).choice.cv_score
+            hyst = fit_sensor(np.hstack([c[rows][:, cols], recent[rows][:, cols]]), T[rows, f - 1], g[rows]).choice.cv_score
+            r.append((hyst["linear"] / base["linear"], hyst["poly"] / base["poly"]))
+        r = np.array(r)
+        out.append({"tau_samples": tau, "linear_ratio": float(np.median(r[:, 0])), "poly_ratio": float(np.median(r[:, 1]))})
+    return out
