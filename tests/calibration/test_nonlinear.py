@@ -11,6 +11,7 @@ single-face and squeeze loads. Fixed seeds.
 import numpy as np
 import pytest
 from gen import FULL_SCALE, make_session, true_sensitivity
+from test_uncertainty import _coverage
 
 from pito_core.calibration import calibrate
 
@@ -139,3 +140,25 @@ def test_the_papers_linear_fit_is_kept_beside_the_polynomial(tmp_path):
     back = type(cal).load(tmp_path / "p.h5").linear_alternative()
     np.testing.assert_array_equal(back.matrix, alt.matrix)
     assert lin.linear_alternative() is lin
+
+
+def test_intervals_of_the_polynomial_model_cover_the_truth():
+    """Nominal 95 % intervals of the chosen (polynomial) model on the true face wrench of a later session.
+
+    Issue 25 asks 93–97 % per face and axis; measured (k = 1500): 94.5–97.0 % for four methods,
+    92.0–97.4 % for loaded_frame (docs/calibration.md). Checked here at k = 800, pooled over the cubes.
+    """
+    for method in sorted(CASES):
+        hits, n = 0, 0
+        for seed, strength, coupling, face in CUBES:
+            K = true_sensitivity(seed, coupling=coupling)
+            kw = dict(CASES[method], connected_face=face, noise=2.0, counts_dtype=float,
+                      response=nonlinear_response(seed, K, face, strength))
+            train, test = make_session(K, k=800, seed=seed + 1, **kw), make_session(K, k=300, seed=seed + 1000, **kw)
+            cal = calibrate(train, method).tare(test.counts[~test.loaded.any(axis=1)])
+            assert cal.model.name == "poly"
+            c = _coverage(cal, test.counts, test.true_face_wrenches)
+            hits, n = hits + c * len(test), n + len(test)
+        cover = hits / n
+        assert 0.935 <= cover.mean() <= 0.97, (method, cover)
+        assert 0.90 <= cover.min() and cover.max() <= 0.985, (method, cover)
