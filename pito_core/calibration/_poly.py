@@ -28,7 +28,13 @@ def poly_terms(blocks) -> tuple[np.ndarray, np.ndarray]:
 
 def poly_features(u: np.ndarray, pairs: np.ndarray, cubes: np.ndarray) -> np.ndarray:
     """``(N, P + Q)`` features ``[u_i u_j for pairs, u_i³ for cubes]`` of ``u (N, m)`` (dimensionless)."""
-    return np.concatenate([u[:, pairs[:, 0]] * u[:, pairs[:, 1]], u[:, cubes] ** 3], axis=1)
+    uT = np.ascontiguousarray(np.asarray(u, dtype=float).T)  # (m, N): a channel per contiguous row
+    P = pairs.shape[0]
+    out = np.empty((P + cubes.size, uT.shape[1]))
+    np.multiply(uT[pairs[:, 0]], uT[pairs[:, 1]], out=out[:P])
+    c = uT[cubes]
+    np.multiply(c * c, c, out=out[P:])
+    return out.T
 
 
 class PolyCorrection:
