@@ -20,7 +20,7 @@ from ._baseline import plain_affine_lstsq
 from ._data import MOUNT_OF_METHOD, write_session_file
 from ._timing import best_time, peak_rss_mb, run_worker
 
-__all__ = ["METHODS", "run_calibration", "plain_fit", "rmse_summary", "random_cube_ratios"]
+__all__ = ["METHODS", "run_calibration", "plain_fit", "rmse_summary", "random_cube_ratios", "interval_coverage", "hysteresis_trial"]
 
 METHODS = ("face_to_face", "quasi_total", "total", "loaded_frame", "unloaded_frame")
 #: Largest k fitted in memory (beyond, only the streamed fit from a file runs).
@@ -345,44 +345,8 @@ def task_random_cubes(n_cubes, k_choices, seed=0, prior=False) -> dict:
             if v:
                 row[f"{key}_ratio_worst"] = float(np.max(v))
                 row[f"{key}_ratio_median"] = float(np.median(v))
-        row.update(_model_choice_row(s, te, method, cal, t_pito, repeat, budget))
         rows.append(row)
     return {"rows": rows}
-
-
-def _model_choice_row(s, te, method, cal_lin, t_lin, repeat, budget) -> dict:
-    """The default (model chosen by cross-validation) beside the linear fit: RMSE and fit-time ratios, coverage."""
-    from pito_core.calibration import calibrate, evaluate
-
-    t_auto, cal = best_time(lambda: calibrate(s, method), repeat, budget)
-    lin, auto = rmse_summary(evaluate(cal_lin, te)), rmse_summary(evaluate(cal, te))
-    return {"model": cal.model.name, "auto_fit_s": t_auto, "auto_time_ratio_linear": t_auto / t_lin,
-            "auto_rmse_force_N": auto["rmse_force_N"], "auto_rmse_torque_Nm": auto["rmse_torque_Nm"],
-            "auto_force_ratio_linear": auto["rmse_force_N"] / lin["rmse_force_N"],
-            "auto_torque_ratio_linear": auto["rmse_torque_Nm"] / lin["rmse_torque_Nm"],
-            "coverage95": interval_coverage(cal, te), "coverage95_linear": interval_coverage(cal_lin, te)}
-
-
-def interval_coverage(cal, session) -> dict:
-    """Fraction of single-face samples whose target lies within the nominal 95 % interval, per face and axis.
-
-    Targets come from the (simulated) reference, so its own noise is in them: the figure is a
-    lower bound of the coverage of the true wrench. Returns ``min``, ``median``, ``max`` over
-    faces and axes, and ``per_face`` (6 × 6, NaN where no output).
-    """
-    from pito_core.calibration._targets import MountGeometry, block_targets
-
-    counts = np.asarray(session.counts, dtype=float)
-    loaded = np.asarray(session.loaded, dtype=bool)
-    tared = cal.tare(counts[~loaded.any(axis=1)])
-    T, carries, usable, _ = block_targets(np.asarray(session.reference, float), loaded, MountGeometry(session), "face")
-    W, cov = tared.wrenches(counts[usable], return_cov=True)
-    sd = np.sqrt(np.clip(np.diagonal(cov, axis1=-2, axis2=-1), 0, None))
-    hit = np.abs(W - T[usable]) <= 1.959964 * sd
-    single = loaded[usable].sum(axis=1) == 1
-    per = np.where(cal.has_output[:, None], hit[single].mean(axis=0), np.nan)
-    v = per[np.isfinite(per)]
-    return {"min": float(v.min()), "median": float(np.median(v)), "max": float(v.max()), "per_face": per.tolist()}
 
 
 def random_cube_ratios(quick: bool = False, threads: int = 1, progress=print) -> dict:

@@ -5,6 +5,8 @@ from __future__ import annotations
 import sys
 import time
 
+from ._model import print_model
+
 HELP = """\
 Fit a calibration matrix (counts → wrench on each face) from calibration sessions.
 
@@ -55,22 +57,6 @@ def register(sub) -> None:
     p.add_argument("--flange", choices=("frame", "frame_hole", "face"), help="mount of CSV sessions")
     p.add_argument("--connected-face", type=int, choices=range(1, 7), metavar="1..6", help="connected face of CSV sessions")
     p.set_defaults(func=run)
-
-
-def print_model(model) -> None:
-    """The model in use, why, and the cross-validated RMSE of both candidates (N, N·m)."""
-    print(f"model: {model.name} — {model.reason}")
-    if model.cv_rmse:
-        for key in ("linear", "poly"):
-            r = model.cv_rmse.get(key) or []
-            force = [v for i, v in enumerate(r) if i % 6 < 3]
-            torque = [v for i, v in enumerate(r) if i % 6 >= 3]
-            if r:
-                print(f"  cross-validated RMSE, {key:6s}: forces {_rms(force):.4g} N, torques {_rms(torque):.4g} N·m")
-
-
-def _rms(v) -> float:
-    return float(sum(x * x for x in v) / max(len(v), 1)) ** 0.5
 
 
 def run(args) -> int:

@@ -7,6 +7,7 @@ import json
 import numpy as np
 
 from ..defaults import LOADED_FORCE_N, LOADED_TORQUE_NM
+from ._model import print_model
 from ._tables import fmt, table
 
 HELP = """\
@@ -112,8 +113,6 @@ def run(args) -> int:
         print(json.dumps(ev.to_dict(series=args.series), indent=2))
     else:
         from ..io import calibration_hash, short_hash
-
-        from ._calibrate import print_model
 
         print(f"calibration: {args.calibration} [{short_hash(calibration_hash(cal))}] ({cal.method}, {cal.matrix.shape[0]}×36)")
         print_model(cal.model)
