@@ -25,7 +25,7 @@ __all__ = ["fit_error_model", "N_CLUSTERS"]
 N_CLUSTERS = 16
 #: The error model reads about this many samples (every n-th of each block beyond it): its
 #: figures are averages over the data, which a uniform subsample estimates closely.
-ERROR_MODEL_SAMPLES = 20_000
+ERROR_MODEL_SAMPLES = 10_000
 #: Bins of |residual| / σ for the coverage calibration of the error model (pass 4): width, count.
 _Z_WIDTH, _Z_N = 0.005, 4000
 
