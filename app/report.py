@@ -201,6 +201,7 @@ def export_report(folder, calibration, evaluation, info: dict | None = None, pro
             "output_faces": list(calibration.output_faces),
             "output_frame": calibration.output_frame,
             "inverse_condition_number": calibration.inverse_condition_number,
+            "model": calibration.model.to_dict(),
             "meta": calibration.meta,
         },
         "evaluation": evaluation.to_dict(),
@@ -220,6 +221,11 @@ def export_report(folder, calibration, evaluation, info: dict | None = None, pro
         lines.append(f"| {k} | {v} |")
     lines += [
         f"| inverse condition number σmin/σmax | {calibration.inverse_condition_number:.3e} |",
+        f"| calibration model | {calibration.model.name}: {calibration.model.reason} |",
+    ] + [
+        f"| cross-validated RMSE, {key} model | forces {_rms(r, 0):.4f} N, torques {_rms(r, 3) * 1000:.3f} mN·m |"
+        for key, r in (calibration.model.cv_rmse or {}).items() if r
+    ] + [
         f"| held-out single-face samples | {evaluation.n_single} |",
         "",
         "## Held-out RMSE per loaded face",
@@ -248,6 +254,12 @@ def export_report(folder, calibration, evaluation, info: dict | None = None, pro
     path.write_text("\n".join(lines))
     step(5, f"report written to {folder}")
     return path
+
+
+def _rms(values, a0) -> float:
+    """RMS of the entries of axes ``a0..a0+2`` of a per-output list (``[fx … tz]`` per face)."""
+    v = np.asarray(values, dtype=float).reshape(-1, 6)[:, a0 : a0 + 3]
+    return float(np.sqrt(np.mean(v**2)))
 
 
 def _json_default(x):

@@ -13,8 +13,11 @@ from __future__ import annotations
 
 import os
 import time
+import tracemalloc
+import warnings
 
 import numpy as np
+from scipy.signal import lfilter
 
 from pito_core.calibration import (
     Calibration,
@@ -24,15 +27,17 @@ from pito_core.calibration import (
     block_targets,
     calibrate,
     evaluate,
+    fit_sensor,
     get_method,
+    segment_ids,
 )
-from pito_core.sim import random_sensor, random_sensor_session
+from pito_core.sim import VirtualCube, random_sensor, random_sensor_session, simulate_calibration
 
 from ._baseline import plain_affine_lstsq
 from ._data import MOUNT_OF_METHOD, write_session_file
 from ._timing import best_time, peak_rss_mb, run_worker
 
-__all__ = ["METHODS", "run_calibration", "plain_fit", "rmse_summary", "random_cube_ratios"]
+__all__ = ["METHODS", "run_calibration", "plain_fit", "rmse_summary", "random_cube_ratios", "interval_coverage", "hysteresis_trial"]
 
 METHODS = ("face_to_face", "quasi_total", "total", "loaded_frame", "unloaded_frame")
 #: Largest k fitted in memory (beyond, only the streamed fit from a file runs).
@@ -114,8 +119,6 @@ def plain_fit(session, method, output_faces, solver: str = "lstsq"):
 
 def _traced_peak_mb(fn) -> float:
     """Peak memory allocated while ``fn()`` runs (tracemalloc, which numpy reports to), MB."""
-    import tracemalloc
-
     tracemalloc.start()
     try:
         fn()
@@ -145,7 +148,7 @@ def task_memory(k, train, test, methods, repeat=3) -> dict:
         flange = MOUNT_OF_METHOD[method][0]
         s, te = sessions[flange], tests[flange]
         budget = 20.0
-        t_pito, cal = best_time(lambda: calibrate(s, method), repeat, budget)
+        t_pito, cal = best_time(lambda: calibrate(s, method, model="linear"), repeat, budget)
         t_lstsq, cal_l = best_time(lambda: plain_fit(s, method, cal.output_faces, "lstsq"), repeat, budget)
         t_pinv, cal_p = best_time(lambda: plain_fit(s, method, cal.output_faces, "pinv"), repeat, budget)
         row = {"method": method, "k": len(s), "mode": "memory", "fit_s": t_pito, "lstsq_fit_s": t_lstsq,
@@ -154,7 +157,7 @@ def task_memory(k, train, test, methods, repeat=3) -> dict:
             for key, v in rmse_summary(evaluate(c, te)).items():
                 row[name + key] = v
         # memory the fit allocates beyond its input (numpy reports to tracemalloc), pito vs lstsq
-        row["fit_alloc_MB"] = _traced_peak_mb(lambda: calibrate(s, method))
+        row["fit_alloc_MB"] = _traced_peak_mb(lambda: calibrate(s, method, model="linear"))
         row["lstsq_fit_alloc_MB"] = _traced_peak_mb(lambda: plain_fit(s, method, cal.output_faces, "lstsq"))
         row["alloc_ratio_lstsq"] = row["fit_alloc_MB"] / row["lstsq_fit_alloc_MB"]
         row["rmse_ratio_lstsq"] = row["rmse_force_N"] / row["lstsq_rmse_force_N"]
@@ -174,8 +177,40 @@ def task_memory(k, train, test, methods, repeat=3) -> dict:
             t_core_l, _ = best_time(lambda: np.linalg.lstsq(S, W, rcond=None), repeat, budget)
             row.update({"core_s": t_core, "lstsq_core_s": t_core_l, "core_time_ratio_lstsq": t_core / t_core_l,
                         "core_rows": int(S.shape[0]), "core_cols": f"{S.shape[1]}x{W.shape[1]}"})
+        row.update(_model_choice_row(s, te, method, cal, t_pito, repeat, budget))
         rows.append(row)
     return {"rows": rows}
+
+
+def _model_choice_row(s, te, method, cal_lin, t_lin, repeat, budget) -> dict:
+    """The default (model chosen by cross-validation) beside the linear fit: RMSE and fit-time ratios, coverage."""
+    t_auto, cal = best_time(lambda: calibrate(s, method), repeat, budget)
+    lin, auto = rmse_summary(evaluate(cal_lin, te)), rmse_summary(evaluate(cal, te))
+    return {"model": cal.model.name, "auto_fit_s": t_auto, "auto_time_ratio_linear": t_auto / t_lin,
+            "auto_rmse_force_N": auto["rmse_force_N"], "auto_rmse_torque_Nm": auto["rmse_torque_Nm"],
+            "auto_force_ratio_linear": auto["rmse_force_N"] / lin["rmse_force_N"],
+            "auto_torque_ratio_linear": auto["rmse_torque_Nm"] / lin["rmse_torque_Nm"],
+            "coverage95": interval_coverage(cal, te), "coverage95_linear": interval_coverage(cal_lin, te)}
+
+
+def interval_coverage(cal, session) -> dict:
+    """Fraction of single-face samples whose target lies within the nominal 95 % interval, per face and axis.
+
+    Targets come from the (simulated) reference, so its own noise is in them: the figure is a
+    lower bound of the coverage of the true wrench. Returns ``min``, ``median``, ``max`` over
+    faces and axes, and ``per_face`` (6 × 6, NaN where no output).
+    """
+    counts = np.asarray(session.counts, dtype=float)
+    loaded = np.asarray(session.loaded, dtype=bool)
+    tared = cal.tare(counts[~loaded.any(axis=1)])
+    T, carries, usable, _ = block_targets(np.asarray(session.reference, float), loaded, MountGeometry(session), "face")
+    W, cov = tared.wrenches(counts[usable], return_cov=True)
+    sd = np.sqrt(np.clip(np.diagonal(cov, axis1=-2, axis2=-1), 0, None))
+    hit = np.abs(W - T[usable]) <= 1.959964 * sd
+    single = loaded[usable].sum(axis=1) == 1
+    per = np.where(cal.has_output[:, None], hit[single].mean(axis=0), np.nan)
+    v = per[np.isfinite(per)]
+    return {"min": float(v.min()), "median": float(np.median(v)), "max": float(v.max()), "per_face": per.tolist()}
 
 
 def task_stream(path, method, test_path, block_size=65536) -> dict:
@@ -264,8 +299,6 @@ def task_random_cubes(n_cubes, k_choices, seed=0, prior=False) -> dict:
     held-out single-face and squeeze loads (pairs of faces) on the same mount; truth =
     the simulated face wrenches. With ``prior``, also ``prior="own_gauge"`` where it applies.
     """
-    import warnings
-
     rng = np.random.default_rng(seed)
     rows = []
     for method in METHODS:
@@ -319,3 +352,34 @@ def random_cube_ratios(quick: bool = False, threads: int = 1, progress=print) ->
     progress(f"calibration: default vs plain least squares on {n} random cubes per method")
     r = run_worker("cal_random", {"n_cubes": n, "k_choices": k_choices, "seed": 0, "prior": True}, threads=threads)
     return {"data": "simulated: pito_core.sim.random_sensor (not the structured VirtualCube)", "rows": r["rows"]}
+
+
+# ---------------------------------------------------------------- hysteresis trial (issue 25, item 3)
+def hysteresis_trial(taus=(20, 100, 500), k: int = 3000, seed: int = 1) -> list[dict]:
+    """Cross-validated gain of giving each face's fit the recent past of its gauges.
+
+    On a simulated ``frame_hole`` session of ``pito_core.sim.VirtualCube`` (screw-joint play:
+    the counts depend on the load's history), each face's own-gauge fit gets 6 more
+    channels ``s − EMA_τ(s)`` (the counts less their exponential moving average over τ
+    samples). ``fit_sensor`` scores both by cross-validation over loading segments (held-out
+    gestures). Returns, per τ, the median over faces of the held-out score with / without
+    the channels, for the linear and the polynomial model (< 1: the recent past helps).
+    """
+    s = simulate_calibration("frame_hole", 6, k=k, seed=seed, model=VirtualCube(seed=0))
+    c, L = np.asarray(s.counts, float), np.asarray(s.loaded)
+    T, carries, usable, _ = block_targets(np.asarray(s.reference, float), L, MountGeometry(s), "face")
+    g = segment_ids(L)
+    out = []
+    for tau in taus:
+        a = 1.0 / tau
+        recent = c - (lfilter([a], [1, -(1 - a)], c - c[0], axis=0) + c[0])
+        r = []
+        for f in range(1, 7):
+            rows = usable & (carries[:, f - 1] | ~L.any(axis=1))
+            cols = slice(6 * (f - 1), 6 * f)
+            base = fit_sensor(c[rows][:, cols], T[rows, f - 1], g[rows]).choice.cv_score
+            hyst = fit_sensor(np.hstack([c[rows][:, cols], recent[rows][:, cols]]), T[rows, f - 1], g[rows]).choice.cv_score
+            r.append((hyst["linear"] / base["linear"], hyst["poly"] / base["poly"]))
+        r = np.array(r)
+        out.append({"tau_samples": tau, "linear_ratio": float(np.median(r[:, 0])), "poly_ratio": float(np.median(r[:, 1]))})
+    return out

@@ -18,6 +18,7 @@ from pito_core.calibration import CalibrationSession, RankDeficientError, calibr
 from .. import report
 from ..filetypes import CALIBRATION_SAVE_FILTER, CALIBRATION_SUFFIX
 from ..tasks import TaskBar, run_in_process, run_task
+from .model_choice import ModelChoiceBox
 from .page import WizardPage
 
 __all__ = ["ResultsPage", "fit_and_evaluate", "render_figures"]
@@ -26,7 +27,8 @@ __all__ = ["ResultsPage", "fit_and_evaluate", "render_figures"]
 FIT_BLOCK = 8192
 
 
-def fit_and_evaluate(sessions, method: str, holdout: float = 0.25, seed: int = 0, progress=None, validation=None):
+def fit_and_evaluate(sessions, method: str, holdout: float = 0.25, seed: int = 0, progress=None, validation=None,
+                     model: str = "auto"):
     """Fit ``method`` on the training split of ``sessions``; evaluate on the held-out rest and the validation pass.
 
     ``sessions``: the main mount's session, or a list (the main mount's first; an extra mount's
@@ -50,7 +52,7 @@ def fit_and_evaluate(sessions, method: str, holdout: float = 0.25, seed: int = 0
     progress(0.1, f"fitting {method} on {n_fit} samples")
     # small blocks: LAPACK holds the GIL through each block's QR, and the GUI thread needs it
     # every few ms; the fit's own progress is also where a cancel stops it
-    fit_options = {"block_size": FIT_BLOCK,
+    fit_options = {"block_size": FIT_BLOCK, "model": model,
                    "progress": lambda done, total: progress(0.1 + 0.55 * done / max(total, 1),
                                                             f"fitting {method}: {done} / {total} samples")}
     note = ""
@@ -72,9 +74,10 @@ def fit_and_evaluate(sessions, method: str, holdout: float = 0.25, seed: int = 0
     return cal, headline, note, heldout, figures
 
 
-def fit_job(sessions, method: str, sizes: dict, validation=None, progress=None):
+def fit_job(sessions, method: str, sizes: dict, validation=None, model: str = "auto", progress=None):
     """Fit, evaluate and draw the figures (any process): ``(calibration, headline, note, heldout, figures, images)``."""
-    cal, ev, note, heldout, figures = fit_and_evaluate(sessions, method, progress=progress, validation=validation)
+    cal, ev, note, heldout, figures = fit_and_evaluate(sessions, method, progress=progress, validation=validation,
+                                                       model=model)
     if progress is not None:
         progress(0.9, "drawing the figures")
     return cal, ev, note, heldout, figures, render_figures(ev, sizes, rmse_options(sessions, validation))
@@ -196,6 +199,9 @@ class ResultsPage(WizardPage):
         grid_l.setRowStretch(0, 1)
         grid_l.setRowStretch(1, 1)
         self.body.addLayout(grid_l, 1)
+        self.model_box = ModelChoiceBox()  # which model, why, and a switch to the papers' linear fit
+        self.model_box.requested_changed.connect(lambda _: self.compute())
+        self.body.addWidget(self.model_box)
         buttons = QHBoxLayout()
         self.accept_btn = QPushButton("Accept calibration")
         self.accept_btn.setObjectName("primary")
@@ -286,7 +292,7 @@ class ResultsPage(WizardPage):
         sizes = self._figure_sizes()
         # in a child process: the fit's LAPACK calls hold the GIL for long stretches
         n = sum(s.counts.shape[0] for s in ([sessions] if hasattr(sessions, "counts") else sessions))
-        self.task = run_in_process(fit_job, (sessions, method, sizes, validation),
+        self.task = run_in_process(fit_job, (sessions, method, sizes, validation, self.model_box.requested),
                                    f"Fitting {method} on {n} samples", done, failed,
                                    bar=self.taskbar, owner=self)
         self.task.ended.connect(self.refresh)
@@ -313,6 +319,7 @@ class ResultsPage(WizardPage):
                 self.values["status"].setText(f"✘ fit failed: {self.note}")
             self.set_ready(False)
             return
+        self.model_box.show_choice(cal.model)
         self._show_figures(cal, ev, m)
         status = "✔ accepted — the live view uses it" if m.accepted else "awaiting your decision"
         if m.saved_path:

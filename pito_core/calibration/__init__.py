@@ -31,6 +31,9 @@ from ._fit import (
 )
 from ._uncertainty import CalibrationCovariance, CovarianceGroup
 from ._lstsq import LstsqResult, StreamedQR
+from ._cv import MODELS, ModelChoice, segment_ids
+from ._poly import PolyCorrection
+from ._sensor import SensorFit, fit_sensor
 from ._methods import METHODS, MethodSpec, get_method
 from ._targets import MountGeometry, block_targets
 from ..io import (  # the session format and its one builder (io), re-exported
@@ -48,6 +51,12 @@ __all__ = [
     "Coverage",
     "completing_mount",
     "measured_directions",
+    "MODELS",
+    "ModelChoice",
+    "segment_ids",
+    "PolyCorrection",
+    "SensorFit",
+    "fit_sensor",
     "ExcitationError",
     "RankDeficientError",
     "DEFAULT_FORCE_THRESHOLD",

@@ -7,6 +7,8 @@ import numpy as np
 from ..frames import FACES, CubeCore, check_pose, invert_pose, wrench_adjoint
 from ..io import FileFormatError, read_calibration_fields, write_calibration
 from ._coverage import Coverage
+from ._cv import ModelChoice
+from ._poly import PolyCorrection
 from ._uncertainty import CalibrationCovariance, CovarianceGroup
 
 __all__ = ["Calibration", "load_calibration"]
@@ -38,10 +40,19 @@ class Calibration:
     covariance : CalibrationCovariance, optional
         The fit's uncertainty (residual covariance, design, gauge noise); None for
         calibrations without it (files of format version 1).
+    correction : PolyCorrection, optional
+        The nonlinear part (model ``poly``): rows as ``matrix``'s, of the offset-free
+        counts; None for the papers' linear model.
+    model : ModelChoice, optional
+        Which model the fit chose and the cross-validated figures that chose it
+        (default: ``linear``, as files written before the choice existed).
+    linear_fit : (matrix, offset), optional
+        With the ``poly`` model: the papers' linear fit of the same data (``matrix`` as
+        above, ``offset (36,)`` counts), for :meth:`linear_alternative`.
     """
 
     def __init__(self, method, matrix, output_faces, output_frame, offset, core, T_core_ati, meta=None,
-                 covariance=None):
+                 covariance=None, correction=None, model=None, linear_fit=None):
         self.method = str(method)
         output_faces = tuple(int(f) for f in output_faces)
         if not output_faces or any(f not in FACES for f in output_faces) or len(set(output_faces)) != len(output_faces):
@@ -68,8 +79,30 @@ class Calibration:
         if covariance is not None and not isinstance(covariance, CalibrationCovariance):
             raise ValueError(f"covariance: expected a CalibrationCovariance or None, got {type(covariance).__name__}")
         self.covariance = covariance
+        if correction is not None:
+            if not isinstance(correction, PolyCorrection):
+                raise ValueError(f"correction: expected a PolyCorrection or None, got {type(correction).__name__}")
+            if correction.coef.shape[0] != matrix.shape[0] or correction.scale.shape != (36,):
+                raise ValueError(f"correction: expected {matrix.shape[0]} rows over 36 gauges, got "
+                                 f"{correction.coef.shape[0]} rows over {correction.scale.size}")
+        self.correction = correction
+        if model is None:
+            model = ModelChoice(name="linear" if correction is None else "poly", requested="linear",
+                                reason="no model choice recorded (a calibration from before pito chose models)")
+        if not isinstance(model, ModelChoice):
+            raise ValueError(f"model: expected a ModelChoice or None, got {type(model).__name__}")
+        if (model.name == "poly") != (correction is not None):
+            raise ValueError(f"model: {model.name!r} does not match the correction ({'none' if correction is None else 'poly'})")
+        self.model = model
+        if linear_fit is not None:
+            lm, lo = (np.asarray(a, dtype=float) for a in linear_fit)
+            if lm.shape != matrix.shape or lo.shape != (36,):
+                raise ValueError(f"linear_fit: expected a matrix of shape {matrix.shape} and an offset of shape (36,)")
+            linear_fit = (lm, lo)
+        self.linear_fit = linear_fit
         self._face_from_output = self._build_adjoints()
         self._apply = self._build_apply()
+        self._apply_nl = self._build_apply_nl()
 
     def _build_adjoints(self) -> np.ndarray:
         """(6, 6, 6): each face's fitted output frame → its face frame (identity for ``face``)."""
@@ -85,6 +118,15 @@ class Calibration:
         A = np.zeros((6, 6, 36))
         for k, f in enumerate(self.output_faces):
             A[f - 1] = self._face_from_output[f - 1] @ self.matrix[6 * k : 6 * k + 6]
+        return A
+
+    def _build_apply_nl(self):
+        """(6, 6, r) maps: correction features → wrench on face i in its frame (None for ``linear``)."""
+        if self.correction is None:
+            return None
+        A = np.zeros((6, 6, self.correction.n_features))
+        for k, f in enumerate(self.output_faces):
+            A[f - 1] = self._face_from_output[f - 1] @ self.correction.coef[6 * k : 6 * k + 6]
         return A
 
     # ------------------------------------------------------------------ use
@@ -137,7 +179,10 @@ class Calibration:
         off = self.offset if offset is None else np.asarray(offset, dtype=float)
         if off.shape != (36,):
             raise ValueError(f"offset: expected shape (36,), got {off.shape}")
-        W = np.einsum("fij,nj->nfi", self._apply, c2 - off)
+        x = c2 - off
+        W = np.einsum("fij,nj->nfi", self._apply, x)
+        if self._apply_nl is not None:
+            W += np.einsum("fir,nr->nfi", self._apply_nl, self.correction.features(x))
         W[:, ~self.has_output] = np.nan
         if not return_cov:
             return W[0] if single else W
@@ -147,6 +192,23 @@ class Calibration:
         cov = self.covariance.face_covariances(c2, off, self._apply, self._face_from_output, self.output_faces,
                                                explicit_offset=offset is not None)
         return (W[0], cov[0]) if single else (W, cov)
+
+    def linear_alternative(self) -> "Calibration":
+        """The papers' linear fit of the same data (``self`` if that is the model in use).
+
+        Its covariance is this calibration's (its residual part is that of the chosen model).
+        Raises ``ValueError`` for a ``poly`` calibration saved without it.
+        """
+        if self.correction is None:
+            return self
+        if self.linear_fit is None:
+            raise ValueError("linear_fit: this calibration does not keep the papers' linear fit")
+        m = ModelChoice(name="linear", requested="linear", cv_rmse=self.model.cv_rmse, cv_score=self.model.cv_score,
+                        folds_won=self.model.folds_won, n_folds=self.model.n_folds, n_segments=self.model.n_segments,
+                        reason="the papers' linear fit of the same data (switched from the polynomial model)")
+        return Calibration(self.method, self.linear_fit[0], self.output_faces, self.output_frame, self.linear_fit[1],
+                           self.core, self.T_core_ati, dict(self.meta, model="linear"), covariance=self.covariance,
+                           model=m)
 
     def tare(self, counts_unloaded) -> "Calibration":
         """A copy whose offset is the mean of ``counts_unloaded (N, 36)`` (N ≥ 1).
@@ -160,6 +222,8 @@ class Calibration:
             self.method, self.matrix, self.output_faces, self.output_frame, c.mean(axis=0),
             self.core, self.T_core_ati, self.meta,
             covariance=None if self.covariance is None else self.covariance.retared(c.shape[0]),
+            correction=self.correction, model=self.model,
+            linear_fit=None if self.linear_fit is None else (self.linear_fit[0], c.mean(axis=0)),
         )
 
     @property
@@ -178,14 +242,14 @@ class Calibration:
 
     def __repr__(self) -> str:
         return (
-            f"Calibration(method={self.method!r}, matrix={self.matrix.shape[0]}×36, "
+            f"Calibration(method={self.method!r}, model={self.model.name!r}, matrix={self.matrix.shape[0]}×36, "
             f"faces={list(self.output_faces)}, frame={self.output_frame!r}, "
             f"1/cond={self.inverse_condition_number:.2e})"
         )
 
     # ------------------------------------------------------------------ files
     def save(self, path) -> None:
-        """Write exactly ``path`` (HDF5, format ``pito-calibration`` v2; docs/file-formats.md)."""
+        """Write exactly ``path`` (HDF5, format ``pito-calibration`` v3; docs/file-formats.md)."""
         write_calibration(path, self)
 
     @classmethod
@@ -202,6 +266,16 @@ def load_calibration(path) -> Calibration:
     """
     fields = read_calibration_fields(path)
     cov = fields.pop("covariance")
+    linear_fit = None
+    try:
+        if fields["correction"] is not None:
+            c = dict(fields["correction"])
+            linear_fit = (c.pop("linear_matrix"), c.pop("linear_offset"))
+            fields["correction"] = c
+        corr = fields["correction"] and PolyCorrection(**fields["correction"])
+        model = fields["model"] and ModelChoice.from_dict(fields["model"])
+    except (ValueError, TypeError) as exc:
+        raise FileFormatError(f"{path}: model: {exc}") from None
     try:
         if cov is not None:
             groups = [CovarianceGroup(**g) for g in cov["groups"]]
@@ -212,6 +286,7 @@ def load_calibration(path) -> Calibration:
         return Calibration(
             fields["method"], fields["matrix"], fields["output_faces"], fields["output_frame"], fields["offset"],
             CubeCore(fields["core_edge"]), fields["T_core_ati"], fields["meta"], covariance=cov,
+            correction=corr or None, model=model or None, linear_fit=linear_fit,
         )
     except ValueError as exc:
         raise FileFormatError(f"{path}: inconsistent calibration: {exc}") from None

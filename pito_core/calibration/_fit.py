@@ -22,7 +22,9 @@ from ..defaults import FULL_SCALE_FACE
 from ..frames import FACES
 from ._calibration import Calibration
 from ._coverage import measured_directions
+from ._cv import MODELS, ModelChoice
 from ._lstsq import RANK_RTOL, StreamedQR
+from ._nlfit import PolyAccumulator, correction as poly_correction
 from ._methods import MethodSpec, get_method
 from ..io import CalibrationSession, few_indices as _few
 from ._targets import MountGeometry, block_targets
@@ -167,6 +169,29 @@ def _tare_moments(session: CalibrationSession, block_size: int = 65536, with_ref
     return out
 
 
+def _gauge_scale(sessions, tare_means, block_size) -> np.ndarray:
+    """``(36,)`` spread of each gauge about its tare (RMS over each session's first block), counts."""
+    ss, n = np.zeros(36), 0
+    for s, m in zip(sessions, tare_means):
+        b = next(iter(s.iter_blocks(block_size)))
+        d = b.counts - m
+        ss += np.einsum("ij,ij->j", d, d)
+        n += d.shape[0]
+    rms = np.sqrt(ss / max(n, 1))
+    return np.where(rms > 0, rms, 1.0)
+
+
+def _rescale_groups(groups, residual, out_faces, E2, poly) -> None:
+    """Give the covariance groups (and the fit residual table) the polynomial fit's residual sums of squares."""
+    for g in groups:
+        old = np.clip(np.diag(g.residual_cov), 1e-300, None)
+        r = np.sqrt(E2[g.rows] / max(g.dof, 1) / old)
+        g.residual_cov = g.residual_cov * np.outer(r, r)
+    for k, f in enumerate(out_faces):
+        n = max(poly.rows_of(f), 1)
+        residual[f - 1] = np.sqrt(E2[6 * k : 6 * k + 6] / n)
+
+
 def _load_rank(gram: np.ndarray, faces) -> int:
     """Dimension of the load space the targets of ``faces`` span (scaled to full scale)."""
     idx = np.concatenate([np.arange(6 * (f - 1), 6 * f) for f in faces])
@@ -214,6 +239,12 @@ class Calibrator:
         Samples per block: memory is bounded by this, not by the number of samples.
     progress : callable, optional
         Called as ``progress(done, total)`` in samples during the fit.
+    model : {"auto", "linear", "poly"}
+        ``linear``: the papers' affine least squares ``C = W S⁺``, exactly. ``poly``: the same
+        design with a ridge-regularised polynomial correction of each face's own gauges
+        (docs/calibration.md). ``auto`` (default): ``poly`` only where cross-validation over
+        whole loading segments shows it predicts held-out segments better (``_cv.MARGIN``),
+        its ridge chosen the same way; the figures are in ``calibration_.model``.
     min_snr : None or 0
         Removed (it tuned a ridge towards the own-gauge fits); 0 is accepted and means the
         default. Use ``prior="own_gauge"`` for a prior on the unexcited directions.
@@ -231,8 +262,13 @@ class Calibrator:
     """
 
     def __init__(self, method, *, prior=None, allow_rank_deficient: bool = False, block_size: int = 65536,
-                 progress=None, min_snr=None):
+                 progress=None, min_snr=None, model: str = "auto"):
         self.method = get_method(method).name
+        if model not in MODELS:
+            raise ValueError(f"model: expected one of {MODELS}, got {model!r}")
+        if model == "poly" and prior is not None:
+            raise ValueError("model: 'poly' fits the measured load directions only; use prior=None with it")
+        self.model = model
         if prior not in PRIORS:
             raise ValueError(f"prior: expected None or 'own_gauge', got {prior!r}")
         self.prior = prior
@@ -304,10 +340,11 @@ class Calibrator:
         n_int = len(sessions)
 
         # pass 1: tare means and the gauge noise at rest (refusing NaN, inf and saturated samples)
-        moments = [_tare_moments(s, self.block_size) for s in sessions]
-        tare_means = [m for m, _, _ in moments]
-        n_tare = sum(n for _, _, n in moments)
-        gauge_cov = sum(c * n for _, c, n in moments) / max(n_tare - n_int, 1)  # pooled within sessions
+        moments = [_tare_moments(s, self.block_size, with_reference=True) for s in sessions]
+        tare_means = [m[0] for m in moments]
+        n_tare = sum(m[2] for m in moments)
+        gauge_cov = sum(m[1] * m[2] for m in moments) / max(n_tare - n_int, 1)  # pooled within sessions
+        ref_covs = [m[3] * m[2] / max(m[2] - 1, 1) for m in moments]  # the reference's own noise at rest
         mounts = [MountGeometry(s) for s in sessions]
 
         # pass 2: targets, their Gram matrix (excitation, load rank) and streamed QR of the
@@ -320,6 +357,10 @@ class Calibrator:
         joint_faces = self._output_faces(spec, sessions, None) if spec.inputs == "all" else ()
         joint = StreamedQR(n_int + 36, 6 * len(joint_faces), flush_rows=self.block_size) if joint_faces else None
         idx = [f - 1 for f in joint_faces]
+        poly = None
+        if self.model != "linear" and self.prior is None:
+            poly = PolyAccumulator(spec.inputs == "own", joint_faces, n_int, _gauge_scale(sessions, tare_means, self.block_size),
+                                   {s.connected_face for s in sessions if s.flange == "face"}, [len(s) for s in sessions])
         done = 0
         for k, (s, mount, center) in enumerate(zip(sessions, mounts, tare_means)):
             for b in s.iter_blocks(self.block_size):
@@ -343,6 +384,8 @@ class Calibrator:
                     acc.add(A[np.ix_(rows, cols)], targets[rows, f - 1])
                 if joint is not None:
                     joint.add(A[usable], targets[usable][:, idx, :].reshape(-1, 6 * len(idx)))
+                if poly is not None:
+                    poly.add(k, A[:, n_int:], targets, usable, carries, b.loaded)
                 done += b.counts.shape[0]
                 if self.progress is not None:
                     self.progress(done, total_samples)
@@ -401,6 +444,21 @@ class Calibrator:
                 residual[f - 1] = res.residual_rms[6 * k : 6 * k + 6]
             groups.append(self._group(res, np.arange(36), np.arange(6 * len(out_faces)), center, weights))
 
+        choice, corr, linear_fit = ModelChoice(reason="the papers' affine least squares, as requested"), None, None
+        if poly is not None:
+            choice, sol = poly.fit(out_faces, self.model)
+            if sol is not None:
+                C, B, D, E2 = sol
+                linear_fit = (matrix.copy(), np.mean(offsets, axis=0))
+                matrix[:] = C
+                # the zero-load counts: the tare means (the intercepts, the model's wrench at rest,
+                # are the error at the unloaded samples: a shift of the counts would move the features too)
+                offsets = [m.copy() for m in tare_means]
+                corr = poly_correction(poly.scale, D)
+                _rescale_groups(groups, residual, out_faces, E2, poly)
+        elif self.model != "linear":
+            choice = ModelChoice(requested=self.model, reason="the papers' affine least squares: prior='own_gauge' "
+                                 "fills the unexcited directions of the linear model only")
         if load_rank >= 36:
             net_load = NET_LOAD_MEASURED
         elif spec.inputs == "own" or self.prior == "own_gauge":
@@ -421,7 +479,9 @@ class Calibrator:
             "n_samples": int(total_samples),
             "n_samples_fitted": int(n_used),
             "fit": "affine least squares: counts beside one offset column per session, unloaded samples as "
-                   "zero-wrench rows (C = W S⁺)",
+                   "zero-wrench rows (C = W S⁺)" + ("" if corr is None else ", with a polynomial correction of "
+                                                   "each face's gauges (ridge chosen by cross-validation)"),
+            "model": choice.name,
             "fit_residual_rms": residual.tolist(),
             "load_rank": ranks,
             "counts_rank": counts_rank,
@@ -437,9 +497,11 @@ class Calibrator:
             "coverage": measured_directions(gram, out_faces, spec.output_frame, s0.core).to_meta(),
         }
         cal = Calibration(spec.name, matrix, out_faces, spec.output_frame, np.mean(offsets, axis=0), s0.core,
-                          s0.T_core_ati, meta)
+                          s0.T_core_ati, meta, correction=corr, model=choice,
+                          linear_fit=linear_fit)
         # pass 3: the error a sample brings itself (noise, what the linear model misses), against its load
-        coef, corr = fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, self.block_size)
+        coef, corr = fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, self.block_size, ref_covs,
+                                     gauge_cov)
         cal.covariance = CalibrationCovariance(groups, gauge_cov, None, coef, corr)
         self.calibration_ = cal
         return self

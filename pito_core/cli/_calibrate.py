@@ -10,6 +10,7 @@ from ..calibration import METHODS, calibrate, evaluate
 from ..io import calibration_hash, short_hash
 from ._evaluate import print_evaluation
 from ._sessions import load_sessions
+from ._model import print_model
 
 HELP = """\
 Fit a calibration matrix (counts → wrench on each face) from calibration sessions.
@@ -28,6 +29,13 @@ Methods (flange, faces loaded → result):
                                                      carried by it, reactions elsewhere)
   loaded_frame    frame_hole (type 2), all 6 faces → 36×36 fitted in the reference frame S_A
   unloaded_frame  face (type 3), 5 free faces      → 36×36 in face frames, connected face = −ΣW
+
+Models (--model):
+  auto    (default) the papers' linear fit, or the same with a polynomial correction of each
+          face's gauges (squares, products, cubes; ridge-regularised), whichever predicts
+          held-out loading segments better in 5-fold cross-validation (docs/calibration.md)
+  linear  the papers' linear fit C = W S⁺, exactly
+  poly    the polynomial correction, whatever the cross-validation says
 """
 
 
@@ -46,6 +54,9 @@ def register(sub) -> None:
                    help="face/frame flange without frame_hole sessions: fill the 6 unexcited load directions (the net "
                         "load) from each face's own-gauge fit (own_gauge), or not (none, default: the papers' plain "
                         "least squares). Add a frame_hole session to measure them instead")
+    p.add_argument("--model", choices=("auto", "linear", "poly"), default="auto",
+                   help="auto (default): the polynomial correction only where cross-validation over loading "
+                        "segments shows it predicts better; linear: the papers' C = W S⁺; poly: always the correction")
     p.add_argument("--flange", choices=("frame", "frame_hole", "face"), help="mount of CSV sessions")
     p.add_argument("--connected-face", type=int, choices=range(1, 7), metavar="1..6", help="connected face of CSV sessions")
     p.set_defaults(func=run)
@@ -66,12 +77,14 @@ def run(args) -> int:
             print(f"\rfitting: {done}/{total} samples ({100 * done / max(total, 1):.0f} %)", end="", file=sys.stderr)
 
     prior = None if args.prior == "none" else args.prior
-    cal = calibrate(train, args.method, allow_rank_deficient=args.allow_rank_deficient, progress=progress, prior=prior)
+    cal = calibrate(train, args.method, allow_rank_deficient=args.allow_rank_deficient, progress=progress, prior=prior,
+                    model=args.model)
     if sys.stderr.isatty():
         print(file=sys.stderr)
     dt = time.perf_counter() - t0
     print(f"{cal.method}: {cal.matrix.shape[0]}×36 matrix from {n} samples in {dt:.2f} s; "
           f"inverse condition number {cal.inverse_condition_number:.3e}")
+    print_model(cal.model)
     if test:
         ev = evaluate(cal, test)
         cal.meta["validation"] = ev.to_dict()

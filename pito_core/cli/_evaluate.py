@@ -17,6 +17,7 @@ from ..calibration import (
 from ..defaults import LOADED_FORCE_N, LOADED_TORQUE_NM
 from ..io import calibration_hash, short_hash
 from ._sessions import load_sessions
+from ._model import print_model
 from ._tables import fmt, table
 
 HELP = """\
@@ -98,17 +99,29 @@ def print_evaluation(ev, calibration=None) -> None:
           f"(per face: {', '.join(fmt(v, 3) for v in ev.face_inverse_condition_numbers)})")
 
 
+def _mean_rms(ev, a0) -> float:
+    """RMS over the faces with output of axes ``a0..a0+2`` of single-face RMSE (N or N·m)."""
+    r = np.asarray(ev.rmse_single, dtype=float)[:, a0 : a0 + 3]
+    return float(np.sqrt(np.nanmean(r**2)))
+
+
 def run(args) -> int:
     cal = load_calibration(args.calibration)
     sessions = load_sessions(args.sessions, args.flange, args.connected_face)
-    ev = evaluate(
-        cal, sessions, tare=not args.no_tare,
+    thresholds = dict(
         force_threshold=DEFAULT_FORCE_THRESHOLD if args.force_threshold is None else args.force_threshold,
         torque_threshold=DEFAULT_TORQUE_THRESHOLD if args.torque_threshold is None else args.torque_threshold,
     )
+    ev = evaluate(cal, sessions, tare=not args.no_tare, **thresholds)
     if args.json:
         print(json.dumps(ev.to_dict(series=args.series), indent=2))
     else:
         print(f"calibration: {args.calibration} [{short_hash(calibration_hash(cal))}] ({cal.method}, {cal.matrix.shape[0]}×36)")
+        print_model(cal.model)
         print_evaluation(ev, cal)
+        if cal.model.name != "linear" and cal.linear_fit is not None:
+            lin = evaluate(cal.linear_alternative(), sessions, tare=not args.no_tare, **thresholds)
+            print(f"the papers' linear fit of the same data, on the same sessions: RMSE forces {_mean_rms(lin, 0):.4g} N, "
+                  f"torques {_mean_rms(lin, 3):.4g} N·m (the {cal.model.name} model: {_mean_rms(ev, 0):.4g} N, "
+                  f"{_mean_rms(ev, 3):.4g} N·m)")
     return 0

@@ -23,7 +23,7 @@ def calibration_hash(cal) -> str:
     Covers the matrix (N, N·m per count), offset (counts), ``T_core_ati``, method, output frame,
     output faces, core edge (m) and the metadata (JSON, sorted keys), all as little-endian
     float64 / UTF-8 — so the same calibration has the same hash whether it was just fitted, saved
-    or loaded, on any machine. The covariance (uncertainty only) is not part of it.
+    or loaded, on any machine; with the polynomial model, its correction too. The covariance (uncertainty only) is not part of it.
     Show :func:`short_hash` of it in titles and CLI lines.
     """
     h = hashlib.sha256(b"pito-calibration-content/1\0")
@@ -33,6 +33,10 @@ def calibration_hash(cal) -> str:
     h.update(f"method={cal.method}\0frame={cal.output_frame}\0".encode())
     h.update(("faces=" + ",".join(str(int(v)) for v in cal.output_faces) + "\0").encode())
     _arr(h, "core_edge", [float(cal.core.edge)])
+    corr = getattr(cal, "correction", None)
+    if corr is not None:  # the polynomial model (linear calibrations keep the hash they always had)
+        for name in ("scale", "pairs", "cubes", "coef"):
+            _arr(h, f"correction.{name}", getattr(corr, name))
     meta = json.loads(json_attr(cal.meta or {}))
     h.update(json.dumps(meta, sort_keys=True, allow_nan=True).encode())
     return h.hexdigest()

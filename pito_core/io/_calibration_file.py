@@ -1,9 +1,10 @@
-"""The calibration file: HDF5, format ``pito-calibration``, version 2 (reads 1 and 2).
+"""The calibration file: HDF5, format ``pito-calibration``, version 3 (reads 1, 2 and 3).
 
 Layout (docs/file-formats.md)::
 
-    /             attrs: format="pito-calibration", version=2, writer, method, output_frame,
-                         output_faces [..], core_edge (m), meta (JSON text)
+    /             attrs: format="pito-calibration", version=3, writer, method, output_frame,
+                         output_faces [..], core_edge (m), meta (JSON text),
+                         model (JSON text, version 3: which model and its cross-validated figures)
     /matrix       (6·F, 36) float64: counts → N, N·m
     /offset       (36,) float64 counts
     /T_core_ati   (4, 4) float64
@@ -18,6 +19,14 @@ Layout (docs/file-formats.md)::
         g{k}_inflation    (q,) float64 ≥ 1: cluster-robust inflation of the coefficients' variance
         variance_coef     (6F, 4) float64: each row's error variance on [1, q, q², q_other]
         residual_corr     (F, 6, 6) float64: residual correlation between a face's six outputs
+    /correction   group (version 3, model "poly" only): the polynomial correction
+        scale             (36,) float64 counts per unit of u = (counts − offset) / scale
+        pairs             (P, 2) int64 gauge pairs of the products u_i u_j
+        cubes             (Q,) int64 gauges of the cubes u_i³
+        coef              (6·F, P + Q) float64: N, N·m per feature, rows as /matrix
+        linear_matrix     (6·F, 36) float64, linear_offset (36,): the papers' linear fit of the same data
+
+Versions 1 and 2 have no model: they load as the papers' linear model.
 """
 
 from __future__ import annotations
@@ -32,9 +41,10 @@ from ._hdf5 import FileFormatError, checked_dataset, json_attr, open_checked, re
 __all__ = ["write_calibration", "read_calibration_fields", "CALIBRATION_FORMAT", "CALIBRATION_VERSION"]
 
 CALIBRATION_FORMAT = "pito-calibration"
-CALIBRATION_VERSION = 2
-#: Versions this pito reads (version 1: no covariance).
-CALIBRATION_READ_VERSIONS = {1, 2}
+CALIBRATION_VERSION = 3
+#: Versions this pito reads (version 1: no covariance; 1 and 2: no model choice).
+CALIBRATION_READ_VERSIONS = {1, 2, 3}
+_CORRECTION_FIELDS = ("scale", "pairs", "cubes", "coef")
 _GROUP_FIELDS = ("inputs", "rows", "design_pinv", "residual_cov", "center", "weights", "inflation")
 
 
@@ -51,6 +61,13 @@ def write_calibration(path, cal) -> None:
         checked_dataset(f, "matrix", data=cal.matrix)
         checked_dataset(f, "offset", data=cal.offset)
         checked_dataset(f, "T_core_ati", data=cal.T_core_ati)
+        f.attrs["model"] = json_attr(cal.model.to_dict())
+        if cal.correction is not None:
+            g = f.create_group("correction")
+            for name in _CORRECTION_FIELDS:
+                checked_dataset(g, name, data=getattr(cal.correction, name))
+            checked_dataset(g, "linear_matrix", data=cal.linear_fit[0])
+            checked_dataset(g, "linear_offset", data=cal.linear_fit[1])
         cov = getattr(cal, "covariance", None)
         if cov is not None:
             g = f.create_group("covariance")
@@ -72,7 +89,8 @@ def read_calibration_fields(path) -> dict:
 
     Returns the keyword arguments of ``pito_core.calibration.Calibration`` (``method``,
     ``matrix`` (M, 36), ``output_faces``, ``output_frame``, ``offset`` (36,) counts,
-    ``core_edge`` m, ``T_core_ati`` (4, 4), ``meta``) and ``covariance``: ``None`` or a dict
+    ``core_edge`` m, ``T_core_ati`` (4, 4), ``meta``), ``model`` (dict or None), ``correction``
+    (dict of ``scale``, ``pairs``, ``cubes``, ``coef``, or None) and ``covariance``: ``None`` or a dict
     (``groups``: list of dicts, ``gauge_cov``, ``n_tare``, ``variance_coef``, ``residual_corr``).
     The objects are built by ``pito_core.calibration.load_calibration`` (io never imports calibration).
     """
@@ -87,14 +105,18 @@ def read_calibration_fields(path) -> dict:
             offset = np.asarray(require(f, "offset", path)[()])
             T = np.asarray(require(f, "T_core_ati", path)[()])
             covariance = _read_covariance(f, path) if "covariance" in f else None
+            correction = ({name: np.asarray(require(f["correction"], name, path)[()])
+                           for name in _CORRECTION_FIELDS + ("linear_matrix", "linear_offset")}
+                          if "correction" in f else None)
         except OSError as exc:
             raise FileFormatError(f"{path}: data could not be read (truncated or corrupt?): {exc}") from None
         meta = read_json_attr(f, "meta", path)
+        model = read_json_attr(f, "model", path) if "model" in f.attrs else None
     dec = lambda v: v.decode() if isinstance(v, bytes) else str(v)  # noqa: E731
     return {
         "method": dec(attrs["method"]), "matrix": matrix, "output_faces": [int(v) for v in attrs["output_faces"]],
         "output_frame": dec(attrs["output_frame"]), "offset": offset, "core_edge": float(attrs["core_edge"]),
-        "T_core_ati": T, "meta": meta, "covariance": covariance,
+        "T_core_ati": T, "meta": meta, "covariance": covariance, "correction": correction, "model": model,
     }
 
 

@@ -20,6 +20,8 @@ FIGURES = {
     "comparison_forces.png": ("Comparison with the reference, forces", ("comparison.csv",)),
     "comparison_torques.png": ("Comparison with the reference, torques", ("comparison.csv",)),
     "rmse_methods.png": ("RMSE per face: the five methods", ("rmse_methods.csv",)),
+    "model_choice.png": ("Held-out RMSE per method: the papers' linear fit beside the model chosen by cross-validation",
+                         ("model_choice.csv",)),
     "rmse_connected_face.png": ("RMSE per connected face: loaded vs unloaded frame (single-face loads)",
                                 ("rmse_connected_face.csv",)),
     "squeeze_connected_face.png": ("Squeeze resultant RMSE per connected face (Figs 11, 12, 16, 19)",
@@ -66,10 +68,43 @@ def _save(fig, path):
 def write_figures(res: Results, out_dir) -> list[str]:
     """Write every figure and its CSV into ``out_dir``; returns the file names written."""
     written = []
-    for fn in (_identification, _identification_loaded, _comparison, _rmse_methods, _rmse_connected, _squeeze_connected,
+    for fn in (_identification, _identification_loaded, _comparison, _rmse_methods, _model_choice, _rmse_connected,
+               _squeeze_connected,
                _table1, _equilibrium, _contact):
         written += fn(res, out_dir)
     return written
+
+
+# ---------------------------------------------------------------------- model choice
+def _overall(ev, a0):
+    """RMS over the faces and axes ``a0..a0+2`` of an evaluation's single-face RMSE (N or N·m)."""
+    r = np.asarray(ev.rmse_single, dtype=float)[:, a0 : a0 + 3]
+    return float(np.sqrt(np.nanmean(r**2)))
+
+
+def _model_choice(res, out):
+    plt = _plt()
+    methods = [m for m in METHOD_ORDER if m in res.linear_evaluations]
+    rows = []
+    for m in methods:
+        lin, ch = res.linear_evaluations[m], res.evaluations[m]
+        rows.append([m, res.calibrations[m].model.name, _overall(lin, 0), _overall(ch, 0), _overall(lin, 3),
+                     _overall(ch, 3)])
+    _write_csv(os.path.join(out, "model_choice.csv"), ["method", "model_chosen", "linear_force_rmse_N",
+                                                       "chosen_force_rmse_N", "linear_torque_rmse_Nm",
+                                                       "chosen_torque_rmse_Nm"], rows)
+    fig, axs = plt.subplots(1, 2, figsize=(11, 3.9))
+    x = np.arange(len(methods))
+    for ax, (k, unit, what) in zip(axs, ((2, "N", "force"), (4, "N·m", "torque"))):
+        ax.bar(x - 0.2, [r[k] for r in rows], 0.4, color="0.6", label="papers' linear fit")
+        ax.bar(x + 0.2, [r[k + 1] for r in rows], 0.4, color="C0", label="model chosen (auto)")
+        ax.set_xticks(x, [f"{r[0]}\n({r[1]})" for r in rows], fontsize=7)
+        ax.set_ylabel(f"held-out {what} RMSE, single-face loads [{unit}]")
+        ax.set_title(f"{what.capitalize()}s: linear vs chosen model, a later session{_SIM}", fontsize=9)
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    _save(fig, os.path.join(out, "model_choice.png"))
+    return ["model_choice.csv", "model_choice.png"]
 
 
 # ---------------------------------------------------------------------- identification

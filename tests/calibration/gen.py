@@ -43,11 +43,13 @@ def T_core_ati_for(connected_face, core=None, offset=0.03):
 
 def make_session(K, flange="face", connected_face=6, faces=None, k=2000, n_unloaded=300, noise=2.0,
                  offset_level=1e6, seed=1, core=None, directions=None, squeeze_pairs=(), counts_dtype=np.int64,
-                 free_only=False):
+                 free_only=False, response=None):
     """A session with ``k`` single-face loads per face in ``faces`` (+ squeeze pairs).
 
     ``free_only`` leaves the connected face unloaded. ``directions`` (6,) bool limits the excited wrench components. Counts are rounded
-    to integers unless ``counts_dtype`` is float.
+    to integers unless ``counts_dtype`` is float. ``response`` (optional) replaces the linear
+    ``F @ K.T``: a callable of the face wrenches ``F (n, 6, 6)`` (face frames) giving counts less
+    the offset ``(n, 36)``.
     """
     rng = np.random.default_rng(seed)
     core = core or CubeCore()
@@ -88,7 +90,8 @@ def make_session(K, flange="face", connected_face=6, faces=None, k=2000, n_unloa
         carried[:, c - 1] = 0.0
     F = np.stack([transform_wrench(carried[:, i], poses[i]) for i in range(6)], axis=1)  # face frames
     offset = offset_level * rng.uniform(0.5, 1.0, size=36)
-    counts = offset + F.reshape(-1, 36) @ K.T + rng.normal(scale=noise, size=(len(F), 36)) if noise else offset + F.reshape(-1, 36) @ K.T
+    clean = F.reshape(-1, 36) @ K.T if response is None else response(F)
+    counts = offset + clean + rng.normal(scale=noise, size=(len(F), 36)) if noise else offset + clean
     if np.issubdtype(counts_dtype, np.integer):
         counts = np.round(counts).astype(counts_dtype)
     reference = transform_wrench(total, T_core_ati)

@@ -36,7 +36,7 @@ def _rmse(W, truth, mask):
     return np.sqrt(np.mean(e[:, :3] ** 2)), np.sqrt(np.mean(e[:, 3:] ** 2))
 
 
-def check_against_plain(train, test, truth, method):
+def check_against_plain(train, test, truth, method, nonlinear=False):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         cal = calibrate(train, method)
@@ -50,7 +50,11 @@ def check_against_plain(train, test, truth, method):
         ours, theirs = _rmse(W, truth, mask), _rmse(Wp, truth, mask)
         for name, a, b in zip(("force", "torque"), ours, theirs):
             ratios.append(a / b)
-            assert a <= RATIO * b, f"{method} {kind} {name}: RMSE {a:.4g} > {RATIO} × plain least squares {b:.4g}"
+            if not nonlinear or cal.model.name == "linear":
+                assert a <= RATIO * b, f"{method} {kind} {name}: RMSE {a:.4g} > {RATIO} × plain least squares {b:.4g}"
+        if nonlinear and cal.model.name == "poly":  # forces and torques on one footing (full scale)
+            assert np.hypot(ours[0] / 15, ours[1] / 0.1) <= np.hypot(theirs[0] / 15, theirs[1] / 0.1)
+            assert max(ratios[-2:]) <= 1.1, f"{method} {kind}: {ratios[-2:]}"
     return ratios
 
 
@@ -106,7 +110,12 @@ def test_default_is_plain_least_squares_on_random_cubes(case):
 
 @pytest.mark.parametrize("method", sorted(MOUNT))
 def test_default_is_plain_least_squares_on_the_structured_simulator(method):
-    """``pito_core.sim.VirtualCube`` (hub model, nonlinearity, drift, hysteresis) as one more case."""
+    """``pito_core.sim.VirtualCube`` (hub model, nonlinearity, drift, hysteresis) as one more case.
+
+    The cube is nonlinear: where ``auto`` keeps the linear model it is the plain fit; where it
+    picks the polynomial correction, the full-scale-weighted held-out error must not grow and
+    neither forces nor torques may lose more than 10 % (tests/calibration/test_nonlinear.py
+    holds the nonlinear targets)."""
     cube = VirtualCube(seed=3)
     flange = MOUNT[method]
     faces = [1, 2, 3, 4, 6] if method == "unloaded_frame" else None
@@ -114,4 +123,4 @@ def test_default_is_plain_least_squares_on_the_structured_simulator(method):
     test, truth = simulate_calibration(flange, 5, k=300, seed=2, model=cube, faces=faces, return_truth=True)
     squeeze, sq_truth = simulate_squeeze(flange, 5, k=300, seed=3, model=cube, return_truth=True)
     both = CalibrationSession.concatenate([test, squeeze])
-    check_against_plain(train, both, np.concatenate([truth.face_wrenches, sq_truth.face_wrenches]), method)
+    check_against_plain(train, both, np.concatenate([truth.face_wrenches, sq_truth.face_wrenches]), method, nonlinear=True)

@@ -1,0 +1,151 @@
+"""The cube's polynomial correction: accumulated beside the affine fit, chosen by cross-validation.
+
+The design of a method's least-squares problem (offset columns, counts less each
+session's tare mean) gains the features of ``_poly.py``: each face's own six gauges,
+scaled by their spread, as squares, products and cubes. A face's outputs use its own
+face's features; under a ``face`` flange also those of the connected face (every load
+passes through it), and the connected face's outputs (the reactions ``−ΣW``) use every
+face's. Rows are dealt to folds by loading segment (``_cv.py``) in the same pass as the
+affine fit's QR; the model is chosen from the folds' factors, without another pass.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..frames import FACES, N_GAUGES
+from ._cv import ALPHAS, N_FOLDS, FoldedQR, MAX_SEGMENT_FRACTION, Problem, SegmentCounter, choose_model, cross_validate, solve_problem
+from ._poly import PolyCorrection, poly_terms
+
+__all__ = ["PolyAccumulator", "FULL_SCALE_WEIGHT"]
+
+#: Outputs are weighed by 1 / full scale in the model choice: ``[fx … tz]`` in 1/N and 1/(N·m).
+FULL_SCALE_WEIGHT = 1.0 / np.array([15.0, 15.0, 15.0, 0.1, 0.1, 0.1])
+#: Rows whose features are built at once (8192 × 200 columns × 8 B ≈ 13 MB).
+CHUNK = 8192
+_PAIRS, _CUBES = poly_terms([range(6 * (f - 1), 6 * f) for f in FACES])
+_N_PAIRS = _PAIRS.shape[0] // 6  # 21 per face
+
+
+def face_features(f: int) -> np.ndarray:
+    """Indices (into the 162 features) of face ``f``'s own squares, products and cubes."""
+    return np.r_[np.arange(_N_PAIRS * (f - 1), _N_PAIRS * f), _PAIRS.shape[0] + np.arange(6 * (f - 1), 6 * f)]
+
+
+class PolyAccumulator:
+    """Per-fold factors of ``[offsets | u | φ(u) | targets]`` for one method's fit.
+
+    Parameters
+    ----------
+    own : bool
+        The method fits each face from its own gauges (``face_to_face``): one problem per face,
+        on the rows that load it (or none).
+    out_faces : tuple of int
+        Output faces of a joint fit (ignored for ``own``).
+    n_int : int
+        Sessions (offset columns).
+    scale : ndarray, shape (36,)
+        Counts per unit of ``u``.
+    reaction_faces : set of int
+        Connected faces under a ``face`` flange.
+    session_lengths : list of int
+    """
+
+    def __init__(self, own, out_faces, n_int, scale, reaction_faces, session_lengths, n_folds=N_FOLDS):
+        self.own, self.n_int, self.scale, self.K = own, n_int, scale, n_folds
+        self.out_faces = tuple(out_faces)
+        self.reaction_faces = set(reaction_faces)
+        self.counter = SegmentCounter(max(1, int(np.ceil(max(session_lengths) * MAX_SEGMENT_FRACTION))))
+        self._session = None
+        if own:
+            self.acc = {f: FoldedQR(n_int + 6 + 27, 6, n_folds) for f in FACES}
+        else:
+            self.acc = FoldedQR(n_int + N_GAUGES + 162, 6 * len(self.out_faces), n_folds)
+
+    def add(self, k, x, targets, usable, carries, loaded):
+        """Rows of session ``k``: ``x (n, 36)`` counts less its tare mean, ``targets (n, 6, 6)``."""
+        fold = self.counter.ids(loaded, new_session=self._session != k) % self.K
+        self._session = k
+        for a in range(0, x.shape[0], CHUNK):  # bounded memory: features of CHUNK rows at a time
+            sl = slice(a, a + CHUNK)
+            self._add(k, x[sl], targets[sl], usable[sl], carries[sl], loaded[sl], fold[sl])
+
+    def _add(self, k, x, targets, usable, carries, loaded, fold):
+        u = x / self.scale
+        phi = PolyCorrection(np.ones(N_GAUGES), _PAIRS, _CUBES, np.zeros((0, 162))).features(u)
+        off = np.zeros((x.shape[0], self.n_int))
+        off[:, k] = 1.0
+        if self.own:
+            unloaded = ~loaded.any(axis=1)
+            for f, acc in self.acc.items():
+                rows = usable & (carries[:, f - 1] | unloaded)
+                g = slice(6 * (f - 1), 6 * f)
+                A = np.hstack([off[rows], u[rows, g], phi[rows][:, face_features(f)]])
+                acc.add(A, targets[rows, f - 1], fold[rows])
+        else:
+            idx = [f - 1 for f in self.out_faces]
+            A = np.hstack([off[usable], u[usable], phi[usable]])
+            self.acc.add(A, targets[usable][:, idx, :].reshape(-1, 6 * len(idx)), fold[usable])
+
+    def rows_of(self, f) -> int:
+        """Rows (samples) of face ``f``'s problem."""
+        return self.acc[f].n_rows if self.own else self.acc.n_rows
+
+    def _features_of(self, f) -> np.ndarray:
+        if f in self.reaction_faces:
+            return np.arange(162)
+        return np.unique(np.concatenate([face_features(f)] + [face_features(c) for c in self.reaction_faces]))
+
+    def problems(self, out_faces, rank_a=None):
+        """``[(FoldedQR, [Problem …], [face …])]`` of the fit."""
+        n_int = self.n_int
+        if self.own:
+            return [(self.acc[f], [Problem(np.arange(n_int + 6), np.arange(n_int + 6, n_int + 33), np.arange(6),
+                                           FULL_SCALE_WEIGHT, rank_a)], [f]) for f in out_faces]
+        probs = [Problem(np.arange(n_int + N_GAUGES), n_int + N_GAUGES + self._features_of(f), np.arange(6 * k, 6 * k + 6),
+                         FULL_SCALE_WEIGHT, rank_a) for k, f in enumerate(self.out_faces)]
+        return [(self.acc, probs, list(self.out_faces))]
+
+    def fit(self, out_faces, requested, rank_a=None, alphas=ALPHAS):
+        """Choose the model; returns ``(ModelChoice, solution or None)``.
+
+        The solution (for ``poly``) is ``(C (6F, 36), B (n_int, 6F), D (6F, 162), E2 (6F,))``: slopes
+        per count, session intercepts, feature coefficients, and the fit's residual sum of squares.
+        """
+        parts = self.problems(out_faces, rank_a)
+        results = [(cross_validate(acc, probs, alphas), [p.weight for p in probs]) for acc, probs, _ in parts]
+        choice = choose_model(results, requested, self.counter.count)
+        if choice.name != "poly":
+            return choice, None
+        F = len(out_faces)
+        row = {f: k for k, f in enumerate(out_faces)}
+        C, B, D, E2 = np.zeros((6 * F, 36)), np.zeros((self.n_int, 6 * F)), np.zeros((6 * F, 162)), np.zeros(6 * F)
+        n_int = self.n_int
+        for acc, probs, faces in parts:
+            for pr, f in zip(probs, faces):
+                X = solve_problem(acc, pr, choice.alpha)
+                rows = slice(6 * row[f], 6 * row[f] + 6)
+                lin = np.arange(6 * (f - 1), 6 * f) if self.own else np.arange(36)
+                C[rows][:, lin] = (X[n_int : n_int + lin.size] / self.scale[lin, None]).T
+                B[:, rows] = X[:n_int]
+                feats = face_features(f) if self.own else self._features_of(f)
+                D[rows][:, feats] = X[n_int + lin.size :].T
+                E2[rows] = _sse(acc, pr, X)
+        return choice, (C, B, D, E2)
+
+
+def _sse(acc: FoldedQR, pr: Problem, X: np.ndarray) -> np.ndarray:
+    """Residual sum of squares of solution ``X`` over every fold's rows, per output."""
+    out = np.zeros(pr.y.size)
+    for fk in acc.folds:
+        if fk.n_rows == 0:
+            continue
+        R = np.triu(fk.R11)
+        E = np.hstack([R[:, pr.a], R[:, pr.b]]) @ X - fk.R12[:, pr.y]
+        out += np.sum(E * E, axis=0) + np.diag(fk.residual_cp)[pr.y]
+    return out
+
+
+def correction(scale, D) -> PolyCorrection:
+    """The calibration's correction from the fitted feature coefficients ``D (6F, 162)``."""
+    return PolyCorrection(scale, _PAIRS, _CUBES, D)

@@ -1,0 +1,79 @@
+"""Polynomial features of scaled channels, and the nonlinear correction a calibration applies.
+
+The correction adds, to the affine fit's output, a linear combination of low-order
+monomials of the offset-free channels ``u = (counts − offset) / scale``: within each block
+of channels (a face's own six gauges), every square and pairwise product (``u_i u_j``,
+``i ≤ j``) and every cube (``u_i³``). Squares and products model a quadratic response
+(hub bending, load-dependent contact in the frame's screw joints); cubes a per-gauge
+odd nonlinearity (amplifier or bridge saturation).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["poly_terms", "poly_features", "PolyCorrection"]
+
+
+def poly_terms(blocks) -> tuple[np.ndarray, np.ndarray]:
+    """Monomials of ``blocks`` (sequences of channel indices): ``pairs (P, 2)`` and ``cubes (Q,)``.
+
+    ``pairs`` holds every ``(i, j)`` with ``i ≤ j`` inside a block (squares and products),
+    ``cubes`` every channel of every block.
+    """
+    pairs = [(i, j) for b in blocks for a, i in enumerate(b) for j in list(b)[a:]]
+    cubes = [i for b in blocks for i in b]
+    return np.asarray(pairs, dtype=np.int64).reshape(-1, 2), np.asarray(cubes, dtype=np.int64)
+
+
+def poly_features(u: np.ndarray, pairs: np.ndarray, cubes: np.ndarray) -> np.ndarray:
+    """``(N, P + Q)`` features ``[u_i u_j for pairs, u_i³ for cubes]`` of ``u (N, m)`` (dimensionless)."""
+    uT = np.ascontiguousarray(np.asarray(u, dtype=float).T)  # (m, N): a channel per contiguous row
+    P = pairs.shape[0]
+    out = np.empty((P + cubes.size, uT.shape[1]))
+    np.multiply(uT[pairs[:, 0]], uT[pairs[:, 1]], out=out[:P])
+    c = uT[cubes]
+    np.multiply(c * c, c, out=out[P:])
+    return out.T
+
+
+class PolyCorrection:
+    """The nonlinear part of a calibration: ``Δw = coef · φ((counts − offset) / scale)``.
+
+    Parameters
+    ----------
+    scale : array-like, shape (m,)
+        Counts per unit of ``u`` for each channel (positive).
+    pairs : array-like of int, shape (P, 2)
+    cubes : array-like of int, shape (Q,)
+        The monomials (see :func:`poly_terms`).
+    coef : array-like, shape (q, P + Q)
+        Output units per feature: rows in the order of the calibration's matrix rows
+        (``[fx, fy, fz, tx, ty, tz]`` per output face, N and N·m, in its output frame).
+    """
+
+    def __init__(self, scale, pairs, cubes, coef):
+        self.scale = np.asarray(scale, dtype=float).reshape(-1)
+        self.pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+        self.cubes = np.asarray(cubes, dtype=np.int64).reshape(-1)
+        self.coef = np.asarray(coef, dtype=float)
+        m, r = self.scale.size, self.pairs.shape[0] + self.cubes.size
+        if not np.all(np.isfinite(self.scale)) or np.any(self.scale <= 0):
+            raise ValueError("scale: expected finite positive counts per unit")
+        for name, idx in (("pairs", self.pairs), ("cubes", self.cubes)):
+            if idx.size and (idx.min() < 0 or idx.max() >= m):
+                raise ValueError(f"{name}: expected channel indices in 0..{m - 1}")
+        if self.coef.ndim != 2 or self.coef.shape[1] != r or not np.all(np.isfinite(self.coef)):
+            raise ValueError(f"coef: expected finite values of shape (q, {r}), got {self.coef.shape}")
+
+    @property
+    def n_features(self) -> int:
+        return self.coef.shape[1]
+
+    def features(self, x: np.ndarray) -> np.ndarray:
+        """``(N, P + Q)`` features of offset-free counts ``x (N, m)``."""
+        return poly_features(x / self.scale, self.pairs, self.cubes)
+
+    def __call__(self, x: np.ndarray) -> np.ndarray:
+        """``(N, q)`` correction for offset-free counts ``x (N, m)``, output units."""
+        return self.features(x) @ self.coef.T

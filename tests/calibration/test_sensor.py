@@ -1,0 +1,75 @@
+"""``fit_sensor`` on sensors unlike the cube: other channel counts, glitches, drift between segments."""
+
+import numpy as np
+import pytest
+
+from pito_core.calibration import SensorFit, fit_sensor
+
+FS = np.array([15.0, 15.0, 15.0, 0.1, 0.1, 0.1])
+
+
+def sensor_data(seed, m, n_seg, seg_len, sat=0.0, drift=0.0, glitches=0, ref_noise=0.0):
+    """Random segments of held loads on an ``m``-channel sensor: counts, wrench, groups."""
+    rng = np.random.default_rng(seed)
+    S = rng.normal(size=(m, 6)) * 1000 / FS  # counts per N, N·m
+    W = np.repeat(rng.uniform(-1, 1, size=(n_seg, 6)) * FS, seg_len, axis=0)
+    W += rng.normal(scale=0.02, size=W.shape) * FS  # the load wanders within a segment
+    lin = W @ S.T
+    full = np.abs(S) @ FS
+    counts = lin - sat * full * (lin / full) ** 3 + rng.normal(scale=2.0, size=lin.shape)
+    groups = np.repeat(np.arange(n_seg), seg_len)
+    counts += drift * rng.normal(size=(n_seg, m))[groups]  # offset drift between segments
+    bad = rng.choice(len(W), size=glitches, replace=False)
+    counts[bad] += rng.normal(scale=50.0, size=(glitches, m))
+    return counts, W + rng.normal(scale=ref_noise, size=W.shape) * FS, groups, W
+
+
+def _split(seg_len, *arrays, n_train):
+    cut = n_train * seg_len
+    return [a[:cut] for a in arrays], [a[cut:] for a in arrays]
+
+
+def _rmse(fit, counts, truth):
+    return np.sqrt(np.mean(((fit.predict(counts) - truth) / FS) ** 2))
+
+
+@pytest.mark.parametrize("m", [6, 8, 24])
+def test_saturating_sensor_gets_the_polynomial(m):
+    c, w, g, truth = sensor_data(m, m, 60, 80, sat=0.1)
+    (ct, wt, gt, _), (ch, _, _, th) = _split(80, c, w, g, truth, n_train=40)
+    auto, lin = fit_sensor(ct, wt, gt), fit_sensor(ct, wt, gt, model="linear")
+    assert isinstance(auto, SensorFit) and auto.model == "poly" and lin.model == "linear"
+    assert _rmse(auto, ch, th) <= 0.5 * _rmse(lin, ch, th)
+    assert auto.predict(ch).shape == (len(ch), 6) and auto.n_features_in_ == m
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_linear_sensor_with_drift_and_glitches_keeps_the_affine_fit(seed):
+    """A richer model only overfits here (few segments, 24 channels, drift, glitches)."""
+    c, w, g, truth = sensor_data(seed, 24, 30, 15, drift=20.0, glitches=5, ref_noise=0.005)
+    (ct, wt, gt, _), (ch, _, _, th) = _split(15, c, w, g, truth, n_train=20)
+    auto, lin = fit_sensor(ct, wt, gt), fit_sensor(ct, wt, gt, model="linear")
+    assert auto.model == "linear", auto.choice.reason
+    assert _rmse(auto, ch, th) <= 1.02 * _rmse(lin, ch, th)
+    forced = fit_sensor(ct, wt, gt, model="poly")
+    assert forced.model == "poly" and forced.choice.requested == "poly"
+
+
+def test_linear_model_is_plain_affine_least_squares():
+    c, w, g, _ = sensor_data(5, 7, 20, 30)
+    fit = fit_sensor(c, w, g, model="linear")
+    A = np.hstack([np.ones((len(c), 1)), c])
+    X = np.linalg.lstsq(A, w, rcond=None)[0]
+    np.testing.assert_allclose(fit.predict(c), A @ X, atol=1e-9 * np.abs(w).max())
+
+
+def test_fit_sensor_refuses_bad_input():
+    c, w, g, _ = sensor_data(5, 7, 10, 10)
+    with pytest.raises(ValueError, match=r"wrench: expected shape"):
+        fit_sensor(c, w[:-1])
+    with pytest.raises(ValueError, match=r"groups: expected shape"):
+        fit_sensor(c, w, g[:-1])
+    with pytest.raises(ValueError, match=r"model: expected one of"):
+        fit_sensor(c, w, model="spline")
+    with pytest.raises(ValueError, match=r"counts: expected shape \(N, 7\)"):
+        fit_sensor(c, w).predict(c[:, :3])
