@@ -9,7 +9,6 @@ from __future__ import annotations
 import numpy as np
 
 from ._segment import AnalysisSettings, Trial
-from ._series import GraspSeries
 
 __all__ = ["phase_rows", "PHASE_COLUMNS", "PATCH_COLUMNS", "GRAVITY_MS2"]
 
@@ -74,8 +73,9 @@ def _plausible(frac: float, s: AnalysisSettings):
     return None if not np.isfinite(frac) else bool(frac >= s.single_contact_min)
 
 
-def phase_rows(g: GraspSeries, trials: list[Trial], s: AnalysisSettings, mass: float | None = None):
-    """``(phase rows, patch rows)``: lists of dicts with :data:`PHASE_COLUMNS` / :data:`PATCH_COLUMNS` keys."""
+def phase_rows(g, trials: list[Trial], s: AnalysisSettings, mass: float | None = None):
+    """``(phase rows, patch rows)`` of the :class:`GraspSeries` ``g``: lists of dicts with
+    :data:`PHASE_COLUMNS` / :data:`PATCH_COLUMNS` keys."""
     fingers = np.array([i + 1 != s.base_face for i in range(6)])
     man, inn = np.linalg.norm(g.f_manip, axis=2), np.linalg.norm(g.f_int, axis=2)
     net = np.linalg.norm(g.net_force, axis=1)
@@ -112,7 +112,7 @@ def phase_rows(g: GraspSeries, trials: list[Trial], s: AnalysisSettings, mass: f
     return phases, patches
 
 
-def _patch_row(g: GraspSeries, tr: Trial, name, m, i, s, man, inn) -> dict:
+def _patch_row(g, tr: Trial, name, m, i, s, man, inn) -> dict:
     """The row of face ``i + 1`` (0-based ``i``) in the phase of samples ``m``."""
     on = g.on[:, i] & m
     length, spread = _path(g.path[on, i])
