@@ -7,7 +7,9 @@ quadrics and exactly, facet by facet, for meshes; ``point_contact=True`` uses th
 ``τ = 0`` redundancy (weighted least squares) and ``wrench_cov`` adds the Cramér–Rao
 covariances. Patches and object assemblies live in ``assets/patches/``
 (``load_patch``, ``load_assembly``); ``solve_object`` gives the six contacts of an
-object in the core frame. See ``docs/contact.md``.
+object in the core frame. Every estimate carries ``single_contact`` (can one fingertip
+on the patch produce this wrench within its noise?), its p-value ``single_contact_p`` and
+``single_contact_reason``. See ``docs/contact.md``.
 """
 
 from ._accuracy import ACCURACY_SQUARE, AccuracyResult, accuracy_points, flat_patch_accuracy
@@ -26,6 +28,13 @@ from ._patches import (
     surface_from_dict,
     surface_to_dict,
 )
+from ._plausibility import (
+    DEFAULT_FRICTION,
+    DEFAULT_TORSION_RADIUS,
+    SINGLE_CONTACT_ALPHA,
+    SingleContactReason,
+    reason_names,
+)
 from ._pointcontact import DEFAULT_WRENCH_COV
 from ._solve import DEFAULT_FORCE_THRESHOLD, ContactEstimate, contact_crb, solve
 from ._surfaces import BARYCENTRIC_TOL, Ellipsoid, MeshSurface, Plane, Sphere, Surface
@@ -39,6 +48,8 @@ __all__ = [
     "ContactCovariance",
     "ContactEstimate",
     "DEFAULT_FORCE_THRESHOLD",
+    "DEFAULT_FRICTION",
+    "DEFAULT_TORSION_RADIUS",
     "DEFAULT_WRENCH_COV",
     "Ellipsoid",
     "MeshSurface",
@@ -46,6 +57,8 @@ __all__ = [
     "Patch",
     "PatchBoundary",
     "Plane",
+    "SINGLE_CONTACT_ALPHA",
+    "SingleContactReason",
     "Sphere",
     "Surface",
     "accuracy_points",
@@ -57,6 +70,7 @@ __all__ = [
     "load_patch",
     "patch_solid",
     "patches_dir",
+    "reason_names",
     "solve",
     "solve_object",
     "surface_from_dict",

@@ -119,6 +119,35 @@ class PatchBoundary:
             return inside & ((u * u).sum(1) <= 1.0)
         return inside & (_in_polygon(xy, self.vertices) | (_polygon_distance(xy, self.vertices) <= tol))
 
+    def margin(self, points) -> np.ndarray:
+        """Signed distance ``(N,)`` (m) of surface points ``(N, 3)`` to the patch edge, > 0 inside.
+
+        Measured in the face plane after projection (and in height for ``z_min``); the
+        ellipse's is the distance along the ray from its centre. NaN for NaN points; +inf
+        without any limit. Used by the single-contact test (``docs/contact.md``).
+        """
+        p = np.asarray(points, dtype=float).reshape(-1, 3)
+        out = np.full(len(p), np.inf)
+        if self.z_min is not None:
+            out = p[:, 2] - self.z_min
+        if self.shape is None:
+            return np.where(np.isfinite(p).all(axis=1), out, np.nan)
+        xy = self.project(p)
+        if self.shape == "rectangle":
+            d = np.abs(xy - self.center) - 0.5 * self.size
+            outside = np.linalg.norm(np.maximum(d, 0.0), axis=1)
+            lateral = np.where(outside > 0, -outside, -d.max(axis=1))
+        elif self.shape == "ellipse":
+            r = np.linalg.norm(xy - self.center, axis=1)
+            rho = np.linalg.norm((xy - self.center) / self.radii, axis=1)
+            with np.errstate(invalid="ignore", divide="ignore"):
+                lateral = np.where(rho > 0, r * (1.0 / rho - 1.0), self.radii.min())
+        else:
+            dist = _polygon_distance(np.nan_to_num(xy), self.vertices)
+            lateral = np.where(_in_polygon(np.nan_to_num(xy), self.vertices), dist, -dist)
+            lateral = np.where(np.isfinite(xy).all(axis=1), lateral, np.nan)
+        return np.minimum(out, lateral)
+
     def outline(self, segments: int = 96) -> np.ndarray:
         """Counter-clockwise points ``(M, 2)`` on the boundary (corners included), m."""
         if self.shape is None:

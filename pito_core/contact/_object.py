@@ -31,6 +31,18 @@ class ObjectContacts:
     valid : ndarray, shape (..., 6), bool
     point_cov : ndarray, shape (..., 6, 3, 3) or None
         Cramér–Rao covariance of the points, m² (when ``wrench_cov`` is given).
+    single_contact : ndarray, shape (..., 6), bool, or None
+        One fingertip on that face's patch can produce its wrench within the noise
+        (``ContactEstimate.single_contact``; False where no force). Trust a contact where
+        ``valid & single_contact``.
+    single_contact_p : ndarray, shape (..., 6), or None
+        The p-value in [0, 1] that decides it (NaN where no force).
+    single_contact_reason : ndarray, shape (..., 6), int8, or None
+        ``SingleContactReason`` code (0 plausible, 1 no force, 2 no solution, 3 outside,
+        4 pulling, 5 friction, 6 torsion, 7 residual).
+
+    The three ``single_contact*`` fields are None only in records made without the test
+    (e.g. built by hand for display).
     """
 
     point: np.ndarray
@@ -39,6 +51,15 @@ class ObjectContacts:
     torsion: np.ndarray
     valid: np.ndarray
     point_cov: np.ndarray | None = None
+    single_contact: np.ndarray | None = None
+    single_contact_p: np.ndarray | None = None
+    single_contact_reason: np.ndarray | None = None
+
+    def flagged(self) -> np.ndarray:
+        """``(..., 6)`` bool: valid contacts that one fingertip cannot explain (False without the test)."""
+        if self.single_contact is None:
+            return np.zeros(np.shape(self.valid), bool)
+        return np.asarray(self.valid) & ~np.asarray(self.single_contact)
 
 
 @lru_cache(maxsize=16)
@@ -90,7 +111,8 @@ def solve_object(assembly, face_wrenches, force_threshold=DEFAULT_FORCE_THRESHOL
             covs = np.moveaxis(covs.reshape((-1, 6, 6, 6)), 1, 0)  # (6, M, 6, 6)
         elif covs.shape != (6, 6, 6):
             raise ValueError(f"wrench_cov: expected shape (6, 6), (6, 6, 6) or {lead + (6, 6, 6)}, got {covs.shape}")
-    out = {k: [] for k in ("point", "normal", "force", "torsion", "valid", "point_cov")}
+    out = {k: [] for k in ("point", "normal", "force", "torsion", "valid", "point_cov", "single_contact",
+                           "single_contact_p", "single_contact_reason")}
     for i in FACES:
         cov_i = None if covs is None else covs[i - 1]
         if cov_i is not None and np.isnan(cov_i).all():
@@ -104,6 +126,9 @@ def solve_object(assembly, face_wrenches, force_threshold=DEFAULT_FORCE_THRESHOL
         out["force"].append(np.einsum("ij,kj->ik", est.force, R))
         out["torsion"].append(est.torsion)
         out["valid"].append(est.valid)
+        out["single_contact"].append(est.single_contact)
+        out["single_contact_p"].append(est.single_contact_p)
+        out["single_contact_reason"].append(est.single_contact_reason)
         if est.point_cov is not None:
             out["point_cov"].append(R @ est.point_cov @ R.T)
     res = {}

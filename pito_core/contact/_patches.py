@@ -5,11 +5,15 @@ Patch file (JSON, ``"format": "pito-patch"``, ``"version": 1``)::
     {"format": "pito-patch", "version": 1, "name": "flat_46mm", "description": "...",
      "surface": {"type": "plane", "point": [0, 0, 0.003], "normal": [0, 0, 1]},
      "boundary": {"shape": "rectangle", "size": [0.046, 0.046], "projection": "parallel"},
-     "display": {"base_z": 0.0, "rings": 12, "segments": 96}}
+     "display": {"base_z": 0.0, "rings": 12, "segments": 96},
+     "friction": {"mu": 1.0, "torsion_radius": 0.005}}
 
 Surface types: ``plane`` (point, normal), ``sphere`` (center, radius), ``ellipsoid``
 (center, semi_axes, optional rotation 3×3 whose columns are the principal axes) and
 ``mesh`` (file: STL/OBJ/PLY next to the JSON). All values in the face frame, in m.
+``friction`` (optional) gives the fingertip–patch friction coefficient ``mu`` and the
+fingertip's effective torsional radius ``torsion_radius`` (m) of the single-contact test
+(defaults ``DEFAULT_FRICTION``, ``DEFAULT_TORSION_RADIUS``).
 ``display`` either parametrises the generated solid (analytic surfaces) or names a mesh
 ``file``; a mesh surface is its own display mesh.
 
@@ -30,6 +34,7 @@ import numpy as np
 from ..frames import FACES, CubeCore
 from ._boundary import PatchBoundary
 from ._display import patch_solid
+from ._plausibility import DEFAULT_FRICTION, DEFAULT_TORSION_RADIUS
 from ._surfaces import Ellipsoid, MeshSurface, Plane, Sphere
 
 __all__ = [
@@ -135,9 +140,19 @@ class Patch:
     name, description : str
     display : dict or trimesh.Trimesh, optional
         Generated-solid parameters (``base_z``, ``rings``, ``segments``) or a mesh.
+    mu : float
+        Fingertip–patch friction coefficient of the single-contact test (dimensionless).
+    torsion_radius : float
+        Fingertip's effective torsional radius, m (largest torsion ``μ · torsion_radius · f_n``).
     """
 
-    def __init__(self, surface, boundary=None, *, name="patch", description="", display=None):
+    def __init__(self, surface, boundary=None, *, name="patch", description="", display=None,
+                 mu=DEFAULT_FRICTION, torsion_radius=DEFAULT_TORSION_RADIUS):
+        for key, v in (("mu", mu), ("torsion_radius", torsion_radius)):
+            if not isinstance(v, (int, float)) or isinstance(v, bool) or not np.isfinite(v) or v <= 0:
+                raise ValueError(f"friction: {key}: expected a positive number, got {v!r}")
+        self.mu = float(mu)
+        self.torsion_radius = float(torsion_radius)
         self.surface = surface
         self.boundary = boundary
         self.name = name
@@ -180,8 +195,12 @@ class Patch:
             extra = set(display) - {"base_z", "rings", "segments"}
             if extra:
                 raise ValueError(f"display: unknown keys {sorted(extra)}")
+        fr = d.get("friction") or {}
+        if not isinstance(fr, dict) or set(fr) - {"mu", "torsion_radius"}:
+            raise ValueError("friction: expected an object with keys 'mu', 'torsion_radius'")
         return cls(surface, boundary, name=d.get("name", "patch"), description=d.get("description", ""),
-                   display=display)
+                   display=display, mu=fr.get("mu", DEFAULT_FRICTION),
+                   torsion_radius=fr.get("torsion_radius", DEFAULT_TORSION_RADIUS))
 
     def __repr__(self):
         return f"Patch({self.name!r}, {self.surface!r})"

@@ -9,6 +9,13 @@ import numpy as np
 from ..defaults import IDENTIFY_FORCE_N
 from ..frames import check_vectors
 from ._crb import ContactCovariance, check_wrench_cov, covariance_from_jacobian, wrench_jacobian
+from ._plausibility import (
+    DEFAULT_FRICTION,
+    DEFAULT_TORSION_RADIUS,
+    SINGLE_CONTACT_ALPHA,
+    SingleContactReason,
+    single_contact_test,
+)
 from ._pointcontact import DEFAULT_WRENCH_COV, refine_point_contact
 from ._quadric import solve_ellipsoid, solve_plane, solve_sphere
 from ._surfaces import Ellipsoid, MeshSurface, Plane, Sphere, Surface
@@ -43,6 +50,20 @@ class ContactEstimate:
         Cramér–Rao variance of ``torsion`` ((N·m)²).
     facet : ndarray, shape (N,), int or None
         Mesh facet holding the contact (−1 where not valid); None for analytic surfaces.
+    single_contact : ndarray, shape (N,), bool
+        One soft-finger contact on the patch can produce the measured wrench within its
+        noise (pushing, inside the friction limit surface, on the patch; for
+        ``point_contact`` also the χ² residual). False where there is no force. Trust a
+        contact where ``valid & single_contact``. See ``pito_core.contact._plausibility``
+        and ``docs/contact.md``.
+    single_contact_p : ndarray, shape (N,)
+        The score deciding it, in [0, 1]: the smallest p-value over the single contact's
+        limits (``Φ(margin / σ)`` per limit, ``P(χ²₁ ≥ r²)`` for the residual);
+        ``single_contact = single_contact_p >= alpha`` (default 0.05). NaN where no force.
+    single_contact_reason : ndarray, shape (N,), int8
+        :class:`SingleContactReason` code of the failing limit: 0 ``NONE`` (plausible),
+        1 ``NO_FORCE``, 2 ``NO_SOLUTION``, 3 ``OUTSIDE``, 4 ``PULLING``, 5 ``FRICTION``,
+        6 ``TORSION``, 7 ``RESIDUAL``; ``reason_names`` gives the short names.
 
     A single ``(6,)`` wrench gives the same fields without the leading N.
     """
@@ -56,6 +77,9 @@ class ContactEstimate:
     force_cov: np.ndarray | None = None
     torsion_var: np.ndarray | None = None
     facet: np.ndarray | None = None
+    single_contact: np.ndarray | None = None
+    single_contact_p: np.ndarray | None = None
+    single_contact_reason: np.ndarray | None = None
 
     def _reshape(self, lead: tuple) -> ContactEstimate:
         out = {}
@@ -65,16 +89,20 @@ class ContactEstimate:
         return ContactEstimate(**out)
 
 
-def _check_surface(surface):
+def _check_surface(surface, with_friction=False):
     boundary = None
+    friction = (DEFAULT_FRICTION, DEFAULT_TORSION_RADIUS)
     if hasattr(surface, "surface") and hasattr(surface, "boundary"):  # a Patch
         boundary = surface.boundary
+        friction = (surface.mu, surface.torsion_radius)
         surface = surface.surface
     if not isinstance(surface, Surface):
         raise ValueError(
             f"surface: expected a Plane, Sphere, Ellipsoid, MeshSurface or Patch, "
             f"got {type(surface).__name__}"
         )
+    if with_friction:
+        return surface, boundary, friction
     return surface, boundary
 
 
@@ -109,6 +137,9 @@ def solve(
     point_contact: bool = False,
     wrench_cov=None,
     boundary=None,
+    mu=None,
+    torsion_radius=None,
+    alpha=SINGLE_CONTACT_ALPHA,
 ) -> ContactEstimate:
     """Contact point, normal, force and torsion from the wrench on a patch.
 
@@ -134,15 +165,27 @@ def solve(
         ``point_cov``, ``force_cov``, ``torsion_var`` are filled in.
     boundary : PatchBoundary, optional
         Contacts outside it are not valid (default: the patch's own, if any).
+    mu : float, optional
+        Fingertip friction coefficient for the single-contact test (default: the patch's,
+        else ``DEFAULT_FRICTION``).
+    torsion_radius : float, optional
+        Effective torsional radius of the fingertip, m (default: the patch's, else
+        ``DEFAULT_TORSION_RADIUS``); the largest torsion is ``μ · torsion_radius · f_n``.
+    alpha : float
+        Significance level: ``single_contact = single_contact_p >= alpha``. The test
+        uses ``wrench_cov`` (or ``DEFAULT_WRENCH_COV`` if None) as the wrench's noise.
 
     Returns
     -------
     ContactEstimate
         Fields of shape ``(..., 3)``, ``(...,)`` (and ``(..., 3, 3)`` covariances).
     """
-    surface, patch_boundary = _check_surface(surface)
+    surface, patch_boundary, (mu_p, e_p) = _check_surface(surface, with_friction=True)
     if boundary is None:
         boundary = patch_boundary
+    mu = _check_positive(mu_p if mu is None else mu, "mu")
+    e = _check_positive(e_p if torsion_radius is None else torsion_radius, "torsion_radius")
+    alpha = _check_alpha(alpha)
     thr = _check_threshold(force_threshold)
     w = check_vectors(wrench, 6, "wrench")
     lead = w.shape[:-1]
@@ -158,56 +201,86 @@ def solve(
     if N and not strong.any():  # nobody pushes on this patch (most faces, most of the time): nothing to solve
         out = _assemble(N, strong, False, *_NO_ROWS, np.empty(0, bool),
                         np.empty(0, np.intp) if isinstance(surface, MeshSurface) else None,
-                        None if S is None else ContactCovariance(*_NO_COV))
+                        None if S is None else ContactCovariance(*_NO_COV), _NO_TEST)
         return out if len(lead) == 1 else out._reshape(lead)
     f = f_all if all_strong else f_all[strong]
     m = m_all if all_strong else m_all[strong]
+    ws = w if all_strong else w[strong]
+    Sn = S if S is not None else DEFAULT_WRENCH_COV  # the noise the test and the weights assume
+    if Sn.ndim == 3 and not all_strong:
+        Sn = Sn[strong]
 
     c, n, tau, ok, facet = _solve_surface(surface, np.ascontiguousarray(f), np.ascontiguousarray(m))
     force = f.copy()
+    W = np.linalg.inv(Sn) if point_contact else None
     if point_contact and len(c):
         sel = np.flatnonzero(ok)
         if len(sel):
-            ws = (w if all_strong else w[strong])[sel]
-            Wn = np.linalg.inv(S if S is not None else DEFAULT_WRENCH_COV)
-            if Wn.ndim == 3:
-                Wn = (Wn if all_strong else Wn[strong])[sel]
-            if isinstance(surface, MeshSurface):
-                nf = n[sel]
-                normal_fn = lambda p: nf  # noqa: E731 - the facet's plane
-                retract_fn = lambda p: p  # noqa: E731 - tangent steps stay on it
-            else:
-                normal_fn, retract_fn = surface._normal, surface._retract
-            with np.errstate(invalid="ignore", divide="ignore"):
-                cs, ns, fs = refine_point_contact(c[sel], f[sel], ws, Wn, normal_fn, retract_fn)
-            c[sel], n[sel], force[sel] = cs, ns, fs
-            ok[sel] &= np.einsum("ij,ij->i", fs, ns) < 0  # still pushing in
+            _refine(surface, c, n, force, ok, sel, ws[sel], W if W.ndim == 2 else W[sel])
         tau = np.zeros(len(c))
-    if boundary is not None and len(c):
-        ok &= boundary._contains(c)
     ok &= np.isfinite(c).all(axis=1)
 
+    with np.errstate(invalid="ignore", divide="ignore"):  # NaN rows stay NaN
+        shape = surface._shape_operator(c, n)
+        J, T = wrench_jacobian(c, n, shape, force, tau, point_contact=point_contact)
+        cov_all = covariance_from_jacobian(J, T, Sn)
+        test = single_contact_test(c, n, force, tau, ws, cov_all, shape, W, boundary=boundary, mu=mu,
+                                   torsion_radius=e, alpha=alpha, point_contact=point_contact)
+    if boundary is not None and len(c):
+        ok &= boundary._contains(c)
     cov = None
     if S is not None:
-        Ss = S if S.ndim == 2 or all_strong else S[strong]
-        with np.errstate(invalid="ignore", divide="ignore"):  # NaN rows stay NaN
-            shape = surface._shape_operator(c, n)
-            J, T = wrench_jacobian(c, n, shape, force, tau, point_contact=point_contact)
-            J[~ok] = np.nan
-            cov = covariance_from_jacobian(J, T, Ss)
+        J[~ok] = np.nan
+        cov = covariance_from_jacobian(J, T, Sn)
 
-    out = _assemble(N, strong, all_strong, c, n, force, tau, ok, facet, cov)
+    out = _assemble(N, strong, all_strong, c, n, force, tau, ok, facet, cov, test)
     if len(lead) == 1:
         return out
     return out._reshape(lead)
 
 
+def _refine(surface, c, n, force, ok, sel, ws, Wn):
+    """Point contact (``τ = 0``): weighted least squares from the closed form, rows ``sel`` in place."""
+    if isinstance(surface, MeshSurface):
+        nf = n[sel]
+        normal_fn = lambda p: nf  # noqa: E731 - the facet's plane
+        retract_fn = lambda p: p  # noqa: E731 - tangent steps stay on it
+    else:
+        normal_fn, retract_fn = surface._normal, surface._retract
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cs, ns, fs = refine_point_contact(c[sel], force[sel], ws, Wn, normal_fn, retract_fn)
+    c[sel], n[sel], force[sel] = cs, ns, fs
+    ok[sel] &= np.einsum("ij,ij->i", fs, ns) < 0  # still pushing in
+
+
+def _check_positive(x, name) -> float:
+    try:
+        v = float(x)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name}: expected a positive number, got {x!r}") from None
+    if not np.isfinite(v) or v <= 0:
+        raise ValueError(f"{name}: expected a positive number, got {x!r}")
+    return v
+
+
+def _check_alpha(alpha) -> float:
+    try:
+        a = float(alpha)
+    except (TypeError, ValueError):
+        raise ValueError(f"alpha: expected a significance level in (0, 1), got {alpha!r}") from None
+    if not 0.0 < a < 1.0:
+        raise ValueError(f"alpha: expected a significance level in (0, 1), got {alpha!r}")
+    return a
+
+
 #: ``c, n, force, tau`` of no rows; a :class:`ContactCovariance` of no rows
 _NO_ROWS = (np.empty((0, 3)), np.empty((0, 3)), np.empty((0, 3)), np.empty(0))
 _NO_COV = (np.empty((0, 3, 3)), np.empty((0, 3, 3)), np.empty(0), np.empty((0, 6, 6)), np.empty((0, 3, 2)))
+#: a single-contact test of no rows
+_NO_TEST = (np.empty(0, bool), np.empty(0), np.empty(0, np.int8))
 
 
-def _assemble(N, strong, all_strong, c, n, force, tau, ok, facet, cov) -> ContactEstimate:
+def _assemble(N, strong, all_strong, c, n, force, tau, ok, facet, cov, test) -> ContactEstimate:
     bad = ~ok
     any_bad = bool(bad.any())
 
@@ -233,6 +306,16 @@ def _assemble(N, strong, all_strong, c, n, force, tau, ok, facet, cov) -> Contac
         est.point_cov = full(cov.point_cov)
         est.force_cov = full(cov.force_cov)
         est.torsion_var = full(cov.torsion_var)
+    single, p, reason = test if isinstance(test, tuple) else (test.single, test.p, test.reason)
+    if all_strong:
+        est.single_contact, est.single_contact_p, est.single_contact_reason = single, p, reason
+    else:  # rows without force: nothing to judge
+        est.single_contact = np.zeros(N, bool)
+        est.single_contact[strong] = single
+        est.single_contact_p = np.full(N, np.nan)
+        est.single_contact_p[strong] = p
+        est.single_contact_reason = np.full(N, SingleContactReason.NO_FORCE, np.int8)
+        est.single_contact_reason[strong] = reason
     return est
 
 

@@ -105,8 +105,9 @@ def export_data(path, calibration=None, assembly=None, *, calibration_source: st
         for s in range(0, len(W), BLOCK):
             parts.append(pipe.contacts(W[s:s + BLOCK]))
             report(0.1 + 0.6 * min(1.0, (s + BLOCK) / len(W)), "contacts")
-        cont = ObjectContacts(*(np.concatenate([getattr(p, k) for p in parts])
-                                for k in ("point", "normal", "force", "torsion", "valid")))
+        cont = ObjectContacts(**{k: np.concatenate([getattr(p, k) for p in parts])
+                                 for k in ("point", "normal", "force", "torsion", "valid", "single_contact",
+                                           "single_contact_p", "single_contact_reason")})
     reference = getattr(bundle, "reference", None)
     if reference is not None and (not pipe.has_reference or np.size(reference) == 0):
         reference = None

@@ -19,6 +19,8 @@ for the tare and the smoothing are fixed-size rings read as contiguous views.
 
 from __future__ import annotations
 
+from dataclasses import fields
+
 import numpy as np
 
 from ..contact import Assembly, ObjectContacts, load_assembly, solve_object
@@ -336,8 +338,8 @@ class Pipeline:
         c = solve_object(assembly, np.asarray(wrenches)[None] if np.ndim(wrenches) == 2 else wrenches,
                          self.force_threshold, wrench_cov=wrench_cov)
         if np.ndim(wrenches) == 2:
-            c = ObjectContacts(c.point[0], c.normal[0], c.force[0], c.torsion[0], c.valid[0],
-                               None if c.point_cov is None else c.point_cov[0])
+            c = ObjectContacts(*(None if v is None else v[0] for v in
+                                 (getattr(c, f.name) for f in fields(ObjectContacts))))
         return c
 
     def _take_ready(self, new: dict | None, flush: bool) -> dict:

@@ -1,0 +1,230 @@
+"""Single-contact plausibility: can one soft finger on this patch give the measured wrench?
+
+Two fingers on one patch give one resultant wrench, and the solver turns any wrench into
+one contact. This module tests, per estimate, whether a single soft-finger contact on the
+patch can produce the measured wrench within its noise. The single-contact model is
+
+* the finger pushes: ``f_n = −f · n > 0``;
+* friction holds (elliptic limit surface of a soft fingertip, Howe & Cutkosky 1996):
+  ``√(|f_t|² + (τ / e)²) ≤ μ f_n``, with ``μ`` the fingertip–patch friction coefficient and
+  ``e`` the effective torsional radius (``|τ| ≤ μ e f_n`` for a pure twist; a Hertzian
+  fingertip of contact radius ``a`` gives ``e = 3πa/16``). With ``point_contact``
+  (``τ = 0``) it is the Coulomb cone ``|f_t| ≤ μ f_n``;
+* the point lies on the patch (inside its boundary; signed distance in m);
+* point contact only: the six equations agree with five parameters — the weighted
+  residual ``r² = eᵀ Σ⁻¹ e`` is χ² with one degree of freedom.
+
+Each limit ``g(θ) ≥ 0`` is tested at the estimate ``θ̂`` with its Cramér–Rao covariance
+``C`` (the calibration's wrench covariance through the solver's Jacobian): ``z = g(θ̂) / σ_g``,
+``σ_g² = ∇gᵀ C ∇g``, and its p-value is ``Φ(z)`` — the probability of a margin this low or
+lower if the true contact sat exactly on the limit (the least favourable single contact).
+The residual's p-value is ``P(χ²₁ ≥ r²)``. ``single_contact_p`` is the smallest of these
+p-values, ``single_contact_reason`` names the limit that gives it, and
+``single_contact = single_contact_p ≥ alpha`` (default ``SINGLE_CONTACT_ALPHA = 0.05``: a
+single contact exactly on one limit is flagged 5 % of the time, one inside its limits far
+less often). See ``docs/contact.md``.
+"""
+
+from __future__ import annotations
+
+from enum import IntEnum
+
+import numpy as np
+from scipy.special import chdtrc, ndtr
+
+from ._crb import ContactCovariance
+from ._quadric import _cross
+
+__all__ = [
+    "DEFAULT_FRICTION",
+    "DEFAULT_TORSION_RADIUS",
+    "SINGLE_CONTACT_ALPHA",
+    "SingleContactReason",
+    "SingleContactTest",
+    "reason_names",
+    "single_contact_test",
+]
+
+#: Fingertip–patch friction coefficient μ when the patch file gives none (dimensionless). Dry
+#: skin on plastic or metal is 0.4–1.0, moist skin reaches 1.5; a patch file sets its own
+#: (``"friction": {"mu": ...}``). A μ set too low flags true single touches.
+DEFAULT_FRICTION = 1.0
+
+#: Effective torsional radius ``e`` of a fingertip (m): the largest torsion is ``μ e f_n``. A
+#: Hertzian contact of radius ``a`` gives ``e = 3πa/16``; a human index fingertip pressing
+#: 1–10 N has ``a ≈ 6–10 mm``, so ``e ≈ 4–6 mm``. Patch files set it with
+#: ``"friction": {"torsion_radius": ...}``.
+DEFAULT_TORSION_RADIUS = 0.005
+
+#: Significance level of the single-contact test: ``single_contact = single_contact_p >= alpha``.
+SINGLE_CONTACT_ALPHA = 0.05
+
+#: Finite-difference step (m) for the boundary margin's gradient along the surface.
+_BOUNDARY_STEP = 1e-6
+
+
+class SingleContactReason(IntEnum):
+    """Why an estimate is not a plausible single contact (``single_contact_reason`` codes).
+
+    ``NONE`` (0): plausible. ``NO_FORCE`` (1): force below the threshold (or NaN), nothing to
+    judge. ``NO_SOLUTION`` (2): no point of the surface explains the wrench (a mesh whose
+    facets all miss). ``OUTSIDE`` (3): the point is off the patch. ``PULLING`` (4): the force
+    pulls. ``FRICTION`` (5): the tangential force exceeds the friction limit. ``TORSION`` (6):
+    the torsion exceeds what a fingertip's friction gives. ``RESIDUAL`` (7): point contact
+    only, the six wrench equations disagree beyond the noise (χ² test).
+    """
+
+    NONE = 0
+    NO_FORCE = 1
+    NO_SOLUTION = 2
+    OUTSIDE = 3
+    PULLING = 4
+    FRICTION = 5
+    TORSION = 6
+    RESIDUAL = 7
+
+
+def reason_names(codes) -> np.ndarray:
+    """Short lower-case names (``""``, ``"no_force"``, ``"friction"``, ...) of reason codes, same shape."""
+    names = np.array(["" if r == 0 else r.name.lower() for r in SingleContactReason], dtype=object)
+    return names[np.asarray(codes, dtype=np.intp)]
+
+
+class SingleContactTest:
+    """Result of :func:`single_contact_test` for ``N`` estimates.
+
+    Attributes
+    ----------
+    single : ndarray, shape (N,), bool
+        One soft-finger contact on the patch can produce the wrench (``p >= alpha``).
+    p : ndarray, shape (N,)
+        Smallest per-limit p-value in [0, 1] (NaN where no force).
+    reason : ndarray, shape (N,), int8
+        :class:`SingleContactReason` of the failing limit (``NONE`` where plausible).
+    z : ndarray, shape (N, 4)
+        Margins in standard deviations for ``[pushing, friction, boundary, residual]``
+        (the residual column holds ``r`` = √χ², 0 for the soft finger).
+    """
+
+    def __init__(self, single, p, reason, z):
+        self.single, self.p, self.reason, self.z = single, p, reason, z
+
+
+def _friction_margin(f, n, D, tau, mu, e, point_contact):
+    """Friction margin ``g = μ f_n − √(|f_t|² + (τ/e)²)`` (N), its gradient over θ, and shear share.
+
+    ``D (N, 3, 2)``: ``∂n/∂θ``. Gradient columns ``[θ1, θ2, fx, fy, fz(, τ)]``.
+    """
+    N = len(f)
+    k = 5 if point_contact else 6
+    fn = -np.einsum("ij,ij->i", f, n)
+    ft_vec = f + fn[:, None] * n
+    ft = np.linalg.norm(ft_vec, axis=1)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        u = np.where(ft[:, None] > 0, ft_vec / ft[:, None], 0.0)
+    tq = np.zeros(N) if point_contact else tau / e
+    s = np.hypot(ft, tq)
+    g_fn = np.zeros((N, k))
+    g_fn[:, :2] = -np.einsum("na,naj->nj", f, D)
+    g_fn[:, 2:5] = -n
+    g_ft = np.zeros((N, k))
+    g_ft[:, :2] = fn[:, None] * np.einsum("na,naj->nj", u, D)
+    g_ft[:, 2:5] = u
+    with np.errstate(invalid="ignore", divide="ignore"):
+        g_s = (ft[:, None] * g_ft) / s[:, None]
+        if not point_contact:
+            g_s[:, 5] += tq / (e * s)
+    g_s = np.where(s[:, None] > 0, g_s, 0.0)
+    grad = mu * g_fn - g_s
+    return fn, g_fn, mu * fn - s, grad, ft >= np.abs(tq)
+
+
+def _boundary_margin(boundary, c, T):
+    """Signed distance (m, > 0 inside) of ``c`` to the patch edge and its gradient over θ ``(N, 2)``."""
+    h = _BOUNDARY_STEP
+    N = len(c)
+    steps = h * np.stack([T[:, :, 0], -T[:, :, 0], T[:, :, 1], -T[:, :, 1]])  # (4, N, 3)
+    m = boundary.margin(np.concatenate([c[None], c[None] + steps]).reshape(-1, 3)).reshape(5, N)
+    grad = np.stack([m[1] - m[2], m[3] - m[4]], axis=1) / (2 * h)
+    return m[0], grad
+
+
+def _z(g, grad, C):
+    """``g / σ_g`` with ``σ_g² = gradᵀ C grad``; ±inf for a zero σ."""
+    var = np.einsum("ni,nij,nj->n", grad, C[:, : grad.shape[1], : grad.shape[1]], grad)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        z = g / np.sqrt(np.maximum(var, 0.0))
+    z = np.where(np.isnan(z) & np.isfinite(g), np.where(g >= 0, np.inf, -np.inf), z)
+    return z
+
+
+def single_contact_test(c, n, f, tau, w, cov: ContactCovariance, shape_op, W=None, *,
+                        boundary=None, mu=DEFAULT_FRICTION, torsion_radius=DEFAULT_TORSION_RADIUS,
+                        alpha=SINGLE_CONTACT_ALPHA, point_contact=False) -> SingleContactTest:
+    """Single-contact test of ``N`` solved contacts (rows with a force above threshold).
+
+    Parameters
+    ----------
+    c, n, f : ndarray, shape (N, 3)
+        Estimated point (m), outward normal, force (N); NaN rows: no solution on the surface.
+    tau : ndarray, shape (N,)
+        Estimated torsion, N·m (0 for point contact).
+    w : ndarray, shape (N, 6)
+        Measured wrenches ``[fx, fy, fz, tx, ty, tz]``, N and N·m.
+    cov : ContactCovariance
+        Cramér–Rao covariance of the estimate (``param_cov`` ``(N, k, k)``, ``tangents``).
+    shape_op : ndarray, shape (N, 3, 3)
+        Shape operator at ``c`` (1/m).
+    W : ndarray, shape (6, 6) or (N, 6, 6), optional
+        Inverse wrench covariance (point contact's χ² residual).
+    boundary : PatchBoundary, optional
+    mu, torsion_radius, alpha : float
+        Friction coefficient, effective torsional radius (m), significance level.
+    point_contact : bool
+
+    Returns
+    -------
+    SingleContactTest
+    """
+    N = len(c)
+    finite = np.isfinite(c).all(axis=1) & np.isfinite(cov.param_cov).all(axis=(1, 2))
+    z = np.full((N, 4), np.inf)
+    z[:, 3] = 0.0
+    p_all = np.ones((N, 4))
+    if finite.any():
+        i = np.flatnonzero(finite)
+        C, T = cov.param_cov[i], cov.tangents[i]
+        D = shape_op[i] @ T
+        fn, g_fn, gf, grad_f, shear = _friction_margin(f[i], n[i], D, tau[i], mu, torsion_radius, point_contact)
+        z[i, 0] = _z(fn, g_fn, C)
+        z[i, 1] = _z(gf, grad_f, C)
+        if boundary is not None:
+            gb, grad_b = _boundary_margin(boundary, c[i], T)
+            z[i, 2] = _z(gb, grad_b, C)
+        z[i, :3] = np.where(np.isnan(z[i, :3]), -np.inf, z[i, :3])  # e.g. behind a central projection's apex
+        p_all[i, :3] = ndtr(z[i, :3])
+        if point_contact and W is not None:
+            e = w[i].copy()
+            e[:, :3] -= f[i]
+            e[:, 3:] -= _cross(c[i], f[i])
+            Wi = np.broadcast_to(W, (N, 6, 6))[i]
+            r2 = np.einsum("ni,nij,nj->n", e, Wi, e)
+            z[i, 3] = np.sqrt(np.maximum(r2, 0.0))
+            p_all[i, 3] = chdtrc(1, r2)
+    p_all[~finite] = 0.0
+    worst = np.argmin(p_all, axis=1)
+    p = p_all[np.arange(N), worst]
+    single = p >= alpha
+    codes = np.array([SingleContactReason.PULLING, SingleContactReason.FRICTION,
+                      SingleContactReason.OUTSIDE, SingleContactReason.RESIDUAL], dtype=np.int8)
+    reason = codes[worst]
+    if finite.any():
+        torsion_worst = finite.copy()
+        torsion_worst[i] = ~shear
+        reason[(worst == 1) & torsion_worst] = SingleContactReason.TORSION
+    # pushing is the first thing a friction limit needs: a pulling force is named as such
+    pulling = finite & (z[:, 0] < 0) & ~single
+    reason[pulling & (ndtr(z[:, 0]) < alpha)] = SingleContactReason.PULLING
+    reason[~finite] = SingleContactReason.NO_SOLUTION
+    reason[single] = SingleContactReason.NONE
+    return SingleContactTest(single, p, reason, z)
