@@ -79,6 +79,7 @@ def grasp_decomposition(point, force, active, cog=(0.0, 0.0, 0.0)):
     G = G.reshape(n, 6, 18)
     w = np.einsum("nij,nj->ni", G, f.reshape(n, 18))
     f_manip = np.einsum("nij,nj->ni", np.linalg.pinv(G, rcond=1e-10), w).reshape(n, 6, 3)
+    f_manip *= active[..., None]  # rounding leaves ~1e-21 in the zero columns
     return f_manip, f - f_manip
 
 
