@@ -129,7 +129,7 @@ def export_to_dir(recording, out_root, formats=("nwb",), *, calibration=None, as
     data = export_data(recording, cal, assembly, calibration_source=source, contacts=contacts)
     Path(out_root).mkdir(parents=True, exist_ok=True)
     for f in todo:
-        tmp = targets[f].with_name(f".{targets[f].name}.tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}")
+        tmp = targets[f].with_name(f".{stem}.tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}.{f}")  # keeps the suffix
         try:
             writers[f](data, tmp)
             os.replace(tmp, targets[f])
