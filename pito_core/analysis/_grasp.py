@@ -28,6 +28,9 @@ from ..frames import cross_rows
 
 __all__ = ["normal_tangential", "grasp_decomposition", "net_wrench"]
 
+#: Samples per block of the grasp-matrix split (bounds its memory to ~20 MB).
+_BLOCK = 10_000
+
 
 def normal_tangential(force, normal, active):
     """Normal (pushing-in) and tangential force magnitudes of each contact, N.
@@ -68,6 +71,10 @@ def grasp_decomposition(point, force, active, cog=(0.0, 0.0, 0.0)):
     f_manip, f_internal : ndarray, shape (N, 6, 3)
         ``G⁺ G f`` and ``(I − G⁺ G) f`` per contact, N (module docstring).
     """
+    if point.shape[0] > _BLOCK:  # bounded memory: the (n, 6, 18) matrices block by block
+        parts = [grasp_decomposition(point[a:a + _BLOCK], force[a:a + _BLOCK], active[a:a + _BLOCK], cog)
+                 for a in range(0, point.shape[0], _BLOCK)]
+        return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
     n = point.shape[0]
     f = np.where(active[..., None], np.nan_to_num(force), 0.0)
     r = np.where(active[..., None], np.nan_to_num(point) - np.asarray(cog, float), 0.0)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import os
+import resource
 import shutil
 import time
 import uuid
@@ -23,7 +24,7 @@ from ._figures import save_trial_figures
 from ._metrics import PATCH_COLUMNS, PHASE_COLUMNS
 from ._segment import AnalysisSettings
 
-__all__ = ["write_analysis", "analyze_to_dir", "export_to_dir", "output_dir", "atomic_dir"]
+__all__ = ["write_analysis", "analyze_to_dir", "export_to_dir", "output_dir", "atomic_dir", "peak_rss_mib"]
 
 
 def output_dir(recording, out_root) -> Path:
@@ -98,7 +99,13 @@ def analyze_to_dir(recording, out_root, *, calibration=None, assembly=None, sett
         if nwb:
             _write_nwb(recording, cal, assembly, source, analysis, tmp / f"{target.name}.nwb")
     return {"recording": str(recording), "status": "done", "out": str(target), "samples": analysis.meta["n_samples"],
-            "trials": len(analysis.trials), "seconds": time.perf_counter() - t0, "simulated": analysis.simulated}
+            "trials": len(analysis.trials), "seconds": time.perf_counter() - t0, "simulated": analysis.simulated,
+            "max_rss_MiB": peak_rss_mib()}
+
+
+def peak_rss_mib() -> float:
+    """Peak resident memory of this process so far, MiB (``getrusage``; a Dask worker's own peak)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
 def _write_nwb(recording, cal, assembly, source, analysis, path) -> None:
@@ -136,4 +143,4 @@ def export_to_dir(recording, out_root, formats=("nwb",), *, calibration=None, as
         finally:
             tmp.unlink(missing_ok=True)
     return {"recording": str(recording), "status": "done", "out": str(out_root), "samples": data.n,
-            "seconds": time.perf_counter() - t0}
+            "seconds": time.perf_counter() - t0, "max_rss_MiB": peak_rss_mib()}

@@ -96,3 +96,16 @@ def test_normal_tangential_and_net_wrench():
         np.testing.assert_allclose(F[j], force[j, k].sum(axis=0), atol=1e-12)
         m = sum(np.cross(point[j, i] - c, force[j, i]) + torsion[j, i] * normal[j, i] for i in np.flatnonzero(k))
         np.testing.assert_allclose(M[j], m if np.ndim(m) else np.zeros(3), atol=1e-12)
+
+
+def test_blocks_give_the_same_split(monkeypatch):
+    import pito_core.analysis._grasp as grasp
+
+    rng = np.random.default_rng(9)
+    point, force = rng.uniform(-0.04, 0.04, (25, 6, 3)), rng.normal(0, 3, (25, 6, 3))
+    active = rng.random((25, 6)) < 0.6
+    whole = grasp_decomposition(point, force, active)
+    monkeypatch.setattr(grasp, "_BLOCK", 10)
+    blocked = grasp_decomposition(point, force, active)
+    np.testing.assert_allclose(blocked[0], whole[0], atol=1e-12)
+    np.testing.assert_allclose(blocked[1], whole[1], atol=1e-12)
