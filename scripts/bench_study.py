@@ -3,8 +3,9 @@
 SIMULATED recordings (``pito_core.sim.LiftTask``, 1 kHz, ideal calibration embedded) are
 written into a scratch folder, then analysed (tables and figures) three ways; the table
 printed gives samples/s of compute (first task to last result), the wall time with the local
-cluster's start, and the peak resident memory of the process that ran the tasks (each Dask
-worker's own peak). Usage::
+cluster's start, the CPU time per sample of the tasks (independent of other load on the
+machine), the peak resident memory of the process that ran the tasks (each Dask worker's own
+peak) and the 1-minute load average at the end. Usage::
 
     python scripts/bench_study.py [--recordings 6] [--trials 10] [--many 100] [--dir /tmp/pito-bench-study]
 
@@ -15,6 +16,7 @@ the scale of a study.
 from __future__ import annotations
 
 import argparse
+import os
 import shutil
 import time
 from pathlib import Path
@@ -45,8 +47,10 @@ def make(directory: Path, n: int, trials: int) -> list[Path]:
 def row(name, res, wall):
     rss = max((r.get("max_rss_MiB") or 0) for r in res.results) if res.results else float("nan")
     per = res.compute_seconds / max(len(res.results), 1)
+    cpu = sum(r.get("cpu_seconds") or 0 for r in res.results)
+    load = os.getloadavg()[0]
     return (f"{name:<22} {len(res.results):>4} {res.samples:>9} {res.compute_seconds:>8.1f} {wall:>7.1f} "
-            f"{res.samples_per_s:>10.0f} {per:>7.2f} {rss:>8.0f}")
+            f"{res.samples_per_s:>10.0f} {per:>7.2f} {1e6 * cpu / max(res.samples, 1):>9.1f} {rss:>8.0f} {load:>5.1f}")
 
 
 def main() -> None:
@@ -61,7 +65,7 @@ def main() -> None:
     recs = make(d / "recs", args.recordings, args.trials)
     print("SIMULATED recordings; analyse = tables + figures; samples/s over compute time")
     print(f"{'path':<22} {'recs':>4} {'samples':>9} {'compute':>8} {'wall':>7} {'samples/s':>10} {'s/rec':>7} "
-          f"{'peak MiB':>8}")
+          f"{'CPU µs/smp':>9} {'peak MiB':>8} {'load':>5}")
     for name, kw in (("in process", None), ("Dask, 1 worker", 1), ("Dask, 2 workers", 2)) * args.repeat:
         out = d / f"out-{kw}"
         shutil.rmtree(out, ignore_errors=True)

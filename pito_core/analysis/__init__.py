@@ -27,7 +27,7 @@ _LAZY = {
     "ContactArrays": "_series", "GraspSeries": "_series", "grasp_series": "_series", "smooth_paths": "_series",
     "save_trial_figures": "_figures", "trial_figure": "_figures",
     "analyze_to_dir": "_output", "atomic_dir": "_output", "export_to_dir": "_output", "output_dir": "_output",
-    "write_analysis": "_output", "peak_rss_mib": "_output",
+    "write_analysis": "_output", "peak_rss_mib": "_output", "cpu_seconds": "_output",
     "StudyResult": "_study", "local_cluster": "_study", "require_distributed": "_study", "run_serial": "_study",
     "run_study": "_study",
 }

@@ -24,7 +24,7 @@ from ._figures import save_trial_figures
 from ._metrics import PATCH_COLUMNS, PHASE_COLUMNS
 from ._segment import AnalysisSettings
 
-__all__ = ["write_analysis", "analyze_to_dir", "export_to_dir", "output_dir", "atomic_dir", "peak_rss_mib"]
+__all__ = ["write_analysis", "analyze_to_dir", "export_to_dir", "output_dir", "atomic_dir", "cpu_seconds", "peak_rss_mib"]
 
 
 def output_dir(recording, out_root) -> Path:
@@ -82,13 +82,14 @@ def analyze_to_dir(recording, out_root, *, calibration=None, assembly=None, sett
 
     A pure function of its arguments (a Dask task): ``calibration`` is a file path (or a
     Calibration, or None for the recording's own). Returns ``{"recording", "status"
-    ("done" or "skipped"), "out", "samples", "trials", "seconds", "simulated"}``.
+    ("done" or "skipped"), "out", "samples", "trials", "seconds" (wall), "cpu_seconds", "simulated",
+    "max_rss_MiB" (peak of the process that ran it)}``.
     """
     target = output_dir(recording, out_root)
     if target.exists() and not overwrite:
         return {"recording": str(recording), "status": "skipped", "out": str(target), "samples": 0, "trials": None,
                 "seconds": 0.0, "simulated": None}
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), cpu_seconds()
     cal = _load_calibration(calibration)
     source = str(calibration) if isinstance(calibration, (str, os.PathLike)) else None
     analysis = analyze_recording(recording, cal, assembly, settings, calibration_source=source)
@@ -100,7 +101,13 @@ def analyze_to_dir(recording, out_root, *, calibration=None, assembly=None, sett
             _write_nwb(recording, cal, assembly, source, analysis, tmp / f"{target.name}.nwb")
     return {"recording": str(recording), "status": "done", "out": str(target), "samples": analysis.meta["n_samples"],
             "trials": len(analysis.trials), "seconds": time.perf_counter() - t0, "simulated": analysis.simulated,
-            "max_rss_MiB": peak_rss_mib()}
+            "cpu_seconds": cpu_seconds() - c0, "max_rss_MiB": peak_rss_mib()}
+
+
+def cpu_seconds() -> float:
+    """CPU time (user + system) of this process so far, s."""
+    r = resource.getrusage(resource.RUSAGE_SELF)
+    return r.ru_utime + r.ru_stime
 
 
 def peak_rss_mib() -> float:
@@ -130,7 +137,7 @@ def export_to_dir(recording, out_root, formats=("nwb",), *, calibration=None, as
     todo = [f for f, p in targets.items() if overwrite or not p.exists()]
     if not todo:
         return {"recording": str(recording), "status": "skipped", "out": str(out_root), "samples": 0, "seconds": 0.0}
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), cpu_seconds()
     cal = _load_calibration(calibration)
     source = str(calibration) if isinstance(calibration, (str, os.PathLike)) else None
     data = export_data(recording, cal, assembly, calibration_source=source, contacts=contacts)
@@ -143,4 +150,4 @@ def export_to_dir(recording, out_root, formats=("nwb",), *, calibration=None, as
         finally:
             tmp.unlink(missing_ok=True)
     return {"recording": str(recording), "status": "done", "out": str(out_root), "samples": data.n,
-            "seconds": time.perf_counter() - t0, "max_rss_MiB": peak_rss_mib()}
+            "seconds": time.perf_counter() - t0, "cpu_seconds": cpu_seconds() - c0, "max_rss_MiB": peak_rss_mib()}
