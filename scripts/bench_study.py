@@ -16,6 +16,7 @@ the scale of a study.
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import shutil
 import time
@@ -44,13 +45,18 @@ def make(directory: Path, n: int, trials: int) -> list[Path]:
     return out
 
 
-def row(name, res, wall):
+def row(name, res, wall, out):
+    """One line of the table; samples from the outputs' summary.json (a task Dask ran twice reports "skipped")."""
+    done = [json.loads(p.read_text()) for p in Path(out).glob("*/summary.json")]
+    samples = sum(d["n_samples"] for d in done)
     rss = max((r.get("max_rss_MiB") or 0) for r in res.results) if res.results else float("nan")
-    per = res.compute_seconds / max(len(res.results), 1)
+    per = res.compute_seconds / max(len(done), 1)
     cpu = sum(r.get("cpu_seconds") or 0 for r in res.results)
+    counted = sum(r.get("samples") or 0 for r in res.results)
     load = os.getloadavg()[0]
-    return (f"{name:<22} {len(res.results):>4} {res.samples:>9} {res.compute_seconds:>8.1f} {wall:>7.1f} "
-            f"{res.samples_per_s:>10.0f} {per:>7.2f} {1e6 * cpu / max(res.samples, 1):>9.1f} {rss:>8.0f} {load:>5.1f}")
+    return (f"{name:<22} {len(done):>4} {samples:>9} {res.compute_seconds:>8.1f} {wall:>7.1f} "
+            f"{samples / res.compute_seconds:>10.0f} {per:>7.2f} {1e6 * cpu / max(counted, 1):>9.1f} {rss:>8.0f} "
+            f"{load:>5.1f}")
 
 
 def main() -> None:
@@ -76,14 +82,14 @@ def main() -> None:
                 r["max_rss_MiB"] = peak_rss_mib()
         else:
             res = run_study(analyze_to_dir, recs, n_workers=kw, out_root=out)
-        print(row(name, res, time.perf_counter() - t0), flush=True)
+        print(row(name, res, time.perf_counter() - t0, out), flush=True)
     if args.many:
         many = make(d / "many", args.many, 1)
         out = d / "out-many"
         shutil.rmtree(out, ignore_errors=True)
         t0 = time.perf_counter()
         res = run_study(analyze_to_dir, many, n_workers=2, out_root=out)
-        print(row(f"{args.many} x 6 s, 2 workers", res, time.perf_counter() - t0), flush=True)
+        print(row(f"{args.many} x 6 s, 2 workers", res, time.perf_counter() - t0, out), flush=True)
         t0 = time.perf_counter()
         again = run_study(analyze_to_dir, many, n_workers=2, out_root=out)
         print(f"rerun of the {args.many} (all skipped): wall {time.perf_counter() - t0:.1f} s, "

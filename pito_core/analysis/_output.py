@@ -13,6 +13,7 @@ import json
 import os
 import resource
 import shutil
+import socket
 import time
 import uuid
 from pathlib import Path
@@ -33,24 +34,53 @@ def output_dir(recording, out_root) -> Path:
 
 
 class atomic_dir:
-    """``with atomic_dir(target) as tmp:`` write into ``tmp``; on success it becomes ``target``."""
+    """``with atomic_dir(target) as tmp:`` write into ``tmp``; on success it becomes ``target``.
+
+    The temporary folder ``.<name>.tmp-<host>-<pid>-<random>`` is removed on error. Leftovers
+    of killed runs are removed on entry, but only those of this host whose process is gone (a
+    concurrent run's folder is left alone). If ``target`` appears meanwhile (the same
+    recording finished by another task, e.g. one Dask ran twice), the first one stays and
+    ``finished_by_other`` is set.
+    """
 
     def __init__(self, target):
         self.target = Path(target)
-        self.tmp = self.target.parent / f".{self.target.name}.tmp-{os.getpid()}-{uuid.uuid4().hex[:8]}"
+        self.tmp = self.target.parent / f".{self.target.name}.tmp-{_HOST}-{os.getpid()}-{uuid.uuid4().hex[:8]}"
+        self.finished_by_other = False
 
     def __enter__(self) -> Path:
         self.target.parent.mkdir(parents=True, exist_ok=True)
-        for old in self.target.parent.glob(f".{self.target.name}.tmp-*"):  # a killed run's leftovers
-            shutil.rmtree(old, ignore_errors=True)
+        for old in self.target.parent.glob(f".{self.target.name}.tmp-{_HOST}-*"):
+            if not _alive(old.name.split(f".tmp-{_HOST}-", 1)[1].split("-")[0]):
+                shutil.rmtree(old, ignore_errors=True)
         self.tmp.mkdir()
         return self.tmp
 
     def __exit__(self, exc_type, exc, tb) -> None:
-        if exc_type is None:
-            os.replace(self.tmp, self.target)
-        else:
+        if exc_type is not None:
             shutil.rmtree(self.tmp, ignore_errors=True)
+            return
+        try:
+            os.replace(self.tmp, self.target)
+        except OSError:
+            if not self.target.is_dir():
+                raise
+            shutil.rmtree(self.tmp, ignore_errors=True)
+            self.finished_by_other = True
+
+
+_HOST = socket.gethostname().replace("-", "_")
+
+
+def _alive(pid: str) -> bool:
+    """A process with this id exists on this host."""
+    try:
+        os.kill(int(pid), 0)
+    except (ValueError, ProcessLookupError):
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 def write_analysis(analysis: GraspAnalysis, directory, *, figures: bool = True) -> list[Path]:
@@ -95,11 +125,12 @@ def analyze_to_dir(recording, out_root, *, calibration=None, assembly=None, sett
     analysis = analyze_recording(recording, cal, assembly, settings, calibration_source=source)
     if overwrite and target.exists():
         shutil.rmtree(target)
-    with atomic_dir(target) as tmp:
+    out = atomic_dir(target)
+    with out as tmp:
         write_analysis(analysis, tmp, figures=figures)
         if nwb:
             _write_nwb(recording, cal, assembly, source, analysis, tmp / f"{target.name}.nwb")
-    return {"recording": str(recording), "status": "done", "out": str(target), "samples": analysis.meta["n_samples"],
+    return {"recording": str(recording), "status": "done (by another task)" if out.finished_by_other else "done", "out": str(target), "samples": analysis.meta["n_samples"],
             "trials": len(analysis.trials), "seconds": time.perf_counter() - t0, "simulated": analysis.simulated,
             "cpu_seconds": cpu_seconds() - c0, "max_rss_MiB": peak_rss_mib()}
 

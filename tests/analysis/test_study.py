@@ -1,6 +1,8 @@
 """Many recordings on a loopback-only Dask cluster: one task each, failures by name, resumable, same as in process."""
 
+import os
 import shutil
+import subprocess
 
 import pandas as pd
 import pytest
@@ -68,11 +70,21 @@ def test_an_interrupted_output_is_not_taken_for_a_finished_one(tmp_path):
             (tmp / "phases.csv").write_text("half")
             raise RuntimeError("killed")
     assert not target.exists() and not list(tmp_path.iterdir())
-    leftover = tmp_path / ".rec.tmp-1-deadbeef"  # a killed process's temporary folder
+    host = atomic_dir(target).tmp.name.split(".tmp-")[1].rsplit("-", 2)[0]
+    dead = subprocess.Popen(["true"])
+    dead.wait()  # a process id that no longer exists
+    leftover = tmp_path / f".rec.tmp-{host}-{dead.pid}-deadbeef"  # a killed run's temporary folder
+    running = tmp_path / f".rec.tmp-{host}-{os.getpid()}-cafecafe"  # a concurrent run's, still writing
     leftover.mkdir()
+    running.mkdir()
     with atomic_dir(target) as tmp:
         (tmp / "x").write_text("ok")
-    assert (target / "x").read_text() == "ok" and not leftover.exists()
+    assert (target / "x").read_text() == "ok" and not leftover.exists() and running.exists()
+    other = atomic_dir(target)  # the same recording finished meanwhile by another task: the first stays
+    with other as tmp:
+        (tmp / "x").write_text("second")
+    assert other.finished_by_other and (target / "x").read_text() == "ok"
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted([running.name, "rec"])
 
 
 def test_duplicate_names_and_cancel(study, tmp_path):
