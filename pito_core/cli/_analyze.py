@@ -124,7 +124,7 @@ def run_many(task, args, **kwargs) -> int:
     else:
         res = run_study(task, args.files, scheduler=args.scheduler, n_workers=workers or 2,
                         memory_limit=args.memory_limit, dashboard=args.dashboard, progress=progress, **kwargs)
-    where = "in process" if serial else f"on Dask ({res.workers} workers)"
+    where = "in process" if serial else f"on Dask ({res.workers} worker{'s' if res.workers != 1 else ''})"
     print(f"{len(res.results)} recordings {where}, {len(res.failed)} failed: {res.samples} samples in "
           f"{res.compute_seconds:.1f} s ({res.samples_per_s:.0f} samples/s; wall {res.seconds:.1f} s)")
     for rec, err in res.failed.items():

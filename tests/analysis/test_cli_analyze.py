@@ -85,3 +85,14 @@ def test_core_imports_without_pandas_and_dask():
     assert r.returncode == 0, r.stderr
     lines = r.stdout.splitlines()
     assert "pip install 'pito[analysis]'" in lines[0] and "dask[distributed]" in lines[1]
+
+
+def test_analyze_many_on_a_local_cluster_with_its_dashboard_on_loopback(tmp_path, capsys):
+    pytest.importorskip("distributed")
+    pytest.importorskip("bokeh")
+    recs = [p for p, _, _ in make_recordings(tmp_path, 2, n_trials=1)]
+    assert main(["analyze", *map(str, recs), "--out", str(tmp_path / "out"), "--workers", "1", "--dashboard",
+                 "--no-figures"]) == 0
+    out = capsys.readouterr().out
+    assert "Dask dashboard: http://127.0.0.1:" in out and "on Dask (1 worker)" in out
+    assert out.count("] done ") == 2 and not list((tmp_path / "out" / "rec000").glob("*.png"))
