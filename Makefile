@@ -23,7 +23,7 @@ venv: $(VENV)/.installed
 $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
-	$(BIN)/python -m pip install -q -e ".[app,interop,test]"
+	$(BIN)/python -m pip install -q -e ".[app,interop,analysis,test]"
 	touch $@
 
 lint: venv

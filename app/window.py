@@ -102,6 +102,9 @@ class MainWindow(QMainWindow):
         install_lsl_toggle(self.live, self.worker, simulated=demo)
         install_health_indicator(self)
         install_press_test_menu(self)
+        from .analysis import install_analysis_menu  # File → Analyse recording (issue 24)
+
+        install_analysis_menu(self)
         self.errors: list[str] = []
         self.recording_path = None
         self.rig = None  # demo: the simulated devices and their scenarios

@@ -23,6 +23,15 @@ __all__ = [
     "TARE_STILL_TORQUE_STD_NM",
     "TARE_NO_LOAD_FORCE_N",
     "TARE_NO_LOAD_TORQUE_NM",
+    "TRIAL_CONTACT_FORCE_N",
+    "TRIAL_MIN_CONTACT_S",
+    "TRIAL_MIN_FINGERS",
+    "TRIAL_MIN_DURATION_S",
+    "TRIAL_BASE_FACE",
+    "LIFT_PHASE_S",
+    "REPLACE_PHASE_S",
+    "CONTACT_PATH_CUTOFF_HZ",
+    "SINGLE_CONTACT_MIN_FRACTION",
 ]
 
 #: A tare is still when the reference's standard deviation over it stays under these (N, N·m)
@@ -56,3 +65,28 @@ SHOW_CONTACT_FORCE_N = 0.3
 LOADED_FORCE_N = 0.5
 #: … or its torque norm exceeds this, N·m.
 LOADED_TORQUE_NM = 0.01
+
+# ---- grasp analysis (pito_core.analysis, `pito analyze`, docs/analysis.md) ----
+#: A patch is in contact (trial segmentation, contact onset) while the normal force of its
+#: contact exceeds this, N.
+TRIAL_CONTACT_FORCE_N = 0.5
+#: In-contact or out-of-contact runs shorter than this are ignored (debounce), s.
+TRIAL_MIN_CONTACT_S = 0.05
+#: A trial is a grasp in which at least this many finger patches (patches other than the
+#: base) are in contact at once.
+TRIAL_MIN_FINGERS = 2
+#: Trials shorter than this (first finger contact to last finger release) are dropped, s.
+TRIAL_MIN_DURATION_S = 0.5
+#: The face whose patch rests on the table between lifts (lift-off: its contact ends;
+#: replace: it starts again). 0 for a free grasp (no table): the whole trial is ``hold``.
+TRIAL_BASE_FACE = 6
+#: Length of the ``lift`` phase after lift-off (the object accelerates), s.
+LIFT_PHASE_S = 0.4
+#: Length of the ``replace`` phase before the base touches the table again, s.
+REPLACE_PHASE_S = 0.4
+#: Cut-off of the zero-phase low-pass filter applied to each contact path before its length
+#: and spread are measured (the solver's noise would otherwise add up along the path), Hz.
+CONTACT_PATH_CUTOFF_HZ = 5.0
+#: A phase is *plausible* only if every contact in it is flagged a single contact
+#: (``single_contact``) in at least this fraction of its samples in contact.
+SINGLE_CONTACT_MIN_FRACTION = 0.95

@@ -24,6 +24,7 @@ COMMANDS = (
     "record",
     "replay",
     "export",
+    "analyze",
     "stream",
 )
 

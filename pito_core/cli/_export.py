@@ -9,6 +9,7 @@ import time
 from ..calibration import load_calibration
 from ..interop import export_data, missing_metadata, write_mcap, write_nwb
 from ..io import export_recording_files, read_recording
+from ._analyze import add_study_options, run_many
 
 HELP = """\
 Export a pito recording to NWB (pynwb), ROS 2 MCAP (no ROS needed), CSV or MATLAB .mat.
@@ -31,13 +32,19 @@ Calibration: by default the one embedded in the recording (`pito record --calibr
 --calibration F recomputes with another file, and the export says so (notes/metadata and
 the line printed here). A recording without one exports counts and reference only.
 docs/interop.md describes every field.
+
+Many recordings (a study): `pito export REC... --out DIR --formats nwb,mcap` writes
+DIR/<stem>.nwb and DIR/<stem>.mcap for each, one Dask task per recording (a local cluster on
+127.0.0.1 by default, --scheduler ADDRESS for an existing one); files are written atomically,
+existing ones are skipped (--overwrite redoes them), a failed recording is reported by name
+and the others go on (docs/analysis.md, "Studies on Dask").
 """
 
 
 def register(sub) -> None:
     p = sub.add_parser("export", help="export a recording to NWB, ROS 2 MCAP, CSV or .mat", description=HELP,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("file", metavar="REC", help="pito recording file")
+    p.add_argument("files", metavar="REC", nargs="+", help="pito recording file(s); several need --out DIR")
     p.add_argument("--calibration", metavar="FILE", help="recompute the wrenches with this calibration file "
                    "(default: the recording's own)")
     p.add_argument("--object", metavar="NAME", help="patch assembly for the contacts (library name or .json; "
@@ -56,10 +63,31 @@ def register(sub) -> None:
     p.add_argument("--institution", help="NWB institution")
     p.add_argument("--lab", help="NWB lab")
     p.add_argument("--recover", action="store_true", help="export the intact part of an incomplete recording")
+    p.add_argument("--out", metavar="DIR", help="study mode: write DIR/<stem>.<format> for every recording (on Dask)")
+    p.add_argument("--formats", default="nwb", help="study mode: comma-separated, some of nwb, mcap (default nwb)")
+    add_study_options(p)
     p.set_defaults(func=run)
 
 
+def run_study_export(args) -> int:
+    """``--out DIR``: every recording into DIR, one Dask task each (:func:`pito_core.analysis.export_to_dir`)."""
+    from ..analysis import export_to_dir
+
+    if args.nwb or args.mcap or args.csv or args.mat:
+        raise ValueError("--out: name the formats with --formats nwb,mcap (not --nwb/--mcap/--csv/--mat FILE)")
+    formats = tuple(f.strip() for f in args.formats.split(",") if f.strip())
+    if not formats or set(formats) - {"nwb", "mcap"}:
+        raise ValueError(f"--formats: expected some of nwb, mcap, got {args.formats!r}")
+    return run_many(export_to_dir, args, out_root=args.out, formats=formats, calibration=args.calibration,
+                    assembly=args.object, contacts=not args.no_contacts, overwrite=args.overwrite)
+
+
 def run(args) -> int:
+    if args.out:
+        return run_study_export(args)
+    if len(args.files) != 1:
+        raise ValueError(f"REC: {len(args.files)} recordings need --out DIR (study mode)")
+    args.file = args.files[0]
     if not (args.nwb or args.mcap or args.csv or args.mat):
         raise ValueError("output: give at least one of --nwb, --mcap, --csv, --mat")
     if args.csv or args.mat:

@@ -23,6 +23,7 @@ from ._data import ExportData, export_data
 from ._lsl import LslPublisher, contact_samples, lsl_stream_infos, machine_only_config, wrench_samples
 from ._mcap import write_mcap
 from ._nwb import BEHAVIOR_MODULE, MISC_MODULE, missing_metadata, write_nwb
+from ._nwb_trials import GRASP_PHASES_TABLE, append_grasp_phases
 from ._provenance import (
     assembly_record,
     calibration_from_record,
@@ -44,6 +45,8 @@ __all__ = [
     "WRENCH_STREAM",
     "WRENCH_TYPE",
     "ExportData",
+    "GRASP_PHASES_TABLE",
+    "append_grasp_phases",
     "LslPublisher",
     "assembly_record",
     "calibration_from_record",

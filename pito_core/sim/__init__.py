@@ -6,6 +6,7 @@ calibration code.
 """
 
 from ._grasp import FINGER_LAYOUTS, GRAVITY, GraspRun, GraspScenario, GraspState, simulate_free_grasp
+from ._lift import LIFT_HEIGHT, LIFT_TIMELINE, LIFT_TRIAL_S, LiftTask, LiftTruth, write_lift_recording
 from ._handfed import IdleDevice, push_samples
 from ._live import CalibrationLiveSource, GraspLiveSource, LiveSource, default_live_source
 from ._model import VirtualCube, hub_sensitivity
@@ -33,6 +34,12 @@ from ._transport_pito import SimulatedPitoPort
 from ._transport_source import Source, TestSignalSource, default_simulated_source
 
 __all__ = [
+    "LIFT_HEIGHT",
+    "LIFT_TIMELINE",
+    "LIFT_TRIAL_S",
+    "LiftTask",
+    "LiftTruth",
+    "write_lift_recording",
     "RandomSensor",
     "random_sensor",
     "random_sensor_session",
