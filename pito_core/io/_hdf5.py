@@ -48,11 +48,14 @@ class ChecksumError(FileFormatError):
     """
 
     def __init__(self, path, dataset: str, detail: str = ""):
-        self.path, self.dataset = str(path), str(dataset)
+        self.path, self.dataset, self.detail = str(path), str(dataset), str(detail)
         super().__init__(
             f"{path}: checksum mismatch in '{dataset}'{': ' + detail if detail else ''} "
             "(the file was altered or is damaged; it is refused)"
         )
+
+    def __reduce__(self):  # pickles as itself (it crosses the pipeline process's boundary)
+        return (ChecksumError, (self.path, self.dataset, self.detail))
 
 
 class UnverifiedFileWarning(UserWarning):
