@@ -12,7 +12,7 @@ from pito_bench._contact_bounds import plane_second_order_ratio, ratio_ci
 from pito_core.contact import Plane, contact_crb, solve
 
 
-def _tilted_case(rng, n_contacts=6, snr=8.0):
+def _tilted_case(rng, n_contacts=6, snr=10.0):
     """A plane tilted 20° off the face, correlated noise, contacts whose normal force is ``snr`` σ_n."""
     nrm = np.array([np.sin(0.35), 0.0, np.cos(0.35)])
     plane = Plane([0.003, -0.002, 0.006], nrm)
@@ -45,8 +45,8 @@ def test_plane_second_order_error_matches_monte_carlo_and_its_first_term_is_the_
         assert est.valid.mean() > 0.999
         sq = np.sum((est.point[est.valid] - c[i]) ** 2, axis=1)
         measured = sq.mean()
-        assert mse[i] > 1.03 * crb[i]  # the excess is visible: the check can fail on a bare CRB
-        assert abs(measured / mse[i] - 1) < 0.02, (i, measured / mse[i], mse[i] / crb[i])
+        assert mse[i] > 1.025 * crb[i]  # the excess is visible: the check can fail on a bare CRB
+        assert abs(measured / mse[i] - 1) < 0.015, (i, measured / mse[i], mse[i] / crb[i])
 
 
 def test_ratio_ci_covers_the_known_ratio_and_narrows_with_samples():
