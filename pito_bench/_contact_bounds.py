@@ -24,7 +24,15 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["normal_snr_split", "mesh_exact_solutions", "ratio_ci", "plane_second_order_ratio"]
+__all__ = ["normal_snr_split", "mesh_exact_solutions", "ratio_ci", "plane_second_order_ratio", "facet_of"]
+
+
+def facet_of(surface, point) -> np.ndarray:
+    """Index ``(n,)`` of the mesh facet closest to each of ``point (n, 3)`` (m): a true contact's facet."""
+    import trimesh  # deferred: an optional dependency, already loaded by the mesh surface
+
+    _, _, tri = trimesh.proximity.closest_point(surface.mesh, np.asarray(point, float))
+    return np.asarray(tri, int)
 
 
 def ratio_ci(sq_err, crb_tr, seed=0, n_boot=400, level=0.95) -> tuple[float, float]:

@@ -185,13 +185,13 @@ def format_report(result: dict) -> str:
                  _f(100 * _n(a.get("flagged_fraction"))), a.get("flag_reason", ""),
                  _f(100 * _n(a.get("share_fn_below_5sigma"))), _ci(a, "crb_ratio_fn_5sigma"), _f(a.get("second_order_ratio_fn_5sigma")),
                  _f(100 * _n(a.get("ambiguous_fraction"))), _f(100 * _n(a.get("ambiguous_fraction_noisy"))),
-                 _ci(a, "crb_ratio_unambiguous")] for a in con["accuracy"] if "flagged_fraction" in a]
+                 _ci(a, "crb_ratio_unambiguous"), _f(100 * _n(a.get("other_facet_fraction_unambiguous")))] for a in con["accuracy"] if "flagged_fraction" in a]
         if rows:
             parts.append(text_table(
                 "Contact: beside the CRB ratio, the single-contact flag and where the bound is out of reach",
                 ["surface", "scenario", "noise", "error/CRB [95 % CI]", "flagged not single (%)", "main reason",
                  "f_n < 5σ (%)", "error/CRB f_n ≥ 5σ [95 % CI]", "ML 2nd-order f_n ≥ 5σ", "two exact solutions (%)",
-                 "… noisy (%)", "error/CRB one solution [95 % CI]"], rows))
+                 "… noisy (%)", "error/CRB one solution [95 % CI]", "… estimate on another facet (%)"], rows))
         if con.get("single"):
             sc = con["single"]
             header, rows = single_table_rows(sc)

@@ -7,8 +7,10 @@ not the benchmark's sampler.
 from __future__ import annotations
 
 import numpy as np
+import trimesh
+from scipy.spatial import Delaunay
 
-from pito_bench._contact_bounds import plane_second_order_ratio, ratio_ci
+from pito_bench._contact_bounds import facet_of, plane_second_order_ratio, ratio_ci
 from pito_core.contact import Plane, contact_crb, solve
 
 
@@ -67,3 +69,21 @@ def test_ratio_ci_covers_the_known_ratio_and_narrows_with_samples():
     w_large = np.mean([w for n, w in widths if n == 20_000])
     assert w_large < 0.25 * w_small
     assert np.isnan(ratio_ci([1.0], [1.0])[0])
+
+
+def test_facet_of_finds_the_triangle_a_point_was_drawn_in():
+    rng = np.random.default_rng(3)
+    V = np.c_[rng.uniform(-0.02, 0.02, (40, 2)), rng.uniform(0.0, 0.003, 40)]
+    F = Delaunay(V[:, :2]).simplices
+    mesh = trimesh.Trimesh(V, F, process=False)
+    k = rng.integers(0, len(F), 200)
+    u = rng.uniform(0.05, 0.45, (200, 2))  # well inside: away from the edges
+    tri = mesh.triangles[k]
+    p = tri[:, 0] + u[:, :1] * (tri[:, 1] - tri[:, 0]) + u[:, 1:] * (tri[:, 2] - tri[:, 0])
+
+    class _Surface:  # only the attribute facet_of reads
+        pass
+
+    s = _Surface()
+    s.mesh = mesh
+    np.testing.assert_array_equal(facet_of(s, p), k)
