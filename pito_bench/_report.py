@@ -175,11 +175,11 @@ def format_report(result: dict) -> str:
         for a in con["accuracy"]:
             rows.append([a["surface"], a["scenario"], f"{a['noise']} ({a['sigma_force_N']:g} N, {a['sigma_moment_Nm']:g} N·m)",
                          f"{100 * a['valid_fraction']:.1f}", _f(_n(a["rms_point_error_m"]) * 1e3), _f(_n(a["crb_rms_m"]) * 1e3),
-                         _f(a["crb_ratio"]), _f(a["force_crb_ratio"]), _f(a.get("scipy_crb_ratio")),
+                         _ci(a, "crb_ratio"), _f(a["force_crb_ratio"]), _f(a.get("scipy_crb_ratio")),
                          _f(a.get("error_ratio_scipy"))])
         parts.append(text_table(
             "Contact accuracy: RMS point error over valid estimates vs the Cramér–Rao bound (1.00 = efficient)",
-            ["surface", "scenario", "noise (σF, σM)", "valid (%)", "RMS error (mm)", "CRB (mm)", "error/CRB",
+            ["surface", "scenario", "noise (σF, σM)", "valid (%)", "RMS error (mm)", "CRB (mm)", "error/CRB [95 % CI]",
              "force error/CRB", "scipy error/CRB", "pito/scipy error"], rows))
         rows = [[a["surface"], a["scenario"], a["noise"], _ci(a, "crb_ratio"),
                  _f(100 * _n(a.get("flagged_fraction"))), a.get("flag_reason", ""),
