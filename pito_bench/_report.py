@@ -29,6 +29,14 @@ def _n(x) -> float:
     return float("nan") if x is None else float(x)
 
 
+def _ci(row: dict, key: str) -> str:
+    """``row[key]`` with its bootstrap interval ``row[key + "_ci"]`` as ``"1.03 [1.01, 1.06]"``."""
+    lo_hi = row.get(key + "_ci")
+    if not lo_hi or not all(math.isfinite(_n(v)) for v in lo_hi):
+        return _f(row.get(key))
+    return f"{_f(row.get(key))} [{_f(lo_hi[0])}, {_f(lo_hi[1])}]"
+
+
 def text_table(title, header, rows) -> str:
     """Right-aligned columns; first column left-aligned."""
     cols = [list(map(str, header))] + [[str(c) for c in r] for r in rows]
@@ -179,23 +187,23 @@ def format_report(result: dict) -> str:
         for a in con["accuracy"]:
             rows.append([a["surface"], a["scenario"], f"{a['noise']} ({a['sigma_force_N']:g} N, {a['sigma_moment_Nm']:g} N·m)",
                          f"{100 * a['valid_fraction']:.1f}", _f(_n(a["rms_point_error_m"]) * 1e3), _f(_n(a["crb_rms_m"]) * 1e3),
-                         _f(a["crb_ratio"]), _f(a["force_crb_ratio"]), _f(a.get("scipy_crb_ratio")),
+                         _ci(a, "crb_ratio"), _f(a["force_crb_ratio"]), _f(a.get("scipy_crb_ratio")),
                          _f(a.get("error_ratio_scipy"))])
         parts.append(text_table(
             "Contact accuracy: RMS point error over valid estimates vs the Cramér–Rao bound (1.00 = efficient)",
-            ["surface", "scenario", "noise (σF, σM)", "valid (%)", "RMS error (mm)", "CRB (mm)", "error/CRB",
+            ["surface", "scenario", "noise (σF, σM)", "valid (%)", "RMS error (mm)", "CRB (mm)", "error/CRB [95 % CI]",
              "force error/CRB", "scipy error/CRB", "pito/scipy error"], rows))
-        rows = [[a["surface"], a["scenario"], a["noise"], _f(a["crb_ratio"]),
+        rows = [[a["surface"], a["scenario"], a["noise"], _ci(a, "crb_ratio"),
                  _f(100 * _n(a.get("flagged_fraction"))), a.get("flag_reason", ""),
-                 _f(100 * _n(a.get("share_fn_below_5sigma"))), _f(a.get("crb_ratio_fn_5sigma")),
+                 _f(100 * _n(a.get("share_fn_below_5sigma"))), _ci(a, "crb_ratio_fn_5sigma"), _f(a.get("second_order_ratio_fn_5sigma")),
                  _f(100 * _n(a.get("ambiguous_fraction"))), _f(100 * _n(a.get("ambiguous_fraction_noisy"))),
-                 _f(a.get("crb_ratio_unambiguous"))] for a in con["accuracy"] if "flagged_fraction" in a]
+                 _ci(a, "crb_ratio_unambiguous"), _f(100 * _n(a.get("other_facet_fraction_unambiguous")))] for a in con["accuracy"] if "flagged_fraction" in a]
         if rows:
             parts.append(text_table(
                 "Contact: beside the CRB ratio, the single-contact flag and where the bound is out of reach",
-                ["surface", "scenario", "noise", "error/CRB", "flagged not single (%)", "main reason",
-                 "f_n < 5σ (%)", "error/CRB f_n ≥ 5σ", "two exact solutions (%)", "… noisy (%)",
-                 "error/CRB one solution"], rows))
+                ["surface", "scenario", "noise", "error/CRB [95 % CI]", "flagged not single (%)", "main reason",
+                 "f_n < 5σ (%)", "error/CRB f_n ≥ 5σ [95 % CI]", "ML 2nd-order f_n ≥ 5σ", "two exact solutions (%)",
+                 "… noisy (%)", "error/CRB one solution [95 % CI]", "… estimate on another facet (%)"], rows))
         if con.get("single"):
             sc = con["single"]
             header, rows = single_table_rows(sc)

@@ -27,7 +27,9 @@ Measure what pito exists for and print tables with units.
                scipy.optimize.least_squares solve of the same model; a speed-vs-error
                (Pareto) table. Beside the ratios: the share flagged as no single
                contact, and where the bound is out of reach (normal force within
-               5 σ, mesh wrenches with two exact solutions). The single-contact test:
+               5 σ, with the plane's maximum-likelihood error to 4th order; mesh
+               wrenches with two exact solutions), each ratio with its 95 %
+               bootstrap interval over the samples. The single-contact test:
                false alarms (%) on simulated single touches and detection (%) of
                two-finger touches by separation D (σ), the share no method can tell
                from one touch (D ≤ 0), per patch kind.
