@@ -14,6 +14,7 @@ from ..interop import recording_calibration
 from ..io import read_recording
 from ..pipeline import replay_recording
 from ._metrics import PATCH_COLUMNS, PHASE_COLUMNS, phase_rows
+from ._optional import require
 from ._segment import PHASES, AnalysisSettings, trials_from_contacts
 from ._series import ContactArrays, GraspSeries, grasp_series
 
@@ -25,11 +26,7 @@ BLOCK = 20_000
 
 def require_pandas():
     """The ``pandas`` module, or an ImportError naming the extra to install."""
-    try:
-        import pandas  # optional dependency (extra "analysis"), imported where the tables are made
-    except ImportError as exc:  # pragma: no cover - exercised only without the extra
-        raise ImportError("pito_core.analysis needs pandas: pip install 'pito[analysis]'") from exc
-    return pandas
+    return require("pandas", "pito_core.analysis")
 
 
 @dataclass

@@ -16,16 +16,14 @@ import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ._optional import require
+
 __all__ = ["StudyResult", "local_cluster", "run_study", "run_serial", "require_distributed"]
 
 
 def require_distributed():
     """The ``distributed`` module, or an ImportError naming the extra to install."""
-    try:
-        import distributed  # optional dependency (extra "analysis"): only a study needs it
-    except ImportError as exc:  # pragma: no cover - exercised only without the extra
-        raise ImportError("a study on Dask needs dask[distributed]: pip install 'pito[analysis]'") from exc
-    return distributed
+    return require("distributed", "a study on Dask", "dask[distributed]")
 
 
 @dataclass

@@ -39,3 +39,18 @@ def styled(qapp):
     install_app_font(qapp)
     qapp.setStyleSheet(STYLE)
     return qapp
+
+
+@pytest.fixture
+def scene(qtbot):
+    """A :class:`app.scene.CubeScene` of the bare cube, 640 × 480 px, shown (closed after the test)."""
+    from app.scene import CubeScene
+    from pito_core.frames import CubeCore
+
+    s = CubeScene(CubeCore())
+    qtbot.addWidget(s)
+    s.resize(640, 480)
+    s.show()
+    qtbot.waitExposed(s)
+    yield s
+    s.close_scene()

@@ -5,7 +5,6 @@ import numpy as np
 import pytest
 
 from pito_core.contact import ObjectContacts
-from pito_core.frames import CubeCore
 
 pytestmark = pytest.mark.needs_display
 
@@ -28,19 +27,6 @@ def test_palette_has_six_distinct_colours_shared_by_scene_and_plots():
     rgb = np.array([hex_rgb(FACE_COLORS[i]) for i in range(1, 7)])
     d = np.linalg.norm(rgb[:, None] - rgb[None], axis=2) + np.eye(6)
     assert d.min() > 0.2  # no two faces share a hue (faces 1 and 5 were two blues)
-
-
-@pytest.fixture
-def scene(qtbot):
-    from app.scene import CubeScene
-
-    s = CubeScene(CubeCore())
-    qtbot.addWidget(s)
-    s.resize(640, 480)
-    s.show()
-    qtbot.waitExposed(s)
-    yield s
-    s.close_scene()
 
 
 def test_contact_is_white_on_top_and_the_arrow_ends_on_it(scene):

@@ -39,18 +39,10 @@ def changed(a, b) -> np.ndarray:
 
 
 @pytest.fixture
-def scene(qtbot):
-    from app.scene import CubeScene
-
-    s = CubeScene(CubeCore())
-    qtbot.addWidget(s)
-    s.resize(640, 480)
-    s.show()
-    qtbot.waitExposed(s)
-    for lab in s.face_labels.values():  # the labels are not what is checked here
+def scene(scene):
+    for lab in scene.face_labels.values():  # the labels are not what is checked here
         lab.SetVisibility(False)
-    yield s
-    s.close_scene()
+    return scene
 
 
 def test_default_camera_sees_faces_1_4_5(scene):

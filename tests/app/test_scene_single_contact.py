@@ -6,22 +6,8 @@ import numpy as np
 import pytest
 
 from pito_core.contact import ObjectContacts, load_assembly, solve_object
-from pito_core.frames import CubeCore
 
 pytestmark = pytest.mark.needs_display
-
-
-@pytest.fixture
-def scene(qtbot):
-    from app.scene import CubeScene
-
-    s = CubeScene(CubeCore())
-    qtbot.addWidget(s)
-    s.resize(640, 480)
-    s.show()
-    qtbot.waitExposed(s)
-    yield s
-    s.close_scene()
 
 
 def _contacts():
