@@ -3,9 +3,11 @@
 The design of a method's least-squares problem (offset columns, counts less each
 session's tare mean) gains the features of ``_poly.py``: each face's own six gauges,
 scaled by their spread, as squares, products and cubes. A face's outputs use its own
-face's features; under a ``face`` flange also those of the connected face (every load
-passes through it), and the connected face's outputs (the reactions ``−ΣW``) use every
-face's. Rows are dealt to folds by loading segment (``_cv.py``) in the same pass as the
+face's features only; under a ``face`` flange the connected face's outputs (the reactions
+``−ΣW``, and its own direct loads) use every face's. The correction is thereby additive
+over faces for every free face: a squeeze (two faces at once, never in the training data)
+sums two single-face corrections, whereas the connected face's monomials, which see the sum
+of every load, would mix the two faces' loads into a free face's output. Rows are dealt to folds by loading segment (``_cv.py``) in the same pass as the
 affine fit's QR; the model is chosen from the folds' factors, without another pass.
 """
 
@@ -92,9 +94,8 @@ class PolyAccumulator:
         return self.acc[f].n_rows if self.own else self.acc.n_rows
 
     def _features_of(self, f) -> np.ndarray:
-        if f in self.reaction_faces:
-            return np.arange(162)
-        return np.unique(np.concatenate([face_features(f)] + [face_features(c) for c in self.reaction_faces]))
+        """Feature indices of output face ``f``: every face's for a connected face, else ``f``'s own."""
+        return np.arange(162) if f in self.reaction_faces else face_features(f)
 
     def problems(self, out_faces, rank_a=None):
         """``[(FoldedQR, [Problem …], [face …])]`` of the fit."""
