@@ -8,8 +8,9 @@ face's features; under a ``face`` flange also the squares of the connected face'
 and its own direct loads) use every face's. Not the connected face's products and cubes
 in a free face's outputs: they see the sum of every load, and a squeeze (two faces at
 once, never in the training data) drove them far outside what single-face loads fitted
-(held-out squeeze error up to 1.6× the linear fit's with them, ≤ 0.87× without). Rows are dealt to folds by loading segment (``_cv.py``) in the same pass as the
-affine fit's QR; the model is chosen from the folds' factors, without another pass.
+(held-out squeeze error up to 1.6× the linear fit's with them, ≤ 0.87× without). Rows
+are dealt to folds by loading segment (``_cv.py``) in the same pass as the affine fit's
+QR; the model is chosen from the folds' factors, without another pass.
 """
 
 from __future__ import annotations
