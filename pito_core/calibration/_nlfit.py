@@ -3,10 +3,14 @@
 The design of a method's least-squares problem (offset columns, counts less each
 session's tare mean) gains the features of ``_poly.py``: each face's own six gauges,
 scaled by their spread, as squares, products and cubes. A face's outputs use its own
-face's features; under a ``face`` flange also those of the connected face (every load
-passes through it), and the connected face's outputs (the reactions ``−ΣW``) use every
-face's. Rows are dealt to folds by loading segment (``_cv.py``) in the same pass as the
-affine fit's QR; the model is chosen from the folds' factors, without another pass.
+face's features; under a ``face`` flange also the squares of the connected face's gauges
+(every load passes through it), and the connected face's outputs (the reactions ``−ΣW``,
+and its own direct loads) use every face's. Not the connected face's products and cubes
+in a free face's outputs: they see the sum of every load, and a squeeze (two faces at
+once, never in the training data) drove them far outside what single-face loads fitted
+(held-out squeeze error up to 1.6× the linear fit's with them, ≤ 0.87× without). Rows
+are dealt to folds by loading segment (``_cv.py``) in the same pass as the affine fit's
+QR; the model is chosen from the folds' factors, without another pass.
 """
 
 from __future__ import annotations
@@ -30,6 +34,12 @@ _N_PAIRS = _PAIRS.shape[0] // 6  # 21 per face
 def face_features(f: int) -> np.ndarray:
     """Indices (into the 162 features) of face ``f``'s own squares, products and cubes."""
     return np.r_[np.arange(_N_PAIRS * (f - 1), _N_PAIRS * f), _PAIRS.shape[0] + np.arange(6 * (f - 1), 6 * f)]
+
+
+def connected_squares(f: int) -> np.ndarray:
+    """Indices (into the 162 features) of the squares ``u_i²`` of face ``f``'s six gauges."""
+    own = face_features(f)[:_N_PAIRS]
+    return own[_PAIRS[own, 0] == _PAIRS[own, 1]]
 
 
 class PolyAccumulator:
@@ -92,9 +102,11 @@ class PolyAccumulator:
         return self.acc[f].n_rows if self.own else self.acc.n_rows
 
     def _features_of(self, f) -> np.ndarray:
+        """Feature indices of output face ``f``: every face's for a connected face, else ``f``'s own
+        and the connected faces' squares."""
         if f in self.reaction_faces:
             return np.arange(162)
-        return np.unique(np.concatenate([face_features(f)] + [face_features(c) for c in self.reaction_faces]))
+        return np.unique(np.concatenate([face_features(f)] + [connected_squares(c) for c in self.reaction_faces]))
 
     def problems(self, out_faces, rank_a=None):
         """``[(FoldedQR, [Problem …], [face …])]`` of the fit."""

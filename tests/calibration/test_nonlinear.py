@@ -90,7 +90,10 @@ def test_nonlinear_cubes_default_beats_plain_least_squares():
             ratios += r
     for method, r in per_method.items():
         assert np.median(r) <= 0.75, (method, np.round(r, 3))
-        assert max(r[0::4] + r[1::4]) <= 1.0, (method, np.round(r, 3).tolist())  # single-face loads: never worse
+        assert max(r[0::4] + r[1::4]) <= 0.75, (method, np.round(r, 3).tolist())  # single-face loads
+        # squeeze loads (two faces at once) are never in the training data: never worse than
+        # the linear fit (measured ≤ 0.87; 1.61 when a free face's outputs used the connected face's products and cubes)
+        assert max(r[2::4] + r[3::4]) <= 0.9, (method, np.round(r, 3).tolist())
     print({m: np.round(r, 3).tolist() for m, r in per_method.items()})
     assert np.median(ratios) <= 0.5, np.round(ratios, 3)
 
