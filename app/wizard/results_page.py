@@ -19,6 +19,7 @@ from pito_core.calibration import CalibrationSession, RankDeficientError, calibr
 from .. import report
 from ..filetypes import CALIBRATION_SAVE_FILTER, CALIBRATION_SUFFIX
 from ..tasks import TaskBar, run_in_process, run_task
+from .ident_why import identification_why
 from .model_choice import ModelChoiceBox
 from .page import WizardPage
 
@@ -408,6 +409,7 @@ class ResultsPage(WizardPage):
             v["reactions"].setText("—")
         head = ev.identification_headline()  # the papers' rule: single by force, squeeze by torque
         v["ident"].setText("; ".join(h["text"] for h in head) if head else "n/a")
+        v["ident"].setToolTip(identification_why(ev, reaction))  # why the figure is what it is
         ho = m.heldout
         if ho is not None:
             f, t = ho.rmse_force(), ho.rmse_torque()

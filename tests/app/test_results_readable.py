@@ -52,6 +52,7 @@ def test_each_figure_is_shown_at_the_size_it_was_drawn(page, qtbot):
         assert label.pixmap().size().toTuple() == label.image.shape[1::-1]  # shown 1:1, not scaled
         h, w = label.image.shape[:2]
         assert w >= 500 and h >= 300, f"tab {k}: drawn at {w}×{h} px, too small for 9 pt text"
+    assert "crosstalk" in page.values["ident"].toolTip()  # why the identification figure is what it is
     # a resize draws them again at the new size (debounced), never leaves them shrunk
     page.window().resize(1280, 800)
     qtbot.waitUntil(lambda: _drawn_at_shown_size(page.canvas_comp), timeout=30000)
