@@ -208,7 +208,7 @@ class ResultsPage(WizardPage):
             lab.setObjectName("value")
             lab.setWordWrap(True)  # rows grow to their text (height for width), never clipped
             lab.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Minimum)
-            lab.setMinimumWidth(220)
+            lab.setMinimumWidth(170)
             grid.addWidget(lab, r, 1)
             self.values[key] = lab
         grid.setRowStretch(len(self.values), 1)
@@ -218,8 +218,8 @@ class ResultsPage(WizardPage):
         self.canvas_ident = FigureImage((760, 420))
         self.canvas_comp = FigureImage((760, 420))
         self.figure_tabs = QTabWidget()
-        for w, name in ((self.canvas_rmse, "Validation RMSE per face"), (self.canvas_ident, "Face identification"),
-                        (self.canvas_comp, "Calibrated against the reference")):
+        for w, name in ((self.canvas_rmse, "RMSE per face"), (self.canvas_ident, "Face identification"),
+                        (self.canvas_comp, "Against the reference")):
             self.figure_tabs.addTab(w, name)
             w.redraw_wanted.connect(self._redraw_figures)
         self._images_for = None  # the evaluation the shown images belong to
@@ -229,6 +229,9 @@ class ResultsPage(WizardPage):
         nums_scroll.setWidgetResizable(True)
         nums_scroll.setFrameShape(QFrame.Shape.NoFrame)
         nums_scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
+        # never narrower than the group box: its right edge (and the values' ends) stay in view
+        nums_scroll.setMinimumWidth(nums.minimumSizeHint().width() + nums_scroll.verticalScrollBar().sizeHint().width())
+        self.nums_scroll = nums_scroll
         row.addWidget(nums_scroll, 2)
         row.addWidget(self.figure_tabs, 3)
         self.body.addLayout(row, 1)

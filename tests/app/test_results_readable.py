@@ -64,6 +64,8 @@ def test_figures_of_merit_rows_are_never_clipped(page, qtbot):
     for lab in page.values.values():
         lab.setText(long)
     qtbot.wait(300)
+    scroll = page.nums_scroll
+    assert scroll.widget().width() <= scroll.viewport().width()  # the values' right ends are not cut
     for key, lab in page.values.items():
         need = lab.heightForWidth(lab.width())
         assert lab.height() >= need, f"{key}: {lab.height()} px tall, its text needs {need} px"
