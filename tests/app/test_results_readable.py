@@ -2,6 +2,8 @@
 drawn (no shrink below 0.9×, so its 9 pt text stays 12 px), and every figure of merit's row is
 as tall as its wrapped text (never clipped)."""
 
+import gc
+
 import pytest
 
 pytestmark = pytest.mark.needs_display
@@ -35,6 +37,7 @@ def page(qtbot, styled, fitted):
     qtbot.waitUntil(lambda: not page.figure_task.running, timeout=30000)
     w.shutdown()
     w.release_views()
+    gc.collect()  # free the window's wrappers here, in the GUI thread, not later in a drawing thread
 
 
 def _drawn_at_shown_size(label) -> bool:
