@@ -7,10 +7,11 @@ from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
-from PySide6.QtCore import Qt, QUrl
+from PySide6.QtCore import QTimer, Qt, QUrl, Signal
 from PySide6.QtGui import QImage, QPixmap
 from PySide6.QtWidgets import (
-    QComboBox, QFileDialog, QGridLayout, QGroupBox, QHBoxLayout, QLabel, QPushButton,
+    QComboBox, QFileDialog, QFrame, QGridLayout, QGroupBox, QHBoxLayout, QLabel, QPushButton, QScrollArea, QSizePolicy,
+    QTabWidget,
 )
 
 from pito_core.calibration import CalibrationSession, RankDeficientError, calibrate, evaluate, validation_figures
@@ -18,6 +19,7 @@ from pito_core.calibration import CalibrationSession, RankDeficientError, calibr
 from .. import report
 from ..filetypes import CALIBRATION_SAVE_FILTER, CALIBRATION_SUFFIX
 from ..tasks import TaskBar, run_in_process, run_task
+from .ident_why import identification_why
 from .model_choice import ModelChoiceBox
 from .page import WizardPage
 
@@ -110,19 +112,37 @@ def render_figures(evaluation, sizes: dict, rmse: dict | None = None) -> dict:
 
 
 class FigureImage(QLabel):
-    """A figure drawn elsewhere, shown as an image (no drawing on the GUI thread)."""
+    """A figure drawn elsewhere, shown as an image (no drawing on the GUI thread).
+
+    It asks to be drawn again at its own size (``redraw_wanted``, debounced) when its size
+    moves away from the image's, so the figure is shown at the size it was drawn (9 pt text
+    stays 12 px); in between, a larger image is scaled down to fit (never clipped).
+    """
+
+    #: emitted (debounced) when the label's size no longer fits its image (:meth:`needs_redraw`)
+    redraw_wanted = Signal()
 
     def __init__(self, size):
         super().__init__()
         self._default = size
         self.setMinimumSize(200, 150)
+        self.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Ignored)  # the image never sets the size
         self.setAlignment(Qt.AlignmentFlag.AlignCenter)
         self.image = None
+        self._debounce = QTimer(self, singleShot=True, interval=250)
+        self._debounce.timeout.connect(self.redraw_wanted)
 
     def target_size(self) -> tuple[int, int]:
         """Pixels to draw at: the widget's size once laid out, else the default."""
         w, h = self.width(), self.height()
         return (w, h) if w > 250 and h > 180 else self._default
+
+    def needs_redraw(self) -> bool:
+        """True if the shown image is larger than the label (shown shrunk) or more than 10 % smaller."""
+        if self.image is None:
+            return False
+        (w, h), (iw, ih) = self.target_size(), self.image.shape[1::-1]
+        return iw > w or ih > h or iw < 0.9 * w or ih < 0.9 * h
 
     def set_image(self, rgba) -> None:
         """Show ``rgba`` ``(h, w, 4) uint8``, scaled down (aspect kept) if the label is smaller: never clipped."""
@@ -131,6 +151,8 @@ class FigureImage(QLabel):
         qimg = QImage(self.image.data, w, h, 4 * w, QImage.Format.Format_RGBA8888).copy()
         self._pixmap = QPixmap.fromImage(qimg)
         self._fit()
+        if self.needs_redraw():  # drawn for a size the label no longer has
+            self._debounce.start()
 
     def _fit(self) -> None:
         pm = getattr(self, "_pixmap", None)
@@ -143,6 +165,8 @@ class FigureImage(QLabel):
     def resizeEvent(self, event):  # noqa: N802
         super().resizeEvent(event)
         self._fit()
+        if self.needs_redraw():
+            self._debounce.start()
 
 
 class ResultsPage(WizardPage):
@@ -163,9 +187,9 @@ class ResultsPage(WizardPage):
 
     def __init__(self, model, parent=None):
         super().__init__(model, parent)
-        grid_l = QGridLayout()
         nums = QGroupBox("Figures of merit")
         grid = QGridLayout(nums)
+        grid.setColumnStretch(1, 1)
         self.values = {}
         for r, (key, text) in enumerate((
             ("method", "Method"),
@@ -179,26 +203,38 @@ class ResultsPage(WizardPage):
             ("coverage", "Measures"),
             ("status", "Status"),
         )):
-            grid.addWidget(QLabel(text), r, 0)
+            grid.addWidget(QLabel(text), r, 0, Qt.AlignmentFlag.AlignTop)
             lab = QLabel("—")
             lab.setObjectName("value")
-            lab.setWordWrap(True)
+            lab.setWordWrap(True)  # rows grow to their text (height for width), never clipped
+            lab.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Minimum)
+            lab.setMinimumWidth(170)
             grid.addWidget(lab, r, 1)
             self.values[key] = lab
-        # figures are drawn (Agg) in the worker thread with the fit, shown here as images
-        self.canvas_rmse = FigureImage((576, 234))
-        self.canvas_ident = FigureImage((324, 270))
-        self.canvas_comp = FigureImage((576, 270))
+        grid.setRowStretch(len(self.values), 1)
+        # figures are drawn (Agg) in a worker, at the size of their tab, shown here as images;
+        # one tab each so every figure gets the room its 9 pt text needs
+        self.canvas_rmse = FigureImage((760, 420))
+        self.canvas_ident = FigureImage((760, 420))
+        self.canvas_comp = FigureImage((760, 420))
+        self.figure_tabs = QTabWidget()
+        for w, name in ((self.canvas_rmse, "RMSE per face"), (self.canvas_ident, "Face identification"),
+                        (self.canvas_comp, "Against the reference")):
+            self.figure_tabs.addTab(w, name)
+            w.redraw_wanted.connect(self._redraw_figures)
         self._images_for = None  # the evaluation the shown images belong to
-        grid_l.addWidget(nums, 0, 0)
-        grid_l.addWidget(self.canvas_ident, 1, 0)
-        grid_l.addWidget(self.canvas_rmse, 0, 1)
-        grid_l.addWidget(self.canvas_comp, 1, 1)
-        grid_l.setColumnStretch(0, 2)
-        grid_l.setColumnStretch(1, 3)
-        grid_l.setRowStretch(0, 1)
-        grid_l.setRowStretch(1, 1)
-        self.body.addLayout(grid_l, 1)
+        row = QHBoxLayout()
+        nums_scroll = QScrollArea()  # rows take the height of their wrapped text; scrolls if they need more
+        nums_scroll.setWidget(nums)
+        nums_scroll.setWidgetResizable(True)
+        nums_scroll.setFrameShape(QFrame.Shape.NoFrame)
+        nums_scroll.setHorizontalScrollBarPolicy(Qt.ScrollBarPolicy.ScrollBarAlwaysOff)
+        # never narrower than the group box: its right edge (and the values' ends) stay in view
+        nums_scroll.setMinimumWidth(nums.minimumSizeHint().width() + nums_scroll.verticalScrollBar().sizeHint().width())
+        self.nums_scroll = nums_scroll
+        row.addWidget(nums_scroll, 2)
+        row.addWidget(self.figure_tabs, 3)
+        self.body.addLayout(row, 1)
         self.model_box = ModelChoiceBox()  # which model, why, and a switch to the papers' linear fit
         self.model_box.requested_changed.connect(lambda _: self.compute())
         self.body.addWidget(self.model_box)
@@ -245,17 +281,26 @@ class ResultsPage(WizardPage):
                 (("rmse", self.canvas_rmse), ("ident", self.canvas_ident), ("comp", self.canvas_comp))}
 
     def _render_figures(self, ev) -> None:
-        """Draw the three figures of ``ev`` in a worker thread; show them when done."""
+        """Draw the three figures of ``ev`` in a worker thread, at the labels' sizes; show them when done."""
         sizes = self._figure_sizes()
         self._images_for = ev
+        self._render_token = token = object()  # only the newest drawing is shown
 
         def done(images):
-            if self._images_for is ev:
+            if self._images_for is ev and self._render_token is token:
                 self._show_images(images)
 
         options = getattr(self, "_rmse_options", None)
         self.figure_task = run_task(lambda progress: render_figures(ev, sizes, options), "Drawing the figures", done,
                                     lambda msg: self.values["status"].setText(f"✘ figures: {msg}"), owner=self)
+
+    def _redraw_figures(self) -> None:
+        """A figure's label changed size: draw the figures again at the new sizes (not while fitting)."""
+        ev = self.model.evaluation
+        if ev is None or self.fitting or self._images_for is not ev:
+            return
+        if any(w.needs_redraw() for w in (self.canvas_rmse, self.canvas_ident, self.canvas_comp)):
+            self._render_figures(ev)
 
     def _show_images(self, images: dict) -> None:
         for name, w in (("rmse", self.canvas_rmse), ("ident", self.canvas_ident), ("comp", self.canvas_comp)):
@@ -367,6 +412,7 @@ class ResultsPage(WizardPage):
             v["reactions"].setText("—")
         head = ev.identification_headline()  # the papers' rule: single by force, squeeze by torque
         v["ident"].setText("; ".join(h["text"] for h in head) if head else "n/a")
+        v["ident"].setToolTip(identification_why(ev, reaction))  # why the figure is what it is
         ho = m.heldout
         if ho is not None:
             f, t = ho.rmse_force(), ho.rmse_torque()
