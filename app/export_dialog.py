@@ -18,6 +18,7 @@ from pito_core.calibration import load_calibration
 from pito_core.interop import export_data, write_mcap, write_nwb
 from pito_core.io import export_recording_csv, export_recording_mat, read_recording
 
+from .file_menu import add_dialog_action
 from .filetypes import CALIBRATION_FILTER
 from .tasks import TaskBar, run_task
 
@@ -163,17 +164,4 @@ class ExportDialog(QDialog):
 
 def install_export_menu(window):
     """Add File → Export recording… to ``window``'s menu bar (creating the File menu if absent)."""
-    bar = window.menuBar()
-    menu = next((a.menu() for a in bar.actions() if a.menu() is not None and a.text().replace("&", "") == "File"), None)
-    if menu is None:
-        menu = bar.addMenu("&File")
-    action = menu.addAction("Export recording… (NWB, MCAP, CSV, .mat)")
-
-    def show():
-        dlg = ExportDialog(window, getattr(window, "recording_path", None))
-        window.export_dialog = dlg
-        dlg.show()
-
-    action.triggered.connect(show)
-    window.export_action = action
-    return action
+    return add_dialog_action(window, "Export recording… (NWB, MCAP, CSV, .mat)", ExportDialog, "export")

@@ -16,6 +16,7 @@ from PySide6.QtWidgets import (
 from pito_core.calibration import load_calibration
 from pito_core.analysis import analyze_recording, trial_figure, write_analysis
 
+from ..file_menu import add_dialog_action
 from ..tasks import TaskBar, run_task
 from ._table import DataFrameModel
 
@@ -170,17 +171,4 @@ class AnalysisDialog(QDialog):
 
 def install_analysis_menu(window):
     """Add File → Analyse recording… to ``window``'s menu bar (creating the File menu if absent)."""
-    bar = window.menuBar()
-    menu = next((a.menu() for a in bar.actions() if a.menu() is not None and a.text().replace("&", "") == "File"), None)
-    if menu is None:
-        menu = bar.addMenu("&File")
-    action = menu.addAction("Analyse recording… (trials, grasp metrics)")
-
-    def show():
-        dlg = AnalysisDialog(window, getattr(window, "recording_path", None))
-        window.analysis_dialog = dlg
-        dlg.show()
-
-    action.triggered.connect(show)
-    window.analysis_action = action
-    return action
+    return add_dialog_action(window, "Analyse recording… (trials, grasp metrics)", AnalysisDialog, "analysis")
