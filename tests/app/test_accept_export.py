@@ -8,16 +8,6 @@ import pytest
 pytestmark = pytest.mark.needs_display
 
 
-@pytest.fixture(scope="module")
-def fitted():
-    from app.wizard.results_page import fit_and_evaluate
-    from pito_core.sim import simulate_calibration
-
-    session = simulate_calibration("frame_hole", 6, k=150, seed=3)  # SIMULATED
-    cal, ev, *_ = fit_and_evaluate(session, "loaded_frame")
-    return cal, ev
-
-
 @pytest.fixture
 def window(qtbot, styled):
     from app.window import MainWindow
