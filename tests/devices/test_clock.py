@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from pito_core.devices import StreamClock, TickUnwrapper, pair_reference
-from pito_core.devices._acquisition import _Ring
+from pito_core.devices._ring import _Ring
 
 
 def _stream(n, rng, drift=0.0, latency=0.003, batch=10, offset=100.0):
