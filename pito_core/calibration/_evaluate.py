@@ -151,6 +151,89 @@ def _jsonable(x):
     return x
 
 
+class _Tally:
+    """Running figures of :func:`evaluate` over the blocks of the held-out sessions."""
+
+    def __init__(self, force_threshold, torque_threshold, keep_p, seed):
+        self.force_threshold, self.torque_threshold, self.keep_p = force_threshold, torque_threshold, keep_p
+        self.single, self.cross, self.squeeze = _Acc((6, 6)), _Acc((6, 6)), _Acc((6,))
+        self.rng = np.random.default_rng(seed)
+        self.series = {"predicted": [], "reference": [], "kind": [], "face": [], "force_norm": [], "torque_norm": [],
+                       "true_loaded": []}
+        self.id_counts = {k: {m: [0, 0] for m in ("force", "torque", "either")} for k in ("single", "squeeze")}
+        self.per_face = {m: [np.zeros(6), np.zeros(6)] for m in ("force", "torque", "either")}
+        self.n_single = self.n_squeeze = 0
+
+    def add(self, pred, b, s, mount, evaluable) -> None:
+        """One block ``b`` of session ``s``: predicted face wrenches ``pred`` (n, 6, 6) against its targets."""
+        targets, carries, usable, _ = block_targets(b.reference, b.loaded, mount, "face")
+        n_loaded = b.loaded.sum(axis=1)
+        # a direct load on a type-3 flange's face goes into the flange: no face senses it,
+        # so such samples cannot be compared with the reference
+        sensed = ~b.loaded[:, s.connected_face - 1] if s.flange == "face" else np.ones(len(n_loaded), bool)
+        one = usable & (n_loaded == 1)
+        # single-face loads: error on the face carrying the load and on the others
+        if one.any():
+            err = pred[one] - targets[one]
+            car = carries[one]
+            self.single.add(np.where(car[:, :, None], err, np.nan))
+            self.cross.add(np.where(~car[:, :, None], err, np.nan))
+            self.n_single += int(one.sum())
+        # squeeze: resultant of the loaded faces (in S_A) against the reference
+        many = (n_loaded >= 2) & sensed
+        resultant = np.einsum("fij,nfj->ni", mount.X_ati_face, np.where(b.loaded[:, :, None], pred, 0.0))
+        if many.any():
+            self.squeeze.add(resultant[many] - b.reference[many])
+            self.n_squeeze += int(many.sum())
+        self._identify(pred, b.loaded, n_loaded, one, many, evaluable)
+        # comparison series (subsampled)
+        pick = ((one & sensed) | many) & (self.rng.random(len(one)) < self.keep_p)
+        if pick.any():
+            self._keep(pick, pred, resultant, b, one, many)
+
+    def _identify(self, pred, loaded, n_loaded, one, many, evaluable) -> None:
+        """Identification against the loaded mask, on the evaluable faces."""
+        true = loaded[:, evaluable]
+        loaded_rows = n_loaded >= 1
+        for mode in ("force", "torque", "either"):
+            got = identify_loaded_faces(pred, self.force_threshold, self.torque_threshold, by=mode)[:, evaluable]
+            hit = (got == true).all(axis=1)
+            for kind, rows in (("single", one & loaded_rows), ("squeeze", many)):
+                self.id_counts[kind][mode][0] += int(hit[rows].sum())
+                self.id_counts[kind][mode][1] += int(rows.sum())
+            self.per_face[mode][0][evaluable] += (got == true)[loaded_rows].sum(axis=0)
+            self.per_face[mode][1][evaluable] += loaded_rows.sum()
+
+    def _keep(self, pick, pred, resultant, b, one, many) -> None:
+        series = self.series
+        single_pred = np.where(one[:, None], resultant, np.nan)
+        series["predicted"].append(np.where(many[:, None], resultant, single_pred)[pick])
+        series["reference"].append(b.reference[pick])
+        series["kind"].append(np.where(many[pick], "squeeze", "single"))
+        series["face"].append(np.where(one[pick], np.argmax(b.loaded[pick], axis=1) + 1, 0))
+        series["force_norm"].append(np.linalg.norm(pred[pick][..., :3], axis=-1))
+        series["torque_norm"].append(np.linalg.norm(pred[pick][..., 3:], axis=-1))
+        series["true_loaded"].append(b.loaded[pick])
+
+    def identification(self) -> dict:
+        """:attr:`Evaluation.identification`."""
+        identification = {
+            kind: {mode: (h / n if n else None) for mode, (h, n) in modes.items()} | {"n": modes["either"][1]}
+            for kind, modes in self.id_counts.items()
+        }
+        identification["per_face"] = {
+            mode: np.where(n > 0, h / np.maximum(n, 1), np.nan).tolist() for mode, (h, n) in self.per_face.items()
+        }
+        identification["force_threshold_N"] = self.force_threshold
+        identification["torque_threshold_Nm"] = self.torque_threshold
+        return identification
+
+    def concatenated(self) -> dict:
+        """The kept series, each concatenated over the blocks."""
+        return {k: (np.concatenate(v) if v else np.zeros((0,) + ((6,) if k not in ("kind", "face") else ())))
+                for k, v in self.series.items()}
+
+
 def evaluate(calibration: Calibration, sessions, *, tare: bool = True,
              force_threshold: float = DEFAULT_FORCE_THRESHOLD,
              torque_threshold: float = DEFAULT_TORQUE_THRESHOLD, block_size: int = 65536,
@@ -176,84 +259,25 @@ def evaluate(calibration: Calibration, sessions, *, tare: bool = True,
     if not isinstance(calibration, Calibration):
         raise ValueError(f"calibration: expected a Calibration, got {type(calibration).__name__}")
     sessions = _as_sessions(sessions)
-    single, cross, squeeze = _Acc((6, 6)), _Acc((6, 6)), _Acc((6,))
-    rng = np.random.default_rng(seed)
-    series = {"predicted": [], "reference": [], "kind": [], "face": [], "force_norm": [], "torque_norm": [],
-              "true_loaded": []}
-    id_counts = {k: {m: [0, 0] for m in ("force", "torque", "either")} for k in ("single", "squeeze")}
-    per_face = {m: [np.zeros(6), np.zeros(6)] for m in ("force", "torque", "either")}
-    n_single = n_squeeze = 0
     total_rows = sum(len(s) for s in sessions)
-    keep_p = min(1.0, MAX_SERIES / max(total_rows, 1))
+    tally = _Tally(force_threshold, torque_threshold, min(1.0, MAX_SERIES / max(total_rows, 1)), seed)
     for s in sessions:
         offset = session_offsets(s, block_size) if tare else None
         mount = MountGeometry(s)
-        X_ati_face = mount.X_ati_face  # face frame -> S_A
         evaluable = np.ones(6, dtype=bool)
         if s.flange in ("face", "frame"):
             evaluable[s.connected_face - 1] = False  # carries the reaction, or nothing
         for b in s.iter_blocks(block_size):
-            pred = calibration.wrenches(b.counts, offset=offset)
-            targets, carries, usable, _ = block_targets(b.reference, b.loaded, mount, "face")
-            n_loaded = b.loaded.sum(axis=1)
-            # a direct load on a type-3 flange's face goes into the flange: no face senses it,
-            # so such samples cannot be compared with the reference
-            sensed = ~b.loaded[:, s.connected_face - 1] if s.flange == "face" else np.ones(len(n_loaded), bool)
-            one = usable & (n_loaded == 1)
-            # single-face loads: error on the face carrying the load and on the others
-            if one.any():
-                err = pred[one] - targets[one]
-                car = carries[one]
-                single.add(np.where(car[:, :, None], err, np.nan))
-                cross.add(np.where(~car[:, :, None], err, np.nan))
-                n_single += int(one.sum())
-            # squeeze: resultant of the loaded faces (in S_A) against the reference
-            many = (n_loaded >= 2) & sensed
-            resultant = np.einsum("fij,nfj->ni", X_ati_face, np.where(b.loaded[:, :, None], pred, 0.0))
-            if many.any():
-                squeeze.add(resultant[many] - b.reference[many])
-                n_squeeze += int(many.sum())
-            # identification against the loaded mask, on the evaluable faces
-            true = b.loaded[:, evaluable]
-            loaded_rows = n_loaded >= 1
-            for mode in ("force", "torque", "either"):
-                got = identify_loaded_faces(pred, force_threshold, torque_threshold, by=mode)[:, evaluable]
-                hit = (got == true).all(axis=1)
-                for kind, rows in (("single", one & loaded_rows), ("squeeze", many)):
-                    id_counts[kind][mode][0] += int(hit[rows].sum())
-                    id_counts[kind][mode][1] += int(rows.sum())
-                per_face[mode][0][evaluable] += (got == true)[loaded_rows].sum(axis=0)
-                per_face[mode][1][evaluable] += loaded_rows.sum()
-            # comparison series (subsampled)
-            pick = ((one & sensed) | many) & (rng.random(len(one)) < keep_p)
-            if pick.any():
-                single_pred = np.where(one[:, None], resultant, np.nan)
-                series["predicted"].append(np.where(many[:, None], resultant, single_pred)[pick])
-                series["reference"].append(b.reference[pick])
-                series["kind"].append(np.where(many[pick], "squeeze", "single"))
-                series["face"].append(np.where(one[pick], np.argmax(b.loaded[pick], axis=1) + 1, 0))
-                series["force_norm"].append(np.linalg.norm(pred[pick][..., :3], axis=-1))
-                series["torque_norm"].append(np.linalg.norm(pred[pick][..., 3:], axis=-1))
-                series["true_loaded"].append(b.loaded[pick])
-    cat = {k: (np.concatenate(v) if v else np.zeros((0,) + ((6,) if k not in ("kind", "face") else ())))
-           for k, v in series.items()}
-    identification = {
-        kind: {mode: (h / n if n else None) for mode, (h, n) in modes.items()} | {"n": modes["either"][1]}
-        for kind, modes in id_counts.items()
-    }
-    identification["per_face"] = {
-        mode: np.where(n > 0, h / np.maximum(n, 1), np.nan).tolist() for mode, (h, n) in per_face.items()
-    }
-    identification["force_threshold_N"] = force_threshold
-    identification["torque_threshold_Nm"] = torque_threshold
+            tally.add(calibration.wrenches(b.counts, offset=offset), b, s, mount, evaluable)
+    cat = tally.concatenated()
     return Evaluation(
         method=calibration.method,
-        rmse_single=single.rmse(),
-        rmse_crosstalk=cross.rmse(),
-        rmse_squeeze=squeeze.rmse(),
-        n_single=n_single,
-        n_squeeze=n_squeeze,
-        identification=identification,
+        rmse_single=tally.single.rmse(),
+        rmse_crosstalk=tally.cross.rmse(),
+        rmse_squeeze=tally.squeeze.rmse(),
+        n_single=tally.n_single,
+        n_squeeze=tally.n_squeeze,
+        identification=tally.identification(),
         comparison={k: cat[k] for k in ("predicted", "reference", "kind", "face")},
         identified={k: cat[k] for k in ("force_norm", "torque_norm", "true_loaded")},
         inverse_condition_number=calibration.inverse_condition_number,
