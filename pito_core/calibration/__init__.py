@@ -5,17 +5,10 @@ Sessions are :mod:`pito_core.io`'s (``CalibrationSession`` is re-exported here).
 
 from ._calibration import Calibration, load_calibration
 from ._coverage import NOT_MEASURED_TEXT, CompletingMount, Coverage, completing_mount, measured_directions
-from ._evaluate import (
-    DEFAULT_FORCE_THRESHOLD,
-    DEFAULT_TORQUE_THRESHOLD,
-    Equilibrium,
-    Evaluation,
-    equilibrium,
-    evaluate,
-    identify_loaded_faces,
-    inverse_condition_table,
-    UNCERTAINTY_WORDS,
-)
+from ._equilibrium import Equilibrium, equilibrium
+from ._evaluate import Evaluation, evaluate
+from ._interval import UNCERTAINTY_WORDS
+from ._metrics import DEFAULT_FORCE_THRESHOLD, DEFAULT_TORQUE_THRESHOLD, identify_loaded_faces, inverse_condition_table
 from ._fit import (
     AXES,
     NET_LOAD_MEASURED,

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import warnings
+from dataclasses import dataclass, field
 
 import numpy as np
 from threadpoolctl import threadpool_limits
@@ -216,6 +217,64 @@ def _offset_from_intercept(C: np.ndarray, center: np.ndarray, b: np.ndarray) -> 
     return center - np.linalg.lstsq(C, b, rcond=RANK_RTOL)[0]
 
 
+@dataclass
+class _Streams:
+    """What pass 2 of :meth:`Calibrator._fit` accumulates over the blocks."""
+
+    gram: np.ndarray  # (36, 36) joint Gram of the scaled targets of all faces
+    carried_any: np.ndarray  # (6,) bool: a face carried load in some usable sample
+    n_used: int  # usable samples
+    own: dict  # face -> StreamedQR of its own gauges
+    joint_faces: tuple
+    joint: StreamedQR | None  # all 36 gauges -> the joint faces
+    poly: PolyAccumulator | None
+
+
+@dataclass
+class _Solution:
+    """The solved linear model of :meth:`Calibrator._fit`, filled step by step."""
+
+    matrix: np.ndarray  # (6F, 36)
+    residual: np.ndarray  # (6, 6) fit residual RMS per face and axis, N and N·m
+    offsets: list = field(default_factory=list)  # (36,) zero-load counts of each session
+    ranks: list = field(default_factory=list)
+    counts_rank: list = field(default_factory=list)
+    groups: list = field(default_factory=list)  # CovarianceGroup
+
+
+def _add_block(st: _Streams, k: int, n_int: int, b, center, targets, carries, usable) -> None:
+    """Add one block of session ``k`` to the pass-2 accumulators."""
+    st.n_used += int(usable.sum())
+    st.carried_any |= (carries & usable[:, None]).any(axis=0)
+    t = targets[usable].reshape(-1, 36)
+    st.gram += (t.T @ t) * _GRAM_SCALE
+    A = np.zeros((b.counts.shape[0], n_int + 36))
+    A[:, k] = 1.0
+    np.subtract(b.counts, center, out=A[:, n_int:])
+    unloaded = ~b.loaded.any(axis=1)
+    for f, acc in st.own.items():
+        rows = usable & (carries[:, f - 1] | unloaded)
+        cols = np.r_[np.arange(n_int), n_int + np.arange(6 * (f - 1), 6 * f)]
+        acc.add(A[np.ix_(rows, cols)], targets[rows, f - 1])
+    if st.joint is not None:
+        idx = [f - 1 for f in st.joint_faces]
+        st.joint.add(A[usable], targets[usable][:, idx, :].reshape(-1, 6 * len(idx)))
+    if st.poly is not None:
+        st.poly.add(k, A[:, n_int:], targets, usable, carries, b.loaded)
+
+
+def _own_offsets(tare_means, out_faces, own_C, own_b) -> list:
+    """Each session's zero-load counts (36,) from the own-gauge fits' intercepts."""
+    offsets = []
+    for j, m in enumerate(tare_means):
+        o = m.copy()
+        for k, f in enumerate(out_faces):
+            g = slice(6 * (f - 1), 6 * f)
+            o[g] = _offset_from_intercept(own_C[6 * k : 6 * k + 6, g], m[g], own_b[j, 6 * k : 6 * k + 6])
+        offsets.append(o)
+    return offsets
+
+
 class Calibrator:
     """Fit a calibration matrix from sessions (scikit-learn-like estimator).
 
@@ -336,31 +395,67 @@ class Calibrator:
         spec = get_method(self.method)
         sessions = _as_sessions(sessions)
         self._check_sessions(spec, sessions)
-        total_samples = sum(len(s) for s in sessions)
         n_int = len(sessions)
-
         # pass 1: tare means and the gauge noise at rest (refusing NaN, inf and saturated samples)
+        tare_means, gauge_cov, ref_covs = self._rest_noise(sessions)
+        mounts = [MountGeometry(s) for s in sessions]
+        # pass 2: targets, their Gram matrix (excitation, load rank) and streamed QR of the
+        # affine design [offset column of each session | counts − tare mean]
+        st = self._stream(spec, sessions, mounts, tare_means)
+        out_faces = st.joint_faces or self._output_faces(spec, sessions, st.carried_any)
+        if not out_faces:
+            raise ValueError("loaded: no face carried load in the sessions; nothing to calibrate")
+        self._check_excitation(out_faces, st.gram)
+        load_rank = _load_rank(st.gram, FACES)  # dimension of the 36-d space of face wrenches the loads span
+        center = np.mean(tare_means, axis=0)
+        weights = np.full(n_int, 1.0 / n_int)
+        fit = _Solution(np.zeros((6 * len(out_faces), 36)), np.full((6, 6), np.nan))
+        own_C, own_b = self._solve_own(spec, st, out_faces, n_int, center, weights, fit)
+        if st.joint is None:
+            fit.matrix[:] = own_C
+            fit.offsets = _own_offsets(tare_means, out_faces, own_C, own_b)
+        else:
+            self._solve_joint(st, out_faces, load_rank, own_C, gauge_cov, tare_means, center, weights, fit)
+        choice, corr, linear_fit = self._poly_step(st.poly, out_faces, tare_means, fit)
+        self.offsets_ = fit.offsets
+        self.tare_means_ = tare_means
+        self.n_samples_ = st.n_used
+        s0 = next(s for s in sessions if s.flange in spec.flanges)
+        meta = self._meta(spec, sessions, st, out_faces, load_rank, fit, choice, corr)
+        cal = Calibration(spec.name, fit.matrix, out_faces, spec.output_frame, np.mean(fit.offsets, axis=0), s0.core,
+                          s0.T_core_ati, meta, correction=corr, model=choice,
+                          linear_fit=linear_fit)
+        # pass 3: the error a sample brings itself (noise, what the linear model misses), against its load
+        coef, corr = fit_error_model(cal, sessions, mounts, fit.offsets, tare_means, spec, fit.groups, self.block_size,
+                                     ref_covs, gauge_cov)
+        cal.covariance = CalibrationCovariance(fit.groups, gauge_cov, None, coef, corr)
+        self.calibration_ = cal
+        return self
+
+    def _rest_noise(self, sessions):
+        """Pass 1: each session's tare mean (36,) counts, the pooled gauge covariance at rest
+        (36, 36) counts², and each session's reference covariance at rest (6, 6) N/N·m²."""
+        n_int = len(sessions)
         moments = [_tare_moments(s, self.block_size, with_reference=True) for s in sessions]
         tare_means = [m[0] for m in moments]
         n_tare = sum(m[2] for m in moments)
         gauge_cov = sum(m[1] * m[2] for m in moments) / max(n_tare - n_int, 1)  # pooled within sessions
         ref_covs = [m[3] * m[2] / max(m[2] - 1, 1) for m in moments]  # the reference's own noise at rest
-        mounts = [MountGeometry(s) for s in sessions]
+        return tare_means, gauge_cov, ref_covs
 
-        # pass 2: targets, their Gram matrix (excitation, load rank) and streamed QR of the
-        # affine design [offset column of each session | counts − tare mean]
-        gram = np.zeros((36, 36))  # joint Gram of the scaled targets of all faces
-        carried_any = np.zeros(6, dtype=bool)
-        n_used = 0
+    def _stream(self, spec, sessions, mounts, tare_means) -> "_Streams":
+        """Pass 2: the accumulators (Gram of the targets, streamed QRs, polynomial sums) over every block."""
+        n_int = len(sessions)
         need_own = spec.inputs == "own" or self.prior == "own_gauge"
         own = {f: StreamedQR(n_int + 6, 6, flush_rows=self.block_size) for f in FACES} if need_own else {}
         joint_faces = self._output_faces(spec, sessions, None) if spec.inputs == "all" else ()
         joint = StreamedQR(n_int + 36, 6 * len(joint_faces), flush_rows=self.block_size) if joint_faces else None
-        idx = [f - 1 for f in joint_faces]
         poly = None
         if self.model != "linear" and self.prior is None:
             poly = PolyAccumulator(spec.inputs == "own", joint_faces, n_int, _gauge_scale(sessions, tare_means, self.block_size),
                                    {s.connected_face for s in sessions if s.flange == "face"}, [len(s) for s in sessions])
+        st = _Streams(np.zeros((36, 36)), np.zeros(6, dtype=bool), 0, own, joint_faces, joint, poly)
+        total_samples = sum(len(s) for s in sessions)
         done = 0
         for k, (s, mount, center) in enumerate(zip(sessions, mounts, tare_means)):
             for b in s.iter_blocks(self.block_size):
@@ -370,121 +465,98 @@ class Calibrator:
                         f"sessions[{k}].loaded: the connected face {s.connected_face} cannot be loaded with "
                         f"flange 'frame', yet it is marked loaded at sample indices {_few(np.flatnonzero(bad) + b.start)}"
                     )
-                n_used += int(usable.sum())
-                carried_any |= (carries & usable[:, None]).any(axis=0)
-                t = targets[usable].reshape(-1, 36)
-                gram += (t.T @ t) * _GRAM_SCALE
-                A = np.zeros((b.counts.shape[0], n_int + 36))
-                A[:, k] = 1.0
-                np.subtract(b.counts, center, out=A[:, n_int:])
-                unloaded = ~b.loaded.any(axis=1)
-                for f, acc in own.items():
-                    rows = usable & (carries[:, f - 1] | unloaded)
-                    cols = np.r_[np.arange(n_int), n_int + np.arange(6 * (f - 1), 6 * f)]
-                    acc.add(A[np.ix_(rows, cols)], targets[rows, f - 1])
-                if joint is not None:
-                    joint.add(A[usable], targets[usable][:, idx, :].reshape(-1, 6 * len(idx)))
-                if poly is not None:
-                    poly.add(k, A[:, n_int:], targets, usable, carries, b.loaded)
+                _add_block(st, k, n_int, b, center, targets, carries, usable)
                 done += b.counts.shape[0]
                 if self.progress is not None:
                     self.progress(done, total_samples)
-        out_faces = joint_faces or self._output_faces(spec, sessions, carried_any)
-        if not out_faces:
-            raise ValueError("loaded: no face carried load in the sessions; nothing to calibrate")
-        self._check_excitation(out_faces, gram)
-        load_rank = _load_rank(gram, FACES)  # dimension of the 36-d space of face wrenches the loads span
-        own = {f: own[f] for f in out_faces if f in own}
-        center = np.mean(tare_means, axis=0)
-        weights = np.full(n_int, 1.0 / n_int)
+        return st
 
-        matrix = np.zeros((6 * len(out_faces), 36))
-        residual = np.full((6, 6), np.nan)
-        ranks, groups = [], []
+    def _solve_own(self, spec, st, out_faces, n_int, center, weights, fit):
+        """Each output face's own-gauge fit: the block-diagonal ``own_C`` (6F, 36) and intercepts (n_int, 6F)."""
+        own = {f: st.own[f] for f in out_faces if f in st.own}
         own_C = np.zeros((6 * len(out_faces), 36))  # block-diagonal: own gauges -> own rows
         own_b = np.zeros((n_int, 6 * len(out_faces)))
-        counts_rank = []
         for k, (f, acc) in enumerate(own.items()):
-            res = self._solve_checked(acc, n_int + _load_rank(gram, (f,)), (f,), strict=spec.inputs == "own")
+            res = self._solve_checked(acc, n_int + _load_rank(st.gram, (f,)), (f,), strict=spec.inputs == "own")
             g = slice(6 * (f - 1), 6 * f)
             own_C[6 * k : 6 * k + 6, g] = res.X[n_int:].T
             own_b[:, 6 * k : 6 * k + 6] = res.X[:n_int]
             if spec.inputs == "own":
-                ranks.append(_load_rank(gram, (f,)))
-                counts_rank.append(res.numerical_rank - n_int)
-                residual[f - 1] = res.residual_rms
-                groups.append(self._group(res, np.arange(6 * (f - 1), 6 * f), np.arange(6 * k, 6 * k + 6),
-                                          center[g], weights))
-        if joint is None:
-            matrix[:] = own_C
-            offsets = []
-            for j, m in enumerate(tare_means):
-                o = m.copy()
-                for k, f in enumerate(out_faces):
-                    g = slice(6 * (f - 1), 6 * f)
-                    o[g] = _offset_from_intercept(own_C[6 * k : 6 * k + 6, g], m[g], own_b[j, 6 * k : 6 * k + 6])
-                offsets.append(o)
-        else:
-            res = self._solve_checked(joint, n_int + min(load_rank, 36), out_faces, strict=True)
-            C = res.X[n_int:].T
-            B = res.X[:n_int]
-            offsets = [_offset_from_intercept(C, m, B[k]) for k, m in enumerate(tare_means)]
-            if self.prior == "own_gauge" and load_rank < 36:
-                C_new = self._fill_unexcited(joint, res, C, own_C, gauge_cov, n_int, 36 - load_rank)
-                X_new = np.vstack([np.stack([C_new @ (m - o) for m, o in zip(tare_means, offsets)]), C_new.T])
-                D = X_new - res.X
-                RD = np.triu(joint.R11) @ D
-                res.residual_cp = res.residual_cp + RD.T @ RD
-                res.residual_rms = np.sqrt(np.diag(res.residual_cp) / max(res.n_rows, 1))
-                C = C_new
-            matrix[:] = C
-            ranks.append(load_rank)
-            counts_rank.append(res.numerical_rank - n_int)
-            for k, f in enumerate(out_faces):
-                residual[f - 1] = res.residual_rms[6 * k : 6 * k + 6]
-            groups.append(self._group(res, np.arange(36), np.arange(6 * len(out_faces)), center, weights))
+                fit.ranks.append(_load_rank(st.gram, (f,)))
+                fit.counts_rank.append(res.numerical_rank - n_int)
+                fit.residual[f - 1] = res.residual_rms
+                fit.groups.append(self._group(res, np.arange(6 * (f - 1), 6 * f), np.arange(6 * k, 6 * k + 6),
+                                              center[g], weights))
+        return own_C, own_b
 
+    def _solve_joint(self, st, out_faces, load_rank, own_C, gauge_cov, tare_means, center, weights, fit) -> None:
+        """The joint fit of every output face from all 36 gauges (with the own-gauge prior where asked)."""
+        n_int = len(tare_means)
+        joint = st.joint
+        res = self._solve_checked(joint, n_int + min(load_rank, 36), out_faces, strict=True)
+        C = res.X[n_int:].T
+        B = res.X[:n_int]
+        offsets = [_offset_from_intercept(C, m, B[k]) for k, m in enumerate(tare_means)]
+        if self.prior == "own_gauge" and load_rank < 36:
+            C_new = self._fill_unexcited(joint, res, C, own_C, gauge_cov, n_int, 36 - load_rank)
+            X_new = np.vstack([np.stack([C_new @ (m - o) for m, o in zip(tare_means, offsets)]), C_new.T])
+            D = X_new - res.X
+            RD = np.triu(joint.R11) @ D
+            res.residual_cp = res.residual_cp + RD.T @ RD
+            res.residual_rms = np.sqrt(np.diag(res.residual_cp) / max(res.n_rows, 1))
+            C = C_new
+        fit.matrix[:] = C
+        fit.offsets = offsets
+        fit.ranks.append(load_rank)
+        fit.counts_rank.append(res.numerical_rank - n_int)
+        for k, f in enumerate(out_faces):
+            fit.residual[f - 1] = res.residual_rms[6 * k : 6 * k + 6]
+        fit.groups.append(self._group(res, np.arange(36), np.arange(6 * len(out_faces)), center, weights))
+
+    def _poly_step(self, poly, out_faces, tare_means, fit):
+        """The model choice, and the polynomial correction where chosen: ``(choice, correction, linear_fit)``."""
         choice, corr, linear_fit = ModelChoice(reason="the papers' affine least squares, as requested"), None, None
         if poly is not None:
             choice, sol = poly.fit(out_faces, self.model)
             if sol is not None:
                 C, B, D, E2 = sol
-                linear_fit = (matrix.copy(), np.mean(offsets, axis=0))
-                matrix[:] = C
+                linear_fit = (fit.matrix.copy(), np.mean(fit.offsets, axis=0))
+                fit.matrix[:] = C
                 # the zero-load counts: the tare means (the intercepts, the model's wrench at rest,
                 # are the error at the unloaded samples: a shift of the counts would move the features too)
-                offsets = [m.copy() for m in tare_means]
+                fit.offsets = [m.copy() for m in tare_means]
                 corr = poly_correction(poly.scale, D)
-                _rescale_groups(groups, residual, out_faces, E2, poly)
+                _rescale_groups(fit.groups, fit.residual, out_faces, E2, poly)
         elif self.model != "linear":
             choice = ModelChoice(requested=self.model, reason="the papers' affine least squares: prior='own_gauge' "
                                  "fills the unexcited directions of the linear model only")
+        return choice, corr, linear_fit
+
+    def _meta(self, spec, sessions, st, out_faces, load_rank, fit, choice, corr) -> dict:
+        """The calibration's ``meta``: method, sessions, fit, ranks, net load and coverage."""
         if load_rank >= 36:
             net_load = NET_LOAD_MEASURED
         elif spec.inputs == "own" or self.prior == "own_gauge":
             net_load = NET_LOAD_PRIOR
         else:
             net_load = NET_LOAD_UNIDENTIFIED
-        self.offsets_ = offsets
-        self.tare_means_ = tare_means
-        self.n_samples_ = n_used
         s0 = next(s for s in sessions if s.flange in spec.flanges)
-        meta = {
+        return {
             "method": spec.name,
             "paper": spec.paper,
             "flanges": sorted({s.flange for s in sessions}),
             "connected_faces": sorted({s.connected_face for s in sessions}),
             "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
             "n_sessions": len(sessions),
-            "n_samples": int(total_samples),
-            "n_samples_fitted": int(n_used),
+            "n_samples": int(sum(len(s) for s in sessions)),
+            "n_samples_fitted": int(st.n_used),
             "fit": "affine least squares: counts beside one offset column per session, unloaded samples as "
                    "zero-wrench rows (C = W S⁺)" + ("" if corr is None else ", with a polynomial correction of "
                                                    "each face's gauges (ridge chosen by cross-validation)"),
             "model": choice.name,
-            "fit_residual_rms": residual.tolist(),
-            "load_rank": ranks,
-            "counts_rank": counts_rank,
+            "fit_residual_rms": fit.residual.tolist(),
+            "load_rank": fit.ranks,
+            "counts_rank": fit.counts_rank,
             "prior": self.prior,
             "net_load": net_load,
             "load_directions": {
@@ -494,17 +566,8 @@ class Calibrator:
             },
             "simulated": any(bool(s.meta.get("simulated", False)) for s in sessions),
             # which face axes and whether the net load the training loads measured (_coverage.py)
-            "coverage": measured_directions(gram, out_faces, spec.output_frame, s0.core).to_meta(),
+            "coverage": measured_directions(st.gram, out_faces, spec.output_frame, s0.core).to_meta(),
         }
-        cal = Calibration(spec.name, matrix, out_faces, spec.output_frame, np.mean(offsets, axis=0), s0.core,
-                          s0.T_core_ati, meta, correction=corr, model=choice,
-                          linear_fit=linear_fit)
-        # pass 3: the error a sample brings itself (noise, what the linear model misses), against its load
-        coef, corr = fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, self.block_size, ref_covs,
-                                     gauge_cov)
-        cal.covariance = CalibrationCovariance(groups, gauge_cov, None, coef, corr)
-        self.calibration_ = cal
-        return self
 
     @staticmethod
     def _group(res, inputs, rows, center, weights) -> CovarianceGroup:
