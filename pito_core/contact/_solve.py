@@ -20,7 +20,7 @@ from ._plausibility import (
 )
 from ._pointcontact import DEFAULT_WRENCH_COV, refine_point_contact
 from ._quadric import solve_ellipsoid, solve_plane, solve_sphere
-from ._surfaces import Ellipsoid, MeshSurface, Plane, Sphere, Surface
+from ._surfaces import Ellipsoid, MeshSurface, Plane, Sphere, Surface, check_positive
 
 __all__ = ["ContactEstimate", "solve", "contact_crb", "DEFAULT_FORCE_THRESHOLD"]
 
@@ -190,8 +190,8 @@ def solve(
     surface, patch_boundary, (mu_p, e_p) = _check_surface(surface, with_friction=True)
     if boundary is None:
         boundary = patch_boundary
-    mu = _check_positive(mu_p if mu is None else mu, "mu")
-    e = _check_positive(e_p if torsion_radius is None else torsion_radius, "torsion_radius")
+    mu = check_positive(mu_p if mu is None else mu, "mu", "a positive number")
+    e = check_positive(e_p if torsion_radius is None else torsion_radius, "torsion_radius")
     alpha = _check_alpha(alpha)
     thr = _check_threshold(force_threshold)
     w = check_vectors(wrench, 6, "wrench")
@@ -263,16 +263,6 @@ def _refine(surface, c, n, force, ok, sel, ws, Wn):
         cs, ns, fs = refine_point_contact(c[sel], force[sel], ws, Wn, normal_fn, retract_fn)
     c[sel], n[sel], force[sel] = cs, ns, fs
     ok[sel] &= np.einsum("ij,ij->i", fs, ns) < 0  # still pushing in
-
-
-def _check_positive(x, name) -> float:
-    try:
-        v = float(x)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected a positive number, got {x!r}") from None
-    if not np.isfinite(v) or v <= 0:
-        raise ValueError(f"{name}: expected a positive number, got {x!r}")
-    return v
 
 
 def _check_alpha(alpha) -> float:

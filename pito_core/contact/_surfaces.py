@@ -13,7 +13,7 @@ from ..frames import ROTATION_TOL
 from ._mesh import MeshIndex
 from ._tol import BARYCENTRIC_TOL
 
-__all__ = ["Plane", "Sphere", "Ellipsoid", "MeshSurface", "Surface", "BARYCENTRIC_TOL"]
+__all__ = ["Plane", "Sphere", "Ellipsoid", "MeshSurface", "Surface", "BARYCENTRIC_TOL", "check_positive"]
 
 
 def _check_point(x, name: str) -> np.ndarray:
@@ -25,13 +25,14 @@ def _check_point(x, name: str) -> np.ndarray:
     return a
 
 
-def _check_length(x, name: str) -> float:
+def check_positive(x, name: str, what: str = "a positive length in m") -> float:
+    """``x`` as a finite float > 0, or ``ValueError("<name>: expected <what>, got …")``."""
     try:
         v = float(x)
     except (TypeError, ValueError):
-        raise ValueError(f"{name}: expected a positive length in m, got {x!r}") from None
+        raise ValueError(f"{name}: expected {what}, got {x!r}") from None
     if not np.isfinite(v) or v <= 0:
-        raise ValueError(f"{name}: expected a positive length in m, got {x!r}")
+        raise ValueError(f"{name}: expected {what}, got {x!r}")
     return v
 
 
@@ -163,7 +164,7 @@ class Sphere(Ellipsoid):
     kind = "sphere"
 
     def __init__(self, center, radius):
-        r = _check_length(radius, "radius")
+        r = check_positive(radius, "radius")
         super().__init__(center, (r, r, r))
         self.radius = r
 
