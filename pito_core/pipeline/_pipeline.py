@@ -20,11 +20,9 @@ for the tare and the smoothing are fixed-size rings read as contiguous views.
 from __future__ import annotations
 
 import time
-from dataclasses import fields
-
 import numpy as np
 
-from ..contact import Assembly, ObjectContacts, load_assembly, solve_object
+from ..contact import Assembly, ContactEstimate, load_assembly, solve_object
 from ..defaults import SHOW_CONTACT_FORCE_N
 from ..devices import Ring, TareRefused, check_tare, pair_reference, tare_event
 from ..frames import CUBE_ADC_LIMIT, N_GAUGES, CubeCore
@@ -342,8 +340,8 @@ class Pipeline:
         counts = counts.mean(axis=0)
         return self.calibration.wrenches(counts, offset=self.counts_offset, return_cov=True)[1]
 
-    def contacts(self, wrenches, wrench_cov=None):
-        """Contacts ``ObjectContacts`` (core frame) of face wrenches ``(..., 6, 6)`` on the object's patches.
+    def contacts(self, wrenches, wrench_cov=None) -> ContactEstimate:
+        """Contacts (core frame, fields ``(..., 6, …)``) of face wrenches ``(..., 6, 6)`` on the object's patches.
 
         ``wrench_cov``: ``(6, 6)`` or ``(6, 6, 6)`` covariance for the point covariance (default none)
         and the single-contact test (``single_contact``, ``single_contact_p``,
@@ -351,12 +349,7 @@ class Pipeline:
         ``DEFAULT_WRENCH_COV``; docs/contact.md).
         """
         assembly = self.assembly if self.assembly is not None else "cube"
-        c = solve_object(assembly, np.asarray(wrenches)[None] if np.ndim(wrenches) == 2 else wrenches,
-                         self.force_threshold, wrench_cov=wrench_cov)
-        if np.ndim(wrenches) == 2:
-            c = ObjectContacts(*(None if v is None else v[0] for v in
-                                 (getattr(c, f.name) for f in fields(ObjectContacts))))
-        return c
+        return solve_object(assembly, wrenches, self.force_threshold, wrench_cov=wrench_cov)
 
     def _take_ready(self, new: dict | None, flush: bool) -> dict:
         """The waiting and new cube rows whose reference has arrived (pairing rule: never extrapolate)."""
