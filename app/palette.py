@@ -23,7 +23,7 @@ FACE_COLORS = {
 #: the contact sphere: high contrast against the patches and the dark background
 CONTACT_COLOR = "#ffffff"
 
-#: the sphere of a contact that one fingertip cannot explain (``ObjectContacts.single_contact`` False)
+#: the sphere of a contact that one fingertip cannot explain (``ContactEstimate.single_contact`` False)
 FLAGGED_CONTACT_COLOR = "#ff3b6b"
 
 

@@ -149,7 +149,7 @@ class ContactGlyphs:
 
         Parameters
         ----------
-        contacts : pito_core.contact.ObjectContacts
+        contacts : pito_core.contact.ContactEstimate
             The one contact record from the solver (core frame), fields of shape ``(6, …)``,
             face i at row i-1: ``point`` (m), ``normal`` (outward), ``force`` on the object
             (N), ``torsion`` about the normal (N·m), ``valid``, ``point_cov`` (m², or None).

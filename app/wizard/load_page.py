@@ -9,7 +9,7 @@ from PySide6.QtWidgets import (
     QGridLayout, QHBoxLayout, QLabel, QProgressBar, QPushButton, QVBoxLayout,
 )
 
-from pito_core.contact import ObjectContacts
+from pito_core.contact import ContactEstimate
 from pito_core.frames import FACES, transform_wrench
 
 from ..scene import ACTIVE_COLOR, CONNECTED_COLOR, CubeScene
@@ -273,5 +273,5 @@ class LoadPage(WizardPage):
         valid[k] = True
         tors = np.zeros(6)
         tors[k] = wrench_face[5]
-        self.scene.show_contacts(ObjectContacts(pts, normals, forces, tors, valid))
+        self.scene.show_contacts(ContactEstimate(pts, normals, forces, tors, valid, frame="core"))
         self.scene.redraw()

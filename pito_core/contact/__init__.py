@@ -7,7 +7,8 @@ quadrics and exactly, facet by facet, for meshes; ``point_contact=True`` uses th
 ``τ = 0`` redundancy (weighted least squares) and ``wrench_cov`` adds the Cramér–Rao
 covariances. Patches and object assemblies live in ``assets/patches/``
 (``load_patch``, ``load_assembly``); ``solve_object`` gives the six contacts of an
-object in the core frame. Every estimate carries ``single_contact`` (can one fingertip
+object in the core frame. Both return the one record, ``ContactEstimate`` (its ``frame``
+says which). Every estimate carries ``single_contact`` (can one fingertip
 on the patch produce this wrench within its noise?), its p-value ``single_contact_p`` and
 ``single_contact_reason``. See ``docs/contact.md``.
 """
@@ -16,7 +17,8 @@ from ._accuracy import ACCURACY_SQUARE, AccuracyResult, accuracy_points, flat_pa
 from ._boundary import BOUNDARY_TOL, PatchBoundary
 from ._crb import ContactCovariance
 from ._display import patch_solid
-from ._object import ObjectContacts, solve_object
+from ._estimate import CONTACT_FRAMES, ContactEstimate
+from ._object import solve_object
 from ._patches import (
     Assembly,
     Patch,
@@ -36,7 +38,7 @@ from ._plausibility import (
     reason_names,
 )
 from ._pointcontact import DEFAULT_WRENCH_COV
-from ._solve import DEFAULT_FORCE_THRESHOLD, ContactEstimate, contact_crb, solve
+from ._solve import DEFAULT_FORCE_THRESHOLD, contact_crb, solve
 from ._surfaces import BARYCENTRIC_TOL, Ellipsoid, MeshSurface, Plane, Sphere, Surface
 
 __all__ = [
@@ -45,6 +47,7 @@ __all__ = [
     "Assembly",
     "BARYCENTRIC_TOL",
     "BOUNDARY_TOL",
+    "CONTACT_FRAMES",
     "ContactCovariance",
     "ContactEstimate",
     "DEFAULT_FORCE_THRESHOLD",
@@ -53,7 +56,6 @@ __all__ = [
     "DEFAULT_WRENCH_COV",
     "Ellipsoid",
     "MeshSurface",
-    "ObjectContacts",
     "Patch",
     "PatchBoundary",
     "Plane",

@@ -53,7 +53,7 @@ def patch_solid(surface, boundary, *, base_z: float = 0.0, rings: int = 12, segm
     rings, segments : int
         Radial and angular resolution of the grid.
     """
-    import trimesh
+    import trimesh  # deferred: ~1 s to import; analytic patches are solved without it
 
     outline = boundary.outline(segments)
     M = len(outline)

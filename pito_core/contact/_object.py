@@ -2,64 +2,16 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from functools import lru_cache
 
 import numpy as np
 
 from ..frames import FACES, check_vectors
+from ._estimate import ContactEstimate
 from ._patches import Assembly, load_assembly
 from ._solve import DEFAULT_FORCE_THRESHOLD, solve
 
-__all__ = ["ObjectContacts", "solve_object"]
-
-
-@dataclass
-class ObjectContacts:
-    """Up to six contacts (one per face), core frame. Face i at index ``i − 1``.
-
-    Attributes
-    ----------
-    point : ndarray, shape (..., 6, 3)
-        Contact points, m (NaN where not valid).
-    normal : ndarray, shape (..., 6, 3)
-        Outward unit normals.
-    force : ndarray, shape (..., 6, 3)
-        Finger forces, N.
-    torsion : ndarray, shape (..., 6)
-        Torsion about the normal, N·m.
-    valid : ndarray, shape (..., 6), bool
-    point_cov : ndarray, shape (..., 6, 3, 3) or None
-        Cramér–Rao covariance of the points, m² (when ``wrench_cov`` is given).
-    single_contact : ndarray, shape (..., 6), bool, or None
-        One fingertip on that face's patch can produce its wrench within the noise
-        (``ContactEstimate.single_contact``; False where no force). Trust a contact where
-        ``valid & single_contact``.
-    single_contact_p : ndarray, shape (..., 6), or None
-        The p-value in [0, 1] that decides it (NaN where no force).
-    single_contact_reason : ndarray, shape (..., 6), int8, or None
-        ``SingleContactReason`` code (0 plausible, 1 no force, 2 no solution, 3 outside,
-        4 pulling, 5 friction, 6 torsion, 7 residual).
-
-    The three ``single_contact*`` fields are None only in records made without the test
-    (e.g. built by hand for display).
-    """
-
-    point: np.ndarray
-    normal: np.ndarray
-    force: np.ndarray
-    torsion: np.ndarray
-    valid: np.ndarray
-    point_cov: np.ndarray | None = None
-    single_contact: np.ndarray | None = None
-    single_contact_p: np.ndarray | None = None
-    single_contact_reason: np.ndarray | None = None
-
-    def flagged(self) -> np.ndarray:
-        """``(..., 6)`` bool: valid contacts that one fingertip cannot explain (False without the test)."""
-        if self.single_contact is None:
-            return np.zeros(np.shape(self.valid), bool)
-        return np.asarray(self.valid) & ~np.asarray(self.single_contact)
+__all__ = ["solve_object"]
 
 
 @lru_cache(maxsize=16)
@@ -69,7 +21,7 @@ def _library_assembly(name: str) -> Assembly:
 
 
 def solve_object(assembly, face_wrenches, force_threshold=DEFAULT_FORCE_THRESHOLD, *,
-                 point_contact=False, wrench_cov=None) -> ObjectContacts:
+                 point_contact=False, wrench_cov=None) -> ContactEstimate:
     """Contacts on all six patches of an object, expressed in the core frame.
 
     Parameters
@@ -92,7 +44,10 @@ def solve_object(assembly, face_wrenches, force_threshold=DEFAULT_FORCE_THRESHOL
 
     Returns
     -------
-    ObjectContacts
+    ContactEstimate
+        ``frame = "core"``; fields of shape ``(..., 6, …)`` with the leading shape of
+        ``face_wrenches``, face i at index i − 1: points (m) and vectors in the core frame,
+        covariances rotated to it.
     """
     if isinstance(assembly, str):
         assembly = _library_assembly(assembly)
@@ -111,31 +66,35 @@ def solve_object(assembly, face_wrenches, force_threshold=DEFAULT_FORCE_THRESHOL
             covs = np.moveaxis(covs.reshape((-1, 6, 6, 6)), 1, 0)  # (6, M, 6, 6)
         elif covs.shape != (6, 6, 6):
             raise ValueError(f"wrench_cov: expected shape (6, 6), (6, 6, 6) or {lead + (6, 6, 6)}, got {covs.shape}")
-    out = {k: [] for k in ("point", "normal", "force", "torsion", "valid", "point_cov", "single_contact",
-                           "single_contact_p", "single_contact_reason")}
+    per_face = []
     for i in FACES:
         cov_i = None if covs is None else covs[i - 1]
         if cov_i is not None and np.isnan(cov_i).all():
             cov_i = np.broadcast_to(np.eye(6), (6, 6))  # a face without output: NaN wrenches, no contact
         est = solve(assembly.patches[i], w[..., i - 1, :].reshape(-1, 6), force_threshold,
                     point_contact=point_contact, wrench_cov=cov_i)
-        T = assembly.core.face_pose(i)
+        T = assembly.core.face_pose(i)  # T_core_face
         R, t = T[:3, :3], T[:3, 3]
-        out["point"].append(np.einsum("ij,kj->ik", est.point, R) + t)
-        out["normal"].append(np.einsum("ij,kj->ik", est.normal, R))
-        out["force"].append(np.einsum("ij,kj->ik", est.force, R))
-        out["torsion"].append(est.torsion)
-        out["valid"].append(est.valid)
-        out["single_contact"].append(est.single_contact)
-        out["single_contact_p"].append(est.single_contact_p)
-        out["single_contact_reason"].append(est.single_contact_reason)
-        if est.point_cov is not None:
-            out["point_cov"].append(R @ est.point_cov @ R.T)
+        est.point = np.einsum("ij,kj->ik", est.point, R) + t
+        est.normal = np.einsum("ij,kj->ik", est.normal, R)
+        est.force = np.einsum("ij,kj->ik", est.force, R)
+        for k in ("point_cov", "force_cov"):
+            if getattr(est, k) is not None:
+                setattr(est, k, R @ getattr(est, k) @ R.T)
+        per_face.append(est)
+    return _stack_faces(per_face, lead)
+
+
+def _stack_faces(per_face: list, lead: tuple) -> ContactEstimate:
+    """Six core-frame estimates of ``M`` samples → one of shape ``lead + (6, …)`` (``lead`` flattens to M)."""
     res = {}
-    for k, v in out.items():
-        if not v:
+    for k, _ in per_face[0]._arrays():
+        v = [getattr(e, k) for e in per_face]
+        if all(a is None for a in v):
             res[k] = None
             continue
+        if k == "facet":  # faces whose patch is not a mesh: no facet
+            v = [np.full(len(per_face[0].valid), -1, np.intp) if a is None else a for a in v]
         a = np.stack(v, axis=1)  # (M, 6, ...)
         res[k] = a.reshape(lead + a.shape[1:])
-    return ObjectContacts(**res)
+    return ContactEstimate(**res, frame="core")

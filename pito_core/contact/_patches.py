@@ -35,7 +35,11 @@ from ..frames import FACES, CubeCore
 from ._boundary import PatchBoundary
 from ._display import patch_solid
 from ._plausibility import DEFAULT_FRICTION, DEFAULT_TORSION_RADIUS
+from ._solve import solve
 from ._surfaces import Ellipsoid, MeshSurface, Plane, Sphere
+
+# trimesh is imported where a mesh is loaded or built (below): it takes ~1 s to import, and
+# the analytic patches (the bare cube, most live sessions) never need it.
 
 __all__ = [
     "Patch",
@@ -81,7 +85,7 @@ def _read_json(path: Path, fmt: str) -> dict:
 
 
 def _load_mesh(path: Path):
-    import trimesh
+    import trimesh  # deferred: ~1 s to import (note at the imports)
 
     if path.suffix.lower() not in (".stl", ".obj", ".ply"):
         raise ValueError(f"file: expected an STL, OBJ or PLY mesh, got {path.name}")
@@ -163,7 +167,7 @@ class Patch:
     def display_mesh(self):
         """Closed ``trimesh.Trimesh`` of the patch in its face frame (m), cached."""
         if self._mesh is None:
-            import trimesh
+            import trimesh  # deferred: ~1 s to import (note at the imports)
 
             if isinstance(self._display, trimesh.Trimesh):
                 self._mesh = self._display
@@ -178,8 +182,6 @@ class Patch:
 
     def solve(self, wrench, **kwargs):
         """``solve(self, wrench, **kwargs)``: contacts on this patch (see ``solve``)."""
-        from ._solve import solve
-
         return solve(self, wrench, **kwargs)
 
     @classmethod
@@ -274,7 +276,7 @@ class Assembly:
 
     def core_mesh(self):
         """The core cube in the core frame (``trimesh.Trimesh``, m)."""
-        import trimesh
+        import trimesh  # deferred: ~1 s to import (note at the imports)
 
         return trimesh.creation.box(extents=(self.core.edge,) * 3)
 
@@ -284,7 +286,7 @@ class Assembly:
 
     def mesh(self):
         """All parts concatenated into one ``trimesh.Trimesh`` (core frame, m)."""
-        import trimesh
+        import trimesh  # deferred: ~1 s to import (note at the imports)
 
         return trimesh.util.concatenate(self.bodies())
 

@@ -1,14 +1,13 @@
-"""``solve``: one entry point over every surface, and the ``ContactEstimate`` it returns."""
+"""``solve``: one entry point over every surface; it returns a ``ContactEstimate`` (face frame)."""
 
 from __future__ import annotations
-
-from dataclasses import dataclass, fields
 
 import numpy as np
 
 from ..defaults import IDENTIFY_FORCE_N
 from ..frames import check_vectors
 from ._crb import ContactCovariance, check_wrench_cov, covariance_from_jacobian, wrench_jacobian
+from ._estimate import ContactEstimate
 from ._plausibility import (
     DEFAULT_FRICTION,
     DEFAULT_TORSION_RADIUS,
@@ -22,74 +21,10 @@ from ._pointcontact import DEFAULT_WRENCH_COV, refine_point_contact
 from ._quadric import solve_ellipsoid, solve_plane, solve_sphere
 from ._surfaces import Ellipsoid, MeshSurface, Plane, Sphere, Surface, check_positive
 
-__all__ = ["ContactEstimate", "solve", "contact_crb", "DEFAULT_FORCE_THRESHOLD"]
+__all__ = ["solve", "contact_crb", "DEFAULT_FORCE_THRESHOLD"]
 
 #: Forces below this magnitude (N) give no contact (``valid = False``); ``pito_core.defaults``.
 DEFAULT_FORCE_THRESHOLD = IDENTIFY_FORCE_N
-
-
-@dataclass
-class ContactEstimate:
-    """Contacts estimated from a batch of wrenches (frame of the wrenches).
-
-    Attributes
-    ----------
-    point : ndarray, shape (N, 3)
-        Contact point, m (NaN where not valid).
-    normal : ndarray, shape (N, 3)
-        Outward unit normal of the surface at the contact.
-    force : ndarray, shape (N, 3)
-        Force applied by the finger, N (``force · normal < 0``).
-    torsion : ndarray, shape (N,)
-        Moment about the normal at the contact, N·m (0 for ``point_contact``).
-    valid : ndarray, shape (N,), bool
-        A pushing contact on the patch exists and the force exceeds the threshold.
-    point_cov : ndarray, shape (N, 3, 3) or None
-        Cramér–Rao covariance of ``point`` (m²) when a ``wrench_cov`` was given.
-    force_cov : ndarray, shape (N, 3, 3) or None
-        Cramér–Rao covariance of ``force`` (N²).
-    torsion_var : ndarray, shape (N,) or None
-        Cramér–Rao variance of ``torsion`` ((N·m)²).
-    facet : ndarray, shape (N,), int or None
-        Mesh facet holding the contact (−1 where not valid); None for analytic surfaces.
-    single_contact : ndarray, shape (N,), bool
-        One soft-finger contact on the patch can produce the measured wrench within its
-        noise (pushing, inside the friction limit surface, on the patch; for
-        ``point_contact`` also the χ² residual). False where there is no force. Trust a
-        contact where ``valid & single_contact``. See ``pito_core.contact._plausibility``
-        and ``docs/contact.md``.
-    single_contact_p : ndarray, shape (N,)
-        The score deciding it, in [0, 1]: the smallest p-value over the single contact's
-        limits (``Φ(margin / σ)`` per limit; with ``point_contact`` also ``P(χ²₁ ≥ r²)`` for
-        the residual, and the smallest is doubled, capped at 1: Bonferroni);
-        ``single_contact = single_contact_p >= alpha`` (default 0.05). NaN where no force.
-    single_contact_reason : ndarray, shape (N,), int8
-        :class:`SingleContactReason` code of the failing limit: 0 ``NONE`` (plausible),
-        1 ``NO_FORCE``, 2 ``NO_SOLUTION``, 3 ``OUTSIDE``, 4 ``PULLING``, 5 ``FRICTION``,
-        6 ``TORSION``, 7 ``RESIDUAL``; ``reason_names`` gives the short names.
-
-    A single ``(6,)`` wrench gives the same fields without the leading N.
-    """
-
-    point: np.ndarray
-    normal: np.ndarray
-    force: np.ndarray
-    torsion: np.ndarray
-    valid: np.ndarray
-    point_cov: np.ndarray | None = None
-    force_cov: np.ndarray | None = None
-    torsion_var: np.ndarray | None = None
-    facet: np.ndarray | None = None
-    single_contact: np.ndarray | None = None
-    single_contact_p: np.ndarray | None = None
-    single_contact_reason: np.ndarray | None = None
-
-    def _reshape(self, lead: tuple) -> ContactEstimate:
-        out = {}
-        for fld in fields(self):
-            v = getattr(self, fld.name)
-            out[fld.name] = None if v is None else v.reshape(lead + v.shape[1:])
-        return ContactEstimate(**out)
 
 
 def _check_surface(surface, with_friction=False):

@@ -200,10 +200,7 @@ class MeshSurface(Surface):
     kind = "mesh"
 
     def __init__(self, mesh, group_size: int = 8):
-        try:
-            import trimesh
-        except ImportError as exc:  # pragma: no cover - trimesh is a dependency
-            raise ImportError("MeshSurface needs trimesh") from exc
+        import trimesh  # deferred: ~1 s to import; analytic surfaces never need it
         if not isinstance(mesh, trimesh.Trimesh):
             raise ValueError(f"mesh: expected a trimesh.Trimesh, got {type(mesh).__name__}")
         if len(mesh.faces) == 0:

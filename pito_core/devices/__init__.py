@@ -1,4 +1,4 @@
-"""Devices: the cube's serial frames, the ATI Net F/T, ATI .cal files, acquisition.
+"""Devices: the cube's serial frames, the ATI Net F/T, ATI .cal files, acquisition and its ring buffer.
 
 The simulated devices live in :mod:`pito_core.sim` (they speak these formats over a pty and
 loopback UDP); ``devices`` never imports ``sim``.
@@ -40,6 +40,7 @@ from ._netft import (
     read_netft_config,
 )
 from ._open import SIM, open_devices, parse_ati_address
+from ._ring import Ring
 from ._serial import DEFAULT_BAUDRATE, DeviceError, PitoBatch, PitoSerial, list_serial_ports
 
 __all__ = [
@@ -48,6 +49,7 @@ __all__ = [
     "check_tare",
     "tare_event",
     "Acquisition",
+    "Ring",
     "SIM",
     "open_devices",
     "parse_ati_address",

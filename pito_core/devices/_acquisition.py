@@ -34,7 +34,7 @@ from ._collector import Collector
 from ._live_tare import LiveTare
 from ._netft import NetFTBatch
 from ._recorder import Recorder
-from ._ring import NETFT_ROWS, PITO_ROWS, RingReader, _Ring
+from ._ring import NETFT_ROWS, PITO_ROWS, Ring, RingReader
 from ._serial import PitoBatch
 from ._session import SessionBuilder
 
@@ -79,8 +79,8 @@ class Acquisition(RingReader, Collector, Recorder, LiveTare, SessionBuilder):
         self.pito, self.netft, self.recorder = pito, netft, recorder
         self.meta = dict(meta or {})
         cap = int(buffer_seconds * rate_hz * 1.2) + 1
-        self._pito_ring = _Ring(cap, PITO_ROWS)
-        self._ft_ring = _Ring(cap, NETFT_ROWS)
+        self._pito_ring = Ring(cap, PITO_ROWS)
+        self._ft_ring = Ring(cap, NETFT_ROWS)
         self._unwrap = {"pito": TickUnwrapper(), "netft": TickUnwrapper()}
         self._clock = {"pito": StreamClock(), "netft": StreamClock()}
         self._lock = threading.Lock()

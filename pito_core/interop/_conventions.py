@@ -11,7 +11,7 @@ WRENCH_TYPE = "Force"
 CONTACT_STREAM = "pito-contacts"
 CONTACT_TYPE = "Contact"
 #: Per face, the 12 channels of ``pito-contacts``: (label suffix, unit, type). ``single``: 1 where
-#: one fingertip on the patch can produce the face's wrench (``ObjectContacts.single_contact``), 0
+#: one fingertip on the patch can produce the face's wrench (``ContactEstimate.single_contact``), 0
 #: where not (a valid contact with ``single`` 0 is flagged), NaN where not tested.
 CONTACT_CHANNELS = (("px", "m", "Position"), ("py", "m", "Position"), ("pz", "m", "Position"),
                     ("nx", "1", "Normal"), ("ny", "1", "Normal"), ("nz", "1", "Normal"),

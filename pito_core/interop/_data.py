@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..contact import ObjectContacts
+from ..contact import ContactEstimate
 from ..io import read_recording
 from ..pipeline import replay_recording
 from ._provenance import assembly_record, calibration_record, recording_calibration
@@ -37,8 +37,9 @@ class ExportData:
     face_wrenches : ndarray, shape (n, 6, 6) or None
         Face i at index i − 1: ``[fx, fy, fz, tx, ty, tz]`` N, N·m in face i's frame; None
         without a calibration.
-    contacts : ObjectContacts or None
-        Per sample and face (core frame): point (m), normal, force (N), torsion (N·m), valid.
+    contacts : ContactEstimate or None
+        Per sample and face (core frame, fields ``(n, 6, …)``): point (m), normal, force (N),
+        torsion (N·m), valid, the single-contact test.
     calibration : dict or None
         :func:`~pito_core.interop.calibration_record` of the calibration used.
     assembly : dict or None
@@ -55,7 +56,7 @@ class ExportData:
     counts: np.ndarray
     reference: np.ndarray | None
     face_wrenches: np.ndarray | None
-    contacts: object | None
+    contacts: ContactEstimate | None
     calibration: dict | None
     assembly: dict | None
     note: str
@@ -103,9 +104,7 @@ def export_data(path, calibration=None, assembly=None, *, calibration_source: st
         for s in range(0, len(W), BLOCK):
             parts.append(pipe.contacts(W[s:s + BLOCK]))
             report(0.1 + 0.6 * min(1.0, (s + BLOCK) / len(W)), "contacts")
-        cont = ObjectContacts(**{k: np.concatenate([getattr(p, k) for p in parts])
-                                 for k in ("point", "normal", "force", "torsion", "valid", "single_contact",
-                                           "single_contact_p", "single_contact_reason")})
+        cont = ContactEstimate.concatenate(parts)
     reference = getattr(bundle, "reference", None)
     if reference is not None and (not pipe.has_reference or np.size(reference) == 0):
         reference = None

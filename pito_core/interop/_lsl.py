@@ -7,7 +7,7 @@
   12 channels ``C{i}_px py pz`` (m, core frame), ``nx ny nz`` (unit), ``fx fy fz`` (N, core
   frame), ``torsion`` (N·m), ``valid`` (0/1) — NaN where no contact — and ``single`` (1: one
   fingertip can produce the face's wrench, 0: it cannot or there is no force; a valid contact
-  with ``single`` 0 is flagged; ``ObjectContacts.single_contact``).
+  with ``single`` 0 is flagged; ``ContactEstimate.single_contact``).
 - ``desc``: ``channels/channel`` (``label``, ``unit``, ``type``, ``face``), ``acquisition``
   (manufacturer, model), ``reference_frame``, ``calibration`` (method, date, hash, source),
   ``assembly`` (name, patch per face), ``simulated``.
@@ -85,7 +85,7 @@ def wrench_samples(face_wrenches) -> np.ndarray:
 
 
 def contact_samples(contacts) -> np.ndarray:
-    """``ObjectContacts`` with shapes ``(n, 6, …)`` → ``(n, 72)`` ``pito-contacts`` samples (face-major)."""
+    """A core-frame ``ContactEstimate`` with shapes ``(n, 6, …)`` → ``(n, 72)`` ``pito-contacts`` samples (face-major)."""
     p = np.asarray(contacts.point, np.float32)
     if p.ndim != 3 or p.shape[1:] != (6, 3):
         raise ValueError(f"contacts.point: expected shape (n, 6, 3), got {p.shape}")

@@ -10,7 +10,7 @@ Topics (profile ``ros2``, encoding ``cdr``; stamps = recording start (UNIX) + sa
   (N) and the torsion as a torque along the normal (N·m), acting at that point;
   ``/pito/face_{i}/contact/single_contact`` — ``std_msgs/msg/Float64MultiArray``, at the same
   samples: ``[single (1/0), p (0..1), reason code]`` of the single-contact test
-  (``ObjectContacts.single_contact``; reason codes ``pito_core.contact.SingleContactReason``).
+  (``ContactEstimate.single_contact``; reason codes ``pito_core.contact.SingleContactReason``).
 - ``/pito/reference/wrench`` — ``WrenchStamped``, frame ``pito_reference`` (S_A), tared; only at
   samples with a reference value (no message carries NaN).
 - ``/tf_static`` — ``tf2_msgs/msg/TFMessage``: ``pito_core`` → ``pito_face_{i}`` (i = 1..6).

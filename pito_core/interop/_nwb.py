@@ -175,7 +175,7 @@ def missing_metadata(*, subject_id=None, species=None, sex=None, age=None, exper
 
 
 def _add_single_contact(mod, c, i, timestamps) -> None:
-    """The single-contact test of face ``i`` (``ObjectContacts.single_contact*``) as three series."""
+    """The single-contact test of face ``i`` (``ContactEstimate.single_contact*``) as three series."""
     from pynwb import TimeSeries  # deferred: pynwb is an optional dependency
 
     k = i - 1

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..contact import ObjectContacts
+from ..contact import ContactEstimate
 from ..frames import CubeCore, cross_rows
 
 __all__ = ["LiveBundle", "face_sums"]
@@ -32,10 +32,11 @@ class LiveBundle:
         Wrench on each face in its frame at the latest sample (mean of the last
         ``Pipeline.smooth`` samples), tared, ``[fx, fy, fz, tx, ty, tz]`` N and N·m; NaN
         for faces without output. None without a calibration.
-    contacts : ObjectContacts or None
-        Contacts of ``wrenches`` on the object's patches, core frame, fields of shape
-        ``(6, …)`` (face i at index i−1): ``point`` m, ``normal``, ``force`` N (on the
-        object), ``torsion`` N·m, ``valid``, ``point_cov`` m² or None.
+    contacts : ContactEstimate or None
+        Contacts of ``wrenches`` on the object's patches, core frame (``frame = "core"``),
+        fields of shape ``(6, …)`` (face i at index i−1): ``point`` m, ``normal``, ``force``
+        N (on the object), ``torsion`` N·m, ``valid``, the single-contact test, the
+        covariances m², N² or None.
     sum_force, sum_torque : ndarray, shape (3,) or None
         Σ of the face loads in the core frame (N; N·m about the object's centre of gravity);
         NaN when the calibration does not measure the net load (``Calibration.coverage``).
@@ -67,7 +68,7 @@ class LiveBundle:
     reference: np.ndarray
     stats: dict = field(default_factory=dict)
     wrenches: np.ndarray | None = None
-    contacts: ObjectContacts | None = None
+    contacts: ContactEstimate | None = None
     sum_force: np.ndarray | None = None
     sum_torque: np.ndarray | None = None
     recorded: int = 0

@@ -20,59 +20,15 @@ for the tare and the smoothing are fixed-size rings read as contiguous views.
 from __future__ import annotations
 
 import time
-from dataclasses import fields
-
 import numpy as np
 
-from ..contact import Assembly, ObjectContacts, load_assembly, solve_object
+from ..contact import Assembly, ContactEstimate, load_assembly, solve_object
 from ..defaults import SHOW_CONTACT_FORCE_N
-from ..devices import TareRefused, check_tare, pair_reference, tare_event
+from ..devices import Ring, TareRefused, check_tare, pair_reference, tare_event
 from ..frames import CUBE_ADC_LIMIT, N_GAUGES, CubeCore
 from ._bundle import LiveBundle, face_sums
 
 __all__ = ["Pipeline"]
-
-
-class _Window:
-    """The last ``capacity`` rows of named arrays, readable as contiguous views (no copy).
-
-    Each row is written twice (at ``i`` and ``i + capacity``) so that any run of the last
-    ``≤ capacity`` rows is one slice.
-    """
-
-    def __init__(self, capacity: int, fields: dict):
-        self.capacity = int(capacity)
-        self.data = {k: np.full((2 * self.capacity,) + shape, np.nan if dt == np.float64 else 0, dtype=dt)
-                     for k, (dt, shape) in fields.items()}
-        self.count = 0
-
-    def append(self, **arrays) -> None:
-        n = len(next(iter(arrays.values())))
-        if n == 0:
-            return
-        if n > self.capacity:
-            arrays = {k: v[-self.capacity:] for k, v in arrays.items()}
-            self.count += n - self.capacity
-            n = self.capacity
-        cap = self.capacity
-        p = self.count % cap
-        first = min(n, cap - p)
-        for k, v in arrays.items():
-            d = self.data[k]
-            for base in (0, cap):
-                d[base + p : base + p + first] = v[:first]
-                d[base : base + n - first] = v[first:]
-        self.count += n
-
-    def last(self, n: int | None = None) -> dict:
-        """Views of the last ``n`` rows (all kept if None), oldest first."""
-        avail = min(self.count, self.capacity)
-        n = avail if n is None else max(0, min(int(n), avail))
-        end = self.count % self.capacity + self.capacity
-        return {k: v[end - n : end] for k, v in self.data.items()}
-
-    def clear(self) -> None:
-        self.count = 0
 
 
 class Pipeline:
@@ -139,12 +95,14 @@ class Pipeline:
         self.cog = np.zeros(3)
         self.assembly = None
         self.wrench_cov = None
-        self._ref = _Window(int(reference_history * rate_hz) + 1, {"time": (np.float64, ()),
-                                                                    "wrench": (np.float64, (6,))})
-        self._tail = _Window(int(2.0 * rate_hz) + 1, {"time": (np.float64, ()), "counts": (np.float64, (36,)),
-                                                      "reference": (np.float64, (6,))})
+        # rings read as views of their last rows (contiguous): the work per call follows the new samples
+        self._ref = Ring(int(reference_history * rate_hz) + 1,
+                         {"time": (np.float64, ()), "wrench": (np.float64, (6,))}, contiguous=True)
+        self._tail = Ring(int(2.0 * rate_hz) + 1, {"time": (np.float64, ()), "counts": (np.float64, (N_GAUGES,)),
+                                                   "reference": (np.float64, (6,))}, contiguous=True)
         # the newest arrived samples behind the latest wrenches (smoothing, covariance, ADC limit)
-        self._wtail = _Window(self.smooth, {"w": (np.float64, (6, 6)), "counts": (np.float64, (36,))})
+        self._wtail = Ring(self.smooth, {"w": (np.float64, (6, 6)), "counts": (np.float64, (N_GAUGES,))},
+                           contiguous=True)
         self._pending: dict | None = None
         self.last_tick: int | None = None
         self.samples = 0
@@ -209,7 +167,7 @@ class Pipeline:
         """
         if not duration > 0:
             raise ValueError(f"duration: expected > 0 s, got {duration!r}")
-        tail = self._tail.last()
+        tail = self._tail.last(copy=False)
         if tail["time"].size == 0:
             raise ValueError("tare: no sample processed yet")
         sel = tail["time"] >= tail["time"][-1] - duration
@@ -321,7 +279,7 @@ class Pipeline:
         arrived = self._arrive(cube)
         rows = self._take_ready(arrived, flush)
         t, counts = rows["time"], rows["counts"]
-        ref_hist = self._ref.last()
+        ref_hist = self._ref.last(copy=False)
         if self.has_reference and t.size:
             raw_ref = pair_reference(t, ref_hist["time"], ref_hist["wrench"])
         else:
@@ -338,7 +296,7 @@ class Pipeline:
             if W is not None:
                 b.arrived_face_wrenches = W
                 self._wtail.append(w=W, counts=arrived["counts"])
-                tail = self._wtail.last()
+                tail = self._wtail.last(copy=False)
                 latest = tail["w"].mean(axis=0)
                 b.wrenches = latest
                 b.contacts_time = float(arrived["time"][-1])
@@ -382,8 +340,8 @@ class Pipeline:
         counts = counts.mean(axis=0)
         return self.calibration.wrenches(counts, offset=self.counts_offset, return_cov=True)[1]
 
-    def contacts(self, wrenches, wrench_cov=None):
-        """Contacts ``ObjectContacts`` (core frame) of face wrenches ``(..., 6, 6)`` on the object's patches.
+    def contacts(self, wrenches, wrench_cov=None) -> ContactEstimate:
+        """Contacts (core frame, fields ``(..., 6, …)``) of face wrenches ``(..., 6, 6)`` on the object's patches.
 
         ``wrench_cov``: ``(6, 6)`` or ``(6, 6, 6)`` covariance for the point covariance (default none)
         and the single-contact test (``single_contact``, ``single_contact_p``,
@@ -391,12 +349,7 @@ class Pipeline:
         ``DEFAULT_WRENCH_COV``; docs/contact.md).
         """
         assembly = self.assembly if self.assembly is not None else "cube"
-        c = solve_object(assembly, np.asarray(wrenches)[None] if np.ndim(wrenches) == 2 else wrenches,
-                         self.force_threshold, wrench_cov=wrench_cov)
-        if np.ndim(wrenches) == 2:
-            c = ObjectContacts(*(None if v is None else v[0] for v in
-                                 (getattr(c, f.name) for f in fields(ObjectContacts))))
-        return c
+        return solve_object(assembly, wrenches, self.force_threshold, wrench_cov=wrench_cov)
 
     def _take_ready(self, new: dict | None, flush: bool) -> dict:
         """The waiting and new cube rows whose reference has arrived (pairing rule: never extrapolate)."""
@@ -408,7 +361,7 @@ class Pipeline:
         if not self.has_reference or flush:
             n = rows["time"].size
         else:
-            ref_t = self._ref.last(1)["time"]
+            ref_t = self._ref.last(1, copy=False)["time"]
             newest = ref_t[0] if ref_t.size else -np.inf
             n = int(np.searchsorted(rows["time"], newest, side="right"))
             # a reference that stopped: samples older than max_wait pass with NaN

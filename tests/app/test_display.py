@@ -4,7 +4,7 @@ rings, plots decimated from rings, the loading page's gates, the wizard's defaul
 import numpy as np
 import pytest
 
-from pito_core.contact import ObjectContacts
+from pito_core.contact import ContactEstimate
 
 pytestmark = pytest.mark.needs_display
 
@@ -15,7 +15,7 @@ def one_contact(force, torsion=0.02):
     frc = np.zeros((6, 3))
     pts[0], nrm[0], frc[0] = (0.025, 0.003, 0.001), (1, 0, 0), force
     valid = np.array([True, False, False, False, False, False])
-    return ObjectContacts(pts, nrm, frc, np.array([torsion, 0, 0, 0, 0, 0.0]), valid, None)
+    return ContactEstimate(pts, nrm, frc, np.array([torsion, 0, 0, 0, 0, 0.0]), valid, frame="core")
 
 
 def test_palette_has_six_distinct_colours_shared_by_scene_and_plots():

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from app.workers import Bundle, DeviceWorker, face_sums, merge_bundles
-from pito_core.contact import ObjectContacts
+from pito_core.contact import ContactEstimate
 from pito_core.frames import CubeCore
 from pito_core.pipeline import NewSamples
 
@@ -17,8 +17,8 @@ def contacts(force_face1=(-8.0, 1.0, 2.0), valid=(True, True, False, False, Fals
     frc = np.zeros((6, 3))
     pts[0], nrm[0], frc[0] = (0.027, 0.004, 0.002), (1, 0, 0), force_face1
     pts[1], nrm[1], frc[1] = (0.0, 0.027, 0.0), (0, 1, 0), (0.0, -0.1, 0.0)  # 0.1 N: under threshold
-    return ObjectContacts(pts, nrm, frc, np.array([0.02, 0, 0, 0, 0, 0.0]), np.array(valid),
-                          np.tile(np.eye(3) * 9e-6, (6, 1, 1)))
+    return ContactEstimate(pts, nrm, frc, np.array([0.02, 0, 0, 0, 0, 0.0]), np.array(valid),
+                           point_cov=np.tile(np.eye(3) * 9e-6, (6, 1, 1)), frame="core")
 
 
 def bundle(t, c):

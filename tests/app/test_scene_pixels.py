@@ -5,7 +5,7 @@ inside the view and are drawn only where they say something (issue 21, defects 4
 import numpy as np
 import pytest
 
-from pito_core.contact import ObjectContacts
+from pito_core.contact import ContactEstimate
 from pito_core.frames import FACE_NORMALS, CubeCore
 
 pytestmark = pytest.mark.needs_display
@@ -23,7 +23,7 @@ def contact_on(face: int, force_n: float = 0.5, cov=None, core=CubeCore()):
     frc[face - 1] = -force_n * n
     valid[face - 1] = True
     covs = None if cov is None else np.tile(np.asarray(cov, float), (6, 1, 1))
-    return ObjectContacts(pts, nrm, frc, np.zeros(6), valid, covs)
+    return ContactEstimate(pts, nrm, frc, np.zeros(6), valid, point_cov=covs, frame="core")
 
 
 def pixels(scene) -> np.ndarray:

@@ -5,7 +5,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from pito_core.contact import ObjectContacts, load_assembly, solve_object
+from pito_core.contact import ContactEstimate, load_assembly, solve_object
 
 pytestmark = pytest.mark.needs_display
 
@@ -34,5 +34,5 @@ def test_flagged_contact_gets_its_own_colour_and_returns_to_white(scene):
     g.update(dataclasses.replace(oc, single_contact=np.ones(6, bool)))
     assert not g.flagged.any() and np.allclose(g.spheres[6].GetProperty().GetColor(), hex_rgb(CONTACT_COLOR))
     # records without the test (built by hand) stay white
-    g.update(ObjectContacts(oc.point, oc.normal, oc.force, oc.torsion, oc.valid))
+    g.update(ContactEstimate(oc.point, oc.normal, oc.force, oc.torsion, oc.valid, frame="core"))
     assert not g.flagged.any()

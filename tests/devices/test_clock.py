@@ -1,10 +1,9 @@
-"""The one pairing rule (device clocks → host clock → linear pairing) and reading rings by cursor."""
+"""The one pairing rule (device clocks → host clock → linear pairing)."""
 
 import numpy as np
 import pytest
 
 from pito_core.devices import StreamClock, TickUnwrapper, pair_reference
-from pito_core.devices._ring import _Ring
 
 
 def _stream(n, rng, drift=0.0, latency=0.003, batch=10, offset=100.0):
@@ -96,32 +95,6 @@ def test_pair_reference_is_linear_and_never_extrapolates():
     part = pair_reference(t, t_ref[:k], w[:k])
     ok = t <= t_ref[k - 1]
     assert np.array_equal(part[ok & inside], got[ok & inside])
-
-
-def test_ring_since_returns_exactly_the_new_rows_across_wraps():
-    ring = _Ring(50, {"x": (np.int64, ()), "v": (np.float64, (3,))})
-    rng = np.random.default_rng(3)
-    cursor, seen, total = 0, [], 0
-    for _ in range(200):
-        n = int(rng.integers(0, 23))
-        x = np.arange(total, total + n)
-        ring.append(x=x, v=np.repeat(x[:, None], 3, axis=1).astype(float))
-        total += n
-        rows, cursor, lost = ring.since(cursor)
-        assert lost == 0 and cursor == total
-        assert rows["x"].size == n and np.array_equal(rows["v"][:, 0], rows["x"])
-        seen.append(rows["x"])
-    assert np.array_equal(np.concatenate(seen), np.arange(total))  # each row once, in order, wraps included
-    # a reader that fell behind by more than the capacity gets the newest rows and the count lost
-    ring.append(x=np.arange(total, total + 80), v=np.zeros((80, 3)))
-    rows, cursor2, lost = ring.since(cursor)
-    assert lost == 30 and np.array_equal(rows["x"], np.arange(total + 30, total + 80)) and cursor2 == total + 80
-    rows, _, _ = ring.since(cursor2)
-    assert rows["x"].size == 0
-    # limit: the oldest rows first, the cursor stops after them
-    ring.append(x=np.arange(total + 80, total + 90), v=np.zeros((10, 3)))
-    rows, c3, _ = ring.since(cursor2, limit=4)
-    assert np.array_equal(rows["x"], np.arange(total + 80, total + 84)) and c3 == cursor2 + 4
 
 
 def test_a_device_restart_is_learned_again_at_once_however_the_stream_is_cut():

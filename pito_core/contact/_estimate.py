@@ -1,0 +1,132 @@
+"""``ContactEstimate``: the one contact record, from the solver to the glyphs and the exports.
+
+:func:`~pito_core.contact.solve` gives one per patch (a batch of wrenches in the patch's
+face frame); :func:`~pito_core.contact.solve_object` one per object (the same fields with a
+face axis, in the core frame); the pipeline's bundles, the app's glyphs and every export
+read it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+__all__ = ["ContactEstimate", "CONTACT_FRAMES"]
+
+#: The frames a :class:`ContactEstimate` can be in: ``"face"`` (``solve``: the frame of the
+#: wrenches, a face frame) and ``"core"`` (``solve_object``: the core frame, with a face axis).
+CONTACT_FRAMES = ("face", "core")
+
+
+@dataclass
+class ContactEstimate:
+    """Contacts estimated from a batch of wrenches.
+
+    Every array field has the batch shape ``B`` in front: ``solve`` gives ``B`` = the
+    wrenches' leading shape (``(N,)``; ``()`` for one wrench), in the frame of the wrenches
+    (``frame = "face"``); ``solve_object`` gives ``B = (..., 6)``, the face axis last
+    (face i at index i − 1), in the core frame (``frame = "core"``). docs/conventions.md
+    names the frames.
+
+    Attributes
+    ----------
+    point : ndarray, shape B + (3,)
+        Contact point, m (NaN where not valid).
+    normal : ndarray, shape B + (3,)
+        Outward unit normal of the surface at the contact.
+    force : ndarray, shape B + (3,)
+        Force applied by the finger on the object, N (``force · normal < 0``).
+    torsion : ndarray, shape B
+        Moment about the normal at the contact, N·m (0 for ``point_contact``).
+    valid : ndarray of bool, shape B
+        A pushing contact on the patch exists and the force exceeds the threshold.
+    point_cov : ndarray, shape B + (3, 3), or None
+        Cramér–Rao covariance of ``point`` (m²) when a ``wrench_cov`` was given.
+    force_cov : ndarray, shape B + (3, 3), or None
+        Cramér–Rao covariance of ``force`` (N²).
+    torsion_var : ndarray, shape B, or None
+        Cramér–Rao variance of ``torsion`` ((N·m)²).
+    facet : ndarray of int, shape B, or None
+        Mesh facet holding the contact (−1 where not valid or the face's patch is not a
+        mesh); None when no patch is a mesh.
+    single_contact : ndarray of bool, shape B, or None
+        One soft-finger contact on the patch can produce the measured wrench within its
+        noise (pushing, inside the friction limit surface, on the patch; for
+        ``point_contact`` also the χ² residual). False where there is no force. Trust a
+        contact where ``valid & single_contact`` (:meth:`flagged` gives the rest). See
+        ``docs/contact.md``.
+    single_contact_p : ndarray, shape B, or None
+        The score deciding it, in [0, 1]: the smallest p-value over the single contact's
+        limits (``Φ(margin / σ)`` per limit; with ``point_contact`` also ``P(χ²₁ ≥ r²)`` for
+        the residual, and the smallest is doubled, capped at 1: Bonferroni);
+        ``single_contact = single_contact_p >= alpha`` (default 0.05). NaN where no force.
+    single_contact_reason : ndarray of int8, shape B, or None
+        :class:`SingleContactReason` code of the failing limit: 0 ``NONE`` (plausible),
+        1 ``NO_FORCE``, 2 ``NO_SOLUTION``, 3 ``OUTSIDE``, 4 ``PULLING``, 5 ``FRICTION``,
+        6 ``TORSION``, 7 ``RESIDUAL``; ``reason_names`` gives the short names.
+    frame : str
+        ``"face"`` or ``"core"`` (:data:`CONTACT_FRAMES`).
+
+    The three ``single_contact*`` fields are None only in records made without the test
+    (``solve(..., single_contact=False)``, or built by hand for display).
+    """
+
+    point: np.ndarray
+    normal: np.ndarray
+    force: np.ndarray
+    torsion: np.ndarray
+    valid: np.ndarray
+    point_cov: np.ndarray | None = None
+    force_cov: np.ndarray | None = None
+    torsion_var: np.ndarray | None = None
+    facet: np.ndarray | None = None
+    single_contact: np.ndarray | None = None
+    single_contact_p: np.ndarray | None = None
+    single_contact_reason: np.ndarray | None = None
+    frame: str = "face"
+
+    def __post_init__(self):
+        if self.frame not in CONTACT_FRAMES:
+            raise ValueError(f"frame: expected one of {CONTACT_FRAMES}, got {self.frame!r}")
+
+    def _arrays(self):
+        """``(name, array or None)`` of every array field."""
+        return ((f.name, getattr(self, f.name)) for f in fields(self) if f.name != "frame")
+
+    def flagged(self) -> np.ndarray:
+        """Bool, shape B: valid contacts that one fingertip cannot explain (False without the test)."""
+        if self.single_contact is None:
+            return np.zeros(np.shape(self.valid), bool)
+        return np.asarray(self.valid) & ~np.asarray(self.single_contact)
+
+    def __getitem__(self, index) -> ContactEstimate:
+        """The estimate at ``index`` of the leading batch axes (e.g. ``c[-1]``: the last sample's six faces).
+
+        ``index`` is applied to the front of every array (an int, a slice, a mask, or a
+        tuple of them); it never reaches the vector axes.
+        """
+        return ContactEstimate(**{k: None if v is None else v[index] for k, v in self._arrays()}, frame=self.frame)
+
+    @staticmethod
+    def concatenate(estimates) -> ContactEstimate:
+        """Estimates of the same frame joined along their first batch axis (blocks of samples, in order).
+
+        A field None in one of them is None in the result.
+        """
+        estimates = list(estimates)
+        if not estimates:
+            raise ValueError("estimates: expected at least one ContactEstimate")
+        frame = estimates[0].frame
+        if any(e.frame != frame for e in estimates):
+            raise ValueError(f"estimates: expected one frame, got {sorted({e.frame for e in estimates})}")
+        out = {}
+        for k, _ in estimates[0]._arrays():
+            parts = [getattr(e, k) for e in estimates]
+            out[k] = None if any(p is None for p in parts) else np.concatenate(parts)
+        return ContactEstimate(**out, frame=frame)
+
+    def _reshape(self, lead: tuple) -> ContactEstimate:
+        """The estimate of a flat batch ``(N,)`` with batch shape ``lead`` instead."""
+        return ContactEstimate(**{k: None if v is None else v.reshape(lead + v.shape[1:]) for k, v in self._arrays()},
+                               frame=self.frame)
