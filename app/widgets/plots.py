@@ -1,7 +1,6 @@
-"""Time plots over a ring (pyqtgraph): force norm per face, equilibrium.
+"""Time plots over ring buffers (pyqtgraph): force norm per face, equilibrium.
 
-Data and drawing are decoupled: ``append`` writes new samples into a
-:class:`~pito_core.devices.Ring` (O(new
+Data and drawing are decoupled: ``append`` writes new samples into a ring buffer (O(new
 samples), called once per worker bundle); ``refresh`` (one routine for both plots) — called by
 the live view's display pacer, at most at the display rate — hands each curve the last
 ``window`` seconds as a view of the ring (no copy), decimated to the plot's pixel width by
