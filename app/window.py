@@ -27,6 +27,7 @@ from .export_dialog import install_export_menu
 from .live.lsl_toggle import install_lsl_toggle
 from .health import install_health_indicator
 from .press_test import install_press_test_menu
+from .analysis import install_analysis_menu
 
 __all__ = ["MainWindow"]
 
@@ -102,9 +103,7 @@ class MainWindow(QMainWindow):
         install_lsl_toggle(self.live, self.worker, simulated=demo)
         install_health_indicator(self)
         install_press_test_menu(self)
-        from .analysis import install_analysis_menu  # File → Analyse recording (issue 24)
-
-        install_analysis_menu(self)
+        install_analysis_menu(self)  # File → Analyse recording
         self.errors: list[str] = []
         self.recording_path = None
         self.rig = None  # demo: the simulated devices and their scenarios

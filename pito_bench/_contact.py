@@ -25,8 +25,10 @@ from __future__ import annotations
 import time
 
 import numpy as np
+from scipy.optimize import least_squares
+from scipy.spatial.transform import Rotation
 
-from pito_core.contact import Ellipsoid, MeshSurface, Plane, Sphere, contact_crb, solve
+from pito_core.contact import Ellipsoid, MeshSurface, Plane, Sphere, contact_crb, reason_names, solve
 
 from ._contact_bounds import facet_of, mesh_exact_solutions, normal_snr_split, plane_second_order_ratio, ratio_ci
 from ._timing import best_time, run_worker
@@ -41,7 +43,7 @@ SURFACES = ("plane", "sphere", "ellipsoid", "mesh")
 
 def _bump_mesh(n: int = 50, half: float = 0.025):
     """A smooth bump over the face as a height field: ``2 n²`` facets (5,000 for n = 50), m."""
-    import trimesh
+    import trimesh  # deferred: ~0.1 s to load, and this module loads with `pito --help`
 
     g = np.linspace(-half, half, n + 1)
     X, Y = np.meshgrid(g, g)
@@ -54,8 +56,6 @@ def _bump_mesh(n: int = 50, half: float = 0.025):
 
 def make_surface(kind: str):
     """The benchmark's patch of ``kind`` in a face frame (m), and its apex (3,)."""
-    from scipy.spatial.transform import Rotation
-
     if kind == "plane":
         return Plane([0.0, 0.0, 0.004], [0.0, 0.0, 1.0])
     if kind == "sphere":
@@ -142,8 +142,6 @@ def scipy_solve(surface, w, cov, point_contact: bool = False):
     contact (``f · n < 0``) with a misfit within the noise, from four more chart points,
     keeping the best pushing solution (NaN if none).
     """
-    from scipy.optimize import least_squares
-
     chart = _param(surface)
     L = np.linalg.cholesky(np.linalg.inv(cov)).T
     out = np.full((len(w), 3), np.nan)
@@ -280,8 +278,6 @@ def _beyond_crb(surface, scenario, c, f, w0, est, crb, nrm, cov, ok, n_mesh=5000
 
 def _main_reason(est) -> str:
     """The most common reason among flagged estimates ("" if none is flagged)."""
-    from pito_core.contact import reason_names
-
     bad = ~est.single_contact
     if not bad.any():
         return ""

@@ -267,29 +267,30 @@ def _live_table(title, runs) -> str:
 
 # ---------------------------------------------------------------- plots
 def _save(fig, out_dir: str, name: str) -> str:
-    """Write ``fig`` as ``out_dir/name`` (PNG, 120 dpi), close it, return the path."""
-    import matplotlib.pyplot as plt
-
+    """Write ``fig`` as ``out_dir/name`` (PNG, 120 dpi), return the path."""
     path = os.path.join(out_dir, name)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
-    plt.close(fig)
     return path
+
+
+def _subplots(*grid, figsize):
+    """A new figure (no pyplot, no backend switch: nothing global changes) and its axes ``grid``."""
+    # deferred: matplotlib takes ~0.4 s to load and this module loads with `pito --help`
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=figsize)
+    return fig, fig.subplots(*grid)
 
 
 def write_plots(result: dict, out_dir) -> list[str]:
     """PNG plots of speed against error into ``out_dir``; returns the paths written."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     os.makedirs(out_dir, exist_ok=True)
     paths = []
     tag = " (QUICK run)" if result.get("meta", {}).get("quick") else ""
     cal = result.get("calibration")
     if cal and cal["memory"]:
-        fig, ax = plt.subplots(figsize=(7, 5))
+        fig, ax = _subplots(figsize=(7, 5))
         methods = sorted({r["method"] for r in cal["memory"]})
         for j, m in enumerate(methods):
             rs = sorted((r for r in cal["memory"] if r["method"] == m), key=lambda r: r["k"])
@@ -313,7 +314,7 @@ def write_plots(result: dict, out_dir) -> list[str]:
         paths.append(_save(fig, out_dir, "calibration_speed_vs_error.png"))
     con = result.get("contact")
     if con and con["pareto"]:
-        fig, ax = plt.subplots(figsize=(7, 5))
+        fig, ax = _subplots(figsize=(7, 5))
         kinds = sorted({p["surface"] for p in con["pareto"]})
         markers = {"closed form (soft finger)": "o", "point contact (weighted LS)": "D",
                    "scipy least_squares (soft finger)": "s", "scipy least_squares (point contact)": "v"}
@@ -332,7 +333,7 @@ def write_plots(result: dict, out_dir) -> list[str]:
         ax.legend(fontsize=6)
         ax.grid(True, which="both", alpha=0.3)
         paths.append(_save(fig, out_dir, "contact_speed_vs_error.png"))
-        fig, ax = plt.subplots(figsize=(7, 5))
+        fig, ax = _subplots(figsize=(7, 5))
         labels = [f"{a['surface']}/{a['scenario']}/{a['noise']}" for a in con["accuracy"]]
         ax.bar(range(len(labels)), [_n(a["crb_ratio"]) for a in con["accuracy"]], color="C0")
         ax.axhline(1.05, color="k", lw=0.8, ls=":")
@@ -342,7 +343,7 @@ def write_plots(result: dict, out_dir) -> list[str]:
         ax.set_title("Contact: error against the bound per scenario" + tag)
         paths.append(_save(fig, out_dir, "contact_crb_ratio.png"))
     if con and con.get("single"):
-        fig, axes = plt.subplots(1, 2, figsize=(12, 5))
+        fig, axes = _subplots(1, 2, figsize=(12, 5))
         plot_single(con["single"], axes, tag)
         paths.append(_save(fig, out_dir, "contact_single.png"))
     return paths

@@ -6,6 +6,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from PySide6.QtCore import QTimer, Qt, QUrl, Signal
 from PySide6.QtGui import QImage, QPixmap
@@ -98,8 +99,6 @@ def render_figures(evaluation, sizes: dict, rmse: dict | None = None) -> dict:
     ``sizes``: name (``rmse``, ``ident``, ``comp``) → ``(width, height)`` px; ``rmse``: options of
     the RMSE figure (:func:`rmse_options`).
     """
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-
     draw = {"rmse": report.rmse_figure, "ident": report.identification_figure, "comp": report.comparison_figure}
     out = {}
     for name, (w, h) in sizes.items():
