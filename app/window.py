@@ -210,7 +210,7 @@ class MainWindow(QMainWindow):
     def set_calibration(self, calibration, label: str = "") -> None:
         self.calibration = calibration
         self.worker.post(lambda: self.worker.set_calibration(calibration))
-        h = short_hash(calibration_hash(calibration))  # the calibration's identity (issue 13)
+        h = short_hash(calibration_hash(calibration))  # the calibration's identity
         self.cal_label.setText(f"calibration: {label or calibration.method} [{h}]")
         self.cal_label.setStyleSheet("")
         self.live.set_notice(None)

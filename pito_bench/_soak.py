@@ -1,4 +1,4 @@
-"""The soak benchmark (issue 13 item 3): record from the simulated devices for minutes, then verify.
+"""The soak benchmark: record from the simulated devices for minutes, then verify.
 
 Two ways, for ``minutes``:
 
