@@ -235,8 +235,8 @@ def _table1_lines(res: Results) -> list[str]:
              "loads span 30 of 36 dimensions. The default fit is the papers' plain least squares, so the unloaded "
              "frame fitted on its face-flange session alone leaves the 6 net-load directions unidentified "
              "(rank 30, 1/cond ≈ 0; `meta[\"net_load\"]` = \"not measured\"). Adding a frame_hole session to the "
-             "same fit measures them (full rank). The earlier versions' full-rank unloaded values came from a ridge "
-             "prior (each face's own-gauge fit), now the explicit option `prior=\"own_gauge\"`.")
+             "same fit measures them (full rank). A ridge prior (each face's own-gauge fit) gives full-rank unloaded "
+             "values too: the option `prior=\"own_gauge\"`.")
     L.append("")
     return L
 
