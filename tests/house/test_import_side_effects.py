@@ -2,7 +2,8 @@
 imported in a fresh interpreter and the libraries' global settings are compared before and after.
 
 Checked: pyqtgraph's config options, matplotlib's rcParams (and its backend), pyvista's global
-theme, the root logger, the warnings filters, the environment, ``sys.path`` and the locale.
+theme, the root logger, the warnings filters, the environment, ``sys.path``, the locale, signal handlers,
+exception hooks and multiprocessing's start method.
 The third-party libraries are imported first, so a change counted here is made by our modules.
 """
 
@@ -19,7 +20,8 @@ pytest.importorskip("pyvista")
 pytest.importorskip("pyqtgraph")
 
 CODE = r"""
-import ast, importlib, importlib.util, json, locale, logging, os, pathlib, pkgutil, sys, warnings
+import ast, importlib, importlib.util, json, locale, logging, multiprocessing, os, pathlib, pkgutil, signal, sys
+import threading, warnings
 import matplotlib, pyqtgraph, pyvista
 
 def third_party(tops):
@@ -54,6 +56,9 @@ def state():
         "os.environ": dict(os.environ),
         "sys.path": list(sys.path),
         "locale": repr(locale.setlocale(locale.LC_ALL)),
+        "signal handlers": {s.name: repr(signal.getsignal(s)) for s in (signal.SIGINT, signal.SIGTERM, signal.SIGCHLD)},
+        "excepthooks": repr((sys.excepthook, threading.excepthook)),
+        "multiprocessing start method": repr(multiprocessing.get_start_method(allow_none=True)),
     }
 
 before = state()
