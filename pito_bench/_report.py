@@ -310,60 +310,75 @@ def write_plots(result: dict, out_dir) -> list[str]:
     tag = " (QUICK run)" if result.get("meta", {}).get("quick") else ""
     cal = result.get("calibration")
     if cal and cal["memory"]:
-        fig, ax = _subplots(figsize=(7, 5))
-        methods = sorted({r["method"] for r in cal["memory"]})
-        for j, m in enumerate(methods):
-            rs = sorted((r for r in cal["memory"] if r["method"] == m), key=lambda r: r["k"])
-            col = f"C{j}"
-            ax.plot([r["fit_s"] for r in rs], [_n(r["rmse_force_N"]) for r in rs], "o-", color=col, label=f"{m} (pito)")
-            ax.plot([r["lstsq_fit_s"] for r in rs], [_n(r["lstsq_rmse_force_N"]) for r in rs], "s--", color=col, mfc="none",
-                    label=f"{m} (numpy lstsq)")
-            for r in rs:
-                ax.annotate(f"k={r['k']:.0e}", (r["fit_s"], _n(r["rmse_force_N"])), fontsize=6, xytext=(3, 3),
-                            textcoords="offset points")
-        st = cal["streamed"]
-        if st:
-            ax.plot([r["fit_s"] for r in st], [_n(r["rmse_force_N"]) for r in st], "k^", mfc="none", label="streamed from file")
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlabel("fit time (s)")
-        ax.set_ylabel("held-out force RMSE (N)")
-        ax.set_title("Calibration: speed vs error, simulated data" + tag)
-        ax.legend(fontsize=6, ncol=2)
-        ax.grid(True, which="both", alpha=0.3)
-        paths.append(_save(fig, out_dir, "calibration_speed_vs_error.png"))
+        paths.append(_save(_calibration_plot(cal, tag), out_dir, "calibration_speed_vs_error.png"))
     con = result.get("contact")
     if con and con["pareto"]:
-        fig, ax = _subplots(figsize=(7, 5))
-        kinds = sorted({p["surface"] for p in con["pareto"]})
-        markers = {"closed form (soft finger)": "o", "point contact (weighted LS)": "D",
-                   "scipy least_squares (soft finger)": "s", "scipy least_squares (point contact)": "v"}
-        for j, kind in enumerate(kinds):
-            for p in (q for q in con["pareto"] if q["surface"] == kind):
-                if not math.isfinite(_n(p["worst_crb_ratio"])):
-                    continue
-                ax.plot(p["solves_per_s"], p["worst_crb_ratio"], markers.get(p["solver"], "x"), color=f"C{j}",
-                        mfc=f"C{j}" if p["pareto"] else "none", ms=8, label=f"{kind}: {p['solver']}")
-        ax.axhline(1.05, color="k", lw=0.8, ls=":", label="target 1.05 × CRB")
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlabel("solves per second (one core)")
-        ax.set_ylabel("worst RMS point error / Cramér–Rao bound (1)")
-        ax.set_title("Contact: speed vs error (filled: Pareto-optimal)" + tag)
-        ax.legend(fontsize=6)
-        ax.grid(True, which="both", alpha=0.3)
-        paths.append(_save(fig, out_dir, "contact_speed_vs_error.png"))
-        fig, ax = _subplots(figsize=(7, 5))
-        labels = [f"{a['surface']}/{a['scenario']}/{a['noise']}" for a in con["accuracy"]]
-        ax.bar(range(len(labels)), [_n(a["crb_ratio"]) for a in con["accuracy"]], color="C0")
-        ax.axhline(1.05, color="k", lw=0.8, ls=":")
-        ax.set_yscale("log")
-        ax.set_xticks(range(len(labels)), labels, rotation=90, fontsize=6)
-        ax.set_ylabel("RMS point error / Cramér–Rao bound (1)")
-        ax.set_title("Contact: error against the bound per scenario" + tag)
-        paths.append(_save(fig, out_dir, "contact_crb_ratio.png"))
+        paths.append(_save(_contact_pareto_plot(con, tag), out_dir, "contact_speed_vs_error.png"))
+        paths.append(_save(_contact_crb_plot(con, tag), out_dir, "contact_crb_ratio.png"))
     if con and con.get("single"):
         fig, axes = _subplots(1, 2, figsize=(12, 5))
         plot_single(con["single"], axes, tag)
         paths.append(_save(fig, out_dir, "contact_single.png"))
     return paths
+
+
+def _calibration_plot(cal: dict, tag: str):
+    """Held-out force RMSE (N) against fit time (s), pito and numpy lstsq, each method and size."""
+    fig, ax = _subplots(figsize=(7, 5))
+    methods = sorted({r["method"] for r in cal["memory"]})
+    for j, m in enumerate(methods):
+        rs = sorted((r for r in cal["memory"] if r["method"] == m), key=lambda r: r["k"])
+        col = f"C{j}"
+        ax.plot([r["fit_s"] for r in rs], [_n(r["rmse_force_N"]) for r in rs], "o-", color=col, label=f"{m} (pito)")
+        ax.plot([r["lstsq_fit_s"] for r in rs], [_n(r["lstsq_rmse_force_N"]) for r in rs], "s--", color=col, mfc="none",
+                label=f"{m} (numpy lstsq)")
+        for r in rs:
+            ax.annotate(f"k={r['k']:.0e}", (r["fit_s"], _n(r["rmse_force_N"])), fontsize=6, xytext=(3, 3),
+                        textcoords="offset points")
+    st = cal["streamed"]
+    if st:
+        ax.plot([r["fit_s"] for r in st], [_n(r["rmse_force_N"]) for r in st], "k^", mfc="none", label="streamed from file")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("fit time (s)")
+    ax.set_ylabel("held-out force RMSE (N)")
+    ax.set_title("Calibration: speed vs error, simulated data" + tag)
+    ax.legend(fontsize=6, ncol=2)
+    ax.grid(True, which="both", alpha=0.3)
+    return fig
+
+
+def _contact_pareto_plot(con: dict, tag: str):
+    """Worst error/CRB against solves per second, per surface and solver (filled: Pareto-optimal)."""
+    fig, ax = _subplots(figsize=(7, 5))
+    kinds = sorted({p["surface"] for p in con["pareto"]})
+    markers = {"closed form (soft finger)": "o", "point contact (weighted LS)": "D",
+               "scipy least_squares (soft finger)": "s", "scipy least_squares (point contact)": "v"}
+    for j, kind in enumerate(kinds):
+        for p in (q for q in con["pareto"] if q["surface"] == kind):
+            if not math.isfinite(_n(p["worst_crb_ratio"])):
+                continue
+            ax.plot(p["solves_per_s"], p["worst_crb_ratio"], markers.get(p["solver"], "x"), color=f"C{j}",
+                    mfc=f"C{j}" if p["pareto"] else "none", ms=8, label=f"{kind}: {p['solver']}")
+    ax.axhline(1.05, color="k", lw=0.8, ls=":", label="target 1.05 × CRB")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("solves per second (one core)")
+    ax.set_ylabel("worst RMS point error / Cramér–Rao bound (1)")
+    ax.set_title("Contact: speed vs error (filled: Pareto-optimal)" + tag)
+    ax.legend(fontsize=6)
+    ax.grid(True, which="both", alpha=0.3)
+    return fig
+
+
+def _contact_crb_plot(con: dict, tag: str):
+    """Error/CRB per surface, scenario and noise level."""
+    fig, ax = _subplots(figsize=(7, 5))
+    labels = [f"{a['surface']}/{a['scenario']}/{a['noise']}" for a in con["accuracy"]]
+    ax.bar(range(len(labels)), [_n(a["crb_ratio"]) for a in con["accuracy"]], color="C0")
+    ax.axhline(1.05, color="k", lw=0.8, ls=":")
+    ax.set_yscale("log")
+    ax.set_xticks(range(len(labels)), labels, rotation=90, fontsize=6)
+    ax.set_ylabel("RMS point error / Cramér–Rao bound (1)")
+    ax.set_title("Contact: error against the bound per scenario" + tag)
+    return fig
