@@ -18,7 +18,6 @@ import json
 import os
 
 import numpy as np
-from scipy.io import savemat
 
 from ..frames import N_GAUGES
 from ._csv import CSV_COUNTS, CSV_REFERENCE
@@ -77,6 +76,10 @@ def read_recording_csv(path, stream: str = "pito") -> dict:
 
 def export_recording_mat(recording, path) -> None:
     """Write ``recording`` to exactly ``path`` as a MATLAB ``.mat`` file (v5, scipy.io.savemat)."""
+    # deferred: scipy.io loads its MATLAB, NetCDF and Harwell-Boeing readers (~0.1 s) and this
+    # module loads with every `pito` command
+    from scipy.io import savemat
+
     p, a = recording.pito, recording.netft
     with open(os.fspath(path), "wb") as fh:  # exactly the name given: savemat adds ".mat" to str paths
         savemat(
