@@ -4,12 +4,17 @@ from __future__ import annotations
 
 import datetime as _dt
 import importlib.util
+import json
+import math
 import os
 import platform
 import shutil
 import subprocess
 import sys
 import tempfile
+
+import numpy
+import scipy
 
 from pito_core import __version__
 
@@ -33,8 +38,6 @@ QUICK_SIZES = (1_000, 10_000, 100_000)
 
 def json_safe(obj):
     """``obj`` with NaN and ±inf floats replaced by None (strict JSON has no NaN)."""
-    import math
-
     if isinstance(obj, float):
         return obj if math.isfinite(obj) else None
     if isinstance(obj, dict):
@@ -53,9 +56,6 @@ def live_available() -> bool:
 
 
 def _meta(quick: bool, threads: int) -> dict:
-    import numpy
-    import scipy
-
     cpu = platform.processor() or platform.machine()
     try:
         with open("/proc/cpuinfo") as f:
@@ -75,8 +75,6 @@ def _meta(quick: bool, threads: int) -> dict:
 def _run_live(quick: bool, threads: int, progress) -> dict:
     if not live_available():
         return {"status": "skipped: app extras not installed"}
-    import json
-
     progress("live: the whole demo window on Xvfb, grabbed from outside (python -m pito_bench._live_window)")
     cmd = [sys.executable, "-m", "pito_bench._live_window", "--json"] + (["--quick"] if quick else [])
     proc = subprocess.run(cmd, env=thread_env(threads), capture_output=True, text=True, timeout=900)

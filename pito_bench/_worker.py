@@ -5,6 +5,7 @@ Prints one JSON object (the task's result plus ``peak_rss_mb``) on its last line
 
 from __future__ import annotations
 
+import importlib
 import json
 import sys
 
@@ -24,8 +25,6 @@ TASKS = {
 
 
 def _task(name):
-    import importlib
-
     module, func = TASKS[name]
     return getattr(importlib.import_module(f"{__package__}.{module}"), func)
 
