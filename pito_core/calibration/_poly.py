@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["poly_terms", "poly_features", "PolyCorrection"]
+__all__ = ["poly_terms", "poly_features", "poly_features_t", "PolyCorrection"]
 
 
 def poly_terms(blocks) -> tuple[np.ndarray, np.ndarray]:
@@ -29,12 +29,21 @@ def poly_terms(blocks) -> tuple[np.ndarray, np.ndarray]:
 def poly_features(u: np.ndarray, pairs: np.ndarray, cubes: np.ndarray) -> np.ndarray:
     """``(N, P + Q)`` features ``[u_i u_j for pairs, u_i³ for cubes]`` of ``u (N, m)`` (dimensionless)."""
     uT = np.ascontiguousarray(np.asarray(u, dtype=float).T)  # (m, N): a channel per contiguous row
+    return poly_features_t(uT, pairs, cubes).T
+
+
+def poly_features_t(uT: np.ndarray, pairs: np.ndarray, cubes: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """``(P + Q, N)`` the features of :func:`poly_features`, transposed, from ``uT (m, N)``.
+
+    ``out`` (optional, shape ``(P + Q, N)``, rows contiguous) receives them.
+    """
     P = pairs.shape[0]
-    out = np.empty((P + cubes.size, uT.shape[1]))
+    if out is None:
+        out = np.empty((P + cubes.size, uT.shape[1]))
     np.multiply(uT[pairs[:, 0]], uT[pairs[:, 1]], out=out[:P])
     c = uT[cubes]
     np.multiply(c * c, c, out=out[P:])
-    return out.T
+    return out
 
 
 class PolyCorrection:
