@@ -85,4 +85,8 @@ class PolyCorrection:
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         """``(N, q)`` correction for offset-free counts ``x (N, m)``, output units."""
-        return self.features(x) @ self.coef.T
+        used = np.flatnonzero(np.any(self.coef != 0, axis=0))  # rows that keep the affine fit use none
+        P = self.pairs.shape[0]
+        uT = np.ascontiguousarray((np.asarray(x, dtype=float) / self.scale).T)
+        phi = poly_features_t(uT, self.pairs[used[used < P]], self.cubes[used[used >= P] - P])
+        return (self.coef[:, used] @ phi).T
