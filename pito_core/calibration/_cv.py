@@ -206,12 +206,14 @@ def _paths(G: np.ndarray, p: int, problems, alphas) -> list[list[np.ndarray]]:
     return out
 
 
-def held_out_sse(G: np.ndarray, p: int, pr: Problem, X: np.ndarray) -> np.ndarray:
-    """``(ny,)`` sum of squared residuals of solution ``X`` over the rows whose Gram is ``G``."""
+def held_out_sse(G: np.ndarray, p: int, pr: Problem, X) -> np.ndarray:
+    """Sum of squared residuals of solution ``X (nx, ny)`` (or a stack ``(A, nx, ny)``: ``(A, ny)``)
+    over the rows whose Gram is ``G``."""
     x = np.r_[pr.a, pr.b]
     y = p + pr.y
     Gxy = G[np.ix_(x, y)]
-    sse = np.diag(G)[y] - 2.0 * np.sum(X * Gxy, axis=0) + np.sum(X * (G[np.ix_(x, x)] @ X), axis=0)
+    X = np.asarray(X)
+    sse = np.diag(G)[y] - 2.0 * np.sum(X * Gxy, axis=-2) + np.sum(X * (G[np.ix_(x, x)] @ X), axis=-2)
     return np.clip(sse, 0.0, None)
 
 
@@ -233,8 +235,7 @@ def cross_validate(folded: FoldedGram, problems, alphas=ALPHAS) -> dict:
             continue
         Gk = folded.gram[k]
         for j, (pr, sols) in enumerate(zip(problems, _paths(folded.total(exclude=k), p, problems, alphas))):
-            for i, X in enumerate(sols):
-                sse[i, k, j, : pr.y.size] = held_out_sse(Gk, p, pr, X)
+            sse[:, k, j, : pr.y.size] = held_out_sse(Gk, p, pr, np.stack(sols))
     return {"alphas": alphas, "sse": sse, "n_rows": folded.rows.copy()}
 
 

@@ -30,6 +30,10 @@ __all__ = ["PolyAccumulator", "FULL_SCALE_WEIGHT"]
 FULL_SCALE_WEIGHT = 1.0 / np.array([15.0, 15.0, 15.0, 0.1, 0.1, 0.1])
 #: Rows whose features are built at once (8192 × 235 columns × 8 B ≈ 15 MB).
 CHUNK = 8192
+#: The correction is fitted (and cross-validated) from at most about this many samples, every
+#: ``stride``-th of the sessions' (neighbouring samples at 1 kHz repeat one held load): its cost
+#: stays bounded beside the affine fit, which uses every sample.
+MAX_ROWS = 1 << 15
 _PAIRS, _CUBES = poly_terms([range(6 * (f - 1), 6 * f) for f in FACES])
 _N_PAIRS = _PAIRS.shape[0] // 6  # 21 per face
 _PAIRS6, _CUBES6 = poly_terms([range(6)])  # one face's own, in the order of face_features
@@ -70,7 +74,8 @@ class PolyAccumulator:
         self.out_faces = tuple(out_faces)
         self.reaction_faces = set(reaction_faces)
         self.counter = SegmentCounter(max(1, int(np.ceil(max(session_lengths) * MAX_SEGMENT_FRACTION))))
-        self._session = None
+        self.stride = max(1, int(np.ceil(sum(session_lengths) / MAX_ROWS)))
+        self._session, self._seen = None, 0
         if own:
             self.acc = {f: FoldedGram(n_int + 6 + 27, 6, n_folds) for f in FACES}
         else:
@@ -80,6 +85,10 @@ class PolyAccumulator:
         """Rows of session ``k``: ``x (n, 36)`` counts less its tare mean, ``targets (n, 6, 6)``."""
         fold = self.counter.ids(loaded, new_session=self._session != k) % self.K
         self._session = k
+        if self.stride > 1:  # every stride-th sample of the sessions
+            keep = (self._seen + np.arange(x.shape[0])) % self.stride == 0
+            self._seen += x.shape[0]
+            x, targets, usable, carries, loaded, fold = x[keep], targets[keep], usable[keep], carries[keep], loaded[keep], fold[keep]
         for a in range(0, x.shape[0], CHUNK):  # bounded memory: features of CHUNK rows at a time
             sl = slice(a, a + CHUNK)
             self._add(k, x[sl], targets[sl], usable[sl], carries[sl], loaded[sl], fold[sl])
@@ -113,8 +122,8 @@ class PolyAccumulator:
             self.acc.add_sorted(self._design(k, x[idx], np.arange(N_GAUGES), _PAIRS, _CUBES, t), bounds)
 
     def rows_of(self, f) -> int:
-        """Rows (samples) of face ``f``'s problem."""
-        return self.acc[f].n_rows if self.own else self.acc.n_rows
+        """Rows (samples) of face ``f``'s problem (over every sample: the fitted ones × stride)."""
+        return (self.acc[f].n_rows if self.own else self.acc.n_rows) * self.stride
 
     def _features_of(self, f) -> np.ndarray:
         """Feature indices of output face ``f``: every face's for a connected face, else ``f``'s own
@@ -138,7 +147,8 @@ class PolyAccumulator:
 
         The solution (for ``poly``) is ``(C (6F, 36), B (n_int, 6F), D (6F, 162), E2 (6F,))``: slopes
         per count, session intercepts, feature coefficients, and the fit's residual sum of squares;
-        rows that keep the affine fit are ``linear_matrix``'s, with no feature and ``E2`` NaN.
+        rows that keep the affine fit are ``linear_matrix``'s, with no feature and ``E2`` NaN. ``E2``
+        is scaled from the fitted samples to all (× ``stride``).
         """
         parts = self.problems(out_faces, rank_a)
         results = [(cross_validate(acc, probs, alphas), [p.weight for p in probs]) for acc, probs, _ in parts]
@@ -166,7 +176,7 @@ class PolyAccumulator:
                 B[:, ri] = X[:n_int, use]
                 feats = face_features(f) if self.own else self._features_of(f)
                 D[np.ix_(ri, feats)] = X[n_int + lin.size :, use].T
-                E2[ri] = held_out_sse(acc.total(), acc.p, pr, X)[use]
+                E2[ri] = self.stride * held_out_sse(acc.total(), acc.p, pr, X)[use]  # over every sample
         return choice, (C, B, D, E2)
 
 
