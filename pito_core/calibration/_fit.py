@@ -25,7 +25,7 @@ from ._calibration import Calibration
 from ._coverage import measured_directions
 from ._cv import MODELS, ModelChoice
 from ._lstsq import RANK_RTOL, StreamedQR
-from ._nlfit import PolyAccumulator, correction as poly_correction
+from ._nlfit import PolyAccumulator, correction as poly_correction, mixed_offsets
 from ._methods import MethodSpec, get_method
 from ..io import CalibrationSession, few_indices as _few
 from ._targets import MountGeometry, block_targets
@@ -524,9 +524,8 @@ class Calibrator:
                 C, B, D, E2 = sol
                 linear_fit = (fit.matrix.copy(), np.mean(fit.offsets, axis=0))
                 fit.matrix[:] = C
-                # the zero-load counts: the tare means (the intercepts, the model's wrench at rest,
-                # are the error at the unloaded samples: a shift of the counts would move the features too)
-                fit.offsets = [m.copy() for m in tare_means]
+                # the zero-load counts: the tare means for the corrected rows, the affine rows' fitted offsets
+                fit.offsets = mixed_offsets(C, linear_fit[0], choice.row_alpha, tare_means, fit.offsets)
                 corr = poly_correction(poly.scale, D)
                 _rescale_groups(fit.groups, fit.residual, out_faces, E2, poly)
         elif self.model != "linear":

@@ -20,11 +20,12 @@ from __future__ import annotations
 import numpy as np
 
 from ..frames import FACES, N_GAUGES
+from ._lstsq import RANK_RTOL
 from ._cv import ALPHAS, N_FOLDS, FoldedGram, MAX_SEGMENT_FRACTION, Problem, SegmentCounter, choose_model, cross_validate, \
     fold_bounds, held_out_sse, solve_problem
 from ._poly import PolyCorrection, poly_features_t, poly_terms
 
-__all__ = ["PolyAccumulator", "FULL_SCALE_WEIGHT"]
+__all__ = ["PolyAccumulator", "FULL_SCALE_WEIGHT", "mixed_offsets"]
 
 #: Outputs are weighed by 1 / full scale in the model choice: ``[fx … tz]`` in 1/N and 1/(N·m).
 FULL_SCALE_WEIGHT = 1.0 / np.array([15.0, 15.0, 15.0, 0.1, 0.1, 0.1])
@@ -183,3 +184,23 @@ class PolyAccumulator:
 def correction(scale, D) -> PolyCorrection:
     """The calibration's correction from the fitted feature coefficients ``D (6F, 162)``."""
     return PolyCorrection(scale, _PAIRS, _CUBES, D)
+
+
+def mixed_offsets(C, linear_matrix, row_alpha, tare_means, linear_offsets) -> list:
+    """Each session's zero-load counts (36,) for a calibration whose rows mix both models.
+
+    Rows with the correction take the tare mean as their zero (their intercept, the model's
+    wrench at rest, is the error at the unloaded samples); rows that keep the affine fit
+    need its fitted offset, ``C_r (m − o) = b_r``. One offset serves both: ``m − δ`` with
+    the least ``δ`` (in the full-scale-weighted rows) such that ``C δ`` is the affine rows'
+    intercepts and zero on the corrected rows (exact where those rows leave room; the
+    features move by ``δ / scale``, a fraction of the gauge noise).
+    """
+    linear = np.array([a is None for a in row_alpha])
+    w = np.tile(FULL_SCALE_WEIGHT, C.shape[0] // 6)
+    out = []
+    for m, o in zip(tare_means, linear_offsets):
+        rhs = np.where(linear, linear_matrix @ (m - o), 0.0)
+        delta = np.linalg.lstsq(C * w[:, None], rhs * w, rcond=RANK_RTOL)[0]
+        out.append(m - delta)
+    return out
