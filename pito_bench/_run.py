@@ -19,6 +19,7 @@ import scipy
 from pito_core import __version__
 
 from ._calibration import random_cube_ratios, run_calibration
+from ._model_choice import model_choice_ratios
 from ._contact import run_contact
 from ._pipeline import run_pipeline
 from ._report import targets
@@ -124,6 +125,7 @@ def run_bench(*, quick: bool = False, sections=SECTIONS, sizes=None, threads: in
             result["calibration"] = run_calibration(ks, workdir, quick=quick, threads=threads,
                                                     n_test=5_000 if quick else 20_000, progress=progress)
             result["calibration"]["random_cubes"] = random_cube_ratios(quick=quick, threads=threads, progress=progress)
+            result["calibration"]["model_choice"] = model_choice_ratios(quick=quick, threads=threads, progress=progress)
         if "contact" in sections:
             result["contact"] = run_contact(quick=quick, threads=threads, progress=progress, **(contact_sizes or {}))
         if "pipeline" in sections:

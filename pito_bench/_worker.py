@@ -17,6 +17,7 @@ TASKS = {
     "cal_generate": ("_calibration", "task_generate"),
     "cal_memory": ("_calibration", "task_memory"),
     "cal_random": ("_calibration", "task_random_cubes"),
+    "cal_model_choice": ("_model_choice", "task_model_choice"),
     "cal_stream": ("_calibration", "task_stream"),
     "contact": ("_contact", "task_contact"),
     "contact_single": ("_single_contact", "task_single_contact"),
