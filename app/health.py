@@ -1,4 +1,4 @@
-"""Device health in the status bar: "stalled", rate mismatch, saturation (issue 13 item 2).
+"""Device health in the status bar: "stalled", rate mismatch, saturation.
 
 A permanent status-bar label updated every 50 ms from the latest bundle's device stats
 (``bundle.stats["devices"]``, words from :func:`pito_core.devices._health.health_words`), plus a

@@ -62,7 +62,7 @@ def main(argv=None) -> int:
 
     app = QApplication.instance() or QApplication(sys.argv[:1])
     app.setApplicationName("pito-app")
-    from .fonts import install_app_font
+    from .fonts import install_app_font  # deferred with QApplication (above): these import Qt
     from .theme import STYLE
     from .window import MainWindow
 
@@ -89,7 +89,7 @@ def main(argv=None) -> int:
     if args.record:
         _record_when_live(window, args.record)
     if args.duration:
-        from PySide6.QtCore import QTimer
+        from PySide6.QtCore import QTimer  # deferred with QApplication (above)
 
         QTimer.singleShot(int(args.duration * 1000), window.close)
     code = app.exec()
@@ -100,7 +100,7 @@ def main(argv=None) -> int:
 
 def _record_when_live(window, path) -> None:
     """Press Record (to ``path``) as soon as the live view has shown a bundle."""
-    from PySide6.QtCore import QTimer
+    from PySide6.QtCore import QTimer  # deferred: `pito-app --help` loads no Qt (main, above)
 
     def check():
         if window.live.bundles_shown > 0:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import pyvista as pv
+
 from pito_core.contact import list_assemblies as _list_assemblies
 from pito_core.contact import load_assembly
 from pito_core.frames import FACES
@@ -18,8 +20,6 @@ def display_meshes(assembly) -> dict | None:
     """Face → pyvista mesh (core frame, m) of each patch, or None for the bare cube."""
     if assembly is None:
         return None
-    import pyvista as pv
-
     return {i: pv.wrap(assembly.face_mesh(i)) for i in FACES}
 
 

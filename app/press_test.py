@@ -1,4 +1,4 @@
-"""Tools → Press test: the guided units-and-signs self-test of the loaded calibration (issue 13 item 4).
+"""Tools → Press test: the guided units-and-signs self-test of the loaded calibration.
 
 The dialog records 1 s at rest, then walks the operator through :data:`pito_core.selftest.PRESS_PROTOCOL`
 (press face i along its normal, then twist it), recording the raw counts of each step for

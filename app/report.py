@@ -184,6 +184,7 @@ def export_report(folder, calibration, evaluation, info: dict | None = None, pro
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     info = dict(info or {})
+
     def step(k: int, text: str) -> None:
         if progress is not None:
             progress(k / 5, text)
@@ -193,7 +194,18 @@ def export_report(folder, calibration, evaluation, info: dict | None = None, pro
         step(k, f"drawing {folder / name}")
         figure(evaluation, dark=False).savefig(folder / name, dpi=150, bbox_inches="tight", pad_inches=0.1)
     step(3, f"writing {folder / 'numbers.json'}")
-    numbers = {
+    numbers = _numbers(calibration, evaluation, info)
+    (folder / "numbers.json").write_text(json.dumps(numbers, indent=2, default=_json_default))
+    path = folder / "report.md"
+    step(4, f"writing {path}")
+    path.write_text("\n".join(_report_lines(calibration, evaluation, info, numbers["generated"])))
+    step(5, f"report written to {folder}")
+    return path
+
+
+def _numbers(calibration, evaluation, info: dict) -> dict:
+    """``numbers.json``: when, the facts given, the calibration's description and the evaluation."""
+    return {
         "generated": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
         "info": info,
         "calibration": {
@@ -206,13 +218,16 @@ def export_report(folder, calibration, evaluation, info: dict | None = None, pro
         },
         "evaluation": evaluation.to_dict(),
     }
-    (folder / "numbers.json").write_text(json.dumps(numbers, indent=2, default=_json_default))
+
+
+def _report_lines(calibration, evaluation, info: dict, generated: str) -> list[str]:
+    """The lines of ``report.md`` (Markdown): the facts, RMSE per face, identification, the figures."""
     f = evaluation.rmse_force()
     t = evaluation.rmse_torque()
     lines = [
         f"# PITO calibration report — {calibration.method}",
         "",
-        f"Generated {numbers['generated']}." + (" **SIMULATED DEVICES** — not a real instrument." if info.get("simulated") else ""),
+        f"Generated {generated}." + (" **SIMULATED DEVICES** — not a real instrument." if info.get("simulated") else ""),
         "",
         "| item | value |",
         "| --- | --- |",
@@ -249,11 +264,7 @@ def export_report(folder, calibration, evaluation, info: dict | None = None, pro
         "![Comparison with the reference](comparison.png)",
         "",
     ]
-    path = folder / "report.md"
-    step(4, f"writing {path}")
-    path.write_text("\n".join(lines))
-    step(5, f"report written to {folder}")
-    return path
+    return lines
 
 
 def _rms(values, a0) -> float:

@@ -15,6 +15,10 @@ a deleted widget.
 
 from __future__ import annotations
 
+import os
+import pickle
+import select
+import subprocess
 import sys
 import threading
 import traceback
@@ -218,12 +222,6 @@ def _in_process(fn, args, progress):
     ``python -m app._taskchild``: ``(fn, args)`` go to it pickled on stdin, messages come back
     pickled and framed on its stdout; ``fn`` must be importable by name (a module-level function).
     """
-    import os
-    import pickle
-    import select
-    import subprocess
-    import sys
-
     proc = subprocess.Popen([sys.executable, "-m", "app._taskchild"], stdin=subprocess.PIPE,
                             stdout=subprocess.PIPE, bufsize=0)
     try:

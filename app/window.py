@@ -27,6 +27,7 @@ from .export_dialog import install_export_menu
 from .live.lsl_toggle import install_lsl_toggle
 from .health import install_health_indicator
 from .press_test import install_press_test_menu
+from .analysis import install_analysis_menu
 
 __all__ = ["MainWindow"]
 
@@ -102,9 +103,7 @@ class MainWindow(QMainWindow):
         install_lsl_toggle(self.live, self.worker, simulated=demo)
         install_health_indicator(self)
         install_press_test_menu(self)
-        from .analysis import install_analysis_menu  # File → Analyse recording (issue 24)
-
-        install_analysis_menu(self)
+        install_analysis_menu(self)  # File → Analyse recording
         self.errors: list[str] = []
         self.recording_path = None
         self.rig = None  # demo: the simulated devices and their scenarios
@@ -211,7 +210,7 @@ class MainWindow(QMainWindow):
     def set_calibration(self, calibration, label: str = "") -> None:
         self.calibration = calibration
         self.worker.post(lambda: self.worker.set_calibration(calibration))
-        h = short_hash(calibration_hash(calibration))  # the calibration's identity (issue 13)
+        h = short_hash(calibration_hash(calibration))  # the calibration's identity
         self.cal_label.setText(f"calibration: {label or calibration.method} [{h}]")
         self.cal_label.setStyleSheet("")
         self.live.set_notice(None)

@@ -1,6 +1,6 @@
 """The papers' plain affine least-squares fit, written independently of ``pito_core.calibration``.
 
-The yardstick of issue 10, item 2: ``calibrate(...)`` with its defaults must never be
+The yardstick: ``calibrate(...)`` with its defaults must never be
 worse than this. It shares nothing with pito's fitting code (not ``block_targets``, not
 the streamed QR): the target wrenches come straight from the load paths of
 docs/conventions.md with ``pito_core.frames``, and the fit is one LAPACK least-squares

@@ -25,8 +25,10 @@ from __future__ import annotations
 import time
 
 import numpy as np
+from scipy.optimize import least_squares
+from scipy.spatial.transform import Rotation
 
-from pito_core.contact import Ellipsoid, MeshSurface, Plane, Sphere, contact_crb, solve
+from pito_core.contact import Ellipsoid, MeshSurface, Plane, Sphere, contact_crb, reason_names, solve
 
 from ._contact_bounds import facet_of, mesh_exact_solutions, normal_snr_split, plane_second_order_ratio, ratio_ci
 from ._timing import best_time, run_worker
@@ -41,7 +43,7 @@ SURFACES = ("plane", "sphere", "ellipsoid", "mesh")
 
 def _bump_mesh(n: int = 50, half: float = 0.025):
     """A smooth bump over the face as a height field: ``2 n²`` facets (5,000 for n = 50), m."""
-    import trimesh
+    import trimesh  # deferred: ~0.1 s to load, and this module loads with `pito --help`
 
     g = np.linspace(-half, half, n + 1)
     X, Y = np.meshgrid(g, g)
@@ -54,8 +56,6 @@ def _bump_mesh(n: int = 50, half: float = 0.025):
 
 def make_surface(kind: str):
     """The benchmark's patch of ``kind`` in a face frame (m), and its apex (3,)."""
-    from scipy.spatial.transform import Rotation
-
     if kind == "plane":
         return Plane([0.0, 0.0, 0.004], [0.0, 0.0, 1.0])
     if kind == "sphere":
@@ -142,8 +142,6 @@ def scipy_solve(surface, w, cov, point_contact: bool = False):
     contact (``f · n < 0``) with a misfit within the noise, from four more chart points,
     keeping the best pushing solution (NaN if none).
     """
-    from scipy.optimize import least_squares
-
     chart = _param(surface)
     L = np.linalg.cholesky(np.linalg.inv(cov)).T
     out = np.full((len(w), 3), np.nan)
@@ -186,70 +184,84 @@ def task_contact(n_speed=100_000, n_acc=20_000, n_scipy=200, surfaces=SURFACES, 
     speed_rows, acc_rows = [], []
     for kind in surfaces:
         surface = make_surface(kind)
-        # ---- speed: one batch of n_speed noisy soft-finger wrenches (mid noise)
-        c, nrm, f, tau = sample_contacts(surface, n_speed, "soft", rng)
-        cov = _noise_cov("mid")
-        W = _wrench(c, nrm, f, tau) + rng.normal(size=(n_speed, 6)) * np.sqrt(np.diag(cov))
-        modes = {  # the solvers alone; the single-contact test's cost on its own row
-            "closed form (soft finger)": dict(single_contact=False),
-            "point contact (weighted LS)": dict(point_contact=True, wrench_cov=cov, single_contact=False),
-            "soft finger + CRB covariance": dict(wrench_cov=cov, single_contact=False),
-            "soft finger + single-contact test": dict(wrench_cov=cov),
-        }
-        rates = {}
-        for name, kw in modes.items():
-            nb = n_speed if kind != "mesh" and "point" not in name else max(1000, n_speed // 10)
-            dt, _ = best_time(lambda: solve(surface, W[:nb], **kw), repeat, budget=10.0)
-            rates[name] = nb / dt
-        if kind != "mesh":
-            ns = max(5, n_scipy // 4)
-            t0 = time.perf_counter()
-            scipy_solve(surface, W[:ns], cov)
-            rates["scipy least_squares (soft finger)"] = ns / (time.perf_counter() - t0)
-            t0 = time.perf_counter()
-            scipy_solve(surface, W[:ns], cov, point_contact=True)
-            rates["scipy least_squares (point contact)"] = ns / (time.perf_counter() - t0)
-        for name, r in rates.items():
-            model = "point contact" if "point" in name else "soft finger"
-            base = rates.get(f"scipy least_squares ({model})", float("nan"))
-            speed_rows.append({"surface": kind, "solver": name, "solves_per_s": r,
-                               "speed_ratio_scipy": r / base,
-                               "batch": n_speed if kind != "mesh" and "point" not in name else max(1000, n_speed // 10)})
-        # ---- accuracy: every scenario and noise level
-        for scenario in SCENARIOS:
-            pc = scenario == "point"
-            c, nrm, f, tau = sample_contacts(surface, n_acc, scenario, rng)
-            w0 = _wrench(c, nrm, f, tau)
-            for level in levels:
-                cov = _noise_cov(level)
-                w = w0 + rng.normal(size=w0.shape) * np.sqrt(np.diag(cov))
-                est = solve(surface, w, point_contact=pc, wrench_cov=cov)
-                crb = contact_crb(surface, c, f, cov, torsion=tau, normal=nrm, point_contact=pc)
-                crb_tr = np.trace(crb.point_cov, axis1=1, axis2=2)
-                ok = est.valid & np.isfinite(crb_tr)
-                err, ratio = _error_ratio(est.point, c, crb_tr, ok)
-                ci = ratio_ci(np.sum((est.point[ok] - c[ok]) ** 2, axis=1), crb_tr[ok])
-                ferr = np.sqrt(np.mean(np.sum((est.force[ok] - f[ok]) ** 2, axis=1))) if ok.any() else np.nan
-                fbound = np.sqrt(np.mean(np.trace(crb.force_cov, axis1=1, axis2=2)[ok])) if ok.any() else np.nan
-                row = {"surface": kind, "scenario": scenario, "noise": level,
-                       "sigma_force_N": NOISE_LEVELS[level][0], "sigma_moment_Nm": NOISE_LEVELS[level][1],
-                       "n": n_acc, "valid_fraction": float(est.valid.mean()),
-                       "rms_point_error_m": err, "crb_rms_m": float(np.sqrt(np.mean(crb_tr[ok]))) if ok.any() else np.nan,
-                       "crb_ratio": ratio, "crb_ratio_ci": ci, "force_crb_ratio": float(ferr / fbound),
-                       "flagged_fraction": float(1.0 - est.single_contact.mean()),
-                       "flag_reason": _main_reason(est)}
-                est.noise = w - w0  # for _beyond_crb
-                row.update(_beyond_crb(surface, scenario, c, f, w0, est, crb, nrm, cov, ok))
-                if kind != "mesh" and level in scipy_levels:
-                    k = min(n_scipy, n_acc)
-                    sc = scipy_solve(surface, w[:k], cov, point_contact=pc)
-                    okk = np.isfinite(crb_tr[:k]) & np.isfinite(sc).all(axis=1)
-                    e_s, r_s = _error_ratio(sc, c[:k], crb_tr[:k], okk)
-                    e_p, r_p = _error_ratio(est.point[:k], c[:k], crb_tr[:k], est.valid[:k] & okk)
-                    row.update({"scipy_n": k, "scipy_crb_ratio": r_s, "scipy_valid_fraction": float(okk.mean()), "pito_crb_ratio_same_subset": r_p,
-                                "error_ratio_scipy": e_p / e_s if e_s > 0 else float("nan")})
-                acc_rows.append(row)
+        speed_rows += _speed_rows(kind, surface, n_speed, n_scipy, repeat, rng)
+        acc_rows += _accuracy_rows(kind, surface, n_acc, n_scipy, levels, scipy_levels, rng)
     return {"speed": speed_rows, "accuracy": acc_rows}
+
+
+def _speed_rows(kind, surface, n_speed, n_scipy, repeat, rng) -> list[dict]:
+    """Solves per second of each solver mode and of the scipy baseline on ``surface`` (one row each)."""
+    rows = []
+    # ---- speed: one batch of n_speed noisy soft-finger wrenches (mid noise)
+    c, nrm, f, tau = sample_contacts(surface, n_speed, "soft", rng)
+    cov = _noise_cov("mid")
+    W = _wrench(c, nrm, f, tau) + rng.normal(size=(n_speed, 6)) * np.sqrt(np.diag(cov))
+    modes = {  # the solvers alone; the single-contact test's cost on its own row
+        "closed form (soft finger)": dict(single_contact=False),
+        "point contact (weighted LS)": dict(point_contact=True, wrench_cov=cov, single_contact=False),
+        "soft finger + CRB covariance": dict(wrench_cov=cov, single_contact=False),
+        "soft finger + single-contact test": dict(wrench_cov=cov),
+    }
+    rates = {}
+    for name, kw in modes.items():
+        nb = n_speed if kind != "mesh" and "point" not in name else max(1000, n_speed // 10)
+        dt, _ = best_time(lambda: solve(surface, W[:nb], **kw), repeat, budget=10.0)
+        rates[name] = nb / dt
+    if kind != "mesh":
+        ns = max(5, n_scipy // 4)
+        t0 = time.perf_counter()
+        scipy_solve(surface, W[:ns], cov)
+        rates["scipy least_squares (soft finger)"] = ns / (time.perf_counter() - t0)
+        t0 = time.perf_counter()
+        scipy_solve(surface, W[:ns], cov, point_contact=True)
+        rates["scipy least_squares (point contact)"] = ns / (time.perf_counter() - t0)
+    for name, r in rates.items():
+        model = "point contact" if "point" in name else "soft finger"
+        base = rates.get(f"scipy least_squares ({model})", float("nan"))
+        rows.append({"surface": kind, "solver": name, "solves_per_s": r,
+                           "speed_ratio_scipy": r / base,
+                           "batch": n_speed if kind != "mesh" and "point" not in name else max(1000, n_speed // 10)})
+    return rows
+
+
+def _accuracy_rows(kind, surface, n_acc, n_scipy, levels, scipy_levels, rng) -> list[dict]:
+    """Point and force error against the CRB on ``surface``, one row per scenario and noise level."""
+    rows = []
+    # ---- accuracy: every scenario and noise level
+    for scenario in SCENARIOS:
+        pc = scenario == "point"
+        c, nrm, f, tau = sample_contacts(surface, n_acc, scenario, rng)
+        w0 = _wrench(c, nrm, f, tau)
+        for level in levels:
+            cov = _noise_cov(level)
+            w = w0 + rng.normal(size=w0.shape) * np.sqrt(np.diag(cov))
+            est = solve(surface, w, point_contact=pc, wrench_cov=cov)
+            crb = contact_crb(surface, c, f, cov, torsion=tau, normal=nrm, point_contact=pc)
+            crb_tr = np.trace(crb.point_cov, axis1=1, axis2=2)
+            ok = est.valid & np.isfinite(crb_tr)
+            err, ratio = _error_ratio(est.point, c, crb_tr, ok)
+            ci = ratio_ci(np.sum((est.point[ok] - c[ok]) ** 2, axis=1), crb_tr[ok])
+            ferr = np.sqrt(np.mean(np.sum((est.force[ok] - f[ok]) ** 2, axis=1))) if ok.any() else np.nan
+            fbound = np.sqrt(np.mean(np.trace(crb.force_cov, axis1=1, axis2=2)[ok])) if ok.any() else np.nan
+            row = {"surface": kind, "scenario": scenario, "noise": level,
+                   "sigma_force_N": NOISE_LEVELS[level][0], "sigma_moment_Nm": NOISE_LEVELS[level][1],
+                   "n": n_acc, "valid_fraction": float(est.valid.mean()),
+                   "rms_point_error_m": err, "crb_rms_m": float(np.sqrt(np.mean(crb_tr[ok]))) if ok.any() else np.nan,
+                   "crb_ratio": ratio, "crb_ratio_ci": ci, "force_crb_ratio": float(ferr / fbound),
+                   "flagged_fraction": float(1.0 - est.single_contact.mean()),
+                   "flag_reason": _main_reason(est)}
+            est.noise = w - w0  # for _beyond_crb
+            row.update(_beyond_crb(surface, scenario, c, f, w0, est, crb, nrm, cov, ok))
+            if kind != "mesh" and level in scipy_levels:
+                k = min(n_scipy, n_acc)
+                sc = scipy_solve(surface, w[:k], cov, point_contact=pc)
+                okk = np.isfinite(crb_tr[:k]) & np.isfinite(sc).all(axis=1)
+                e_s, r_s = _error_ratio(sc, c[:k], crb_tr[:k], okk)
+                e_p, r_p = _error_ratio(est.point[:k], c[:k], crb_tr[:k], est.valid[:k] & okk)
+                row.update({"scipy_n": k, "scipy_crb_ratio": r_s, "scipy_valid_fraction": float(okk.mean()), "pito_crb_ratio_same_subset": r_p,
+                            "error_ratio_scipy": e_p / e_s if e_s > 0 else float("nan")})
+            rows.append(row)
+    return rows
 
 
 def _beyond_crb(surface, scenario, c, f, w0, est, crb, nrm, cov, ok, n_mesh=5000) -> dict:
@@ -280,8 +292,6 @@ def _beyond_crb(surface, scenario, c, f, w0, est, crb, nrm, cov, ok, n_mesh=5000
 
 def _main_reason(est) -> str:
     """The most common reason among flagged estimates ("" if none is flagged)."""
-    from pito_core.contact import reason_names
-
     bad = ~est.single_contact
     if not bad.any():
         return ""

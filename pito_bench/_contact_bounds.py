@@ -29,7 +29,7 @@ __all__ = ["normal_snr_split", "mesh_exact_solutions", "ratio_ci", "plane_second
 
 def facet_of(surface, point) -> np.ndarray:
     """Index ``(n,)`` of the mesh facet closest to each of ``point (n, 3)`` (m): a true contact's facet."""
-    import trimesh  # deferred: an optional dependency, already loaded by the mesh surface
+    import trimesh  # deferred: ~0.1 s to load, and this module loads with `pito --help`
 
     _, _, tri = trimesh.proximity.closest_point(surface.mesh, np.asarray(point, float))
     return np.asarray(tri, int)

@@ -52,7 +52,7 @@ def _run_app(regions: str, seconds: float, warmup: float) -> int:
     from PySide6.QtWidgets import QApplication
 
     app = QApplication(sys.argv[:1])
-    from app.theme import STYLE
+    from app.theme import STYLE  # deferred with Qt (above)
     from app.window import MainWindow
 
     app.setStyleSheet(STYLE)

@@ -23,6 +23,7 @@ spherical patches; the calibration is the cube's ideal linear inverse.
 
 from __future__ import annotations
 
+import binascii
 import json
 import struct
 import subprocess
@@ -164,8 +165,6 @@ class _FastPathDecoder:
         self.frames = 0
 
     def feed(self, data: bytes) -> int:
-        import binascii
-
         buf = self.buf
         buf += data
         got, pos, size = 0, 0, 156

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import os
 
+from ._model_choice import model_choice_table
 from ._single_contact import plot_single, single_table_rows
 
 __all__ = ["format_report", "targets", "write_plots", "text_table"]
@@ -129,125 +130,147 @@ def format_report(result: dict) -> str:
                  f"load average {m.get('loadavg', '?')}, BLAS threads per measurement: {m.get('threads', 1)}"
                  f"{', QUICK' if m.get('quick') else ''}")
     parts.append("Times are best of repeats; ratios are against baselines measured in the same process and run.")
-    cal = result.get("calibration")
-    if cal:
-        rows = [[r["method"], f"{r['k']:,}", _f(r["fit_s"] * 1e3), _f(r["lstsq_fit_s"] * 1e3), _f(r["time_ratio_lstsq"]),
-                 _f(r["time_ratio_pinv"]), _f(_n(r.get("core_s")) * 1e3), _f(r.get("core_time_ratio_lstsq")),
-                 _f(r["rmse_force_N"]), _f(r["rmse_torque_Nm"]), _f(r["rmse_ratio_lstsq"], 4), _f(r["rmse_ratio_pinv"], 4),
-                 _f(r.get("fit_alloc_MB")), _f(r.get("alloc_ratio_lstsq"))]
-                for r in cal["memory"]]
-        parts.append(text_table(
-            f"Calibration, in memory ({cal['data']}; held-out RMSE on {cal['n_test']:,} samples; "
-            "fit alloc = peak memory allocated during the fit, tracemalloc)",
-            ["method", "k (samples)", "fit (ms)", "lstsq fit (ms)", "time ratio lstsq", "time ratio pinv",
-             "QR core (ms)", "core ratio lstsq", "RMSE F (N)", "RMSE T (N·m)", "RMSE ratio lstsq", "RMSE ratio pinv",
-             "fit alloc (MB)", "alloc ratio lstsq"], rows))
-        rows = [[r["method"], f"{r['k']:,}", r.get("model", "?"), _f(r.get("auto_force_ratio_linear"), 3),
-                 _f(r.get("auto_torque_ratio_linear"), 3), _f(_n(r.get("auto_fit_s")) * 1e3), _f(r.get("auto_time_ratio_linear")),
-                 _f((r.get("coverage95") or {}).get("min"), 3), _f((r.get("coverage95") or {}).get("max"), 3),
-                 _f((r.get("coverage95_linear") or {}).get("min"), 3), _f((r.get("coverage95_linear") or {}).get("max"), 3)]
-                for r in cal["memory"] if "model" in r]
-        if rows:
-            parts.append(text_table(
-                "Calibration model chosen by cross-validation (default) against the papers' linear fit: held-out RMSE "
-                "and fit-time ratios; coverage of the nominal 95 % interval per face and axis (targets from the "
-                "simulated reference, its noise included)",
-                ["method", "k (samples)", "model", "RMSE F ratio", "RMSE T ratio", "auto fit (ms)", "fit time ratio",
-                 "coverage min", "coverage max", "linear cov. min", "linear cov. max"], rows))
-        rows = [[r["method"], f"{r['k']:,}", _f(r["fit_s"]), _f(r.get("read_pass_s")), _f(r.get("ratio_read_pass")),
-                 _f(r.get("time_ratio_memory")), _f(r.get("time_ratio_lstsq")),
-                 _f(r["rmse_force_N"]), _f(r.get("rmse_ratio_lstsq"), 4), _f(r["fit_peak_rss_MB"]), _f(r["rss_before_MB"])]
-                for r in cal["streamed"]]
-        parts.append(text_table(
-            "Calibration, streamed from a session file (CalibrationSession.load(path, lazy=True), gzip HDF5)",
-            ["method", "k (samples)", "fit (s)", "one read pass (s)", "ratio read pass", "ratio in-memory",
-             "ratio lstsq", "RMSE F (N)", "RMSE ratio lstsq", "peak RSS (MB)", "RSS before fit (MB)"], rows))
-        rc = cal.get("random_cubes")
-        if rc:
-            rows = [[r["method"], r["flange"], str(r["n_cases"]), _f(r.get("force_ratio_worst"), 4),
-                     _f(r.get("force_ratio_median"), 4), _f(r.get("torque_ratio_worst"), 4),
-                     _f(r.get("torque_ratio_median"), 4), _f(r.get("prior_force_ratio_worst"), 3),
-                     _f(r.get("prior_force_ratio_median"), 3), _f(r.get("prior_torque_ratio_median"), 3)]
-                    for r in rc["rows"]]
-            parts.append(text_table(
-                f"Calibration, default fit against the papers' plain affine least squares ({rc['data']}; held-out "
-                "single-face and squeeze RMSE ratios, every connected face)",
-                ["method", "flange", "cases", "F ratio worst", "F ratio median", "T ratio worst", "T ratio median",
-                 "prior F worst", "prior F median", "prior T median"], rows))
-        rows = [[os.path.basename(g["path"]), f"{g['n']:,}", _f(g["seconds"]), _f(g["file_MB"])] for g in cal["generation"]]
-        parts.append(text_table("Simulated session files (generation, not fit time)",
-                                ["file", "samples", "generation (s)", "size (MB)"], rows))
-    con = result.get("contact")
-    if con:
-        rows = [[s["surface"], s["solver"], _f(s["solves_per_s"]), _f(s["speed_ratio_scipy"]), f"{s['batch']:,}"]
-                for s in con["speed"]]
-        parts.append(text_table(f"Contact speed (one thread; batch of wrenches, mid noise)",
-                                ["surface", "solver", "solves/s", "ratio scipy (same model)", "batch"], rows))
-        rows = []
-        for a in con["accuracy"]:
-            rows.append([a["surface"], a["scenario"], f"{a['noise']} ({a['sigma_force_N']:g} N, {a['sigma_moment_Nm']:g} N·m)",
-                         f"{100 * a['valid_fraction']:.1f}", _f(_n(a["rms_point_error_m"]) * 1e3), _f(_n(a["crb_rms_m"]) * 1e3),
-                         _ci(a, "crb_ratio"), _f(a["force_crb_ratio"]), _f(a.get("scipy_crb_ratio")),
-                         _f(a.get("error_ratio_scipy"))])
-        parts.append(text_table(
-            "Contact accuracy: RMS point error over valid estimates vs the Cramér–Rao bound (1.00 = efficient)",
-            ["surface", "scenario", "noise (σF, σM)", "valid (%)", "RMS error (mm)", "CRB (mm)", "error/CRB [95 % CI]",
-             "force error/CRB", "scipy error/CRB", "pito/scipy error"], rows))
-        rows = [[a["surface"], a["scenario"], a["noise"], _ci(a, "crb_ratio"),
-                 _f(100 * _n(a.get("flagged_fraction"))), a.get("flag_reason", ""),
-                 _f(100 * _n(a.get("share_fn_below_5sigma"))), _ci(a, "crb_ratio_fn_5sigma"), _f(a.get("second_order_ratio_fn_5sigma")),
-                 _f(100 * _n(a.get("ambiguous_fraction"))), _f(100 * _n(a.get("ambiguous_fraction_noisy"))),
-                 _ci(a, "crb_ratio_unambiguous"), _f(100 * _n(a.get("other_facet_fraction_unambiguous")))] for a in con["accuracy"] if "flagged_fraction" in a]
-        if rows:
-            parts.append(text_table(
-                "Contact: beside the CRB ratio, the single-contact flag and where the bound is out of reach",
-                ["surface", "scenario", "noise", "error/CRB [95 % CI]", "flagged not single (%)", "main reason",
-                 "f_n < 5σ (%)", "error/CRB f_n ≥ 5σ [95 % CI]", "ML 2nd-order f_n ≥ 5σ", "two exact solutions (%)",
-                 "… noisy (%)", "error/CRB one solution [95 % CI]", "… estimate on another facet (%)"], rows))
-        if con.get("single"):
-            sc = con["single"]
-            header, rows = single_table_rows(sc)
-            parts.append(text_table(
-                f"Single-contact test (simulated; noise σF {sc['sigma_force_N']:g} N, σM {sc['sigma_moment_Nm']:g} N·m, "
-                f"calibration error {100 * sc['calibration_error']:g} %): false alarms on single touches, "
-                "detection of two-finger touches by separation D", header, rows))
-        rows = [[p["surface"], p["solver"], _f(p["solves_per_s"]), _f(p["worst_crb_ratio"]), "yes" if p["pareto"] else ""]
-                for p in con["pareto"]]
-        parts.append(text_table("Contact speed vs error (Pareto; error = worst error/CRB over the scenarios the solver handles)",
-                                ["surface", "solver", "solves/s", "worst error/CRB", "Pareto-optimal"], rows))
-    pipe = result.get("pipeline")
-    if pipe:
-        rows = [[r["decoder"], _f(r["frames_per_s"]), _f(r["realtime_factor_1kHz"]), _f(r["ratio_naive"])]
-                for r in pipe["decode"]["rows"]]
-        parts.append(text_table(f"Serial decoding ({pipe['decode']['frames']:,} frames of 156 B)",
-                                ["decoder", "frames/s", "× real time (1 kHz)", "ratio naive"], rows))
-        tc = pipe.get("tick_cost")
-        if tc:
-            parts.append(text_table(
-                f"Per display tick ({tc['per_tick']} new samples; rings of 30 s at 1 kHz), ms",
-                ["step", "p50", "p95", "max"],
-                [[r["step"], _f(r["p50"]), _f(r["p95"]), _f(r["max"])] for r in tc["rows"]]))
-        parts.append(_live_table("Live pipeline, no scene (pty at 1 kHz → PitoSerial → Acquisition → "
-                                 "AcquisitionReader → Pipeline.feed: calibration, six solves)",
-                                 pipe.get("live", [])))
-    live = result.get("live")
-    if live:
-        if live.get("status") != "ok" or "scene" not in live:
-            parts.append(f"Live window: {live.get('status')}")
-        else:
-            rows = [[name, _f(r["frames_per_s"]), _f(r["changed_grabs_per_s"]), _f(r["latency_ms"]["p50"]),
-                     _f(r["latency_ms"]["p95"]), _f(r["latency_ms"]["max"]), str(r["latency_ms"]["n"])]
-                    for name, r in (("3D scene", live["scene"]), ("plots", live["plots"]))]
-            parts.append(text_table(
-                f"Live window, whole (pito-app --demo, {live['size'][0]}×{live['size'][1]} px, {live.get('renderer', '')}; "
-                f"grabbed from outside at {live['grabs_per_s']:.0f} Hz; load average {live['loadavg_before'][0]:.1f} → "
-                f"{live['loadavg_after'][0]:.1f} on {live['cpus']} CPUs)",
-                ["view", "frames/s (new data)", "changed grabs/s", "latency p50 (ms)", "p95 (ms)", "max (ms)", "n"], rows))
+    for key, tables in (("calibration", _calibration_tables), ("contact", _contact_tables),
+                        ("pipeline", _pipeline_tables), ("live", _live_window_tables)):
+        if result.get(key):
+            parts += tables(result[key])
     tg = result.get("targets")
     if tg:
         parts.append(text_table("Targets", ["target", "measured", "met"],
                                 [[t["target"], t["measured"], {True: "yes", False: "NO", None: "—"}[t["met"]]] for t in tg]))
     return "\n\n".join(p for p in parts if p) + "\n"
+
+
+def _calibration_tables(cal: dict) -> list[str]:
+    """The calibration section's tables: in memory, model choice, streamed, random cubes, session files."""
+    parts = []
+    rows = [[r["method"], f"{r['k']:,}", _f(r["fit_s"] * 1e3), _f(r["lstsq_fit_s"] * 1e3), _f(r["time_ratio_lstsq"]),
+             _f(r["time_ratio_pinv"]), _f(_n(r.get("core_s")) * 1e3), _f(r.get("core_time_ratio_lstsq")),
+             _f(r["rmse_force_N"]), _f(r["rmse_torque_Nm"]), _f(r["rmse_ratio_lstsq"], 4), _f(r["rmse_ratio_pinv"], 4),
+             _f(r.get("fit_alloc_MB")), _f(r.get("alloc_ratio_lstsq"))]
+            for r in cal["memory"]]
+    parts.append(text_table(
+        f"Calibration, in memory ({cal['data']}; held-out RMSE on {cal['n_test']:,} samples; "
+        "fit alloc = peak memory allocated during the fit, tracemalloc)",
+        ["method", "k (samples)", "fit (ms)", "lstsq fit (ms)", "time ratio lstsq", "time ratio pinv",
+         "QR core (ms)", "core ratio lstsq", "RMSE F (N)", "RMSE T (N·m)", "RMSE ratio lstsq", "RMSE ratio pinv",
+         "fit alloc (MB)", "alloc ratio lstsq"], rows))
+    rows = [[r["method"], f"{r['k']:,}", r.get("model", "?"), _f(r.get("auto_force_ratio_linear"), 3),
+             _f(r.get("auto_torque_ratio_linear"), 3), _f(_n(r.get("auto_fit_s")) * 1e3), _f(r.get("auto_time_ratio_linear")),
+             _f((r.get("coverage95") or {}).get("min"), 3), _f((r.get("coverage95") or {}).get("max"), 3),
+             _f((r.get("coverage95_linear") or {}).get("min"), 3), _f((r.get("coverage95_linear") or {}).get("max"), 3)]
+            for r in cal["memory"] if "model" in r]
+    if rows:
+        parts.append(text_table(
+            "Calibration model chosen by cross-validation (default) against the papers' linear fit: held-out RMSE "
+            "and fit-time ratios; coverage of the nominal 95 % interval per face and axis (targets from the "
+            "simulated reference, its noise included)",
+            ["method", "k (samples)", "model", "RMSE F ratio", "RMSE T ratio", "auto fit (ms)", "fit time ratio",
+             "coverage min", "coverage max", "linear cov. min", "linear cov. max"], rows))
+    rows = [[r["method"], f"{r['k']:,}", _f(r["fit_s"]), _f(r.get("read_pass_s")), _f(r.get("ratio_read_pass")),
+             _f(r.get("time_ratio_memory")), _f(r.get("time_ratio_lstsq")),
+             _f(r["rmse_force_N"]), _f(r.get("rmse_ratio_lstsq"), 4), _f(r["fit_peak_rss_MB"]), _f(r["rss_before_MB"])]
+            for r in cal["streamed"]]
+    parts.append(text_table(
+        "Calibration, streamed from a session file (CalibrationSession.load(path, lazy=True), gzip HDF5)",
+        ["method", "k (samples)", "fit (s)", "one read pass (s)", "ratio read pass", "ratio in-memory",
+         "ratio lstsq", "RMSE F (N)", "RMSE ratio lstsq", "peak RSS (MB)", "RSS before fit (MB)"], rows))
+    rc = cal.get("random_cubes")
+    if rc:
+        rows = [[r["method"], r["flange"], str(r["n_cases"]), _f(r.get("force_ratio_worst"), 4),
+                 _f(r.get("force_ratio_median"), 4), _f(r.get("torque_ratio_worst"), 4),
+                 _f(r.get("torque_ratio_median"), 4), _f(r.get("prior_force_ratio_worst"), 3),
+                 _f(r.get("prior_force_ratio_median"), 3), _f(r.get("prior_torque_ratio_median"), 3)]
+                for r in rc["rows"]]
+        parts.append(text_table(
+            f"Calibration, default fit against the papers' plain affine least squares ({rc['data']}; held-out "
+            "single-face and squeeze RMSE ratios, every connected face)",
+            ["method", "flange", "cases", "F ratio worst", "F ratio median", "T ratio worst", "T ratio median",
+             "prior F worst", "prior F median", "prior T median"], rows))
+    if cal.get("model_choice"):
+        parts.append(text_table(*model_choice_table(cal["model_choice"])))
+    rows = [[os.path.basename(g["path"]), f"{g['n']:,}", _f(g["seconds"]), _f(g["file_MB"])] for g in cal["generation"]]
+    parts.append(text_table("Simulated session files (generation, not fit time)",
+                            ["file", "samples", "generation (s)", "size (MB)"], rows))
+    return parts
+
+
+def _contact_tables(con: dict) -> list[str]:
+    """The contact section's tables: speed, accuracy against the CRB, the single-contact flag, Pareto."""
+    parts = []
+    rows = [[s["surface"], s["solver"], _f(s["solves_per_s"]), _f(s["speed_ratio_scipy"]), f"{s['batch']:,}"]
+            for s in con["speed"]]
+    parts.append(text_table(f"Contact speed (one thread; batch of wrenches, mid noise)",
+                            ["surface", "solver", "solves/s", "ratio scipy (same model)", "batch"], rows))
+    rows = []
+    for a in con["accuracy"]:
+        rows.append([a["surface"], a["scenario"], f"{a['noise']} ({a['sigma_force_N']:g} N, {a['sigma_moment_Nm']:g} N·m)",
+                     f"{100 * a['valid_fraction']:.1f}", _f(_n(a["rms_point_error_m"]) * 1e3), _f(_n(a["crb_rms_m"]) * 1e3),
+                     _ci(a, "crb_ratio"), _f(a["force_crb_ratio"]), _f(a.get("scipy_crb_ratio")),
+                     _f(a.get("error_ratio_scipy"))])
+    parts.append(text_table(
+        "Contact accuracy: RMS point error over valid estimates vs the Cramér–Rao bound (1.00 = efficient)",
+        ["surface", "scenario", "noise (σF, σM)", "valid (%)", "RMS error (mm)", "CRB (mm)", "error/CRB [95 % CI]",
+         "force error/CRB", "scipy error/CRB", "pito/scipy error"], rows))
+    rows = [[a["surface"], a["scenario"], a["noise"], _ci(a, "crb_ratio"),
+             _f(100 * _n(a.get("flagged_fraction"))), a.get("flag_reason", ""),
+             _f(100 * _n(a.get("share_fn_below_5sigma"))), _ci(a, "crb_ratio_fn_5sigma"), _f(a.get("second_order_ratio_fn_5sigma")),
+             _f(100 * _n(a.get("ambiguous_fraction"))), _f(100 * _n(a.get("ambiguous_fraction_noisy"))),
+             _ci(a, "crb_ratio_unambiguous"), _f(100 * _n(a.get("other_facet_fraction_unambiguous")))] for a in con["accuracy"] if "flagged_fraction" in a]
+    if rows:
+        parts.append(text_table(
+            "Contact: beside the CRB ratio, the single-contact flag and where the bound is out of reach",
+            ["surface", "scenario", "noise", "error/CRB [95 % CI]", "flagged not single (%)", "main reason",
+             "f_n < 5σ (%)", "error/CRB f_n ≥ 5σ [95 % CI]", "ML 2nd-order f_n ≥ 5σ", "two exact solutions (%)",
+             "… noisy (%)", "error/CRB one solution [95 % CI]", "… estimate on another facet (%)"], rows))
+    if con.get("single"):
+        sc = con["single"]
+        header, rows = single_table_rows(sc)
+        parts.append(text_table(
+            f"Single-contact test (simulated; noise σF {sc['sigma_force_N']:g} N, σM {sc['sigma_moment_Nm']:g} N·m, "
+            f"calibration error {100 * sc['calibration_error']:g} %): false alarms on single touches, "
+            "detection of two-finger touches by separation D", header, rows))
+    rows = [[p["surface"], p["solver"], _f(p["solves_per_s"]), _f(p["worst_crb_ratio"]), "yes" if p["pareto"] else ""]
+            for p in con["pareto"]]
+    parts.append(text_table("Contact speed vs error (Pareto; error = worst error/CRB over the scenarios the solver handles)",
+                            ["surface", "solver", "solves/s", "worst error/CRB", "Pareto-optimal"], rows))
+    return parts
+
+
+def _pipeline_tables(pipe: dict) -> list[str]:
+    """The pipeline section's tables: serial decoding, the cost of a display tick, the live pipeline."""
+    parts = []
+    rows = [[r["decoder"], _f(r["frames_per_s"]), _f(r["realtime_factor_1kHz"]), _f(r["ratio_naive"])]
+            for r in pipe["decode"]["rows"]]
+    parts.append(text_table(f"Serial decoding ({pipe['decode']['frames']:,} frames of 156 B)",
+                            ["decoder", "frames/s", "× real time (1 kHz)", "ratio naive"], rows))
+    tc = pipe.get("tick_cost")
+    if tc:
+        parts.append(text_table(
+            f"Per display tick ({tc['per_tick']} new samples; rings of 30 s at 1 kHz), ms",
+            ["step", "p50", "p95", "max"],
+            [[r["step"], _f(r["p50"]), _f(r["p95"]), _f(r["max"])] for r in tc["rows"]]))
+    parts.append(_live_table("Live pipeline, no scene (pty at 1 kHz → PitoSerial → Acquisition → "
+                             "AcquisitionReader → Pipeline.feed: calibration, six solves)",
+                             pipe.get("live", [])))
+    return parts
+
+
+def _live_window_tables(live: dict) -> list[str]:
+    """The live window's table (or its status when it did not run)."""
+    parts = []
+    if live.get("status") != "ok" or "scene" not in live:
+        parts.append(f"Live window: {live.get('status')}")
+    else:
+        rows = [[name, _f(r["frames_per_s"]), _f(r["changed_grabs_per_s"]), _f(r["latency_ms"]["p50"]),
+                 _f(r["latency_ms"]["p95"]), _f(r["latency_ms"]["max"]), str(r["latency_ms"]["n"])]
+                for name, r in (("3D scene", live["scene"]), ("plots", live["plots"]))]
+        parts.append(text_table(
+            f"Live window, whole (pito-app --demo, {live['size'][0]}×{live['size'][1]} px, {live.get('renderer', '')}; "
+            f"grabbed from outside at {live['grabs_per_s']:.0f} Hz; load average {live['loadavg_before'][0]:.1f} → "
+            f"{live['loadavg_after'][0]:.1f} on {live['cpus']} CPUs)",
+            ["view", "frames/s (new data)", "changed grabs/s", "latency p50 (ms)", "p95 (ms)", "max (ms)", "n"], rows))
+    return parts
 
 
 def _live_table(title, runs) -> str:
@@ -267,82 +290,98 @@ def _live_table(title, runs) -> str:
 
 # ---------------------------------------------------------------- plots
 def _save(fig, out_dir: str, name: str) -> str:
-    """Write ``fig`` as ``out_dir/name`` (PNG, 120 dpi), close it, return the path."""
-    import matplotlib.pyplot as plt
-
+    """Write ``fig`` as ``out_dir/name`` (PNG, 120 dpi), return the path."""
     path = os.path.join(out_dir, name)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
-    plt.close(fig)
     return path
+
+
+def _subplots(*grid, figsize):
+    """A new figure (no pyplot, no backend switch: nothing global changes) and its axes ``grid``."""
+    # deferred: matplotlib takes ~0.4 s to load and this module loads with `pito --help`
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=figsize)
+    return fig, fig.subplots(*grid)
 
 
 def write_plots(result: dict, out_dir) -> list[str]:
     """PNG plots of speed against error into ``out_dir``; returns the paths written."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
     os.makedirs(out_dir, exist_ok=True)
     paths = []
     tag = " (QUICK run)" if result.get("meta", {}).get("quick") else ""
     cal = result.get("calibration")
     if cal and cal["memory"]:
-        fig, ax = plt.subplots(figsize=(7, 5))
-        methods = sorted({r["method"] for r in cal["memory"]})
-        for j, m in enumerate(methods):
-            rs = sorted((r for r in cal["memory"] if r["method"] == m), key=lambda r: r["k"])
-            col = f"C{j}"
-            ax.plot([r["fit_s"] for r in rs], [_n(r["rmse_force_N"]) for r in rs], "o-", color=col, label=f"{m} (pito)")
-            ax.plot([r["lstsq_fit_s"] for r in rs], [_n(r["lstsq_rmse_force_N"]) for r in rs], "s--", color=col, mfc="none",
-                    label=f"{m} (numpy lstsq)")
-            for r in rs:
-                ax.annotate(f"k={r['k']:.0e}", (r["fit_s"], _n(r["rmse_force_N"])), fontsize=6, xytext=(3, 3),
-                            textcoords="offset points")
-        st = cal["streamed"]
-        if st:
-            ax.plot([r["fit_s"] for r in st], [_n(r["rmse_force_N"]) for r in st], "k^", mfc="none", label="streamed from file")
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlabel("fit time (s)")
-        ax.set_ylabel("held-out force RMSE (N)")
-        ax.set_title("Calibration: speed vs error, simulated data" + tag)
-        ax.legend(fontsize=6, ncol=2)
-        ax.grid(True, which="both", alpha=0.3)
-        paths.append(_save(fig, out_dir, "calibration_speed_vs_error.png"))
+        paths.append(_save(_calibration_plot(cal, tag), out_dir, "calibration_speed_vs_error.png"))
     con = result.get("contact")
     if con and con["pareto"]:
-        fig, ax = plt.subplots(figsize=(7, 5))
-        kinds = sorted({p["surface"] for p in con["pareto"]})
-        markers = {"closed form (soft finger)": "o", "point contact (weighted LS)": "D",
-                   "scipy least_squares (soft finger)": "s", "scipy least_squares (point contact)": "v"}
-        for j, kind in enumerate(kinds):
-            for p in (q for q in con["pareto"] if q["surface"] == kind):
-                if not math.isfinite(_n(p["worst_crb_ratio"])):
-                    continue
-                ax.plot(p["solves_per_s"], p["worst_crb_ratio"], markers.get(p["solver"], "x"), color=f"C{j}",
-                        mfc=f"C{j}" if p["pareto"] else "none", ms=8, label=f"{kind}: {p['solver']}")
-        ax.axhline(1.05, color="k", lw=0.8, ls=":", label="target 1.05 × CRB")
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlabel("solves per second (one core)")
-        ax.set_ylabel("worst RMS point error / Cramér–Rao bound (1)")
-        ax.set_title("Contact: speed vs error (filled: Pareto-optimal)" + tag)
-        ax.legend(fontsize=6)
-        ax.grid(True, which="both", alpha=0.3)
-        paths.append(_save(fig, out_dir, "contact_speed_vs_error.png"))
-        fig, ax = plt.subplots(figsize=(7, 5))
-        labels = [f"{a['surface']}/{a['scenario']}/{a['noise']}" for a in con["accuracy"]]
-        ax.bar(range(len(labels)), [_n(a["crb_ratio"]) for a in con["accuracy"]], color="C0")
-        ax.axhline(1.05, color="k", lw=0.8, ls=":")
-        ax.set_yscale("log")
-        ax.set_xticks(range(len(labels)), labels, rotation=90, fontsize=6)
-        ax.set_ylabel("RMS point error / Cramér–Rao bound (1)")
-        ax.set_title("Contact: error against the bound per scenario" + tag)
-        paths.append(_save(fig, out_dir, "contact_crb_ratio.png"))
+        paths.append(_save(_contact_pareto_plot(con, tag), out_dir, "contact_speed_vs_error.png"))
+        paths.append(_save(_contact_crb_plot(con, tag), out_dir, "contact_crb_ratio.png"))
     if con and con.get("single"):
-        fig, axes = plt.subplots(1, 2, figsize=(12, 5))
+        fig, axes = _subplots(1, 2, figsize=(12, 5))
         plot_single(con["single"], axes, tag)
         paths.append(_save(fig, out_dir, "contact_single.png"))
     return paths
+
+
+def _calibration_plot(cal: dict, tag: str):
+    """Held-out force RMSE (N) against fit time (s), pito and numpy lstsq, each method and size."""
+    fig, ax = _subplots(figsize=(7, 5))
+    methods = sorted({r["method"] for r in cal["memory"]})
+    for j, m in enumerate(methods):
+        rs = sorted((r for r in cal["memory"] if r["method"] == m), key=lambda r: r["k"])
+        col = f"C{j}"
+        ax.plot([r["fit_s"] for r in rs], [_n(r["rmse_force_N"]) for r in rs], "o-", color=col, label=f"{m} (pito)")
+        ax.plot([r["lstsq_fit_s"] for r in rs], [_n(r["lstsq_rmse_force_N"]) for r in rs], "s--", color=col, mfc="none",
+                label=f"{m} (numpy lstsq)")
+        for r in rs:
+            ax.annotate(f"k={r['k']:.0e}", (r["fit_s"], _n(r["rmse_force_N"])), fontsize=6, xytext=(3, 3),
+                        textcoords="offset points")
+    st = cal["streamed"]
+    if st:
+        ax.plot([r["fit_s"] for r in st], [_n(r["rmse_force_N"]) for r in st], "k^", mfc="none", label="streamed from file")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("fit time (s)")
+    ax.set_ylabel("held-out force RMSE (N)")
+    ax.set_title("Calibration: speed vs error, simulated data" + tag)
+    ax.legend(fontsize=6, ncol=2)
+    ax.grid(True, which="both", alpha=0.3)
+    return fig
+
+
+def _contact_pareto_plot(con: dict, tag: str):
+    """Worst error/CRB against solves per second, per surface and solver (filled: Pareto-optimal)."""
+    fig, ax = _subplots(figsize=(7, 5))
+    kinds = sorted({p["surface"] for p in con["pareto"]})
+    markers = {"closed form (soft finger)": "o", "point contact (weighted LS)": "D",
+               "scipy least_squares (soft finger)": "s", "scipy least_squares (point contact)": "v"}
+    for j, kind in enumerate(kinds):
+        for p in (q for q in con["pareto"] if q["surface"] == kind):
+            if not math.isfinite(_n(p["worst_crb_ratio"])):
+                continue
+            ax.plot(p["solves_per_s"], p["worst_crb_ratio"], markers.get(p["solver"], "x"), color=f"C{j}",
+                    mfc=f"C{j}" if p["pareto"] else "none", ms=8, label=f"{kind}: {p['solver']}")
+    ax.axhline(1.05, color="k", lw=0.8, ls=":", label="target 1.05 × CRB")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("solves per second (one core)")
+    ax.set_ylabel("worst RMS point error / Cramér–Rao bound (1)")
+    ax.set_title("Contact: speed vs error (filled: Pareto-optimal)" + tag)
+    ax.legend(fontsize=6)
+    ax.grid(True, which="both", alpha=0.3)
+    return fig
+
+
+def _contact_crb_plot(con: dict, tag: str):
+    """Error/CRB per surface, scenario and noise level."""
+    fig, ax = _subplots(figsize=(7, 5))
+    labels = [f"{a['surface']}/{a['scenario']}/{a['noise']}" for a in con["accuracy"]]
+    ax.bar(range(len(labels)), [_n(a["crb_ratio"]) for a in con["accuracy"]], color="C0")
+    ax.axhline(1.05, color="k", lw=0.8, ls=":")
+    ax.set_yscale("log")
+    ax.set_xticks(range(len(labels)), labels, rotation=90, fontsize=6)
+    ax.set_ylabel("RMS point error / Cramér–Rao bound (1)")
+    ax.set_title("Contact: error against the bound per scenario" + tag)
+    return fig

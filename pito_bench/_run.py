@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import datetime as _dt
 import importlib.util
+import json
+import math
 import os
 import platform
 import shutil
@@ -11,9 +13,13 @@ import subprocess
 import sys
 import tempfile
 
+import numpy
+import scipy
+
 from pito_core import __version__
 
 from ._calibration import random_cube_ratios, run_calibration
+from ._model_choice import model_choice_ratios
 from ._contact import run_contact
 from ._pipeline import run_pipeline
 from ._report import targets
@@ -33,8 +39,6 @@ QUICK_SIZES = (1_000, 10_000, 100_000)
 
 def json_safe(obj):
     """``obj`` with NaN and ±inf floats replaced by None (strict JSON has no NaN)."""
-    import math
-
     if isinstance(obj, float):
         return obj if math.isfinite(obj) else None
     if isinstance(obj, dict):
@@ -53,9 +57,6 @@ def live_available() -> bool:
 
 
 def _meta(quick: bool, threads: int) -> dict:
-    import numpy
-    import scipy
-
     cpu = platform.processor() or platform.machine()
     try:
         with open("/proc/cpuinfo") as f:
@@ -75,8 +76,6 @@ def _meta(quick: bool, threads: int) -> dict:
 def _run_live(quick: bool, threads: int, progress) -> dict:
     if not live_available():
         return {"status": "skipped: app extras not installed"}
-    import json
-
     progress("live: the whole demo window on Xvfb, grabbed from outside (python -m pito_bench._live_window)")
     cmd = [sys.executable, "-m", "pito_bench._live_window", "--json"] + (["--quick"] if quick else [])
     proc = subprocess.run(cmd, env=thread_env(threads), capture_output=True, text=True, timeout=900)
@@ -126,6 +125,7 @@ def run_bench(*, quick: bool = False, sections=SECTIONS, sizes=None, threads: in
             result["calibration"] = run_calibration(ks, workdir, quick=quick, threads=threads,
                                                     n_test=5_000 if quick else 20_000, progress=progress)
             result["calibration"]["random_cubes"] = random_cube_ratios(quick=quick, threads=threads, progress=progress)
+            result["calibration"]["model_choice"] = model_choice_ratios(quick=quick, threads=threads, progress=progress)
         if "contact" in sections:
             result["contact"] = run_contact(quick=quick, threads=threads, progress=progress, **(contact_sizes or {}))
         if "pipeline" in sections:

@@ -25,6 +25,8 @@ import warnings
 
 import numpy as np
 
+from pito_core.contact import Patch, PatchBoundary, reason_names, solve
+
 from ._contact import make_surface, sample_contacts
 
 __all__ = ["SEPARATION_BINS", "CAL_ERROR", "task_single_contact", "limit_margins", "two_finger_touches",
@@ -40,8 +42,6 @@ _SCALE = np.array([1.0, 1.0, 1.0, 0.02, 0.02, 0.02])
 
 def bench_patch(kind: str):
     """The contact benchmark's surface of ``kind`` with a boundary: a ``Patch``."""
-    from pito_core.contact import Patch, PatchBoundary
-
     surface = make_surface(kind)
     if kind in ("plane", "mesh"):
         boundary = PatchBoundary("rectangle", size=[0.04, 0.04])
@@ -118,8 +118,6 @@ def limit_margins(patch, est):
 
 def separation(patch, w0, cov, rng, repeats=100):
     """``D (n,)``: how many σ the best single-contact explanation of ``w0`` breaks a limit by."""
-    from pito_core.contact import solve
-
     n = len(w0)
     keep = dict(force_threshold=0.0)
     est0 = solve(patch.surface, w0, **keep)
@@ -139,8 +137,6 @@ def separation(patch, w0, cov, rng, repeats=100):
 def task_single_contact(n_single=4000, n_two=2000, repeats=100, surfaces=("plane", "sphere", "ellipsoid", "mesh"),
                         sigma=(0.02, 2e-4), seed=1) -> dict:
     """False alarms, detection per separation bin and the indistinguishable share per patch kind."""
-    from pito_core.contact import reason_names, solve
-
     rng = np.random.default_rng(seed)
     sig = np.array([sigma[0]] * 3 + [sigma[1]] * 3)
     rows = []

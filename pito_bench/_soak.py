@@ -1,4 +1,4 @@
-"""The soak benchmark (issue 13 item 3): record from the simulated devices for minutes, then verify.
+"""The soak benchmark: record from the simulated devices for minutes, then verify.
 
 Two ways, for ``minutes``:
 
@@ -89,6 +89,36 @@ def run_soak(minutes: float = 10.0, *, app: bool = False, workdir=None, progress
     load0 = os.getloadavg()
     t_start = time.monotonic()
     proc = subprocess.Popen(cmd, stdout=log, stderr=subprocess.STDOUT, env=env)
+    samples, child_pids = _sample_until_exit(proc, t_start, progress)
+    wall = time.monotonic() - t_start
+    log.close()
+    if xvfb is not None:
+        xvfb.terminate()
+        xvfb.wait()
+    orphans = [c for c in child_pids if _proc(c) is not None]
+    result = {"minutes": minutes, "mode": "app window" if app else "headless", "wall_s": wall,
+              "exit_code": proc.returncode, "loadavg_before": list(load0), "loadavg": os.getloadavg(),
+              "cpus": os.cpu_count(), "orphan_device_processes": len(orphans)}
+    result.update(_verify_recording(out))
+    if samples:
+        result.update(_memory_and_cpu(np.asarray(samples)))
+    result["targets"] = {
+        "no_lost_frames": result.get("cube_frames_lost") == 0,
+        "memory_growth_le_50MB": bool(samples) and result["memory_mb"]["recorder_growth_after_first_min"] <= 50,
+        "recording_verified": bool(result["recording"].get("verified")) and bool(result["recording"].get("complete")),
+        "no_orphans": not orphans,
+    }
+    result["note"] = ("`pito-app --demo --record` on Xvfb: the window drawing live, the simulated devices and the "
+                      "pipeline process (drivers, pipeline, recorder) each a child process of the app; 'recorder' = "
+                      "the app process, 'devices' = all its descendants" if app else
+                      "headless: `pito record --pito sim --ati sim` (simulated devices in their own process, the app's "
+                      "acquisition + pipeline + recorder, no window)")
+    return result
+
+
+def _sample_until_exit(proc, t_start: float, progress) -> tuple[list, set]:
+    """Once a second until ``proc`` ends: ``(t s, RSS recorder B, RSS descendants B, CPU recorder s, CPU
+    descendants s)``; returns the samples and every descendant's pid seen."""
     samples = []  # (t, rss_recorder, rss_children, cpu_recorder, cpu_children)
     child_pids: set[int] = set()
     while proc.poll() is None:
@@ -102,15 +132,12 @@ def run_soak(minutes: float = 10.0, *, app: bool = False, workdir=None, progress
         samples.append((time.monotonic() - t_start, me[0], sum(k[0] for k in ks), me[1], sum(k[1] for k in ks)))
         if progress and len(samples) % 60 == 0:
             progress(f"soak: {samples[-1][0] / 60:.1f} min, recorder RSS {me[0] / 2**20:.1f} MB")
-    wall = time.monotonic() - t_start
-    log.close()
-    if xvfb is not None:
-        xvfb.terminate()
-        xvfb.wait()
-    orphans = [c for c in child_pids if _proc(c) is not None]
-    result = {"minutes": minutes, "mode": "app window" if app else "headless", "wall_s": wall,
-              "exit_code": proc.returncode, "loadavg_before": list(load0), "loadavg": os.getloadavg(),
-              "cpus": os.cpu_count(), "orphan_device_processes": len(orphans)}
+    return samples, child_pids
+
+
+def _verify_recording(out) -> dict:
+    """Read the recording back: complete, rows, frames and records lost, the cube's rate (Hz)."""
+    result = {}
     try:
         rec = Recording(out)
         result["recording"] = {"complete": rec.complete, "verified": True, "pito_rows": int(rec.pito.size),
@@ -123,35 +150,28 @@ def run_soak(minutes: float = 10.0, *, app: bool = False, workdir=None, progress
         result["cube_rate_hz"] = (seq.size - 1) / max(1e-9, rec.pito["host_time"][-1] - rec.pito["host_time"][0])
     except Exception as exc:  # noqa: BLE001 - reported, not hidden
         result["recording"] = {"verified": False, "error": str(exc)}
-    if samples:
-        a = np.asarray(samples)
-        after1 = a[a[:, 0] >= min(60.0, a[-1, 0] / 2)]
-        base = after1[0]
-        kid = a[a[:, 2] > 0]  # samples while the device process was alive (it exits before the recorder)
-        kid = kid if len(kid) else a
-        kbase = kid[kid[:, 0] >= base[0]][0] if (kid[:, 0] >= base[0]).any() else kid[0]
-        result["memory_mb"] = {
-            "recorder_first_min": float(base[1] / 2**20), "recorder_end": float(a[-1, 1] / 2**20),
-            "recorder_growth_after_first_min": float((a[-1, 1] - base[1]) / 2**20),
-            "devices_growth_after_first_min": float((kid[-1, 2] - kbase[2]) / 2**20),
-            "recorder_max": float(a[:, 1].max() / 2**20),
-        }
-        span = a[-1, 0] - a[0, 0]
-        result["cpu_share"] = {  # fraction of one core
-            "recorder": float((a[-1, 3] - a[0, 3]) / span) if span > 0 else None,
-            "devices": float((kid[-1, 4] - kid[0, 4]) / (kid[-1, 0] - kid[0, 0])) if kid[-1, 0] > kid[0, 0] else None,
-        }
-    result["targets"] = {
-        "no_lost_frames": result.get("cube_frames_lost") == 0,
-        "memory_growth_le_50MB": bool(samples) and result["memory_mb"]["recorder_growth_after_first_min"] <= 50,
-        "recording_verified": bool(result["recording"].get("verified")) and bool(result["recording"].get("complete")),
-        "no_orphans": not orphans,
+    return result
+
+
+def _memory_and_cpu(a: np.ndarray) -> dict:
+    """Memory growth (MB) after the first minute and CPU share (of one core) from the samples ``a (n, 5)``."""
+    result = {}
+    after1 = a[a[:, 0] >= min(60.0, a[-1, 0] / 2)]
+    base = after1[0]
+    kid = a[a[:, 2] > 0]  # samples while the device process was alive (it exits before the recorder)
+    kid = kid if len(kid) else a
+    kbase = kid[kid[:, 0] >= base[0]][0] if (kid[:, 0] >= base[0]).any() else kid[0]
+    result["memory_mb"] = {
+        "recorder_first_min": float(base[1] / 2**20), "recorder_end": float(a[-1, 1] / 2**20),
+        "recorder_growth_after_first_min": float((a[-1, 1] - base[1]) / 2**20),
+        "devices_growth_after_first_min": float((kid[-1, 2] - kbase[2]) / 2**20),
+        "recorder_max": float(a[:, 1].max() / 2**20),
     }
-    result["note"] = ("`pito-app --demo --record` on Xvfb: the window drawing live, the simulated devices and the "
-                      "pipeline process (drivers, pipeline, recorder) each a child process of the app; 'recorder' = "
-                      "the app process, 'devices' = all its descendants" if app else
-                      "headless: `pito record --pito sim --ati sim` (simulated devices in their own process, the app's "
-                      "acquisition + pipeline + recorder, no window)")
+    span = a[-1, 0] - a[0, 0]
+    result["cpu_share"] = {  # fraction of one core
+        "recorder": float((a[-1, 3] - a[0, 3]) / span) if span > 0 else None,
+        "devices": float((kid[-1, 4] - kid[0, 4]) / (kid[-1, 0] - kid[0, 0])) if kid[-1, 0] > kid[0, 0] else None,
+    }
     return result
 
 

@@ -37,6 +37,7 @@ class WindowProbe:
     """
 
     def __init__(self, window):
+        # deferred: VTK and Qt load only in the app's process (`pito --help` imports this module)
         import vtk
         from PySide6.QtGui import QBrush, QColor, QPen
         from PySide6.QtWidgets import QGraphicsRectItem
@@ -109,7 +110,7 @@ class WindowProbe:
 
     def regions(self) -> dict:
         """Screen rectangles (x, y, w, h) px of the scene and the plots, and the stamps' pixels."""
-        from PySide6.QtCore import QPoint
+        from PySide6.QtCore import QPoint  # deferred with Qt (``__init__``)
 
         live = self.live
 

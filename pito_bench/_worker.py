@@ -5,6 +5,7 @@ Prints one JSON object (the task's result plus ``peak_rss_mb``) on its last line
 
 from __future__ import annotations
 
+import importlib
 import json
 import sys
 
@@ -16,6 +17,7 @@ TASKS = {
     "cal_generate": ("_calibration", "task_generate"),
     "cal_memory": ("_calibration", "task_memory"),
     "cal_random": ("_calibration", "task_random_cubes"),
+    "cal_model_choice": ("_model_choice", "task_model_choice"),
     "cal_stream": ("_calibration", "task_stream"),
     "contact": ("_contact", "task_contact"),
     "contact_single": ("_single_contact", "task_single_contact"),
@@ -24,8 +26,6 @@ TASKS = {
 
 
 def _task(name):
-    import importlib
-
     module, func = TASKS[name]
     return getattr(importlib.import_module(f"{__package__}.{module}"), func)
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 
 from pito_bench import SECTIONS, run_bench
@@ -70,8 +71,6 @@ def register(sub) -> None:
 
 
 def run(args) -> int:
-    import os
-
     sections = tuple(s.strip() for s in args.sections.split(",") if s.strip())
     sizes = None
     if args.sizes:

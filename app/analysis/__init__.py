@@ -1,4 +1,4 @@
-"""File → Analyse recording: trials, per-trial figures and the grasp metrics tables (issue 24).
+"""File → Analyse recording: trials, per-trial figures and the grasp metrics tables.
 
 The analysis is :func:`pito_core.analysis.analyze_recording` (the same as ``pito analyze``),
 run off the GUI thread with a progress bar and Cancel (:func:`app.tasks.run_task`).

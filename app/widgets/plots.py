@@ -28,7 +28,16 @@ __all__ = ["TimeRing", "FaceForcePlot", "EquilibriumPlot", "minmax_decimate", "b
 #: s: a stretch without samples longer than this is a break in the curves (not a line across it)
 GAP = 0.5
 
-pg.setConfigOptions(antialias=False, background="#1e2329", foreground="#c9d1d9")
+#: the plots' background and foreground (axes, tick labels, axis titles): set on each plot, never
+#: through ``pg.setConfigOptions`` (a global setting; importing the app changes none)
+BACKGROUND = "#1e2329"
+FOREGROUND = "#c9d1d9"
+
+
+def _plot_widget(parent=None) -> pg.PlotWidget:
+    w = pg.PlotWidget(parent, background=BACKGROUND)
+    w.setAntialiasing(False)
+    return w
 
 
 class TimeRing:
@@ -127,6 +136,9 @@ def minmax_decimate(t, y, t0: float, t1: float, n_bins: int):
 
 
 def _style_plot(plot: pg.PlotItem, left: str, bottom: str = "time (s)") -> None:
+    for name in ("left", "bottom", "top", "right"):
+        plot.getAxis(name).setPen(FOREGROUND)
+        plot.getAxis(name).setTextPen(FOREGROUND)
     # no grid: pyqtgraph draws it as part of each axis, so every curve update repainted the
     # axes and their grid (~2.4 ms a paint, 7 paints a frame); tick labels remain
     plot.showGrid(x=False, y=False)
@@ -166,7 +178,7 @@ class _Curve(pg.PlotCurveItem):
 def _curve(plot: pg.PlotItem, color: str, name: str) -> _Curve:
     """A bare curve in ``plot``: the data are decimated here already, so ``PlotDataItem``'s own
     dataset, bounds and downsampling pass would only repeat work on every refresh."""
-    c = _Curve(pen=pg.mkPen(color, width=1), name=name)
+    c = _Curve(pen=pg.mkPen(color, width=1), name=name, antialias=False)
     plot.addItem(c)
     return c
 
@@ -182,7 +194,7 @@ def legend_html(entries) -> str:
 
 
 def _set_legend(plot: pg.PlotItem, entries) -> None:
-    plot.setTitle(legend_html(entries), size="9pt", color="#c9d1d9")
+    plot.setTitle(legend_html(entries), size="9pt", color=FOREGROUND)
 
 
 def _column_bounds(y):
@@ -265,7 +277,8 @@ class FaceForcePlot(_TimelinePlot, pg.PlotWidget):
     """‖F‖ (N) on each face over the last ``window`` seconds, one curve per face colour."""
 
     def __init__(self, window: float = 10.0, rate: float = 1000.0, parent=None):
-        super().__init__(parent)
+        super().__init__(parent, background=BACKGROUND)
+        self.setAntialiasing(False)
         self.window = float(window)
         self.buffer = TimeRing(int(window * rate * 1.25), 7)  # t, |F1|..|F6|
         _style_plot(self.getPlotItem(), "force norm ‖F‖ (N)")
@@ -312,8 +325,8 @@ class EquilibriumPlot(_TimelinePlot, QWidget):
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.setSpacing(2)
-        self.force_plot = pg.PlotWidget()
-        self.torque_plot = pg.PlotWidget()
+        self.force_plot = _plot_widget()
+        self.torque_plot = _plot_widget()
         _style_plot(self.force_plot.getPlotItem(), "‖ΣF‖ (N)", bottom="")
         _style_plot(self.torque_plot.getPlotItem(), "‖ΣT‖ (mN·m)")
         self.force_curve = _curve(self.force_plot.getPlotItem(), "#e8edf2", "‖ΣF‖ of the six faces")

@@ -42,6 +42,16 @@ class DevicesPage(WizardPage):
 
     def __init__(self, model, parent=None):
         super().__init__(model, parent)
+        self.body.addWidget(self._connection_box())
+        self.body.addWidget(self._health_box())
+        self.body.addLayout(self._raw_readings(), 1)
+        self.connect_btn.clicked.connect(self._connect)
+        self._last_table = 0.0
+        self._seen = 0
+        self.connected = False
+
+    def _connection_box(self) -> QGroupBox:
+        """Port, Net F/T address, simulators, Connect and its state."""
         box = QGroupBox("Connection")
         form = QFormLayout(box)
         self.port = QComboBox()
@@ -60,8 +70,10 @@ class DevicesPage(WizardPage):
         row.addWidget(self.connect_btn)
         row.addWidget(self.status, 1)
         form.addRow(row)
-        self.body.addWidget(box)
+        return box
 
+    def _health_box(self) -> QGroupBox:
+        """Rates, saturated samples and dropped frames: ``self.health[key]`` is each value's label."""
         health = QGroupBox("Health")
         hg = QGridLayout(health)
         self.health = {}
@@ -74,8 +86,10 @@ class DevicesPage(WizardPage):
             lab.setObjectName("bigValue")
             hg.addWidget(lab, 1, c)
             self.health[key] = lab
-        self.body.addWidget(health)
+        return health
 
+    def _raw_readings(self) -> QHBoxLayout:
+        """The 36 gauge counts (a face per row) beside the reference's six readings."""
         raw = QHBoxLayout()
         gbox = QGroupBox("Gauge counts (raw) — face rows, channels 1–6")
         gl = QVBoxLayout(gbox)
@@ -101,11 +115,7 @@ class DevicesPage(WizardPage):
             rl.addRow(a, lab)
             self.ref_labels.append(lab)
         raw.addWidget(rbox, 1)
-        self.body.addLayout(raw, 1)
-        self.connect_btn.clicked.connect(self._connect)
-        self._last_table = 0.0
-        self._seen = 0
-        self.connected = False
+        return raw
 
     def _connect(self) -> None:
         self.status.setText("connecting…")

@@ -7,6 +7,9 @@ through the real drivers.
 
 from __future__ import annotations
 
+import os
+import time
+
 from ..eventloop import process_for, wait_until
 
 __all__ = ["run_to_page", "complete_loading", "finish", "StepTimeout"]
@@ -17,9 +20,6 @@ class StepTimeout(RuntimeError):
 
 
 def _wait(pred, timeout, what):
-    import os
-    import time
-
     t0 = time.monotonic()
     ok = wait_until(pred, timeout=timeout)
     if os.environ.get("PITO_DRIVER_VERBOSE"):

@@ -14,10 +14,11 @@ def _rms(values) -> float:
 
 
 def model_summary(choice) -> str:
-    """Words for a ``ModelChoice``: the model, why, cross-validated RMSE of both candidates (N, N·m)."""
-    words = {"linear": "the papers' linear fit (C = W S⁺)", "poly": "linear fit + polynomial correction"}
+    """Words for a ``ModelChoice``: the model, why, cross-validated RMSE of both candidates and the chosen mix (N, N·m)."""
+    words = {"linear": "the papers' linear fit (C = W S⁺)", "poly": "linear fit + polynomial correction",
+             "chosen": "the chosen mix (the correction only where it won)"}
     text = f"<b>{words.get(choice.name, choice.name)}</b> — {choice.reason}"
-    for key in ("linear", "poly"):
+    for key in ("linear", "poly", "chosen"):
         r = (choice.cv_rmse or {}).get(key) or []
         if r:
             force = [v for i, v in enumerate(r) if i % 6 < 3]

@@ -6,6 +6,7 @@ import warnings
 from pathlib import Path
 
 import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from PySide6.QtCore import QTimer, Qt, QUrl, Signal
 from PySide6.QtGui import QImage, QPixmap
@@ -98,8 +99,6 @@ def render_figures(evaluation, sizes: dict, rmse: dict | None = None) -> dict:
     ``sizes``: name (``rmse``, ``ident``, ``comp``) → ``(width, height)`` px; ``rmse``: options of
     the RMSE figure (:func:`rmse_options`).
     """
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-
     draw = {"rmse": report.rmse_figure, "ident": report.identification_figure, "comp": report.comparison_figure}
     out = {}
     for name, (w, h) in sizes.items():
@@ -187,6 +186,27 @@ class ResultsPage(WizardPage):
 
     def __init__(self, model, parent=None):
         super().__init__(model, parent)
+        nums = self._figures_of_merit()
+        self._figure_tabs()
+        self._images_for = None  # the evaluation the shown images belong to
+        row = QHBoxLayout()
+        row.addWidget(self._scroll(nums), 2)
+        row.addWidget(self.figure_tabs, 3)
+        self.body.addLayout(row, 1)
+        self.model_box = ModelChoiceBox()  # which model, why, and a switch to the papers' linear fit
+        self.model_box.requested_changed.connect(lambda _: self.compute())
+        self.body.addWidget(self.model_box)
+        self._buttons()
+        self._exported_label()
+        self.taskbar = TaskBar()  # the fit runs in a worker thread: progress and Cancel here
+        self.body.addWidget(self.taskbar)
+        self.task = None
+        self.note = ""
+        #: set by the wizard: go back to the loading page for a face
+        self.redo_requested = None
+
+    def _figures_of_merit(self) -> QGroupBox:
+        """The figures of merit, one row each: ``self.values[key]`` is the label of a row's value."""
         nums = QGroupBox("Figures of merit")
         grid = QGridLayout(nums)
         grid.setColumnStretch(1, 1)
@@ -212,6 +232,9 @@ class ResultsPage(WizardPage):
             grid.addWidget(lab, r, 1)
             self.values[key] = lab
         grid.setRowStretch(len(self.values), 1)
+        return nums
+
+    def _figure_tabs(self) -> None:
         # figures are drawn (Agg) in a worker, at the size of their tab, shown here as images;
         # one tab each so every figure gets the room its 9 pt text needs
         self.canvas_rmse = FigureImage((760, 420))
@@ -222,8 +245,9 @@ class ResultsPage(WizardPage):
                         (self.canvas_comp, "Against the reference")):
             self.figure_tabs.addTab(w, name)
             w.redraw_wanted.connect(self._redraw_figures)
-        self._images_for = None  # the evaluation the shown images belong to
-        row = QHBoxLayout()
+
+    def _scroll(self, nums: QGroupBox) -> QScrollArea:
+        """``nums`` in a scroll area that keeps its full width."""
         nums_scroll = QScrollArea()  # rows take the height of their wrapped text; scrolls if they need more
         nums_scroll.setWidget(nums)
         nums_scroll.setWidgetResizable(True)
@@ -232,12 +256,10 @@ class ResultsPage(WizardPage):
         # never narrower than the group box: its right edge (and the values' ends) stay in view
         nums_scroll.setMinimumWidth(nums.minimumSizeHint().width() + nums_scroll.verticalScrollBar().sizeHint().width())
         self.nums_scroll = nums_scroll
-        row.addWidget(nums_scroll, 2)
-        row.addWidget(self.figure_tabs, 3)
-        self.body.addLayout(row, 1)
-        self.model_box = ModelChoiceBox()  # which model, why, and a switch to the papers' linear fit
-        self.model_box.requested_changed.connect(lambda _: self.compute())
-        self.body.addWidget(self.model_box)
+        return nums_scroll
+
+    def _buttons(self) -> None:
+        """Accept, redo a face, save, export."""
         buttons = QHBoxLayout()
         self.accept_btn = QPushButton("Accept calibration")
         self.accept_btn.setObjectName("primary")
@@ -251,6 +273,12 @@ class ResultsPage(WizardPage):
         buttons.addWidget(self.save_btn)
         buttons.addWidget(self.export_btn)
         self.body.addLayout(buttons)
+        self.accept_btn.clicked.connect(self.accept)
+        self.redo_btn.clicked.connect(self._redo_clicked)
+        self.save_btn.clicked.connect(lambda: self.save())
+        self.export_btn.clicked.connect(lambda: self.export())
+
+    def _exported_label(self) -> None:
         # after an export: where it went, with a link that opens the folder (and the path to copy)
         self.exported_label = QLabel("")
         self.exported_label.setObjectName("hint")
@@ -259,16 +287,6 @@ class ResultsPage(WizardPage):
         self.exported_label.setOpenExternalLinks(True)
         self.exported_label.setVisible(False)
         self.body.addWidget(self.exported_label)
-        self.taskbar = TaskBar()  # the fit runs in a worker thread: progress and Cancel here
-        self.body.addWidget(self.taskbar)
-        self.task = None
-        self.accept_btn.clicked.connect(self.accept)
-        self.redo_btn.clicked.connect(self._redo_clicked)
-        self.save_btn.clicked.connect(lambda: self.save())
-        self.export_btn.clicked.connect(lambda: self.export())
-        self.note = ""
-        #: set by the wizard: go back to the loading page for a face
-        self.redo_requested = None
 
     # ------------------------------------------------------------ compute
     def enter(self) -> None:

@@ -1,17 +1,20 @@
-"""Model choice by cross-validation over loading segments, from one streamed QR pass.
+"""Model choice by cross-validation over loading segments, from per-fold Gram matrices.
 
 Rows are dealt to ``K`` folds by whole loading segments (contiguous runs of samples),
 round-robin so that every fold spans the session's time (never shuffled neighbours:
-scikit-learn's ``GroupKFold``). Each fold keeps its own triangular factor of
-``[A | B]`` (``StreamedQR``), so one pass over the data gives every candidate's
-cross-validated error: the training factor of fold ``k`` is the QR of the other folds'
-stacked factors, and the held-out sum of squares of a solution ``X`` is
-``‖R11_k X − R12_k‖² + tr(EᵀE)_k`` from fold ``k``'s factor alone.
+scikit-learn's ``GroupKFold``). One pass keeps each fold's Gram matrix ``G_k`` of
+``[A | B]`` (``FoldedGram``, BLAS ``syrk``); fold ``k``'s training Gram is the down-date
+``Σ G − G_k``, and the held-out sum of squares of a solution ``X`` is the quadratic form
+``diag(G_yy − 2 Xᵀ G_xy + Xᵀ G_xx X)`` of ``G_k`` alone: no second pass, no re-built
+features.
 
 A problem regresses some columns ``y`` of ``B`` on unpenalised columns ``a`` of ``A``
 (offsets, channels) and penalised columns ``b`` (nonlinear features), with a ridge
-``α · mean(σ²)`` on ``b`` (``σ`` the singular values of ``b`` once ``a`` is projected
-out). ``α = ∞`` is the affine fit.
+``α · mean(σ²)`` on ``b`` (``σ²`` the eigenvalues of ``b``'s Gram once ``a`` is projected
+out). ``α = ∞`` is the affine fit. Every α comes from one eigendecomposition per fold and
+problem. The Gram squares the design's condition number: the chosen model's linear rows
+are the papers' fit by QR (``_lstsq.py``), the Gram only scores and fits the correction
+(its columns are scaled to unit spread, the ridge bounds its part).
 """
 
 from __future__ import annotations
@@ -20,10 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._lstsq import RANK_RTOL, StreamedQR
-
-__all__ = ["N_FOLDS", "ALPHAS", "FoldedQR", "Problem", "segment_ids", "fold_of_segments", "cross_validate",
-           "solve_problem"]
+__all__ = ["N_FOLDS", "ALPHAS", "FoldedGram", "Problem", "segment_ids", "fold_of_segments", "cross_validate",
+           "solve_problem", "fold_bounds"]
 
 #: Folds of the cross-validation.
 N_FOLDS = 5
@@ -31,6 +32,9 @@ N_FOLDS = 5
 ALPHAS = 10.0 ** np.arange(-7.0, 0.5, 1.0)
 #: Segments are cut to at most this fraction of a session, so every fold holds many of them.
 MAX_SEGMENT_FRACTION = 1 / 40
+#: Eigenvalues of the scaled Gram of the unpenalised columns below this fraction of the
+#: largest are dropped (singular values under 10⁻⁶·σ₁: what a Gram in double can resolve).
+GRAM_RTOL = 1e-12
 
 
 class SegmentCounter:
@@ -87,33 +91,54 @@ def fold_of_segments(segments: np.ndarray, n_folds: int = N_FOLDS) -> np.ndarray
     return (rank[inverse] % n_folds).astype(np.int64)
 
 
-class FoldedQR:
-    """One :class:`StreamedQR` of ``[A | B]`` per fold."""
+def fold_bounds(fold: np.ndarray, n_folds: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(order (n,), bounds (K + 1,))``: rows sorted by fold (stable); fold ``k`` is ``order[bounds[k]:bounds[k+1]]``."""
+    order = np.argsort(fold, kind="stable")
+    return order, np.searchsorted(fold[order], np.arange(n_folds + 1))
+
+
+class FoldedGram:
+    """One Gram matrix of ``[A | B]`` (``p + q`` columns) per fold.
+
+    Parameters
+    ----------
+    p, q : int
+        Columns of ``A`` (regressors) and ``B`` (targets).
+    n_folds : int
+    """
 
     def __init__(self, p: int, q: int, n_folds: int = N_FOLDS):
         self.p, self.q, self.n_folds = p, q, n_folds
-        self.folds = [StreamedQR(p, q) for _ in range(n_folds)]
+        self.gram = np.zeros((n_folds, p + q, p + q))
+        self.rows = np.zeros(n_folds, dtype=np.int64)
+
+    def add_sorted(self, ZT: np.ndarray, bounds: np.ndarray) -> None:
+        """Fold in ``ZT (p + q, n)``: the rows ``[A | B]`` as columns, sorted by fold (``fold_bounds``)."""
+        for k in range(self.n_folds):
+            a, b = int(bounds[k]), int(bounds[k + 1])
+            if b > a:
+                Z = ZT[:, a:b]
+                self.gram[k] += Z @ Z.T  # BLAS syrk: numpy spots the transposed operand
+                self.rows[k] += b - a
 
     def add(self, A: np.ndarray, B: np.ndarray, fold: np.ndarray) -> None:
-        """Fold rows ``A (n, p)``, ``B (n, q)`` into their folds ``fold (n,)``."""
-        for k in range(self.n_folds):
-            m = fold == k
-            if m.any():
-                self.folds[k].add(A[m], B[m])
+        """Fold in rows ``A (n, p)``, ``B (n, q)`` of folds ``fold (n,)``."""
+        order, bounds = fold_bounds(np.asarray(fold), self.n_folds)
+        ZT = np.empty((self.p + self.q, order.size))
+        ZT[: self.p] = A[order].T
+        ZT[self.p :] = B[order].T
+        self.add_sorted(ZT, bounds)
 
     @property
     def n_rows(self) -> int:
-        return sum(f.n_rows for f in self.folds)
+        return int(self.rows.sum())
 
-    def factor(self, exclude: int | None = None) -> np.ndarray:
-        """``(p, p + q)`` ``[R11 | R12]`` of the folds other than ``exclude`` (all if None)."""
-        blocks = [np.hstack([np.triu(f.R11), f.R12]) for k, f in enumerate(self.folds) if k != exclude]
-        M = np.vstack(blocks)
-        R = np.linalg.qr(M, mode="r")
-        out = np.zeros((self.p, self.p + self.q))
-        r = min(R.shape[0], self.p)
-        out[:r] = R[:r]
-        return out
+    def total(self, exclude: int | None = None) -> np.ndarray:
+        """``(p + q, p + q)`` Gram of the folds other than ``exclude`` (all if None)."""
+        G = self.gram.sum(axis=0)
+        if exclude is not None:
+            G -= self.gram[exclude]
+        return 0.5 * (G + G.T)
 
 
 @dataclass(frozen=True)
@@ -132,47 +157,68 @@ class Problem:
     rank_a: int | None = None
 
 
-def _reduce(F: np.ndarray, p: int, prob: Problem) -> np.ndarray:
-    """Triangular factor of ``[A_a | A_b | B_y]`` from a factor ``F = [R11 | R12]`` of ``[A | B]``."""
-    M = np.hstack([F[:, prob.a], F[:, prob.b], F[:, p + prob.y]])
-    return np.linalg.qr(M, mode="r")
+def _eliminate(G: np.ndarray, a: np.ndarray, rank_a=None):
+    """``(Gaa⁺ (na, na), S)``: the pseudo-inverse of the unpenalised block and the Schur
+    complement ``S = G − G[:, a] Gaa⁺ G[a, :]`` (``a`` projected out of every column).
 
-
-def _path(T: np.ndarray, na: int, nb: int, alphas, rank_a=None) -> list[np.ndarray]:
-    """Solutions ``(na + nb, ny)`` for each α (``inf``: b fixed at 0) from the reduced factor ``T``.
-
-    With ``rank_a`` (or a rank-deficient ``a``), the unpenalised part lies in the span of the
-    leading right singular vectors of the column-scaled ``a`` (as the affine fit's truncated
-    solve), and ``b`` is fitted against that span, not against all of ``a``.
+    ``Gaa⁺`` keeps the scaled directions above ``GRAM_RTOL`` (and at most ``rank_a``).
     """
-    d = np.linalg.norm(T[:na, :na], axis=0)
-    d = np.where(d > 0, 1.0 / np.where(d > 0, d, 1.0), 0.0)
-    Ua, sa, Vta = np.linalg.svd(T[:na, :na] * d)
-    r = int(np.sum(sa > RANK_RTOL * sa[0])) if sa.size and sa[0] > 0 else 0
-    r = r if rank_a is None else min(r, int(rank_a))
-    Pa = np.eye(na)
-    if r < na:
-        Pa = d[:, None] * Vta[:r].T  # (na, r): the kept directions of a, in its own columns
-        T = np.linalg.qr(np.hstack([T[:, :na] @ Pa, T[:, na:]]), mode="r")
-    Taa, Tab, Tay = T[:r, :r], T[:r, r : r + nb], T[:r, r + nb :]
-    Tbb, Tby = T[r : r + nb, r : r + nb], T[r : r + nb, r + nb :]
-    if nb:
-        U, s, Vt = np.linalg.svd(Tbb)
-        UtY = U.T @ Tby
-        lam0 = float(np.mean(s**2)) if s.size and s[0] > 0 else 1.0
-    out = []
-    for alpha in alphas:
-        if np.isinf(alpha) or nb == 0:
-            Xb = np.zeros((nb, Tay.shape[1]))
-        else:
-            Xb = Vt.T @ ((s / (s**2 + alpha * lam0))[:, None] * UtY)
-        Xa = Pa @ np.linalg.solve(Taa, Tay - Tab @ Xb) if r else np.zeros((na, Tay.shape[1]))
-        out.append(np.vstack([Xa, Xb]))
+    Gaa = G[np.ix_(a, a)]
+    dg = np.diag(Gaa)
+    d = np.where(dg > 0, 1.0 / np.sqrt(np.where(dg > 0, dg, 1.0)), 0.0)
+    w, V = np.linalg.eigh(Gaa * np.outer(d, d))
+    keep = w > GRAM_RTOL * max(w[-1], 0.0) if w.size else w > 0
+    if rank_a is not None and keep.sum() > rank_a:
+        keep[: keep.size - int(rank_a)] = False
+    Vk = V[:, keep] * d[:, None]
+    P = (Vk / w[keep]) @ Vk.T
+    Ga = G[a]
+    return P, G - Ga.T @ (P @ Ga)
+
+
+def _paths(G: np.ndarray, p: int, problems, alphas) -> list[list[np.ndarray]]:
+    """Solutions ``(na + nb, ny)`` of each problem for each α (``inf``: b fixed at 0) from a Gram ``G``.
+
+    Problems with the same unpenalised columns share one elimination of them.
+    """
+    out, cache = [], {}
+    for pr in problems:
+        key = (pr.a.tobytes(), pr.rank_a)
+        if key not in cache:
+            cache[key] = _eliminate(G, pr.a, pr.rank_a)
+        P, S = cache[key]
+        y = p + pr.y
+        nb = pr.b.size
+        if nb:
+            s2, U = np.linalg.eigh(S[np.ix_(pr.b, pr.b)])
+            s2 = np.clip(s2, 0.0, None)
+            UtY = U.T @ S[np.ix_(pr.b, y)]
+            lam0 = float(np.mean(s2)) if s2[-1] > 0 else 1.0
+        Gay, Gab = G[np.ix_(pr.a, y)], G[np.ix_(pr.a, pr.b)]
+        sols = []
+        for alpha in alphas:
+            if np.isinf(alpha) or nb == 0:
+                Xb = np.zeros((nb, y.size))
+            else:
+                Xb = U @ (UtY / (s2 + alpha * lam0)[:, None])
+            sols.append(np.vstack([P @ (Gay - Gab @ Xb), Xb]))
+        out.append(sols)
     return out
 
 
-def cross_validate(folded: FoldedQR, problems, alphas=ALPHAS) -> dict:
-    """Held-out weighted sum of squares of every problem, fold and α (``inf`` first: the affine fit).
+def held_out_sse(G: np.ndarray, p: int, pr: Problem, X) -> np.ndarray:
+    """Sum of squared residuals of solution ``X (nx, ny)`` (or a stack ``(A, nx, ny)``: ``(A, ny)``)
+    over the rows whose Gram is ``G``."""
+    x = np.r_[pr.a, pr.b]
+    y = p + pr.y
+    Gxy = G[np.ix_(x, y)]
+    X = np.asarray(X)
+    sse = np.diag(G)[y] - 2.0 * np.sum(X * Gxy, axis=-2) + np.sum(X * (G[np.ix_(x, x)] @ X), axis=-2)
+    return np.clip(sse, 0.0, None)
+
+
+def cross_validate(folded: FoldedGram, problems, alphas=ALPHAS) -> dict:
+    """Held-out sums of squares of every problem, fold and α (``inf`` first: the affine fit).
 
     Returns
     -------
@@ -185,31 +231,24 @@ def cross_validate(folded: FoldedQR, problems, alphas=ALPHAS) -> dict:
     ny = max(pr.y.size for pr in problems)
     sse = np.full((alphas.size, K, len(problems), ny), np.nan)
     for k in range(K):
-        fk = folded.folds[k]
-        if fk.n_rows == 0:
+        if folded.rows[k] == 0:
             continue
-        F = folded.factor(exclude=k)
-        Rk = np.triu(fk.R11)
-        for j, pr in enumerate(problems):
-            T = _reduce(F, p, pr)
-            base = np.diag(fk.residual_cp)[pr.y]
-            Ak = np.hstack([Rk[:, pr.a], Rk[:, pr.b]])
-            Bk = fk.R12[:, pr.y]
-            for i, X in enumerate(_path(T, pr.a.size, pr.b.size, alphas, pr.rank_a)):
-                E = Ak @ X - Bk
-                sse[i, k, j, : pr.y.size] = np.sum(E * E, axis=0) + base
-    return {"alphas": alphas, "sse": sse, "n_rows": np.array([f.n_rows for f in folded.folds])}
+        Gk = folded.gram[k]
+        for j, (pr, sols) in enumerate(zip(problems, _paths(folded.total(exclude=k), p, problems, alphas))):
+            sse[:, k, j, : pr.y.size] = held_out_sse(Gk, p, pr, np.stack(sols))
+    return {"alphas": alphas, "sse": sse, "n_rows": folded.rows.copy()}
 
 
-def solve_problem(folded: FoldedQR, prob: Problem, alpha: float) -> np.ndarray:
-    """``(na + nb, ny)`` solution of ``prob`` on every fold with ridge ``alpha`` (``inf``: affine)."""
-    T = _reduce(folded.factor(), folded.p, prob)
-    return _path(T, prob.a.size, prob.b.size, [alpha], prob.rank_a)[0]
+def solve_problem(folded: FoldedGram, prob: Problem, alphas) -> list[np.ndarray]:
+    """``(na + nb, ny)`` solutions of ``prob`` on every fold for each of ``alphas`` (``inf``: affine)."""
+    return _paths(folded.total(), folded.p, [prob], np.atleast_1d(np.asarray(alphas, dtype=float)))[0]
 
 
-#: The nonlinear model must cut the cross-validated error below this fraction of the affine fit's.
-MARGIN = 0.9
-#: ... win on more than half of the folds, and be no worse on forces nor on torques alone.
+#: Per output group, the correction must cut the cross-validated RMSE to at most this fraction
+#: of the affine fit's, ...
+MARGIN = 0.8
+#: ... by more than this many standard errors of the per-fold differences, on most folds.
+N_SE = 1.0
 MODELS = ("auto", "linear", "poly")
 
 
@@ -217,23 +256,32 @@ MODELS = ("auto", "linear", "poly")
 class ModelChoice:
     """Which model a fit uses, and the cross-validated figures that chose it.
 
+    The choice is made per output group: each face's forces ``[fx, fy, fz]`` and torques
+    ``[tx, ty, tz]`` (for ``fit_sensor``, outputs in threes) take the correction, or the
+    papers' affine rows, on their own.
+
     Attributes
     ----------
     name : {"linear", "poly"}
-        ``linear``: the papers' affine least squares (``C = W S⁺``). ``poly``: the same
-        with a ridge-regularised polynomial correction (``_poly.py``).
+        ``linear``: the papers' affine least squares (``C = W S⁺``) on every row. ``poly``:
+        a ridge-regularised polynomial correction (``_poly.py``) on the rows ``row_alpha``
+        names, the papers' rows elsewhere.
     requested : {"auto", "linear", "poly"}
         What the caller asked for.
     alpha : float or None
-        Ridge strength of the polynomial correction (relative; None for ``linear``).
+        Ridge strength of the correction (relative), the largest over the rows that use
+        it (None for ``linear``).
+    row_alpha : list of (float or None)
+        Per output row (the fit's order), the ridge of its correction, or None for an
+        affine row; empty for ``linear`` and files written before the per-row choice.
     cv_rmse : dict
-        ``{"linear": [...], "poly": [...]}``: cross-validated RMSE of every output (in the
-        order of the fit's outputs: N, N·m); empty when no cross-validation ran.
+        ``{"linear": [...], "poly": [...], "chosen": [...]}``: cross-validated RMSE of every
+        output (N, N·m) for the affine fit, the correction (each group at its ridge) and the
+        chosen mix; empty when no cross-validation ran.
     cv_score : dict
-        ``{"linear": s, "poly": s}``: held-out RMSE of all outputs, each scaled by its
-        full scale (dimensionless); the choice compares these.
+        The same keys: held-out RMSE of all outputs, each scaled by its full scale (dimensionless).
     folds_won : int
-        Folds on which ``poly`` had the lower held-out error.
+        Folds on which the chosen model had the lower held-out error.
     n_folds, n_segments : int
         Folds and loading segments of the cross-validation.
     reason : str
@@ -249,12 +297,14 @@ class ModelChoice:
     n_folds: int = 0
     n_segments: int = 0
     reason: str = "the papers' affine least squares, as requested"
+    row_alpha: list | None = None
 
     def to_dict(self) -> dict:
         """JSON-serialisable fields (for files and reports)."""
         return {"name": self.name, "requested": self.requested, "alpha": self.alpha,
                 "cv_rmse": self.cv_rmse or {}, "cv_score": self.cv_score or {}, "folds_won": int(self.folds_won),
-                "n_folds": int(self.n_folds), "n_segments": int(self.n_segments), "reason": self.reason}
+                "n_folds": int(self.n_folds), "n_segments": int(self.n_segments), "reason": self.reason,
+                "row_alpha": list(self.row_alpha or [])}
 
     @classmethod
     def from_dict(cls, d: dict) -> "ModelChoice":
@@ -264,49 +314,73 @@ class ModelChoice:
         return cls(**{k: d[k] for k in cls.__dataclass_fields__ if k in d})
 
 
-def choose_model(results, requested: str, n_segments: int) -> ModelChoice:
-    """Pick ``linear`` or ``poly`` from ``results``: list of ``(cross_validate output, weights per problem)``.
+def _group_choice(e: np.ndarray, force: bool):
+    """``(index of α, use)`` for one output group from its held-out SSE ``e (A, K)`` (row 0: affine).
 
-    ``poly`` (at its best α) is chosen under ``auto`` only if its held-out error is below
-    ``MARGIN`` × the affine fit's and it wins on more than half of the folds; ``linear`` and
-    ``poly`` force the choice (the figures are still reported).
+    The ridge is the one of least cross-validated error; the correction is used if forced,
+    or if it cuts the affine fit's RMSE to ``MARGIN`` or less, by more than ``N_SE``
+    standard errors of the per-fold differences (the one-standard-error rule), and on
+    most folds.
+    """
+    tot = e.sum(axis=1)
+    K = e.shape[1]
+    pick = 1 + int(np.argmin(tot[1:]))
+    d = e[pick] - e[0]
+    se_d = np.std(d, ddof=1) / np.sqrt(K) if K > 1 else np.inf
+    wins = tot[0] > 0 and np.sqrt(tot[pick] / tot[0]) <= MARGIN and d.mean() + N_SE * se_d < 0 and (d < 0).sum() > K / 2
+    return pick, bool(force or wins)
+
+
+def choose_model(results, requested: str, n_segments: int) -> ModelChoice:
+    """Choose, per output group, the affine rows or the correction.
+
+    Parameters
+    ----------
+    results : list of (dict, list of ndarray)
+        ``(cross_validate output, weights per problem)``; the outputs, in order of the parts,
+        problems and their ``y``, are the fit's rows. Groups: outputs ``0–2``, ``3–5``, … of
+        each problem (a face's forces and torques).
+    requested : {"auto", "linear", "poly"}
+        ``auto`` applies :func:`_group_choice`; ``poly`` uses the correction on every group;
+        ``linear`` none (the figures are still reported).
+    n_segments : int
     """
     alphas = results[0][0]["alphas"]
     K = results[0][0]["sse"].shape[1]
-    per_fold = np.zeros((alphas.size, K))  # weighted held-out SSE
-    per_kind = np.zeros((alphas.size, 2))  # ... of the forces and of the torques
-    rows = 0
-    rmse = {"linear": [], "poly": []}
+    row_alpha, rmse = [], {"linear": [], "poly": [], "chosen": []}
+    folds = np.zeros((3, K))  # weighted held-out SSE per fold: linear, poly, chosen
+    n_out = 0
     for cv, weights in results:
         sse = np.nan_to_num(cv["sse"])
-        for j, w in enumerate(weights):
-            e = sse[:, :, j, : w.size] * w**2
-            per_fold += e.sum(axis=2)
-            kind = (np.arange(w.size) % 6) >= 3
-            per_kind[:, 0] += e[:, :, ~kind].sum(axis=(1, 2))
-            per_kind[:, 1] += e[:, :, kind].sum(axis=(1, 2))
-        rows += int(cv["n_rows"].sum()) * sum(w.size for w in weights)
-    total = per_fold.sum(axis=1)
-    best = 1 + int(np.argmin(total[1:]))
-    for cv, weights in results:
         n = max(int(cv["n_rows"].sum()), 1)
         for j, w in enumerate(weights):
-            for key, a in (("linear", 0), ("poly", best)):
-                rmse[key] += np.sqrt(cv["sse"][a, :, j, : w.size].sum(axis=0) / n).tolist()
-    score = {"linear": float(np.sqrt(total[0] / max(rows, 1))), "poly": float(np.sqrt(total[best] / max(rows, 1)))}
-    won = int(np.sum(per_fold[best] < per_fold[0]))
-    each = bool(np.all(per_kind[best] <= per_kind[0]))
-    gain = score["poly"] < MARGIN * score["linear"] and won > K / 2 and each and score["linear"] > 1e-9
-    ratio = score["poly"] / score["linear"] if score["linear"] > 0 else float("nan")
+            for g in range(0, w.size, 3):
+                cols = np.arange(g, min(g + 3, w.size))
+                e = np.einsum("akc,c->ak", sse[:, :, j, cols], w[cols] ** 2)
+                pick, use = _group_choice(e, requested == "poly")
+                use = use and requested != "linear"
+                folds += np.stack([e[0], e[pick], e[pick] if use else e[0]])
+                for key, a in (("linear", 0), ("poly", pick), ("chosen", pick if use else 0)):
+                    rmse[key] += np.sqrt(sse[a][:, j][:, cols].sum(axis=0) / n).tolist()
+                row_alpha += [float(alphas[pick]) if use else None] * cols.size
+            n_out += w.size
+    rows = sum(int(cv["n_rows"].sum()) * sum(w.size for w in ws) for cv, ws in results)
+    score = {key: float(np.sqrt(folds[i].sum() / max(rows, 1))) for i, key in enumerate(("linear", "poly", "chosen"))}
+    used = [a for a in row_alpha if a is not None]
+    won = int(np.sum(folds[2] < folds[0]))
+    ratio = score["chosen"] / score["linear"] if score["linear"] > 0 else float("nan")
+    n_groups, n_used = len(row_alpha) // 3, len(used) // 3
+    name = "poly" if used else "linear"
     if requested == "auto":
-        name = "poly" if gain else "linear"
-        why = (f"cross-validated over {K} folds of {n_segments} loading segments, the polynomial correction's "
-               f"held-out error is {ratio:.2f}× the affine fit's (won {won}/{K} folds)")
-        keep = (f"; kept the papers' affine fit (the correction must reach ≤ {MARGIN:.2f}× on most folds, "
-                "and not be worse on forces or torques alone)")
-        why += "; it is used" if gain else keep
+        why = (f"cross-validated over {K} folds of {n_segments} loading segments: the polynomial correction is used for "
+               f"{n_used} of {n_groups} output groups (a face's forces or torques), where it beat the affine fit to "
+               f"≤ {MARGIN:.2f}× by more than {N_SE:g} standard error on most folds; held-out error "
+               f"{ratio:.2f}× the affine fit's")
+        if not used:
+            why += "; kept the papers' affine fit"
     else:
-        name = requested
-        why = f"{requested} as requested (cross-validated polynomial/affine held-out error {ratio:.2f}×, {won}/{K} folds)"
-    return ModelChoice(name=name, requested=requested, alpha=float(alphas[best]) if name == "poly" else None,
-                       cv_rmse=rmse, cv_score=score, folds_won=won, n_folds=K, n_segments=int(n_segments), reason=why)
+        pr = score["poly"] / score["linear"] if score["linear"] > 0 else float("nan")
+        why = f"{requested} as requested (cross-validated polynomial/affine held-out error {pr:.2f}×)"
+    return ModelChoice(name=name, requested=requested, alpha=max(used) if used else None,
+                       row_alpha=row_alpha if used else [], cv_rmse=rmse, cv_score=score, folds_won=won, n_folds=K,
+                       n_segments=int(n_segments), reason=why)

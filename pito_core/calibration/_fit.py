@@ -25,7 +25,7 @@ from ._calibration import Calibration
 from ._coverage import measured_directions
 from ._cv import MODELS, ModelChoice
 from ._lstsq import RANK_RTOL, StreamedQR
-from ._nlfit import PolyAccumulator, correction as poly_correction
+from ._nlfit import PolyAccumulator, correction as poly_correction, mixed_offsets
 from ._methods import MethodSpec, get_method
 from ..io import CalibrationSession, few_indices as _few
 from ._targets import MountGeometry, block_targets
@@ -184,13 +184,15 @@ def _gauge_scale(sessions, tare_means, block_size) -> np.ndarray:
 
 def _rescale_groups(groups, residual, out_faces, E2, poly) -> None:
     """Give the covariance groups (and the fit residual table) the polynomial fit's residual sums of squares."""
-    for g in groups:
+    for g in groups:  # rows that keep the affine fit (E2 NaN) keep its residuals
         old = np.clip(np.diag(g.residual_cov), 1e-300, None)
         r = np.sqrt(E2[g.rows] / max(g.dof, 1) / old)
+        r = np.where(np.isfinite(r), r, 1.0)
         g.residual_cov = g.residual_cov * np.outer(r, r)
     for k, f in enumerate(out_faces):
         n = max(poly.rows_of(f), 1)
-        residual[f - 1] = np.sqrt(E2[6 * k : 6 * k + 6] / n)
+        e = E2[6 * k : 6 * k + 6]
+        residual[f - 1] = np.where(np.isfinite(e), np.sqrt(e / n), residual[f - 1])
 
 
 def _load_rank(gram: np.ndarray, faces) -> int:
@@ -517,14 +519,13 @@ class Calibrator:
         """The model choice, and the polynomial correction where chosen: ``(choice, correction, linear_fit)``."""
         choice, corr, linear_fit = ModelChoice(reason="the papers' affine least squares, as requested"), None, None
         if poly is not None:
-            choice, sol = poly.fit(out_faces, self.model)
+            choice, sol = poly.fit(out_faces, self.model, fit.matrix)
             if sol is not None:
                 C, B, D, E2 = sol
                 linear_fit = (fit.matrix.copy(), np.mean(fit.offsets, axis=0))
                 fit.matrix[:] = C
-                # the zero-load counts: the tare means (the intercepts, the model's wrench at rest,
-                # are the error at the unloaded samples: a shift of the counts would move the features too)
-                fit.offsets = [m.copy() for m in tare_means]
+                # the zero-load counts: the tare means for the corrected rows, the affine rows' fitted offsets
+                fit.offsets = mixed_offsets(C, linear_fit[0], choice.row_alpha, tare_means, fit.offsets)
                 corr = poly_correction(poly.scale, D)
                 _rescale_groups(fit.groups, fit.residual, out_faces, E2, poly)
         elif self.model != "linear":

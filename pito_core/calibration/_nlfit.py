@@ -10,7 +10,9 @@ in a free face's outputs: they see the sum of every load, and a squeeze (two fac
 once, never in the training data) drove them far outside what single-face loads fitted
 (held-out squeeze error up to 1.6× the linear fit's with them, ≤ 0.87× without). Rows
 are dealt to folds by loading segment (``_cv.py``) in the same pass as the affine fit's
-QR; the model is chosen from the folds' factors, without another pass.
+QR, each fold keeping a Gram matrix; the model is chosen per face and per output group
+(forces, torques) from those, without another pass, and the rows the correction does not
+win keep the affine fit's.
 """
 
 from __future__ import annotations
@@ -18,17 +20,24 @@ from __future__ import annotations
 import numpy as np
 
 from ..frames import FACES, N_GAUGES
-from ._cv import ALPHAS, N_FOLDS, FoldedQR, MAX_SEGMENT_FRACTION, Problem, SegmentCounter, choose_model, cross_validate, solve_problem
-from ._poly import PolyCorrection, poly_terms
+from ._lstsq import RANK_RTOL
+from ._cv import ALPHAS, N_FOLDS, FoldedGram, MAX_SEGMENT_FRACTION, Problem, SegmentCounter, choose_model, cross_validate, \
+    fold_bounds, held_out_sse, solve_problem
+from ._poly import PolyCorrection, poly_features_t, poly_terms
 
-__all__ = ["PolyAccumulator", "FULL_SCALE_WEIGHT"]
+__all__ = ["PolyAccumulator", "FULL_SCALE_WEIGHT", "mixed_offsets"]
 
 #: Outputs are weighed by 1 / full scale in the model choice: ``[fx … tz]`` in 1/N and 1/(N·m).
 FULL_SCALE_WEIGHT = 1.0 / np.array([15.0, 15.0, 15.0, 0.1, 0.1, 0.1])
-#: Rows whose features are built at once (8192 × 200 columns × 8 B ≈ 13 MB).
+#: Rows whose features are built at once (8192 × 235 columns × 8 B ≈ 15 MB).
 CHUNK = 8192
+#: The correction is fitted (and cross-validated) from at most about this many samples, every
+#: ``stride``-th of the sessions' (neighbouring samples at 1 kHz repeat one held load): its cost
+#: stays bounded beside the affine fit, which uses every sample.
+MAX_ROWS = 1 << 15
 _PAIRS, _CUBES = poly_terms([range(6 * (f - 1), 6 * f) for f in FACES])
 _N_PAIRS = _PAIRS.shape[0] // 6  # 21 per face
+_PAIRS6, _CUBES6 = poly_terms([range(6)])  # one face's own, in the order of face_features
 
 
 def face_features(f: int) -> np.ndarray:
@@ -43,7 +52,7 @@ def connected_squares(f: int) -> np.ndarray:
 
 
 class PolyAccumulator:
-    """Per-fold factors of ``[offsets | u | φ(u) | targets]`` for one method's fit.
+    """Per-fold Gram matrices of ``[offsets | u | φ(u) | targets]`` for one method's fit.
 
     Parameters
     ----------
@@ -66,40 +75,56 @@ class PolyAccumulator:
         self.out_faces = tuple(out_faces)
         self.reaction_faces = set(reaction_faces)
         self.counter = SegmentCounter(max(1, int(np.ceil(max(session_lengths) * MAX_SEGMENT_FRACTION))))
-        self._session = None
+        self.stride = max(1, int(np.ceil(sum(session_lengths) / MAX_ROWS)))
+        self._session, self._seen = None, 0
         if own:
-            self.acc = {f: FoldedQR(n_int + 6 + 27, 6, n_folds) for f in FACES}
+            self.acc = {f: FoldedGram(n_int + 6 + 27, 6, n_folds) for f in FACES}
         else:
-            self.acc = FoldedQR(n_int + N_GAUGES + 162, 6 * len(self.out_faces), n_folds)
+            self.acc = FoldedGram(n_int + N_GAUGES + 162, 6 * len(self.out_faces), n_folds)
 
     def add(self, k, x, targets, usable, carries, loaded):
         """Rows of session ``k``: ``x (n, 36)`` counts less its tare mean, ``targets (n, 6, 6)``."""
         fold = self.counter.ids(loaded, new_session=self._session != k) % self.K
         self._session = k
+        if self.stride > 1:  # every stride-th sample of the sessions
+            keep = (self._seen + np.arange(x.shape[0])) % self.stride == 0
+            self._seen += x.shape[0]
+            x, targets, usable, carries, loaded, fold = x[keep], targets[keep], usable[keep], carries[keep], loaded[keep], fold[keep]
         for a in range(0, x.shape[0], CHUNK):  # bounded memory: features of CHUNK rows at a time
             sl = slice(a, a + CHUNK)
             self._add(k, x[sl], targets[sl], usable[sl], carries[sl], loaded[sl], fold[sl])
 
+    def _design(self, k, x, cols, pairs, cubes, targets):
+        """``ZT (p + q, n)``: ``[offsets | u | φ(u) | targets]`` of the rows, as columns."""
+        n_int, nu = self.n_int, cols.size
+        uT = x.T[cols] / self.scale[cols, None]
+        p = n_int + nu + pairs.shape[0] + cubes.size
+        ZT = np.zeros((p + targets.shape[1], x.shape[0]))
+        ZT[k] = 1.0
+        ZT[n_int : n_int + nu] = uT
+        poly_features_t(uT, pairs, cubes, out=ZT[n_int + nu : p])
+        ZT[p:] = targets.T
+        return ZT
+
     def _add(self, k, x, targets, usable, carries, loaded, fold):
-        u = x / self.scale
-        phi = PolyCorrection(np.ones(N_GAUGES), _PAIRS, _CUBES, np.zeros((0, 162))).features(u)
-        off = np.zeros((x.shape[0], self.n_int))
-        off[:, k] = 1.0
         if self.own:
             unloaded = ~loaded.any(axis=1)
             for f, acc in self.acc.items():
-                rows = usable & (carries[:, f - 1] | unloaded)
-                g = slice(6 * (f - 1), 6 * f)
-                A = np.hstack([off[rows], u[rows, g], phi[rows][:, face_features(f)]])
-                acc.add(A, targets[rows, f - 1], fold[rows])
+                idx = np.flatnonzero(usable & (carries[:, f - 1] | unloaded))
+                order, bounds = fold_bounds(fold[idx], self.K)
+                idx = idx[order]
+                acc.add_sorted(self._design(k, x[idx], np.arange(6 * (f - 1), 6 * f), _PAIRS6, _CUBES6,
+                                            targets[idx, f - 1]), bounds)
         else:
-            idx = [f - 1 for f in self.out_faces]
-            A = np.hstack([off[usable], u[usable], phi[usable]])
-            self.acc.add(A, targets[usable][:, idx, :].reshape(-1, 6 * len(idx)), fold[usable])
+            idx = np.flatnonzero(usable)
+            order, bounds = fold_bounds(fold[idx], self.K)
+            idx = idx[order]
+            t = targets[idx][:, [f - 1 for f in self.out_faces], :].reshape(idx.size, -1)
+            self.acc.add_sorted(self._design(k, x[idx], np.arange(N_GAUGES), _PAIRS, _CUBES, t), bounds)
 
     def rows_of(self, f) -> int:
-        """Rows (samples) of face ``f``'s problem."""
-        return self.acc[f].n_rows if self.own else self.acc.n_rows
+        """Rows (samples) of face ``f``'s problem (over every sample: the fitted ones × stride)."""
+        return (self.acc[f].n_rows if self.own else self.acc.n_rows) * self.stride
 
     def _features_of(self, f) -> np.ndarray:
         """Feature indices of output face ``f``: every face's for a connected face, else ``f``'s own
@@ -109,7 +134,7 @@ class PolyAccumulator:
         return np.unique(np.concatenate([face_features(f)] + [connected_squares(c) for c in self.reaction_faces]))
 
     def problems(self, out_faces, rank_a=None):
-        """``[(FoldedQR, [Problem …], [face …])]`` of the fit."""
+        """``[(FoldedGram, [Problem …], [face …])]`` of the fit."""
         n_int = self.n_int
         if self.own:
             return [(self.acc[f], [Problem(np.arange(n_int + 6), np.arange(n_int + 6, n_int + 33), np.arange(6),
@@ -118,11 +143,13 @@ class PolyAccumulator:
                          FULL_SCALE_WEIGHT, rank_a) for k, f in enumerate(self.out_faces)]
         return [(self.acc, probs, list(self.out_faces))]
 
-    def fit(self, out_faces, requested, rank_a=None, alphas=ALPHAS):
-        """Choose the model; returns ``(ModelChoice, solution or None)``.
+    def fit(self, out_faces, requested, linear_matrix, rank_a=None, alphas=ALPHAS):
+        """Choose the model per output group; returns ``(ModelChoice, solution or None)``.
 
         The solution (for ``poly``) is ``(C (6F, 36), B (n_int, 6F), D (6F, 162), E2 (6F,))``: slopes
-        per count, session intercepts, feature coefficients, and the fit's residual sum of squares.
+        per count, session intercepts, feature coefficients, and the fit's residual sum of squares;
+        rows that keep the affine fit are ``linear_matrix``'s, with no feature and ``E2`` NaN. ``E2``
+        is scaled from the fitted samples to all (× ``stride``).
         """
         parts = self.problems(out_faces, rank_a)
         results = [(cross_validate(acc, probs, alphas), [p.weight for p in probs]) for acc, probs, _ in parts]
@@ -131,33 +158,49 @@ class PolyAccumulator:
             return choice, None
         F = len(out_faces)
         row = {f: k for k, f in enumerate(out_faces)}
-        C, B, D, E2 = np.zeros((6 * F, 36)), np.zeros((self.n_int, 6 * F)), np.zeros((6 * F, 162)), np.zeros(6 * F)
+        row_alpha = np.array([np.nan if a is None else a for a in choice.row_alpha])
+        C, B, D, E2 = linear_matrix.copy(), np.zeros((self.n_int, 6 * F)), np.zeros((6 * F, 162)), np.full(6 * F, np.nan)
         n_int = self.n_int
         for acc, probs, faces in parts:
             for pr, f in zip(probs, faces):
-                X = solve_problem(acc, pr, choice.alpha)
-                rows = slice(6 * row[f], 6 * row[f] + 6)
+                ra = row_alpha[6 * row[f] : 6 * row[f] + 6]
+                use = np.isfinite(ra)
+                if not use.any():
+                    continue
+                X = np.zeros((pr.a.size + pr.b.size, 6))
+                levels = np.unique(ra[use])
+                for a, Xa in zip(levels, solve_problem(acc, pr, levels)):
+                    X[:, ra == a] = Xa[:, ra == a]
+                ri = 6 * row[f] + np.flatnonzero(use)
                 lin = np.arange(6 * (f - 1), 6 * f) if self.own else np.arange(36)
-                C[rows][:, lin] = (X[n_int : n_int + lin.size] / self.scale[lin, None]).T
-                B[:, rows] = X[:n_int]
+                C[np.ix_(ri, lin)] = (X[n_int : n_int + lin.size, use] / self.scale[lin, None]).T
+                B[:, ri] = X[:n_int, use]
                 feats = face_features(f) if self.own else self._features_of(f)
-                D[rows][:, feats] = X[n_int + lin.size :].T
-                E2[rows] = _sse(acc, pr, X)
+                D[np.ix_(ri, feats)] = X[n_int + lin.size :, use].T
+                E2[ri] = self.stride * held_out_sse(acc.total(), acc.p, pr, X)[use]  # over every sample
         return choice, (C, B, D, E2)
-
-
-def _sse(acc: FoldedQR, pr: Problem, X: np.ndarray) -> np.ndarray:
-    """Residual sum of squares of solution ``X`` over every fold's rows, per output."""
-    out = np.zeros(pr.y.size)
-    for fk in acc.folds:
-        if fk.n_rows == 0:
-            continue
-        R = np.triu(fk.R11)
-        E = np.hstack([R[:, pr.a], R[:, pr.b]]) @ X - fk.R12[:, pr.y]
-        out += np.sum(E * E, axis=0) + np.diag(fk.residual_cp)[pr.y]
-    return out
 
 
 def correction(scale, D) -> PolyCorrection:
     """The calibration's correction from the fitted feature coefficients ``D (6F, 162)``."""
     return PolyCorrection(scale, _PAIRS, _CUBES, D)
+
+
+def mixed_offsets(C, linear_matrix, row_alpha, tare_means, linear_offsets) -> list:
+    """Each session's zero-load counts (36,) for a calibration whose rows mix both models.
+
+    Rows with the correction take the tare mean as their zero (their intercept, the model's
+    wrench at rest, is the error at the unloaded samples); rows that keep the affine fit
+    need its fitted offset, ``C_r (m − o) = b_r``. One offset serves both: ``m − δ`` with
+    the least ``δ`` (in the full-scale-weighted rows) such that ``C δ`` is the affine rows'
+    intercepts and zero on the corrected rows (exact where those rows leave room; the
+    features move by ``δ / scale``, a fraction of the gauge noise).
+    """
+    linear = np.array([a is None for a in row_alpha])
+    w = np.tile(FULL_SCALE_WEIGHT, C.shape[0] // 6)
+    out = []
+    for m, o in zip(tare_means, linear_offsets):
+        rhs = np.where(linear, linear_matrix @ (m - o), 0.0)
+        delta = np.linalg.lstsq(C * w[:, None], rhs * w, rcond=RANK_RTOL)[0]
+        out.append(m - delta)
+    return out

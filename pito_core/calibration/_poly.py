@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["poly_terms", "poly_features", "PolyCorrection"]
+__all__ = ["poly_terms", "poly_features", "poly_features_t", "PolyCorrection"]
 
 
 def poly_terms(blocks) -> tuple[np.ndarray, np.ndarray]:
@@ -29,12 +29,21 @@ def poly_terms(blocks) -> tuple[np.ndarray, np.ndarray]:
 def poly_features(u: np.ndarray, pairs: np.ndarray, cubes: np.ndarray) -> np.ndarray:
     """``(N, P + Q)`` features ``[u_i u_j for pairs, u_i³ for cubes]`` of ``u (N, m)`` (dimensionless)."""
     uT = np.ascontiguousarray(np.asarray(u, dtype=float).T)  # (m, N): a channel per contiguous row
+    return poly_features_t(uT, pairs, cubes).T
+
+
+def poly_features_t(uT: np.ndarray, pairs: np.ndarray, cubes: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+    """``(P + Q, N)`` the features of :func:`poly_features`, transposed, from ``uT (m, N)``.
+
+    ``out`` (optional, shape ``(P + Q, N)``, rows contiguous) receives them.
+    """
     P = pairs.shape[0]
-    out = np.empty((P + cubes.size, uT.shape[1]))
+    if out is None:
+        out = np.empty((P + cubes.size, uT.shape[1]))
     np.multiply(uT[pairs[:, 0]], uT[pairs[:, 1]], out=out[:P])
     c = uT[cubes]
     np.multiply(c * c, c, out=out[P:])
-    return out.T
+    return out
 
 
 class PolyCorrection:
@@ -76,4 +85,8 @@ class PolyCorrection:
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         """``(N, q)`` correction for offset-free counts ``x (N, m)``, output units."""
-        return self.features(x) @ self.coef.T
+        used = np.flatnonzero(np.any(self.coef != 0, axis=0))  # rows that keep the affine fit use none
+        P = self.pairs.shape[0]
+        uT = np.ascontiguousarray((np.asarray(x, dtype=float) / self.scale).T)
+        phi = poly_features_t(uT, self.pairs[used[used < P]], self.cubes[used[used >= P] - P])
+        return (self.coef[:, used] @ phi).T

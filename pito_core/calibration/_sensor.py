@@ -11,8 +11,10 @@ from __future__ import annotations
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from ._cv import ALPHAS, MODELS, N_FOLDS, FoldedQR, ModelChoice, Problem, choose_model, cross_validate, fold_of_segments, solve_problem
-from ._poly import PolyCorrection, poly_terms
+from ._cv import ALPHAS, MODELS, N_FOLDS, FoldedGram, ModelChoice, Problem, choose_model, cross_validate, fold_bounds, \
+    fold_of_segments, solve_problem
+from ._lstsq import StreamedQR
+from ._poly import PolyCorrection, poly_features_t, poly_terms
 
 __all__ = ["fit_sensor", "SensorFit"]
 
@@ -103,8 +105,10 @@ def fit_sensor(counts, wrench, groups=None, model: str = "auto", *, n_folds: int
         Loading segment of each sample: folds hold whole segments, dealt round-robin so
         every fold spans the data. Default: ``DEFAULT_SEGMENTS`` contiguous pieces.
     model : {"auto", "linear", "poly"}
-        ``auto`` picks ``poly`` only where its held-out error beats the affine fit's
-        (``_cv.MARGIN``); ``linear`` is the plain affine least squares.
+        ``auto`` uses the polynomial correction only for the outputs (in threes: forces,
+        torques) where its held-out error beats the affine fit's by ``_cv.MARGIN`` and by
+        more than one standard error of the folds; the others keep the plain affine least
+        squares, which ``linear`` gives everywhere.
     n_folds : int
     alphas : sequence of float
         Relative ridge strengths tried for the polynomial features.
@@ -126,23 +130,37 @@ def fit_sensor(counts, wrench, groups=None, model: str = "auto", *, n_folds: int
     pairs, cubes = poly_terms(blocks)
     r = pairs.shape[0] + cubes.size
     nl = model != "linear" and K >= 2
-    corr = PolyCorrection(scale, pairs, cubes, np.zeros((q, r)))
-    folded = FoldedQR(1 + m + (r if nl else 0), q, K if nl else 1)
-    fold = fold_of_segments(g, K) if nl else np.zeros(c.shape[0], dtype=np.int64)
+    qr = StreamedQR(1 + m, q)  # the affine fit, by QR: the rows that keep it are exactly least squares
+    folded = FoldedGram(1 + m + r, q, K) if nl else None
+    fold = fold_of_segments(g, K) if nl else None
     with threadpool_limits(limits=1):
         for s in range(0, c.shape[0], block_size):
-            x = c[s : s + block_size] - center
-            parts = [np.ones((x.shape[0], 1)), x / scale] + ([corr.features(x)] if nl else [])
-            folded.add(np.hstack(parts), w[s : s + block_size], fold[s : s + block_size])
-        a = np.arange(1 + m)
-        prob = Problem(a, np.arange(1 + m, folded.p) if nl else np.zeros(0, np.int64), np.arange(q), 1.0 / w.std(axis=0).clip(1e-300))
+            sl = slice(s, s + block_size)
+            x = c[sl] - center
+            qr.add(np.hstack([np.ones((x.shape[0], 1)), x / scale]), w[sl])
+            if nl:
+                order, bounds = fold_bounds(fold[sl], K)
+                uT = x[order].T / scale[:, None]
+                ZT = np.empty((1 + m + r + q, x.shape[0]))
+                ZT[0] = 1.0
+                ZT[1 : 1 + m] = uT
+                poly_features_t(uT, pairs, cubes, out=ZT[1 + m : 1 + m + r])
+                ZT[1 + m + r :] = w[sl][order].T
+                folded.add_sorted(ZT, bounds)
+        X = qr.solve().X  # (1 + m, q)
+        D = np.zeros((q, r))
         if nl:
+            prob = Problem(np.arange(1 + m), np.arange(1 + m, 1 + m + r), np.arange(q), 1.0 / w.std(axis=0).clip(1e-300))
             choice = choose_model([(cross_validate(folded, [prob], alphas), [prob.weight])], model, n_groups)
+            ra = np.array([np.nan if a is None else a for a in (choice.row_alpha or [None] * q)])
+            levels = np.unique(ra[np.isfinite(ra)])
+            for a, Xp in zip(levels, solve_problem(folded, prob, levels) if levels.size else []):
+                X[:, ra == a] = Xp[: 1 + m, ra == a]
+                D[ra == a] = Xp[1 + m :, ra == a].T
         else:
             why = "the affine least squares, as requested" if model == "linear" else \
                 f"the affine least squares: {n_groups} loading segment(s) are too few to cross-validate"
             choice = ModelChoice(name="linear", requested=model, n_segments=n_groups, reason=why)
-        X = solve_problem(folded, prob, np.inf if choice.name == "linear" else choice.alpha)
     coef = (X[1 : 1 + m] / scale[:, None]).T
-    correction = PolyCorrection(scale, pairs, cubes, X[1 + m :].T) if choice.name == "poly" else None
+    correction = PolyCorrection(scale, pairs, cubes, D) if choice.name == "poly" else None
     return SensorFit(choice, coef, X[0].copy(), center, correction)

@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+from importlib.metadata import entry_points
 
 from .._version import __version__
 
@@ -36,8 +37,6 @@ PLUGIN_GROUP = "pito.commands"
 
 def _plugins():
     """The ``register`` functions other installed packages offer, sorted by command name."""
-    from importlib.metadata import entry_points
-
     return sorted(entry_points(group=PLUGIN_GROUP), key=lambda ep: ep.name)
 
 

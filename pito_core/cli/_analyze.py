@@ -5,8 +5,11 @@ from __future__ import annotations
 import argparse
 import sys
 
-from .. import defaults
-from ..analysis import PATCH_COLUMNS, PHASE_COLUMNS
+from .. import analysis, defaults
+from ..analysis import PATCH_COLUMNS, PHASE_COLUMNS, AnalysisSettings
+
+# ``analysis.run_serial``, ``run_study``, ``analyze_to_dir`` are loaded by the package on first use
+# (PEP 562; they bring pandas, scipy.signal, Dask): named through the module, `pito --help` loads none
 
 
 def _columns(cols: dict) -> str:
@@ -92,8 +95,6 @@ def register(sub) -> None:
 
 
 def settings_from(args):
-    from ..analysis import AnalysisSettings
-
     return AnalysisSettings(contact_force=args.contact_force, min_fingers=args.min_fingers,
                             min_duration=args.min_duration, base_face=args.base_face, lift_phase=args.lift_phase,
                             replace_phase=args.replace_phase, path_cutoff=args.path_cutoff,
@@ -102,8 +103,6 @@ def settings_from(args):
 
 def run_many(task, args, **kwargs) -> int:
     """Run ``task`` over ``args.files`` (Dask or in process), printing one line per recording."""
-    from ..analysis import run_serial, run_study
-
     def progress(done, total, res, rec, err):
         if rec is None:
             print(f"Dask dashboard: {err}", flush=True)
@@ -120,9 +119,9 @@ def run_many(task, args, **kwargs) -> int:
         raise ValueError(f"--workers: expected >= 0, got {workers}")
     serial = workers == 0 or (workers is None and args.scheduler is None and len(args.files) == 1)
     if serial:
-        res = run_serial(task, args.files, progress=progress, **kwargs)
+        res = analysis.run_serial(task, args.files, progress=progress, **kwargs)
     else:
-        res = run_study(task, args.files, scheduler=args.scheduler, n_workers=workers or 2,
+        res = analysis.run_study(task, args.files, scheduler=args.scheduler, n_workers=workers or 2,
                         memory_limit=args.memory_limit, dashboard=args.dashboard, progress=progress, **kwargs)
     where = "in process" if serial else f"on Dask ({res.workers} worker{'s' if res.workers != 1 else ''})"
     print(f"{len(res.results)} recordings {where}, {len(res.failed)} failed: {res.samples} samples in "
@@ -133,8 +132,6 @@ def run_many(task, args, **kwargs) -> int:
 
 
 def run(args) -> int:
-    from ..analysis import analyze_to_dir
-
     settings = settings_from(args)
-    return run_many(analyze_to_dir, args, out_root=args.out, calibration=args.calibration, assembly=args.object,
+    return run_many(analysis.analyze_to_dir, args, out_root=args.out, calibration=args.calibration, assembly=args.object,
                     settings=settings, nwb=args.nwb, figures=not args.no_figures, overwrite=args.overwrite)

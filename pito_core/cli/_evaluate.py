@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 
 import numpy as np
@@ -34,8 +35,6 @@ samples unless --no-tare is given.
 
 
 def register(sub) -> None:
-    import argparse
-
     p = sub.add_parser("evaluate", help="evaluate a calibration on held-out sessions", description=HELP,
                        formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("calibration", metavar="CAL", help="calibration file (from `pito calibrate`)")

@@ -6,6 +6,7 @@ import argparse
 import sys
 import time
 
+from .. import analysis
 from ..calibration import load_calibration
 from ..interop import export_data, missing_metadata, write_mcap, write_nwb
 from ..io import export_recording_files, read_recording
@@ -71,14 +72,13 @@ def register(sub) -> None:
 
 def run_study_export(args) -> int:
     """``--out DIR``: every recording into DIR, one Dask task each (:func:`pito_core.analysis.export_to_dir`)."""
-    from ..analysis import export_to_dir
-
     if args.nwb or args.mcap or args.csv or args.mat:
         raise ValueError("--out: name the formats with --formats nwb,mcap (not --nwb/--mcap/--csv/--mat FILE)")
     formats = tuple(f.strip() for f in args.formats.split(",") if f.strip())
     if not formats or set(formats) - {"nwb", "mcap"}:
         raise ValueError(f"--formats: expected some of nwb, mcap, got {args.formats!r}")
-    return run_many(export_to_dir, args, out_root=args.out, formats=formats, calibration=args.calibration,
+    # analysis.export_to_dir loads on first use (PEP 562): `pito --help` does not load it
+    return run_many(analysis.export_to_dir, args, out_root=args.out, formats=formats, calibration=args.calibration,
                     assembly=args.object, contacts=not args.no_contacts, overwrite=args.overwrite)
 
 

@@ -202,7 +202,7 @@ def _record(args) -> int:
                             tared = True
                         except ValueError:  # no sample yet: try at the next read
                             pass
-                    for change in stall_reporter.changes(acq.stats()):  # issue 13: "stalled" within 200 ms
+                    for change in stall_reporter.changes(acq.stats()):  # "stalled" within 200 ms
                         print(f"{now - t0:7.1f} s  {change}", file=sys.stderr, flush=True)
                     if args.progress > 0 and now >= next_progress:
                         print(_line(now - t0, acq.stats()), file=sys.stderr, flush=True)

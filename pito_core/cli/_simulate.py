@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import time
 
+import numpy as np
+
 from ..calibration import CalibrationSession
 from ..sim import (
     ReferenceSensor,
@@ -73,8 +75,6 @@ def _faces(text):
 
 
 def run(args) -> int:
-    import numpy as np
-
     t_start = time.perf_counter()
     model = VirtualCube(seed=args.cube_seed)
     proto = args.protocol
@@ -99,8 +99,6 @@ def run(args) -> int:
 
 def _grasp_session(run, model, reference, seed):
     """A free grasp as a session: reference = table sensor under face 6 (placeholders)."""
-    import numpy as np
-
     T = reference_pose("face", 6, model.core)
     ref = ReferenceSensor(T, reference).measure(run.state.table_wrench, rng=np.random.default_rng([seed, 33]))
     loaded = np.linalg.norm(run.state.applied[..., :3], axis=-1) > 1e-6

@@ -162,44 +162,10 @@ def load_ati_calibration(path, index: int = 1) -> AtiCalibration:
         (the message names the field).
     """
     path = os.fspath(path)
-    if not os.path.exists(path):
-        raise FileNotFoundError(f"{path}: no such file")
-    try:
-        root = ET.parse(path).getroot()
-    except ET.ParseError as exc:
-        raise ValueError(f"{path}: not an ATI .cal file (XML error: {exc})") from None
-    if root.tag != "FTSensor":
-        raise ValueError(f"{path}: not an ATI .cal file (root element {root.tag!r}, expected 'FTSensor')")
-    try:
-        n_gauges = int(root.attrib["NumGages"])
-    except (KeyError, ValueError):
-        raise ValueError(f"{path}: FTSensor/NumGages: expected an integer") from None
-    cals = root.findall("Calibration")
-    if not 1 <= index <= len(cals):
-        raise ValueError(f"index: expected 1..{len(cals)} for {path}, got {index!r}")
-    cal = cals[index - 1]
+    root, n_gauges = _sensor_element(path)
+    cal, angle_units = _calibration_element(path, root, index)
     a = cal.attrib
-    for key in ("ForceUnits", "TorqueUnits", "DistUnits"):
-        if key not in a:
-            raise ValueError(f"{path}: Calibration/{key}: missing")
-    angle_units = a.get("AngleUnits", "degrees")
-    if a["DistUnits"] not in DIST_UNITS:
-        raise ValueError(f"{path}: DistUnits: unknown unit {a['DistUnits']!r}")
-    if angle_units not in _ANGLE_UNITS:
-        raise ValueError(f"{path}: AngleUnits: unknown unit {angle_units!r}")
-    axes = {ax.attrib.get("Name"): ax for ax in cal.findall("Axis")}
-    missing = [n for n in _AXES if n not in axes]
-    if missing:
-        raise ValueError(f"{path}: Axis: missing {missing} (a 6-axis calibration is expected)")
-    rows, max_loads = [], []
-    for name in _AXES:
-        ax = axes[name].attrib
-        if "values" not in ax:
-            raise ValueError(f"{path}: Axis {name}/values: missing")
-        scale = float(ax.get("scale", "1"))
-        rows.append(_floats(ax["values"], n_gauges, f"Axis {name}/values", path) / scale)
-        max_loads.append(float(ax.get("max", "0")))
-    B = np.array(rows)
+    B, max_loads = _axis_rows(path, cal, n_gauges)
     bt = cal.find("BasicTransform")
     tt = np.zeros(6)
     if bt is not None:
@@ -223,3 +189,55 @@ def load_ati_calibration(path, index: int = 1) -> AtiCalibration:
         temp_comp_available=temp,
         matrix=matrix,
     )
+
+
+def _sensor_element(path: str):
+    """The ``FTSensor`` root of the ``.cal`` file at ``path`` and its gauge count."""
+    if not os.path.exists(path):
+        raise FileNotFoundError(f"{path}: no such file")
+    try:
+        root = ET.parse(path).getroot()
+    except ET.ParseError as exc:
+        raise ValueError(f"{path}: not an ATI .cal file (XML error: {exc})") from None
+    if root.tag != "FTSensor":
+        raise ValueError(f"{path}: not an ATI .cal file (root element {root.tag!r}, expected 'FTSensor')")
+    try:
+        n_gauges = int(root.attrib["NumGages"])
+    except (KeyError, ValueError):
+        raise ValueError(f"{path}: FTSensor/NumGages: expected an integer") from None
+    return root, n_gauges
+
+
+def _calibration_element(path: str, root, index: int):
+    """Calibration ``index`` (1-based) of the file's root, its units checked; and its angle unit."""
+    cals = root.findall("Calibration")
+    if not 1 <= index <= len(cals):
+        raise ValueError(f"index: expected 1..{len(cals)} for {path}, got {index!r}")
+    cal = cals[index - 1]
+    a = cal.attrib
+    for key in ("ForceUnits", "TorqueUnits", "DistUnits"):
+        if key not in a:
+            raise ValueError(f"{path}: Calibration/{key}: missing")
+    angle_units = a.get("AngleUnits", "degrees")
+    if a["DistUnits"] not in DIST_UNITS:
+        raise ValueError(f"{path}: DistUnits: unknown unit {a['DistUnits']!r}")
+    if angle_units not in _ANGLE_UNITS:
+        raise ValueError(f"{path}: AngleUnits: unknown unit {angle_units!r}")
+    return cal, angle_units
+
+
+def _axis_rows(path: str, cal, n_gauges: int):
+    """The six axes' rows of the vendor matrix ``(6, n_gauges)`` (their scale divided out) and max loads."""
+    axes = {ax.attrib.get("Name"): ax for ax in cal.findall("Axis")}
+    missing = [n for n in _AXES if n not in axes]
+    if missing:
+        raise ValueError(f"{path}: Axis: missing {missing} (a 6-axis calibration is expected)")
+    rows, max_loads = [], []
+    for name in _AXES:
+        ax = axes[name].attrib
+        if "values" not in ax:
+            raise ValueError(f"{path}: Axis {name}/values: missing")
+        scale = float(ax.get("scale", "1"))
+        rows.append(_floats(ax["values"], n_gauges, f"Axis {name}/values", path) / scale)
+        max_loads.append(float(ax.get("max", "0")))
+    return np.array(rows), max_loads

@@ -7,6 +7,8 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+import serial
+from serial.tools import list_ports
 
 from ..frames import N_GAUGES
 from ._frame import FrameDecoder
@@ -65,8 +67,6 @@ def list_serial_ports() -> list[dict]:
 
     USB ports (the cube's kind) come first, then the others; each group by device path.
     """
-    from serial.tools import list_ports
-
     ports = sorted(list_ports.comports(), key=lambda p: ("USB" not in (p.description or ""), p.device))
     return [{"device": p.device, "description": p.description or "", "hwid": p.hwid or ""} for p in ports]
 
@@ -233,8 +233,6 @@ class PitoSerial:
 
     # ------------------------------------------------------------------ lifecycle
     def _open(self):
-        import serial
-
         return serial.Serial(self.port, self.baudrate, timeout=0.05)
 
     def start(self) -> "PitoSerial":

@@ -54,7 +54,7 @@ class SessionBuilder:
         if self.netft is None:
             raise ValueError("netft: a reference sensor is needed to build a session")
         p, f, sel, t_ref = self._session_rows(t0, t1, reference_delay)
-        # issue 13: a sample paired with a saturated reference record, or with a cube gauge at its
+        # a sample paired with a saturated reference record, or with a cube gauge at its
         # ADC limit, never enters a calibration
         t = p["time"][sel]
         sat_ref = pair_reference(t, t_ref, np.repeat(f["saturated"].astype(float)[:, None], 6, axis=1))[:, 0] > 0

@@ -76,6 +76,8 @@ def read_recording_csv(path, stream: str = "pito") -> dict:
 
 def export_recording_mat(recording, path) -> None:
     """Write ``recording`` to exactly ``path`` as a MATLAB ``.mat`` file (v5, scipy.io.savemat)."""
+    # deferred: scipy.io loads its MATLAB, NetCDF and Harwell-Boeing readers (~0.1 s) and this
+    # module loads with every `pito` command
     from scipy.io import savemat
 
     p, a = recording.pito, recording.netft

@@ -216,6 +216,93 @@ class ReplayBatch:
     netft: np.ndarray
 
 
+def _read_header(p, data: bytes) -> tuple[dict, int, int]:
+    """The header of recording ``data`` (file ``p``): its metadata, version and the byte where the chunks start."""
+    if len(data) < _HEAD.size or data[:8] != _MAGIC:
+        raise FileFormatError(f"{p}: not a '{RECORDING_FORMAT}' file (bad magic bytes)")
+    _, version, flags, n = _HEAD.unpack_from(data, 0)
+    if flags != 0:
+        raise ChecksumError(p, "header", f"flags field is {flags}, written as 0")
+    if version != RECORDING_VERSION:
+        raise FileFormatError(f"{p}: '{RECORDING_FORMAT}' version {version} is not supported (this pito reads [1])")
+    end = _HEAD.size + n
+    if len(data) < end + 4:
+        raise FileFormatError(f"{p}: truncated header")
+    head = data[_HEAD.size:end]
+    if struct.unpack_from("<I", data, end)[0] != zlib.crc32(head):
+        raise ChecksumError(p, "header", "CRC-32 of the header metadata does not match")
+    return json.loads(head.decode("utf-8")), version, end + 4
+
+
+@dataclass
+class _Chunks:
+    """What :func:`_read_chunks` found: row arrays per kind, events, the end marker's summary (or None),
+    the first problem (or None), the damaged chunk ``(byte, kind)`` if its CRC failed, and the byte where
+    reading stopped."""
+
+    parts: dict
+    events: list
+    summary: dict | None
+    problem: str | None
+    crc_bad: tuple | None
+    end: int
+
+
+def _read_chunks(data: bytes, pos: int) -> _Chunks:
+    """The chunks of recording ``data`` from byte ``pos``, up to the end marker or the first damage."""
+    parts = {KIND_PITO: [], KIND_NETFT: []}
+    events, summary, problem, crc_bad = [], None, None, None
+    while pos < len(data):
+        if len(data) - pos < _CHUNK.size:
+            problem = f"truncated chunk header at byte {pos}"
+            break
+        magic, kind, _, _, rows, size, crc = _CHUNK.unpack_from(data, pos)
+        body = pos + _CHUNK.size
+        if magic != _CHUNK_MAGIC:
+            problem = f"bad chunk magic at byte {pos}"
+            break
+        if body + size > len(data):
+            problem = f"truncated chunk at byte {pos}"
+            break
+        payload = data[body : body + size]
+        if zlib.crc32(payload, zlib.crc32(data[pos : pos + 16])) != crc:
+            problem = f"chunk CRC mismatch at byte {pos}"
+            crc_bad = (pos, kind)
+            break
+        if kind in _ROWS:
+            if size != rows * _ROWS[kind].itemsize:
+                problem = f"chunk size does not match its row count at byte {pos}"
+                break
+            parts[kind].append(np.frombuffer(payload, dtype=_ROWS[kind]))
+        elif kind == KIND_EVENT:
+            events.append(json.loads(payload.decode("utf-8")))
+        elif kind == KIND_END:
+            summary = json.loads(payload.decode("utf-8"))
+            pos = body + size
+            if pos != len(data):
+                problem = f"{len(data) - pos} bytes after the end marker"
+            break
+        pos = body + size
+    return _Chunks(parts, events, summary, problem, crc_bad, pos)
+
+
+def _refuse_damaged(p, chunks: _Chunks, complete: bool) -> None:
+    """Raise for a damaged or incomplete recording (read without ``recover``), naming what is wrong."""
+    if chunks.crc_bad is not None:
+        name = {KIND_PITO: "cube rows", KIND_NETFT: "Net F/T rows", KIND_EVENT: "event", KIND_END: "end marker"}
+        at, kind = chunks.crc_bad
+        raise ChecksumError(
+            p, f"chunk at byte {at} ({name.get(kind, f'kind {kind}')})",
+            "CRC mismatch (CRC-32); the intact part before it can be read with Recording(path, recover=True)",
+        )
+    if not complete:
+        why = chunks.problem or "no end marker: the recorder did not close it (crash or kill)"
+        raise FileFormatError(
+            f"{p}: incomplete or damaged recording ({why}); the intact part can be read with "
+            "Recording(path, recover=True) or `pito replay --recover`"
+        )
+
+
 class Recording:
     """A recording read back from disk.
 
@@ -248,72 +335,13 @@ class Recording:
             raise FileNotFoundError(f"{self.path}: no such file")
         data = self.path.read_bytes()
         p = self.path
-        if len(data) < _HEAD.size or data[:8] != _MAGIC:
-            raise FileFormatError(f"{p}: not a '{RECORDING_FORMAT}' file (bad magic bytes)")
-        _, version, flags, n = _HEAD.unpack_from(data, 0)
-        if flags != 0:
-            raise ChecksumError(p, "header", f"flags field is {flags}, written as 0")
-        if version != RECORDING_VERSION:
-            raise FileFormatError(f"{p}: '{RECORDING_FORMAT}' version {version} is not supported (this pito reads [1])")
-        end = _HEAD.size + n
-        if len(data) < end + 4:
-            raise FileFormatError(f"{p}: truncated header")
-        head = data[_HEAD.size:end]
-        if struct.unpack_from("<I", data, end)[0] != zlib.crc32(head):
-            raise ChecksumError(p, "header", "CRC-32 of the header metadata does not match")
-        self.meta = json.loads(head.decode("utf-8"))
-        self.version = version
-        pos = end + 4
-        parts = {KIND_PITO: [], KIND_NETFT: []}
-        self.events: list[dict] = []
-        self.summary: dict | None = None
-        problem = None
-        crc_bad = None
-        while pos < len(data):
-            if len(data) - pos < _CHUNK.size:
-                problem = f"truncated chunk header at byte {pos}"
-                break
-            magic, kind, _, _, rows, size, crc = _CHUNK.unpack_from(data, pos)
-            body = pos + _CHUNK.size
-            if magic != _CHUNK_MAGIC:
-                problem = f"bad chunk magic at byte {pos}"
-                break
-            if body + size > len(data):
-                problem = f"truncated chunk at byte {pos}"
-                break
-            payload = data[body : body + size]
-            if zlib.crc32(payload, zlib.crc32(data[pos : pos + 16])) != crc:
-                problem = f"chunk CRC mismatch at byte {pos}"
-                crc_bad = (pos, kind)
-                break
-            if kind in _ROWS:
-                if size != rows * _ROWS[kind].itemsize:
-                    problem = f"chunk size does not match its row count at byte {pos}"
-                    break
-                parts[kind].append(np.frombuffer(payload, dtype=_ROWS[kind]))
-            elif kind == KIND_EVENT:
-                self.events.append(json.loads(payload.decode("utf-8")))
-            elif kind == KIND_END:
-                self.summary = json.loads(payload.decode("utf-8"))
-                pos = body + size
-                if pos != len(data):
-                    problem = f"{len(data) - pos} bytes after the end marker"
-                break
-            pos = body + size
+        self.meta, self.version, start = _read_header(p, data)
+        chunks = _read_chunks(data, start)
+        parts, self.events, self.summary, problem = chunks.parts, chunks.events, chunks.summary, chunks.problem
         self.complete = self.summary is not None and problem is None
-        self.damaged_bytes = len(data) - pos if problem else 0
-        if crc_bad is not None and not recover:
-            name = {KIND_PITO: "cube rows", KIND_NETFT: "Net F/T rows", KIND_EVENT: "event", KIND_END: "end marker"}
-            raise ChecksumError(
-                p, f"chunk at byte {crc_bad[0]} ({name.get(crc_bad[1], f'kind {crc_bad[1]}')})",
-                "CRC mismatch (CRC-32); the intact part before it can be read with Recording(path, recover=True)",
-            )
-        if not self.complete and not recover:
-            why = problem or "no end marker: the recorder did not close it (crash or kill)"
-            raise FileFormatError(
-                f"{p}: incomplete or damaged recording ({why}); the intact part can be read with "
-                "Recording(path, recover=True) or `pito replay --recover`"
-            )
+        self.damaged_bytes = len(data) - chunks.end if problem else 0
+        if not recover:
+            _refuse_damaged(p, chunks, self.complete)
         self.pito = np.concatenate(parts[KIND_PITO]) if parts[KIND_PITO] else np.zeros(0, PITO_ROW)
         self.netft = np.concatenate(parts[KIND_NETFT]) if parts[KIND_NETFT] else np.zeros(0, NETFT_ROW)
         if self.summary is not None and self.complete:

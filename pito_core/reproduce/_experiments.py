@@ -131,6 +131,60 @@ def _calibrate_quiet(sessions, method):
     return cal, [str(x.message) for x in w]
 
 
+class _Sessions:
+    """The simulated sessions of one reproduction, made once each and cached; each starts where the
+    previous one ended (the gauges' drift goes on between them)."""
+
+    def __init__(self, cfg: ReproductionConfig, cube: VirtualCube, res: Results):
+        self.cfg, self.cube, self.res = cfg, cube, res
+        self.cache = {}
+        self.clock = 0.0
+
+    def t0(self, n) -> float:
+        """Start time (s) of a session of ``n`` samples; moves the clock past it and 5 s more."""
+        start = self.clock
+        self.clock += n / self.cube.params.rate + 5.0
+        return start
+
+    def calibration(self, flange, c, seed_off=0, free_only=False):
+        """A calibration session (``cfg.k`` samples per face) on mount ``flange``, connected face ``c``."""
+        cfg = self.cfg
+        key = ("cal", flange, c, seed_off, free_only)
+        if key not in self.cache:
+            tt = time.perf_counter()
+            faces = tuple(f for f in FACES if f != c) if free_only else None
+            s = simulate_calibration(flange, c, k=cfg.k, seed=cfg.seed + seed_off, faces=faces, model=self.cube,
+                                     t0=self.t0(6.3 * cfg.k))
+            dt = time.perf_counter() - tt
+            if dt > 0:
+                rate = self.res.generation_rate
+                self.res.generation_rate = max(rate if np.isfinite(rate) else 0, len(s) / dt)
+            self.cache[key] = s
+        return self.cache[key]
+
+    def test(self, flange, c, free_only=False):
+        """The held-out sessions on this mount: single-face loads and squeezes."""
+        cfg = self.cfg
+        key = ("test", flange, c, free_only)
+        if key not in self.cache:
+            faces = tuple(f for f in FACES if f != c) if free_only else None
+            single = simulate_calibration(flange, c, k=cfg.k_test, seed=cfg.seed + 101, faces=faces, model=self.cube,
+                                          t0=self.t0(6.3 * cfg.k_test))
+            sq = simulate_squeeze(flange, c, k=cfg.k_squeeze, seed=cfg.seed + 202, model=self.cube,
+                                  t0=self.t0(8.5 * cfg.k_squeeze))
+            self.cache[key] = (single, sq)
+        return self.cache[key]
+
+    def squeeze(self, flange, c):
+        """Squeeze loads with connected face ``c`` (the per-connected-face resultants)."""
+        cfg = self.cfg
+        key = ("sq", flange, c)
+        if key not in self.cache:
+            self.cache[key] = simulate_squeeze(flange, c, k=cfg.k_squeeze, seed=cfg.seed + 404, model=self.cube,
+                                               t0=self.t0(8.5 * cfg.k_squeeze))
+        return self.cache[key]
+
+
 def run_experiments(config: ReproductionConfig | None = None, progress=print) -> Results:
     """Run every experiment of both papers on the default simulator.
 
@@ -149,63 +203,51 @@ def run_experiments(config: ReproductionConfig | None = None, progress=print) ->
     step = _Steps(progress)
     cube = VirtualCube(seed=cfg.cube_seed)
     res = Results(cfg, cube.params)
-    c_main = cfg.connected_face
-    t_clock = [0.0]
+    sessions = _Sessions(cfg, cube, res)
+    _main_comparison(res, sessions, step)
+    _identification_series(res, sessions)
+    step("face identification series (unloaded_frame and loaded_frame, single face and squeeze)")
+    for c in FACES:
+        _per_connected_face(res, sessions, c)
+        step(f"connected face {c}: loaded frame, unloaded frame (alone and with a frame_hole session) fitted; "
+             "single-face and squeeze loads evaluated")
+    _free_grasp(res, sessions)
+    step(f"free grasp: {cfg.k_grasp} samples, mass {res.grasp['run'].mass} kg, "
+         f"{len(res.grasp['run'].scenario.names)} fingers")
+    res.touches = _touch_test(res, cube, cfg, sessions.t0)
+    step("contact-point test: " + ("done" if res.touches.get("available") else res.touches.get("reason", "skipped")))
+    res.timings = step.log
+    return res
 
-    def t0(n):  # sessions follow each other in time (drift continues)
-        start = t_clock[0]
-        t_clock[0] += n / cube.params.rate + 5.0
-        return start
 
-    cache = {}
-
-    def cal_session(flange, c, seed_off=0, free_only=False):
-        key = ("cal", flange, c, seed_off, free_only)
-        if key not in cache:
-            tt = time.perf_counter()
-            faces = tuple(f for f in FACES if f != c) if free_only else None
-            s = simulate_calibration(flange, c, k=cfg.k, seed=cfg.seed + seed_off, faces=faces, model=cube,
-                                     t0=t0(6.3 * cfg.k))
-            dt = time.perf_counter() - tt
-            if dt > 0:
-                res.generation_rate = max(res.generation_rate if np.isfinite(res.generation_rate) else 0, len(s) / dt)
-            cache[key] = s
-        return cache[key]
-
-    def test_sessions(flange, c, free_only=False):
-        key = ("test", flange, c, free_only)
-        if key not in cache:
-            faces = tuple(f for f in FACES if f != c) if free_only else None
-            single = simulate_calibration(flange, c, k=cfg.k_test, seed=cfg.seed + 101, faces=faces, model=cube,
-                                          t0=t0(6.3 * cfg.k_test))
-            sq = simulate_squeeze(flange, c, k=cfg.k_squeeze, seed=cfg.seed + 202, model=cube, t0=t0(8.5 * cfg.k_squeeze))
-            cache[key] = (single, sq)
-        return cache[key]
-
-    # ---------------------------------------------------------------- main comparison
+def _main_comparison(res: Results, sessions: _Sessions, step) -> None:
+    """Every method fitted on its mount with connected face ``cfg.connected_face``, evaluated held out."""
+    cfg, c_main = res.config, res.config.connected_face
     step(f"simulating calibration sessions (k = {cfg.k} samples per face, connected face {c_main})")
     for method in METHOD_ORDER:
         flange, faces = METHOD_MOUNTS[method]
         faces = _mount_faces(faces, c_main)
         # unloaded_frame loads only the five free faces (the paper's protocol)
-        sessions = [cal_session(flange, c, free_only=method == "unloaded_frame") for c in faces]
-        cal, warns = _calibrate_quiet(sessions, method)
+        fitted_on = [sessions.calibration(flange, c, free_only=method == "unloaded_frame") for c in faces]
+        cal, warns = _calibrate_quiet(fitted_on, method)
         res.notes += [f"{method}: {w}" for w in warns]
         # held out like its training: unloaded_frame is tested on loads on the five free faces
-        single, sq = test_sessions(flange, c_main, free_only=method == "unloaded_frame")
+        single, sq = sessions.test(flange, c_main, free_only=method == "unloaded_frame")
         ev = evaluate(cal, [single, sq])
         res.calibrations[method] = cal
         res.evaluations[method] = ev
         res.linear_evaluations[method] = ev if cal.model.name == "linear" else evaluate(cal.linear_alternative(), [single, sq])
-        step(f"{method}: fitted on {len(sessions)} session(s) ({flange}; net load {cal.meta.get('net_load')}; "
+        step(f"{method}: fitted on {len(fitted_on)} session(s) ({flange}; net load {cal.meta.get('net_load')}; "
              f"model {cal.model.name}); force RMSE "
              f"{np.nanmean(ev.rmse_force()):.3f} N, torque RMSE {np.nanmean(ev.rmse_torque()):.4f} N·m, "
              f"squeeze {np.sqrt(np.nanmean(ev.rmse_squeeze[:3] ** 2)):.3f} N")
 
-    # ---------------------------------------------------------------- identification series (Fig. 6)
+
+def _identification_series(res: Results, sessions: _Sessions) -> None:
+    """Force and torque norms per face over the held-out sessions (the papers' Fig. 6)."""
     for method, flange in (("unloaded_frame", "face"), ("loaded_frame", "frame_hole")):
         cal = res.calibrations[method]
-        single, sq = test_sessions(flange, c_main, free_only=method == "unloaded_frame")
+        single, sq = sessions.test(flange, res.config.connected_face, free_only=method == "unloaded_frame")
         for kind, s in (("single", single), ("squeeze", sq)):
             counts = np.asarray(s.counts, dtype=float)
             free = ~np.asarray(s.loaded).any(axis=1)
@@ -220,38 +262,36 @@ def run_experiments(config: ReproductionConfig | None = None, progress=print) ->
                 "method": method,
             }
             res.identification_series[kind if method == "unloaded_frame" else (method, kind)] = entry
-    step("face identification series (unloaded_frame and loaded_frame, single face and squeeze)")
 
-    # ---------------------------------------------------------------- per connected face
-    for c in FACES:
-        for method, flange in (("loaded_frame", "frame_hole"), ("unloaded_frame", "face"),
-                               ("unloaded_frame+frame_hole", "face")):
-            if c == c_main and method in res.calibrations:
-                res.per_connected[(method, c)] = (res.calibrations[method], res.evaluations[method])
+
+def _per_connected_face(res: Results, sessions: _Sessions, c: int) -> None:
+    """The three per-connected-face calibrations with connected face ``c``, on single-face and squeeze loads."""
+    cfg, c_main = res.config, res.config.connected_face
+    for method, flange in (("loaded_frame", "frame_hole"), ("unloaded_frame", "face"),
+                           ("unloaded_frame+frame_hole", "face")):
+        if c == c_main and method in res.calibrations:
+            res.per_connected[(method, c)] = (res.calibrations[method], res.evaluations[method])
+        else:
+            if method == "unloaded_frame+frame_hole":
+                fitted_on = [sessions.calibration("face", c, free_only=True), sessions.calibration("frame_hole", c)]
             else:
-                if method == "unloaded_frame+frame_hole":
-                    sessions = [cal_session("face", c, free_only=True), cal_session("frame_hole", c)]
-                else:
-                    sessions = cal_session(flange, c, free_only=method == "unloaded_frame")
-                cal, warns = _calibrate_quiet(sessions, method.split("+")[0])
-                res.notes += [f"{method} (connected face {c}): {w}" for w in warns]
-                faces = tuple(f for f in FACES if f != c) if method.startswith("unloaded_frame") else None
-                single = simulate_calibration(flange, c, k=cfg.k_test, seed=cfg.seed + 303, faces=faces, model=cube,
-                                              t0=t0(6.3 * cfg.k_test))
-                res.per_connected[(method, c)] = (cal, evaluate(cal, single))
-                if c == c_main:
-                    res.calibrations[method] = cal
-            # squeeze resultant RMSE with this connected face (papers' Figs 11, 12, 16, 19)
-            sq = cache.get(("sq", flange, c))
-            if sq is None:
-                sq = cache[("sq", flange, c)] = simulate_squeeze(flange, c, k=cfg.k_squeeze, seed=cfg.seed + 404,
-                                                                 model=cube, t0=t0(8.5 * cfg.k_squeeze))
-            res.squeeze_per_connected[(method, c)] = evaluate(res.per_connected[(method, c)][0], sq)
-        step(f"connected face {c}: loaded frame, unloaded frame (alone and with a frame_hole session) fitted; "
-             "single-face and squeeze loads evaluated")
+                fitted_on = sessions.calibration(flange, c, free_only=method == "unloaded_frame")
+            cal, warns = _calibrate_quiet(fitted_on, method.split("+")[0])
+            res.notes += [f"{method} (connected face {c}): {w}" for w in warns]
+            faces = tuple(f for f in FACES if f != c) if method.startswith("unloaded_frame") else None
+            single = simulate_calibration(flange, c, k=cfg.k_test, seed=cfg.seed + 303, faces=faces,
+                                          model=sessions.cube, t0=sessions.t0(6.3 * cfg.k_test))
+            res.per_connected[(method, c)] = (cal, evaluate(cal, single))
+            if c == c_main:
+                res.calibrations[method] = cal
+        # squeeze resultant RMSE with this connected face (papers' Figs 11, 12, 16, 19)
+        res.squeeze_per_connected[(method, c)] = evaluate(res.per_connected[(method, c)][0], sessions.squeeze(flange, c))
 
-    # ---------------------------------------------------------------- free grasp
-    run = simulate_free_grasp(k=cfg.k_grasp, seed=cfg.seed, model=cube, t0=t0(cfg.k_grasp))
+
+def _free_grasp(res: Results, sessions: _Sessions) -> None:
+    """A free grasp seen through each of :data:`GRASP_METHODS`: the equilibrium against the truth."""
+    cfg, cube = res.config, sessions.cube
+    run = simulate_free_grasp(k=cfg.k_grasp, seed=cfg.seed, model=cube, t0=sessions.t0(cfg.k_grasp))
     grasp_methods = {}
     for method in GRASP_METHODS:
         cal = res.calibrations[method]
@@ -267,13 +307,6 @@ def run_experiments(config: ReproductionConfig | None = None, progress=print) ->
     eq_true = equilibrium(run.face_wrenches, cube.core, run.mass, run.cog)
     m_ag = run.mass * np.linalg.norm(run.state.accel - run.state.gravity, axis=1)
     res.grasp = {"run": run, "methods": grasp_methods, "truth": eq_true, "m_a_minus_g": m_ag}
-    step(f"free grasp: {cfg.k_grasp} samples, mass {run.mass} kg, {len(run.scenario.names)} fingers")
-
-    # ---------------------------------------------------------------- contact-point test
-    res.touches = _touch_test(res, cube, cfg, t0)
-    step("contact-point test: " + ("done" if res.touches.get("available") else res.touches.get("reason", "skipped")))
-    res.timings = step.log
-    return res
 
 
 def _mount_faces(faces, c_main: int) -> tuple:

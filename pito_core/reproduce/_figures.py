@@ -40,13 +40,13 @@ _COLORS = {"face_to_face": "#d62728", "quasi_total": "#ff7f0e", "total": "#2ca02
 _PER_CONNECTED = ("loaded_frame", "unloaded_frame", "unloaded_frame+frame_hole")
 
 
-def _plt():
-    import matplotlib
+def _subplots(*grid, figsize, **kwargs):
+    """A new figure (no pyplot, no backend switch: nothing global changes) and its axes ``grid``."""
+    # deferred: matplotlib takes ~0.4 s to load and this module loads with `pito --help`
+    from matplotlib.figure import Figure
 
-    matplotlib.use("Agg", force=True)
-    import matplotlib.pyplot as plt
-
-    return plt
+    fig = Figure(figsize=figsize)
+    return fig, fig.subplots(*grid, **kwargs)
 
 
 def _write_csv(path, header, rows):
@@ -62,7 +62,6 @@ def _save(fig, path):
     fig.text(0.995, 0.005, "SIMULATED data — pito_core.sim default cube", ha="right", va="bottom", fontsize=7,
              color="0.4")
     fig.savefig(path, dpi=110)
-    _plt().close(fig)
 
 
 def write_figures(res: Results, out_dir) -> list[str]:
@@ -83,7 +82,6 @@ def _overall(ev, a0):
 
 
 def _model_choice(res, out):
-    plt = _plt()
     methods = [m for m in METHOD_ORDER if m in res.linear_evaluations]
     rows = []
     for m in methods:
@@ -93,7 +91,7 @@ def _model_choice(res, out):
     _write_csv(os.path.join(out, "model_choice.csv"), ["method", "model_chosen", "linear_force_rmse_N",
                                                        "chosen_force_rmse_N", "linear_torque_rmse_Nm",
                                                        "chosen_torque_rmse_Nm"], rows)
-    fig, axs = plt.subplots(1, 2, figsize=(11, 3.9))
+    fig, axs = _subplots(1, 2, figsize=(11, 3.9))
     x = np.arange(len(methods))
     for ax, (k, unit, what) in zip(axs, ((2, "N", "force"), (4, "N·m", "torque"))):
         ax.bar(x - 0.2, [r[k] for r in rows], 0.4, color="0.6", label="papers' linear fit")
@@ -109,9 +107,8 @@ def _model_choice(res, out):
 
 # ---------------------------------------------------------------------- identification
 def _identification(res, out, method="unloaded_frame"):
-    plt = _plt()
     tag = "" if method == "unloaded_frame" else f"_{method}"
-    fig, axs = plt.subplots(2, 1, figsize=(9, 6.5))
+    fig, axs = _subplots(2, 1, figsize=(9, 6.5))
     files = []
     for ax, kind, key, unit, thr in (
         (axs[0], "single", "force_norm", "N", 0.5),
@@ -157,7 +154,6 @@ def _identification_loaded(res, out):
 
 # ---------------------------------------------------------------------- comparison
 def _comparison(res, out):
-    plt = _plt()
     methods = ("face_to_face", "loaded_frame", "unloaded_frame")  # drawn in this order: best on top
     rows = []
     for m in methods:
@@ -169,7 +165,7 @@ def _comparison(res, out):
                + [f"pred_{a}" for a in _AXES], rows)
     files = ["comparison.csv"]
     for name, axes, unit in (("comparison_forces.png", (0, 1, 2), "N"), ("comparison_torques.png", (3, 4, 5), "N·m")):
-        fig, axs = plt.subplots(1, 3, figsize=(11, 3.9))
+        fig, axs = _subplots(1, 3, figsize=(11, 3.9))
         for ax, k in zip(axs, axes):
             lim = 0.0
             for m in methods:
@@ -203,7 +199,7 @@ def _force_torque_bars(path, x, series, width, *, ylabel, title, xlabel, xtickla
     as a group on ``x``; ``ylabel`` and ``title`` are formatted with ``what`` ("force" or
     "torque") and ``unit``.
     """
-    fig, axs = _plt().subplots(1, 2, figsize=figsize)
+    fig, axs = _subplots(1, 2, figsize=figsize)
     for j, (m, f, t) in enumerate(series):
         dx = (j - (len(series) - 1) / 2) * width
         axs[0].bar(x + dx, f, width, label=m, color=_COLORS[m])
@@ -278,11 +274,10 @@ def table1_rows(res):
 
 
 def _table1(res, out):
-    plt = _plt()
     rows = table1_rows(res)
     _write_csv(os.path.join(out, "table1_inverse_condition_numbers.csv"),
                ["connected_face", "loaded_frame_icn", "unloaded_frame_icn", "unloaded_frame_with_frame_hole_icn"], rows)
-    fig, ax = plt.subplots(figsize=(7, 3.8))
+    fig, ax = _subplots(figsize=(7, 3.8))
     x = np.arange(1, 7)
     ax.bar(x - 0.27, [r[1] for r in rows], 0.27, label="loaded_frame (36×36)", color=_COLORS["loaded_frame"])
     ax.bar(x, [max(r[2], 3.1e-5) for r in rows], 0.27, label="unloaded_frame alone (rank 30: ≈0, clipped)",
@@ -303,12 +298,11 @@ def _table1(res, out):
 
 # ---------------------------------------------------------------------- equilibrium
 def _equilibrium(res, out):
-    plt = _plt()
     g = res.grasp
     run = g["run"]
     t = run.time - run.time[0]
     step = max(1, t.size // 3000)
-    fig, axs = plt.subplots(2, 1, figsize=(9, 6), sharex=True)
+    fig, axs = _subplots(2, 1, figsize=(9, 6), sharex=True)
     axs[0].plot(t[::step], g["m_a_minus_g"][::step], "k-", lw=1.2, label="truth m‖a − g‖")
     axs[0].axhline(run.weight, color="0.5", ls="--", lw=0.9, label=f"weight m g = {run.weight:.2f} N")
     for m, eq in g["methods"].items():
@@ -351,7 +345,6 @@ def _contact(res, out):
     tc = res.touches
     if not tc.get("available"):
         return []
-    plt = _plt()
     pts = tc["points"]
     rows = [[src, int(r[0]) + 1, float(pts[int(r[0]), 0]), float(pts[int(r[0]), 1]), float(r[1]), float(r[2]), float(r[3]),
              float(r[4]), int(r[5])]
@@ -359,7 +352,7 @@ def _contact(res, out):
     _write_csv(os.path.join(out, "contact_points.csv"),
                ["sensor", "point", "target_x_m", "target_y_m", "est_mean_x_m", "est_mean_y_m", "rms_error_to_target_m",
                 "rms_error_to_placed_m", "samples"], rows)
-    fig, ax = plt.subplots(figsize=(5.2, 5.2))
+    fig, ax = _subplots(figsize=(5.2, 5.2))
     half = 0.023 * 1000
     ax.plot([-half, half, half, -half, -half], [-half, -half, half, half, -half], "k-", lw=0.8, label="46×46 mm patch")
     smp = tc["samples"]

@@ -40,6 +40,11 @@ def _squeeze_force(ev) -> float:
 
 def findings(res: Results) -> list[Finding]:
     """The qualitative findings, each with the numbers behind it."""
+    return _calibration_findings(res) + _grasp_findings(res) + _contact_findings(res)
+
+
+def _calibration_findings(res: Results) -> list[Finding]:
+    """Methods against each other: coupling, loaded vs unloaded frame, identification, conditioning."""
     ev = res.evaluations
     out = []
     f2f = _squeeze_force(ev["face_to_face"])
@@ -98,6 +103,12 @@ def findings(res: Results) -> list[Finding]:
         f"face-flange session alone (plain least squares) has rank 30 of 36: 1/cond ≤ {max(r[2] for r in t1):.1e}, "
         "so Table I's unloaded values rest on the net-load directions being measured (or on a prior)",
     ))
+    return out
+
+
+def _grasp_findings(res: Results) -> list[Finding]:
+    """The free grasp's equilibrium (Fig. 20), with the net load measured and without."""
+    out = []
     g = res.grasp
     run = g["run"]
     free = ~run.state.on_table & (np.arange(run.time.size) > 0)
@@ -128,6 +139,12 @@ def findings(res: Results) -> list[Finding]:
             + "".join(f"; {m} (frame flange, {res.grasp_net_load.get(m)}: its unfitted connected face is not touched "
                       f"in the air, so it still follows within {errs[m]:.3f} N)" for m in other),
         ))
+    return out
+
+
+def _contact_findings(res: Results) -> list[Finding]:
+    """The 8-point contact test (when it ran)."""
+    out = []
     tc = res.touches
     if tc.get("available"):
         cube, ref = tc["cube"], tc["reference"]
@@ -152,8 +169,16 @@ def _fmt(x, d=4):
 
 def write_summary(res: Results, out_dir, files: list[str], elapsed: float, quick: bool) -> str:
     """Write ``summary.md`` in ``out_dir``; returns its path."""
+    L = (_intro_lines(res, elapsed, quick) + _findings_lines(findings(res)) + _rmse_lines(res) + _table1_lines(res)
+         + _squeeze_and_grasp_lines(res) + _figure_lines(res, files) + _notes_lines(res))
+    path = os.path.join(out_dir, "summary.md")
+    with open(path, "w", encoding="utf-8") as f:
+        f.write("\n".join(L) + "\n")
+    return path
+
+
+def _intro_lines(res: Results, elapsed: float, quick: bool) -> list[str]:
     cfg = res.config
-    fs = findings(res)
     L = []
     L.append("# PITO: both papers' experiments, reproduced on the simulator — SIMULATED DATA")
     L.append("")
@@ -163,6 +188,11 @@ def write_summary(res: Results, out_dir, files: list[str], elapsed: float, quick
              f"{cfg.k_test} per face held out, {cfg.k_squeeze} per squeeze pair; connected face {cfg.connected_face}. "
              f"Generated in {elapsed:.0f} s.")
     L.append("")
+    return L
+
+
+def _findings_lines(fs: list[Finding]) -> list[str]:
+    L = []
     L.append("## Findings (checked automatically)")
     L.append("")
     L.append("| finding | holds | numbers |")
@@ -171,6 +201,11 @@ def write_summary(res: Results, out_dir, files: list[str], elapsed: float, quick
         cells = [x.replace("|", "\\|") for x in (f.text, f.detail)]  # Markdown table cells
         L.append(f"| {cells[0]} | {'**yes**' if f.holds else '**NO**'} | {cells[1]} |")
     L.append("")
+    return L
+
+
+def _rmse_lines(res: Results) -> list[str]:
+    L = []
     L.append("## RMSE per method (held-out data, SIMULATED)")
     L.append("")
     L.append("| method | mount (calibration) | force RMSE [N] | torque RMSE [N·m] | squeeze force RMSE [N] | "
@@ -184,6 +219,11 @@ def write_summary(res: Results, out_dir, files: list[str], elapsed: float, quick
                  f"{_fmt(sq_force)} | {_fmt(sq_torque)} | "
                  f"{res.calibrations[m].inverse_condition_number:.2e} |")
     L.append("")
+    return L
+
+
+def _table1_lines(res: Results) -> list[str]:
+    L = []
     L.append("## Table I: inverse condition numbers per connected face (SIMULATED)")
     L.append("")
     L.append("| connected face | loaded frame (36×36) | unloaded frame alone (36×36) | unloaded frame + frame_hole session (36×36) |")
@@ -195,9 +235,14 @@ def write_summary(res: Results, out_dir, files: list[str], elapsed: float, quick
              "loads span 30 of 36 dimensions. The default fit is the papers' plain least squares, so the unloaded "
              "frame fitted on its face-flange session alone leaves the 6 net-load directions unidentified "
              "(rank 30, 1/cond ≈ 0; `meta[\"net_load\"]` = \"not measured\"). Adding a frame_hole session to the "
-             "same fit measures them (full rank). The earlier versions' full-rank unloaded values came from a ridge "
-             "prior (each face's own-gauge fit), now the explicit option `prior=\"own_gauge\"`.")
+             "same fit measures them (full rank). A ridge prior (each face's own-gauge fit) gives full-rank unloaded "
+             "values too: the option `prior=\"own_gauge\"`.")
     L.append("")
+    return L
+
+
+def _squeeze_and_grasp_lines(res: Results) -> list[str]:
+    L = []
     L.append("## Squeeze resultant RMSE per connected face (SIMULATED; Figs 11, 12, 16, 19)")
     L.append("")
     L.append("| connected face | loaded frame [N] | unloaded frame [N] | unloaded frame + frame_hole [N] |")
@@ -214,6 +259,11 @@ def write_summary(res: Results, out_dir, files: list[str], elapsed: float, quick
     for m, words in res.grasp_net_load.items():
         L.append(f"| {m} | {words} |")
     L.append("")
+    return L
+
+
+def _figure_lines(res: Results, files: list[str]) -> list[str]:
+    L = []
     L.append("## Figures (SIMULATED)")
     L.append("")
     for name, (title, csvs) in FIGURES.items():
@@ -228,6 +278,11 @@ def write_summary(res: Results, out_dir, files: list[str], elapsed: float, quick
         L.append("")
         L.append(f"Data: {data}")
         L.append("")
+    return L
+
+
+def _notes_lines(res: Results) -> list[str]:
+    L = []
     L.append("## Notes")
     L.append("")
     L.append("- Equilibrium: every calibration is shown; only those whose net-load directions were measured "
@@ -241,7 +296,4 @@ def write_summary(res: Results, out_dir, files: list[str], elapsed: float, quick
     for n in res.notes:
         L.append(f"- {n}")
     L.append("- Progress log: " + "; ".join(f"{t:.1f} s {s}" for t, s in res.timings[-3:]))
-    path = os.path.join(out_dir, "summary.md")
-    with open(path, "w", encoding="utf-8") as f:
-        f.write("\n".join(L) + "\n")
-    return path
+    return L

@@ -247,8 +247,8 @@ class SimulatedNetFT:
         k_sim = 0 if self.epoch is None else int(np.ceil(clock.now() * self.rate_hz))  # sample of record 0
         clock.t0 += k_sim / (self.rate_hz * clock.speed) if not np.isinf(clock.speed) else 0.0
         dt = 1.0 / self.rate_hz
-        scale = np.array([self.cpf] * 3 + [self.cpt] * 3)
-        si = np.array([FORCE_UNITS[self.force_unit]] * 3 + [TORQUE_UNITS[self.torque_unit]] * 3)
+        scale = np.array([self.cpf] * 3 + [self.cpt] * 3)  # counts per force or torque unit
+        si = np.array([FORCE_UNITS[self.force_unit]] * 3 + [TORQUE_UNITS[self.torque_unit]] * 3)  # N or N·m per unit
         rate_shift = 0.0  # keeps the schedule continuous when the injected rate factor changes
         factor = self._rate_factor
         k = 0  # records sent in this stream; rdt_sequence restarts at 1 per stream
@@ -272,45 +272,59 @@ class SimulatedNetFT:
                     return
                 while time.monotonic() < self._hold_until and not stop.is_set():  # injected stall
                     time.sleep(0.002)
-                wrench = wrench_block[i : i + n]
-                with self._lock:
-                    self._last_wrench = wrench[-1]
-                    w = wrench - self._bias
-                rec = np.zeros(n, dtype=RDT_RECORD_DTYPE)
-                rec["rdt_seq"] = (idx + 1) % 2**32
-                rec["ft_seq"] = (idx * 7 + 1) % 2**32  # the box samples faster than it sends
-                rec["counts"] = np.clip(np.rint(w / si * scale), -(2**31), 2**31 - 1).astype(np.int64)
-                sat = self._rng.random(n) < self.saturation_rate
-                forced = self._take_fault("saturate", n)
-                if forced:
-                    sat[:forced] = True
-                if self.rated_load is not None:
-                    sat |= (np.abs(wrench) > self.rated_load).any(axis=1)
-                rec["status"] = np.where(sat, STATUS_SATURATION | STATUS_ERROR, 0)
-                seqs = rec["rdt_seq"].astype(np.int64).tolist()
-                if self._take_fault("garbage"):
-                    try:
-                        self._udp.sendto(b"\x00" * (RDT_RECORD_DTYPE.itemsize - 5), addr)
-                    except OSError:
-                        return
-                if self._rng.random() < self.loss_rate or self._take_fault("drop"):
-                    self.log["lost"].extend(seqs)
-                else:
-                    try:
-                        if self._held_packet is not None:  # reorder: this one first, the held one after
-                            self._udp.sendto(rec.tobytes(), addr)
-                            self._udp.sendto(self._held_packet, addr)
-                            self._held_packet = None
-                        elif self._take_fault("reorder"):
-                            self._held_packet = rec.tobytes()
-                        else:
-                            self._udp.sendto(rec.tobytes(), addr)
-                    except OSError:
-                        return
-                    self.log["sent"].extend(seqs)
-                    self.log["saturated"].extend(np.asarray(seqs)[sat].tolist())
+                rec, sat = self._records(idx, wrench_block[i : i + n], si, scale)
+                if not self._send(rec, sat, addr):
+                    return
                 k += n
         self.finished.set()
+
+    def _records(self, idx, wrench, si, scale):
+        """RDT records ``idx`` (0-based) carrying ``wrench (n, 6)`` (N, N·m, less the bias) in counts,
+        and which of them are flagged saturated (drawn, injected, or over the rated load); ``si`` (6,) N or
+        N·m per unit, ``scale`` (6,) counts per unit."""
+        n = idx.size
+        with self._lock:
+            self._last_wrench = wrench[-1]
+            w = wrench - self._bias
+        rec = np.zeros(n, dtype=RDT_RECORD_DTYPE)
+        rec["rdt_seq"] = (idx + 1) % 2**32
+        rec["ft_seq"] = (idx * 7 + 1) % 2**32  # the box samples faster than it sends
+        rec["counts"] = np.clip(np.rint(w / si * scale), -(2**31), 2**31 - 1).astype(np.int64)
+        sat = self._rng.random(n) < self.saturation_rate
+        forced = self._take_fault("saturate", n)
+        if forced:
+            sat[:forced] = True
+        if self.rated_load is not None:
+            sat |= (np.abs(wrench) > self.rated_load).any(axis=1)
+        rec["status"] = np.where(sat, STATUS_SATURATION | STATUS_ERROR, 0)
+        return rec, sat
+
+    def _send(self, rec, sat, addr) -> bool:
+        """Send one packet of records ``rec`` to ``addr`` with the injected faults (garbage, loss, reordering),
+        logging what was sent or lost; False if the socket is closed."""
+        seqs = rec["rdt_seq"].astype(np.int64).tolist()
+        if self._take_fault("garbage"):
+            try:
+                self._udp.sendto(b"\x00" * (RDT_RECORD_DTYPE.itemsize - 5), addr)
+            except OSError:
+                return False
+        if self._rng.random() < self.loss_rate or self._take_fault("drop"):
+            self.log["lost"].extend(seqs)
+            return True
+        try:
+            if self._held_packet is not None:  # reorder: this one first, the held one after
+                self._udp.sendto(rec.tobytes(), addr)
+                self._udp.sendto(self._held_packet, addr)
+                self._held_packet = None
+            elif self._take_fault("reorder"):
+                self._held_packet = rec.tobytes()
+            else:
+                self._udp.sendto(rec.tobytes(), addr)
+        except OSError:
+            return False
+        self.log["sent"].extend(seqs)
+        self.log["saturated"].extend(np.asarray(seqs)[sat].tolist())
+        return True
 
     def close(self) -> None:
         self._stop.set()

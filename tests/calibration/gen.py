@@ -15,6 +15,15 @@ from scipy.spatial.transform import Rotation
 
 FULL_SCALE = np.array([15.0, 15.0, 15.0, 0.1, 0.1, 0.1])
 
+#: method → the :func:`make_session` arguments of a session it can be fitted on (its mount)
+CASES = {
+    "face_to_face": dict(flange="frame_hole"),
+    "quasi_total": dict(flange="frame"),
+    "total": dict(flange="face"),
+    "loaded_frame": dict(flange="frame_hole"),
+    "unloaded_frame": dict(flange="face", free_only=True),
+}
+
 
 def true_sensitivity(seed=0, coupling=0.05, force_gain=2000.0, torque_gain=2e5):
     """``K (36, 36)`` counts per (N, N·m): well-conditioned blocks + inter-face coupling."""

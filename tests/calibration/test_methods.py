@@ -2,18 +2,10 @@
 
 import numpy as np
 import pytest
-from gen import make_session, true_sensitivity
+from gen import CASES, make_session, true_sensitivity
 
 from pito_core.calibration import METHODS, calibrate, evaluate, get_method
 from pito_core.frames import invert_pose, wrench_adjoint
-
-CASES = {
-    "face_to_face": dict(flange="frame_hole"),
-    "quasi_total": dict(flange="frame"),
-    "total": dict(flange="face"),
-    "loaded_frame": dict(flange="frame_hole"),
-    "unloaded_frame": dict(flange="face", free_only=True),
-}
 
 
 def test_table_covers_the_five_methods():

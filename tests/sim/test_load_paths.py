@@ -58,7 +58,8 @@ def test_frame_hole_connected_face_loaded_through_hole(c):
     W = _applied()
     F, W_tot, W_frame = face_wrenches_from_applied(W, "frame_hole", c, CORE)
     assert np.allclose(_to_core(F), W)
-    assert W_frame is not None
+    assert np.allclose(W_tot, W.sum(axis=1))
+    assert W_frame is not None and np.allclose(W_frame, W_tot)  # every load, the connected face's too, through the frame
 
 
 @pytest.mark.parametrize("c", [3, 5, 6])

@@ -1,0 +1,91 @@
+"""Calibration model choice on a later session: the default against the papers' linear fit.
+
+SIMULATED (``pito_core.sim.VirtualCube`` seed 0, with its temperature drift and frame
+hysteresis): each method is fitted on one session per connected face and scored on a
+LATER session of the same cube (other seed, one hour later: single-face loads, and
+squeeze loads of neighbouring faces in pairs), each tared on its own unloaded samples;
+truth = the simulated face wrenches. Reports, per method, the worst and median ratio of
+the default's held-out RMSE to the linear fit's (forces, torques; single-face, squeeze),
+and how many output groups (a face's forces or torques) took the correction.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from pito_core.calibration import calibrate
+from pito_core.sim import VirtualCube, simulate_calibration, simulate_squeeze
+
+from ._timing import run_worker
+
+__all__ = ["task_model_choice", "model_choice_ratios"]
+
+#: Flange each method is fitted with (``unloaded_frame``: its free faces only).
+FLANGE = {"face_to_face": "frame_hole", "quasi_total": "frame", "total": "face", "loaded_frame": "frame_hole",
+          "unloaded_frame": "face"}
+
+
+def _ratio(W, Wl, truth, mask, cols):
+    e, el = (W - truth)[mask][:, cols], (Wl - truth)[mask][:, cols]
+    return float(np.sqrt(np.mean(e**2) / np.mean(el**2)))
+
+
+def task_model_choice(k, faces, seed=1) -> dict:
+    """Held-out RMSE ratios default / linear per method (see the module docstring)."""
+    cube = VirtualCube(seed=0)
+    rows = []
+    for method, fl in FLANGE.items():
+        r = {key: [] for key in ("single_F", "single_T", "squeeze_F", "squeeze_T")}
+        groups, used = 0, 0
+        for face in faces:
+            loaded = tuple(f for f in range(1, 7) if f != face) if method == "unloaded_frame" else None
+            train = simulate_calibration(fl, face, k=k, seed=seed, model=cube, faces=loaded)
+            auto, lin = calibrate(train, method), calibrate(train, method, model="linear")
+            ra = auto.model.row_alpha or []
+            groups += len(auto.output_faces) * 2
+            used += sum(a is not None for a in ra) // 3
+            free = loaded or [f for f in range(1, 7) if not (fl == "frame" and f == face)]
+            pairs = [(free[i], free[(i + 1) % len(free)]) for i in range(len(free))]
+            later = {"single": simulate_calibration(fl, face, k=max(k // 2, 300), seed=seed + 100, model=cube,
+                                                    faces=loaded, t0=3600.0, return_truth=True),
+                     "squeeze": simulate_squeeze(fl, face, k=max(k // 4, 200), seed=seed + 200, pairs=pairs,
+                                                 model=cube, t0=3600.0, return_truth=True)}
+            for kind, (s, truth) in later.items():
+                rest = s.counts[~s.loaded.any(axis=1)]
+                W, Wl = auto.tare(rest).wrenches(s.counts), lin.tare(rest).wrenches(s.counts)
+                mask = s.loaded & auto.has_output[None]
+                r[kind + "_F"].append(_ratio(W, Wl, truth.face_wrenches, mask, slice(0, 3)))
+                r[kind + "_T"].append(_ratio(W, Wl, truth.face_wrenches, mask, slice(3, 6)))
+        row = {"method": method, "flange": fl, "faces": list(faces), "k_per_face": int(k), "groups": groups,
+               "groups_corrected": used}
+        for key, v in r.items():
+            row[key + "_worst"], row[key + "_median"] = float(np.max(v)), float(np.median(v))
+        rows.append(row)
+    return {"rows": rows}
+
+
+def model_choice_ratios(quick: bool = False, threads: int = 1, progress=print) -> dict:
+    """The section ``calibration.model_choice`` of ``pito bench`` (in a subprocess)."""
+    faces = [6, 2] if quick else [6, 2, 3, 1]
+    ks = [600] if quick else [600, 3000]
+    progress(f"calibration: model choice on a later session, {len(faces)} connected faces, k = {ks}")
+    rows = []
+    for k in ks:
+        rows += run_worker("cal_model_choice", {"k": k, "faces": faces}, threads=threads)["rows"]
+    return {"data": "SIMULATED: pito_core.sim.VirtualCube seed 0, trained on one session, scored on a later one",
+            "rows": rows}
+
+
+def model_choice_table(mc) -> tuple[str, list, list]:
+    """``(title, header, rows)`` of the section for the text report."""
+    def f(x):
+        return f"{x:.3f}"
+
+    rows = [[r["method"], f"{r['k_per_face']:,}", f"{r['groups_corrected']}/{r['groups']}",
+             f(r["single_F_worst"]), f(r["single_T_worst"]), f(r["squeeze_F_worst"]), f(r["squeeze_T_worst"]),
+             f(r["single_F_median"]), f(r["single_T_median"])] for r in mc["rows"]]
+    title = (f"Calibration model on a later session ({mc['data']}): default / papers' linear fit, held-out RMSE "
+             "ratio; groups = a face's forces or torques that took the correction")
+    header = ["method", "k per face", "groups corrected", "single F worst", "single T worst", "squeeze F worst",
+              "squeeze T worst", "single F median", "single T median"]
+    return title, header, rows
