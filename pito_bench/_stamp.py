@@ -94,7 +94,7 @@ class WindowProbe:
             out = _orig(*a, **k)
             t = getattr(fp, "last_time", None)
             if t is None:
-                d = fp.buffer.data()
+                d = fp.buffer.view()
                 t = float(d[-1, 0]) if d.shape[0] else None
             if t is not None and np.isfinite(t):
                 self.rect.setBrush(QBrush(QColor(*encode(t))))

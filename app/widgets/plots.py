@@ -19,9 +19,11 @@ import numpy as np
 import pyqtgraph as pg
 from PySide6.QtWidgets import QVBoxLayout, QWidget
 
+from pito_core.devices import Ring
+
 from ..palette import FACE_COLORS
 
-__all__ = ["RingBuffer", "TimeRing", "FaceForcePlot", "EquilibriumPlot", "minmax_decimate", "break_gaps", "GAP", "legend_html"]
+__all__ = ["TimeRing", "FaceForcePlot", "EquilibriumPlot", "minmax_decimate", "break_gaps", "GAP", "legend_html"]
 
 #: s: a stretch without samples longer than this is a break in the curves (not a line across it)
 GAP = 0.5
@@ -38,69 +40,41 @@ def _plot_widget(parent=None) -> pg.PlotWidget:
     return w
 
 
-class RingBuffer:
-    """A fixed-size ring of rows whose newest ``capacity`` rows are always one contiguous view.
+class TimeRing:
+    """The last ``capacity`` rows ``[t, y1, …]`` (column 0: time, s), kept in time order, on a :class:`Ring`.
 
-    Each row is written twice (at ``i`` and ``i + capacity`` of a ``2 × capacity`` array), so
-    :meth:`view` returns the rows oldest first without copying; ``append`` is O(rows).
+    Rows older than the newest kept one start a new timeline: the ring is cleared first (a
+    replay looped or seeked, or the source changed), so its times always increase. The rows
+    live in one contiguous :class:`~pito_core.devices.Ring` (field ``rows``), so
+    :meth:`view` hands them out without copying.
 
     Parameters
     ----------
     capacity : int
-        Rows kept.
+        Rows kept (>= 1).
     width : int
-        Columns per row.
+        Columns per row (the time and ``width - 1`` values).
+
+    Attributes
+    ----------
+    written : int
+        Rows appended plus clears since the ring was made: changes with every append and
+        every clear (a refresh draws only when it changed).
     """
 
     def __init__(self, capacity: int, width: int):
-        self.capacity = int(capacity)
-        self._buf = np.full((2 * self.capacity, width), np.nan)
-        self._n = 0  # rows written in all
-
-    def append(self, rows) -> None:
-        rows = np.atleast_2d(np.asarray(rows, dtype=float))
-        if rows.shape[0] >= self.capacity:
-            rows = rows[-self.capacity :]
-        m = rows.shape[0]
-        if m == 0:
-            return
-        cap = self.capacity
-        start = self._n % cap
-        first = min(m, cap - start)
-        for off in (0, cap):
-            self._buf[off + start : off + start + first] = rows[:first]
-        rest = m - first
-        if rest:
-            self._buf[:rest] = rows[first:]
-            self._buf[cap : cap + rest] = rows[first:]
-        self._n += m
+        self.ring = Ring(int(capacity), {"rows": (np.float64, (int(width),))}, contiguous=True)
+        self.written = 0
 
     def __len__(self) -> int:
-        return min(self._n, self.capacity)
+        return len(self.ring)
 
-    def clear(self) -> None:
-        self._n = 0
-        self._buf[:] = np.nan
-
-    def view(self) -> np.ndarray:
-        """``(len, width)`` rows, oldest first: a view into the ring (valid until the next append)."""
-        n = len(self)
-        end = self._n % self.capacity + self.capacity if self._n >= self.capacity else self._n
-        return self._buf[end - n : end]
-
-    def data(self) -> np.ndarray:
-        """``(len, width)`` rows, oldest first (a copy)."""
-        return self.view().copy()
-
-
-class TimeRing(RingBuffer):
-    """A :class:`RingBuffer` of rows ``[t, …]`` (column 0: time, s) kept in time order.
-
-    Rows older than the newest kept one start a new timeline: the ring is cleared first (a
-    replay looped or seeked, or the source changed), so its times always increase.
-    """
+    @property
+    def capacity(self) -> int:
+        return self.ring.capacity
 
     def append(self, rows) -> None:
+        """Append rows ``(n, width)`` (or one row ``(width,)``), times in column 0, s."""
         rows = np.atleast_2d(np.asarray(rows, dtype=float))
         if rows.shape[0] == 0:
             return
@@ -108,20 +82,18 @@ class TimeRing(RingBuffer):
         if back.size:  # back in time within the rows: the last run is the new timeline
             rows = rows[int(back[-1]) + 1:]
             self.clear()
-        elif len(self) and rows[0, 0] < self._buf[(self._n - 1) % self.capacity, 0]:
+        elif len(self.ring) and rows[0, 0] < self.ring.last(1, copy=False)["rows"][0, 0]:
             self.clear()
-        super().append(rows)
-
-    @property
-    def written(self) -> int:
-        """Rows written since the ring was made (changes with every append, a clear included)."""
-        return self._n + self._clears
-
-    _clears = 0
+        self.ring.append(rows=rows)
+        self.written += rows.shape[0]
 
     def clear(self) -> None:
-        super().clear()
-        self._clears += 1
+        self.ring.clear()
+        self.written += 1
+
+    def view(self) -> np.ndarray:
+        """``(len, width)`` rows, oldest first: a view into the ring (valid until the next append)."""
+        return self.ring.last(copy=False)["rows"]
 
 
 def break_gaps(t, y, gap: float = GAP):

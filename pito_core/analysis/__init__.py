@@ -22,9 +22,9 @@ from ._segment import PHASES, AnalysisSettings, Trial, contact_runs, segment_tri
 
 #: Names loaded on first use → their module.
 _LAZY = {
-    "GraspAnalysis": "_analyze", "analyze_contacts": "_analyze", "analyze_recording": "_analyze",
-    "recording_contacts": "_analyze", "require_pandas": "_analyze",
-    "ContactArrays": "_series", "GraspSeries": "_series", "grasp_series": "_series", "smooth_paths": "_series",
+    "GraspAnalysis": "_analyze", "analyze_contacts": "_analyze", "analyze_data": "_analyze",
+    "analyze_recording": "_analyze", "recording_contacts": "_analyze", "require_pandas": "_analyze",
+    "GraspSeries": "_series", "check_contacts": "_series", "grasp_series": "_series", "smooth_paths": "_series",
     "save_trial_figures": "_figures", "trial_figure": "_figures",
     "analyze_to_dir": "_output", "atomic_dir": "_output", "export_to_dir": "_output", "output_dir": "_output",
     "write_analysis": "_output", "peak_rss_mib": "_output", "cpu_seconds": "_output",

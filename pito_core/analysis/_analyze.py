@@ -1,4 +1,4 @@
-"""One recording (or one set of contact arrays) → :class:`GraspAnalysis`: trials, tidy tables, series.
+"""One recording (or one run of contacts) → :class:`GraspAnalysis`: trials, tidy tables, series.
 
 pandas is an optional dependency (``pip install "pito[analysis]"``): the tables need it,
 :func:`analyze_contacts` raises :class:`ImportError` saying so when it is missing.
@@ -10,18 +10,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..interop import recording_calibration
-from ..io import read_recording
-from ..pipeline import replay_recording
+from ..contact import ContactEstimate
+from ..interop import ExportData, export_data
 from ._metrics import PATCH_COLUMNS, PHASE_COLUMNS, phase_rows
 from ._optional import require
 from ._segment import PHASES, AnalysisSettings, trials_from_contacts
-from ._series import ContactArrays, GraspSeries, grasp_series
+from ._series import GraspSeries, grasp_series
 
-__all__ = ["GraspAnalysis", "analyze_contacts", "analyze_recording", "recording_contacts", "require_pandas"]
-
-#: Samples per block when the contacts of a recording are solved (bounds the memory).
-BLOCK = 20_000
+__all__ = ["GraspAnalysis", "analyze_contacts", "analyze_data", "analyze_recording", "recording_contacts",
+           "require_pandas"]
 
 
 def require_pandas():
@@ -72,14 +69,18 @@ def _tables(phase_list, patch_list, simulated: bool):
     return phases, patches
 
 
-def analyze_contacts(contacts: ContactArrays, settings: AnalysisSettings | None = None, *, cog=(0.0, 0.0, 0.0),
-                     mass: float | None = None, meta: dict | None = None) -> GraspAnalysis:
-    """Trials, phases and metrics of contact arrays (any source: a recording, a simulation, by hand).
+def analyze_contacts(time, contacts: ContactEstimate, settings: AnalysisSettings | None = None, *,
+                     cog=(0.0, 0.0, 0.0), mass: float | None = None, meta: dict | None = None) -> GraspAnalysis:
+    """Trials, phases and metrics of a run of contacts (any source: a recording, a simulation, by hand).
 
     Parameters
     ----------
-    contacts : ContactArrays
-        Core frame; see :class:`ContactArrays` for shapes and units.
+    time : array-like, shape (N,)
+        Sample times, s, strictly increasing.
+    contacts : ContactEstimate
+        Core frame, fields ``(N, 6, …)`` (face i at index ``i − 1``), as
+        :meth:`~pito_core.pipeline.Pipeline.contacts` gives them; shapes and units in
+        :func:`~pito_core.analysis.check_contacts`.
     settings : AnalysisSettings, optional
     cog : array-like, shape (3,)
         Centre of mass of the object, core frame, m (moments of the residual).
@@ -90,7 +91,7 @@ def analyze_contacts(contacts: ContactArrays, settings: AnalysisSettings | None 
     """
     s = settings or AnalysisSettings()
     mass = s.mass if s.mass is not None else mass
-    g = grasp_series(contacts, s, cog)
+    g = grasp_series(time, contacts, s, cog)
     trials = trials_from_contacts(g.time, g.on, s)
     phase_list, patch_list = phase_rows(g, trials, s, mass)
     meta = dict(meta or {})
@@ -100,47 +101,53 @@ def analyze_contacts(contacts: ContactArrays, settings: AnalysisSettings | None 
     return GraspAnalysis(phases, patches, trials, g, s, meta)
 
 
+def _data_contacts(data: ExportData, source):
+    """``(time, contacts, meta)`` of a recording run through the pipeline (see :func:`recording_contacts`)."""
+    if data.calibration is None:
+        raise ValueError(f"calibration: {source} has none embedded; give one (--calibration FILE)")
+    obj = data.assembly or {}
+    mass = data.meta.get("mass_kg") or obj.get("mass_kg")
+    cog = data.meta.get("cog_m") or obj.get("center_of_gravity_m")
+    meta = {"source": str(source), "simulated": data.simulated, "note": data.note, "assembly": obj.get("name"),
+            "mass_kg": mass, "cog_m": None if cog is None else np.asarray(cog, float).tolist()}
+    return data.time, data.contacts, meta
+
+
 def recording_contacts(path, calibration=None, assembly=None, *, calibration_source=None, recover=False,
                        progress=None):
-    """A recording's contacts through the one pipeline (:func:`~pito_core.pipeline.replay_recording`).
+    """A recording's contacts through the one pipeline: the contacts of :func:`~pito_core.interop.export_data`.
 
-    Returns ``(ContactArrays, meta)``: ``meta`` has ``source``, ``simulated``, ``note`` (which
-    calibration), ``assembly``, ``mass_kg`` and ``cog_m`` (from the recording or its assembly).
+    Returns ``(time (N,) s, ContactEstimate (N, 6, …), meta)``: ``meta`` has ``source``,
+    ``simulated``, ``note`` (which calibration), ``assembly``, ``mass_kg`` and ``cog_m`` (from
+    the recording or its assembly). ``progress(fraction, text)`` as for ``export_data``.
     Raises ValueError when neither the recording nor the caller gives a calibration.
     """
-    rec = read_recording(path, recover=recover)
-    cal, note = recording_calibration(rec.meta, calibration, calibration_source)
-    if cal is None:
-        raise ValueError(f"calibration: {path} has none embedded; give one (--calibration FILE)")
-    if assembly is None:
-        assembly = (rec.meta.get("assembly") or {}).get("name") or "cube"
-    bundle, pipe = replay_recording(rec, cal, assembly)
-    W = np.asarray(bundle.face_wrenches, float)
-    parts = []
-    for a in range(0, len(W), BLOCK):
-        parts.append(pipe.contacts(W[a:a + BLOCK]))
-        if progress is not None:
-            progress(min(1.0, (a + BLOCK) / max(len(W), 1)), "contacts")
-    cat = {k: np.concatenate([getattr(p, k) for p in parts]) if parts else np.zeros((0, 6, 3))
-           for k in ("point", "normal", "force")}
-    flags = [getattr(p, "single_contact", None) for p in parts]
-    single = np.concatenate(flags) if parts and all(f is not None for f in flags) else None
-    contacts = ContactArrays(np.asarray(bundle.time, float) - (bundle.time[0] if len(bundle.time) else 0.0),
-                             cat["point"], cat["normal"], cat["force"],
-                             np.concatenate([p.torsion for p in parts]) if parts else np.zeros((0, 6)),
-                             np.concatenate([p.valid for p in parts]) if parts else np.zeros((0, 6), bool), single)
-    obj = pipe.assembly
-    mass = rec.meta.get("mass_kg") or getattr(obj, "mass", None)
-    cog = rec.meta.get("cog_m") or getattr(obj, "center_of_gravity", None)
-    meta = {"source": str(path), "simulated": rec.simulated, "note": note, "assembly": getattr(obj, "name", assembly),
-            "mass_kg": mass, "cog_m": None if cog is None else np.asarray(cog, float).tolist()}
-    return contacts, meta
+    data = export_data(path, calibration, assembly, calibration_source=calibration_source, progress=progress,
+                       recover=recover)
+    return _data_contacts(data, path)
 
 
 def analyze_recording(path, calibration=None, assembly=None, settings: AnalysisSettings | None = None, *,
                       calibration_source=None, recover=False, progress=None) -> GraspAnalysis:
-    """:func:`analyze_contacts` of a recording's contacts (:func:`recording_contacts`)."""
-    contacts, meta = recording_contacts(path, calibration, assembly, calibration_source=calibration_source,
-                                        recover=recover, progress=progress)
+    """:func:`analyze_contacts` of a recording's contacts (:func:`recording_contacts`).
+
+    The pipeline's other outputs (counts, wrenches) are freed before the analysis starts;
+    :func:`analyze_data` analyses an :class:`~pito_core.interop.ExportData` kept for an export.
+    """
+    time, contacts, meta = recording_contacts(path, calibration, assembly, calibration_source=calibration_source,
+                                              recover=recover, progress=progress)
+    return _analyze(time, contacts, meta, settings)
+
+
+def analyze_data(data: ExportData, settings: AnalysisSettings | None = None, *,
+                 source: str = "the recording") -> GraspAnalysis:
+    """:func:`analyze_contacts` of a recording run through the pipeline (:func:`~pito_core.interop.export_data`).
+
+    ``source`` (its path) names it in ``meta`` and in errors.
+    """
+    return _analyze(*_data_contacts(data, source), settings)
+
+
+def _analyze(time, contacts, meta, settings) -> GraspAnalysis:
     cog = meta["cog_m"] if meta["cog_m"] is not None else (0.0, 0.0, 0.0)
-    return analyze_contacts(contacts, settings, cog=cog, mass=meta["mass_kg"], meta=meta)
+    return analyze_contacts(time, contacts, settings, cog=cog, mass=meta["mass_kg"], meta=meta)

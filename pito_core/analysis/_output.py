@@ -20,7 +20,7 @@ from pathlib import Path
 
 from ..calibration import load_calibration
 from ..interop import append_grasp_phases, export_data, write_mcap, write_nwb
-from ._analyze import GraspAnalysis, analyze_recording
+from ._analyze import GraspAnalysis, analyze_data, analyze_recording
 from ._figures import save_trial_figures
 from ._metrics import PATCH_COLUMNS, PHASE_COLUMNS
 from ._segment import AnalysisSettings
@@ -122,14 +122,18 @@ def analyze_to_dir(recording, out_root, *, calibration=None, assembly=None, sett
     t0, c0 = time.perf_counter(), cpu_seconds()
     cal = _load_calibration(calibration)
     source = str(calibration) if isinstance(calibration, (str, os.PathLike)) else None
-    analysis = analyze_recording(recording, cal, assembly, settings, calibration_source=source)
+    if nwb:  # one pipeline run for the analysis and the NWB export
+        data = export_data(recording, cal, assembly, calibration_source=source)
+        analysis = analyze_data(data, settings, source=recording)
+    else:
+        analysis = analyze_recording(recording, cal, assembly, settings, calibration_source=source)
     if overwrite and target.exists():
         shutil.rmtree(target)
     out = atomic_dir(target)
     with out as tmp:
         write_analysis(analysis, tmp, figures=figures)
         if nwb:
-            _write_nwb(recording, cal, assembly, source, analysis, tmp / f"{target.name}.nwb")
+            _write_nwb(data, analysis, tmp / f"{target.name}.nwb")
     return {"recording": str(recording), "status": "done (by another task)" if out.finished_by_other else "done", "out": str(target), "samples": analysis.meta["n_samples"],
             "trials": len(analysis.trials), "seconds": time.perf_counter() - t0, "simulated": analysis.simulated,
             "cpu_seconds": cpu_seconds() - c0, "max_rss_MiB": peak_rss_mib()}
@@ -146,9 +150,8 @@ def peak_rss_mib() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
-def _write_nwb(recording, cal, assembly, source, analysis, path) -> None:
-    """The recording's NWB export plus its ``grasp_phases`` intervals table."""
-    data = export_data(recording, cal, assembly, calibration_source=source)
+def _write_nwb(data, analysis, path) -> None:
+    """The NWB export of ``data`` (:func:`~pito_core.interop.export_data`) plus its ``grasp_phases`` intervals table."""
     write_nwb(data, path)
     append_grasp_phases(path, analysis.phases, PHASE_COLUMNS)
 

@@ -1,58 +1,70 @@
-"""Per-sample grasp series of a whole recording: the input of the phase metrics and figures."""
+"""Per-sample grasp series of a whole recording: the input of the phase metrics and figures.
+
+Their input is the pipeline's own contact record, a core-frame
+:class:`~pito_core.contact.ContactEstimate` of ``(N, 6, …)`` fields, beside its sample times.
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.signal import butter, sosfiltfilt
 
+from ..contact import ContactEstimate
 from ._grasp import grasp_decomposition, net_wrench, normal_tangential
 from ._segment import AnalysisSettings, contact_runs
 
-__all__ = ["ContactArrays", "GraspSeries", "grasp_series", "smooth_paths"]
+__all__ = ["GraspSeries", "check_contacts", "grasp_series", "smooth_paths"]
 
 
-@dataclass
-class ContactArrays:
-    """Contacts of a recording, core frame (face i at index ``i − 1``).
+def check_contacts(time, contacts: ContactEstimate) -> tuple[np.ndarray, ContactEstimate]:
+    """``(time, contacts)`` checked for the analysis: N increasing times and N samples of six faces.
 
-    Attributes
+    Parameters
     ----------
-    time : ndarray, shape (N,)
-        s.
-    point, normal, force : ndarray, shape (N, 6, 3)
-        Contact point (m, NaN where none), outward unit normal, force on the object (N).
-    torsion : ndarray, shape (N, 6)
-        N·m.
-    valid : ndarray of bool, shape (N, 6)
-    single_contact : ndarray of bool, shape (N, 6), or None
-        The contact's plausibility flag (a single contact explains the face wrench); None
-        when the contacts carry none (the phases' ``plausible`` is then unknown).
+    time : array-like, shape (N,)
+        Sample times, s, strictly increasing.
+    contacts : ContactEstimate
+        Core frame (``frame == "core"``), face i at index ``i − 1``: ``point``, ``normal``,
+        ``force`` (N, 6, 3) (m, unit, N), ``torsion`` (N, 6) N·m, ``valid`` (N, 6); its
+        ``single_contact`` (N, 6) or None (the phases' ``plausible`` is then unknown).
+
+    Returns
+    -------
+    time : ndarray of float, shape (N,)
+    contacts : ContactEstimate
+        The same record, with those fields as float (``valid``, ``single_contact``: bool)
+        arrays (not copied when they already are).
+
+    Raises
+    ------
+    ValueError
+        A field of another shape, a frame other than ``"core"``, or times not increasing
+        (the error names the field).
     """
-
-    time: np.ndarray
-    point: np.ndarray
-    normal: np.ndarray
-    force: np.ndarray
-    torsion: np.ndarray
-    valid: np.ndarray
-    single_contact: np.ndarray | None = None
-
-    def __post_init__(self):
-        n = np.asarray(self.time).shape[0]
-        for name, shape in (("point", (n, 6, 3)), ("normal", (n, 6, 3)), ("force", (n, 6, 3)), ("torsion", (n, 6)),
-                            ("valid", (n, 6)), ("single_contact", (n, 6))):
-            v = getattr(self, name)
-            if v is None:
-                continue
-            v = np.asarray(v, bool if name in ("valid", "single_contact") else float)
-            if v.shape != shape:
-                raise ValueError(f"{name}: expected shape {shape}, got {v.shape}")
-            setattr(self, name, v)
-        self.time = np.asarray(self.time, float)
-        if n > 1 and not (np.diff(self.time) > 0).all():
-            raise ValueError("time: expected strictly increasing sample times, s")
+    if not isinstance(contacts, ContactEstimate):
+        raise TypeError(f"contacts: expected a ContactEstimate, got {type(contacts).__name__}")
+    if contacts.frame != "core":
+        raise ValueError(f"contacts.frame: expected 'core' (six faces per sample, e.g. Pipeline.contacts), "
+                         f"got {contacts.frame!r}")
+    time = np.asarray(time, float)
+    if time.ndim != 1:
+        raise ValueError(f"time: expected shape (N,), got {time.shape}")
+    n = time.shape[0]
+    checked = {}
+    for name, shape in (("point", (n, 6, 3)), ("normal", (n, 6, 3)), ("force", (n, 6, 3)), ("torsion", (n, 6)),
+                        ("valid", (n, 6)), ("single_contact", (n, 6))):
+        v = getattr(contacts, name)
+        if v is None and name == "single_contact":
+            continue
+        v = np.asarray(v, bool if name in ("valid", "single_contact") else float)
+        if v.shape != shape:
+            raise ValueError(f"contacts.{name}: expected shape {shape}, got {v.shape}")
+        checked[name] = v
+    if n > 1 and not (np.diff(time) > 0).all():
+        raise ValueError("time: expected strictly increasing sample times, s")
+    return time, replace(contacts, **checked)
 
 
 @dataclass
@@ -97,13 +109,14 @@ def smooth_paths(time, point, on, cutoff: float) -> np.ndarray:
     return out
 
 
-def grasp_series(c: ContactArrays, settings: AnalysisSettings, cog=(0.0, 0.0, 0.0)) -> GraspSeries:
-    """The per-sample quantities of contacts ``c`` (see :class:`GraspSeries`)."""
+def grasp_series(time, contacts: ContactEstimate, settings: AnalysisSettings, cog=(0.0, 0.0, 0.0)) -> GraspSeries:
+    """The per-sample quantities (:class:`GraspSeries`) of ``contacts`` at ``time`` s (:func:`check_contacts`)."""
+    time, c = check_contacts(time, contacts)
     f_n, _ = normal_tangential(c.force, c.normal, c.valid)
-    on = np.stack([contact_runs(c.valid[:, i] & (f_n[:, i] > settings.contact_force), c.time, settings.min_contact)
+    on = np.stack([contact_runs(c.valid[:, i] & (f_n[:, i] > settings.contact_force), time, settings.min_contact)
                    for i in range(6)], axis=1) & c.valid
     f_n, f_t = normal_tangential(c.force, c.normal, on)
     f_manip, f_int = grasp_decomposition(c.point, c.force, on, cog)
     F, M = net_wrench(c.point, c.force, c.torsion, c.normal, on, cog)
-    path = smooth_paths(c.time, c.point, on, settings.path_cutoff)
-    return GraspSeries(c.time, on, f_n, f_t, f_manip, f_int, F, M, path, c.single_contact)
+    path = smooth_paths(time, c.point, on, settings.path_cutoff)
+    return GraspSeries(time, on, f_n, f_t, f_manip, f_int, F, M, path, c.single_contact)

@@ -4,16 +4,20 @@ Object upside down on the table on face 5 (gravity +z of the core frame), finger
 and 4 (the simulator uses 5 → 6, 1 and 3), 500 Hz with jittered sample times.
 """
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
-from pito_core.analysis import AnalysisSettings, ContactArrays, analyze_contacts, segment_trials, trial_figure
+from pito_core.analysis import AnalysisSettings, analyze_contacts, grasp_series, segment_trials, trial_figure
+from pito_core.contact import ContactEstimate
 
 H = 0.028  # contact plane, m from the core centre
 MASS = 3.0 / 9.81  # kg: the fingers carry 3 N
 
 
 def hand_made(flag=True, rng_seed=0):
+    """``(time (n,) s, ContactEstimate (n, 6, …) core frame)``."""
     rng = np.random.default_rng(rng_seed)
     t = np.arange(0, 4.0, 0.002) + rng.uniform(0, 5e-4, 2000)
     n = t.size
@@ -38,15 +42,16 @@ def hand_made(flag=True, rng_seed=0):
     valid[:, 4] = base
     single = np.ones((n, 6), bool)
     single[(t >= 1.8) & (t < 2.1), 3] = False  # face 4: two fingers for 0.3 s of the hold
-    return ContactArrays(t, point, normal, force, np.zeros((n, 6)), valid, single if flag else None)
+    return t, ContactEstimate(point, normal, force, np.zeros((n, 6)), valid, single_contact=single if flag else None,
+                              frame="core")
 
 
 SETTINGS = AnalysisSettings(base_face=5, lift_phase=0.3, replace_phase=0.3)
 
 
 def test_phases_and_metrics_are_the_analytic_values():
-    c = hand_made()
-    a = analyze_contacts(c, SETTINGS, mass=MASS)
+    time, c = hand_made()
+    a = analyze_contacts(time, c, SETTINGS, mass=MASS)
     (tr,) = a.trials
     dt = 0.0025
     assert tr.start == pytest.approx(0.4, abs=dt) and tr.stop == pytest.approx(3.5, abs=dt)
@@ -58,8 +63,8 @@ def test_phases_and_metrics_are_the_analytic_values():
     assert hold["grip_force_N"] == pytest.approx(6.0) and hold["load_force_N"] == pytest.approx(3.0)
     assert hold["grip_load_ratio"] == pytest.approx(2.0) and hold["support_force_N"] == 0
     # internal: the squeeze's component along the line between the fingertips (the slide tilts it by θ)
-    m = (c.time >= 1.3) & (c.time < 2.7)
-    cos = 2 * H / np.hypot(np.clip((c.time[m] - 1.5) / 1.0, 0, 1) * 0.006, 2 * H)
+    m = (time >= 1.3) & (time < 2.7)
+    cos = 2 * H / np.hypot(np.clip((time[m] - 1.5) / 1.0, 0, 1) * 0.006, 2 * H)
     assert hold["internal_force_N"] == pytest.approx(np.mean(2 * 3.0 * cos), rel=1e-3)
     assert hold["manipulation_force_N"] == pytest.approx(np.mean(2 * np.hypot(1.5, 3.0 * np.sqrt(1 - cos**2))),
                                                          rel=1e-3)
@@ -79,7 +84,7 @@ def test_phases_and_metrics_are_the_analytic_values():
 
 
 def test_a_phase_with_other_than_single_contacts_is_marked_not_averaged_in():
-    a = analyze_contacts(hand_made(), SETTINGS, mass=MASS)
+    a = analyze_contacts(*hand_made(), SETTINGS, mass=MASS)
     ph = a.phases.set_index("phase")
     assert ph.loc["hold", "plausible"] == False  # noqa: E712 (nullable boolean)
     assert ph.loc["hold", "single_contact_frac"] == pytest.approx(1 - 0.3 / 1.4, abs=0.01)
@@ -88,7 +93,7 @@ def test_a_phase_with_other_than_single_contacts_is_marked_not_averaged_in():
     assert p.loc[4, "plausible"] == False and p.loc[2, "plausible"] == True  # noqa: E712
     fig = trial_figure(a, a.trials[0])
     assert "not single contacts" in fig._suptitle.get_text() and "hold" in fig._suptitle.get_text()
-    unflagged = analyze_contacts(hand_made(flag=False), SETTINGS, mass=MASS)
+    unflagged = analyze_contacts(*hand_made(flag=False), SETTINGS, mass=MASS)
     assert unflagged.phases["plausible"].isna().all() and unflagged.phases["single_contact_frac"].isna().all()
     assert "not single" not in trial_figure(unflagged, unflagged.trials[0])._suptitle.get_text()
 
@@ -115,9 +120,26 @@ def test_settings_name_the_bad_field(field, value):
         AnalysisSettings(**{field: value})
 
 
-def test_contact_arrays_name_the_bad_field():
-    c = hand_made()
-    with pytest.raises(ValueError, match="force: expected shape"):
-        ContactArrays(c.time, c.point, c.normal, c.force[:, :5], c.torsion, c.valid)
+def test_bad_contacts_name_the_field():
+    time, c = hand_made()
+    with pytest.raises(ValueError, match="contacts.force: expected shape"):
+        analyze_contacts(time, replace(c, force=c.force[:, :5]), SETTINGS)
+    with pytest.raises(ValueError, match="contacts.single_contact: expected shape"):
+        grasp_series(time, replace(c, single_contact=c.single_contact[1:]), SETTINGS)
     with pytest.raises(ValueError, match="time: expected strictly increasing"):
-        ContactArrays(c.time[::-1], c.point, c.normal, c.force, c.torsion, c.valid)
+        analyze_contacts(time[::-1], c, SETTINGS)
+    with pytest.raises(ValueError, match="contacts.frame: expected 'core'"):  # one patch's face-frame contacts
+        analyze_contacts(time, replace(c, frame="face"), SETTINGS)
+    with pytest.raises(TypeError, match="contacts: expected a ContactEstimate"):
+        analyze_contacts(time, {"point": c.point}, SETTINGS)
+
+
+def test_contacts_in_other_dtypes_give_the_same_tables():
+    # int forces and 0/1 validity (e.g. read back from a table) are cast, not rejected; the record is not modified
+    time, c = hand_made()
+    ints = replace(c, force=np.round(c.force).astype(np.int64), valid=c.valid.astype(np.uint8),
+                   single_contact=c.single_contact.astype(np.int8))
+    floats = replace(c, force=np.round(c.force))
+    a, b = analyze_contacts(time, ints, SETTINGS, mass=MASS), analyze_contacts(time, floats, SETTINGS, mass=MASS)
+    assert ints.force.dtype == np.int64 and ints.valid.dtype == np.uint8
+    assert a.phases.equals(b.phases) and a.patches.equals(b.patches) and len(a.trials) == 1

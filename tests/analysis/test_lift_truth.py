@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from pito_core.analysis import ContactArrays, analyze_contacts, analyze_recording
+from pito_core.analysis import analyze_contacts, analyze_recording
+from pito_core.contact import ContactEstimate
 
 #: Largest |error| allowed per metric (units of the column): the solver's noise on the simulated cube.
 PHASE_TOL = {"start_s": 0.005, "stop_s": 0.005, "duration_s": 0.005, "grip_force_N": 0.05, "load_force_N": 0.05,
@@ -18,9 +19,9 @@ PATCH_TOL = {"onset_s": 0.005, "contact_frac": 0.005, "normal_force_N": 0.03, "t
 def analysed(lift_recording):
     path, task, truth = lift_recording
     a = analyze_recording(path)
-    c = ContactArrays(truth.time, truth.point, truth.normal, truth.force, truth.torsion, truth.valid,
-                      np.ones(truth.valid.shape, bool))
-    b = analyze_contacts(c, cog=task.cog, mass=task.mass)
+    c = ContactEstimate(truth.point, truth.normal, truth.force, truth.torsion, truth.valid,
+                        single_contact=np.ones(truth.valid.shape, bool), frame="core")
+    b = analyze_contacts(truth.time, c, cog=task.cog, mass=task.mass)
     return a, b, task
 
 

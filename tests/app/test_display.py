@@ -67,9 +67,9 @@ def test_camera_holds_full_scale_arrows(scene):
 
 
 def test_ring_buffer_view_and_minmax_decimation_keep_peaks():
-    from app.widgets.plots import RingBuffer, minmax_decimate
+    from app.widgets.plots import TimeRing, minmax_decimate
 
-    rb = RingBuffer(100, 2)
+    rb = TimeRing(100, 2)
     for k in range(7):
         rb.append(np.column_stack([np.arange(30) + 30 * k, np.arange(30) + 30 * k]))
     v = rb.view()

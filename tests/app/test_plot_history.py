@@ -20,6 +20,30 @@ def test_time_ring_starts_a_new_timeline_when_time_goes_back():
     assert np.all(np.diff(r.view()[:, 0]) > 0)
 
 
+def test_time_ring_written_changes_with_every_append_and_clear():
+    # a new timeline as long as the old one, less one row: still a change a refresh must draw
+    r = TimeRing(8, 2)
+    r.append(np.column_stack([np.arange(5.0), np.zeros(5)]))
+    seen = {r.written}
+    r.append(np.column_stack([np.arange(4.0), np.ones(4)]))  # back in time: clear, then 4 rows
+    assert r.written not in seen and len(r) == 4
+    seen.add(r.written)
+    r.append([[20.0 + k, 2.0] for k in range(12)])  # more than the capacity: the last 8 rows
+    assert r.written not in seen and len(r) == 8
+    np.testing.assert_array_equal(r.view()[:, 0], np.arange(24.0, 32.0))
+    assert r.view().base is not None  # a view, not a copy
+
+
+def test_refresh_draws_a_restarted_timeline_of_the_same_length(plots):
+    f, _ = plots
+    f.append(np.arange(0.0, 0.05, 0.01), np.ones((5, 6)))
+    assert f.refresh()
+    f.append(np.arange(0.0, 0.04, 0.01), np.full((4, 6), 3.0))  # looped: 1 clear + 4 rows
+    assert f.refresh()
+    _, y = drawn(f.curves[0])
+    assert np.allclose(y, 3.0)
+
+
 def test_gaps_are_breaks_not_lines():
     rng = np.random.default_rng(4)
     t = np.r_[np.sort(rng.uniform(0, 1, 30)), 1.0 + GAP + np.sort(rng.uniform(0.1, 1, 30))]
