@@ -27,6 +27,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from ..frames import CubeCore
 from ._conventions import ROS_CORE_FRAME, ROS_FACE_FRAME
@@ -113,8 +114,6 @@ def _float64_array(values: np.ndarray) -> np.ndarray:
 
 
 def _quat_xyzw(R: np.ndarray) -> list[float]:
-    from scipy.spatial.transform import Rotation
-
     return [float(v) for v in Rotation.from_matrix(R).as_quat()]
 
 
@@ -123,7 +122,7 @@ def write_mcap(data, path, *, raw_counts: bool = True, progress=None) -> dict:
 
     Returns ``{topic: message count}``.
     """
-    from mcap_ros2.writer import Writer
+    from mcap_ros2.writer import Writer  # deferred: optional dependency (extra "interop"), as mcap itself
 
     def report(f, text):
         if progress is not None:

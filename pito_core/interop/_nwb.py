@@ -55,6 +55,7 @@ def write_nwb(data, path, *, subject_id: str | None = None, species: str | None 
     given, nwbinspector finds nothing to report (tests/interop/test_nwb.py); see
     :func:`missing_metadata` for what is left out otherwise.
     """
+    # deferred: pynwb and hdmf are an optional dependency (extra "interop") and take ~1 s to load
     from hdmf.common import DynamicTable, VectorData
     from pynwb import NWBHDF5IO, NWBFile, TimeSeries
     from pynwb.behavior import Position, SpatialSeries
