@@ -258,10 +258,8 @@ def run_live(duration: float = 5.0, rate_hz: float = 1000.0, *, on_bundle=None, 
     """
     n = int(round(duration * rate_hz))
     pipe = default_pipeline() if pipeline is None else pipeline
-    core = pipe.core
-    R = core.face_poses()[:, :3, :3]
-    p = core.face_poses()[:, :3, 3]
     _, truth = live_scenario(n, rate_hz, seed)
+    log = _LiveLog(pipe.core, truth, rate_hz)
     writer = subprocess.Popen([sys.executable, "-m", f"{__package__}._pty_writer", str(n), str(rate_hz), str(seed)],
                               stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, env=thread_env(1))
     try:
@@ -269,38 +267,10 @@ def run_live(duration: float = 5.0, rate_hz: float = 1000.0, *, on_bundle=None, 
         dev = PitoSerial(port, reconnect=False)
         acq = Acquisition(dev, None, buffer_seconds=max(10.0, duration + 5.0), rate_hz=rate_hz).start()
         reader = AcquisitionReader(acq, history=0.0)
-        seqs, ready, arrived, latest_seq, errs, proc = [], [], [], [], [], []
         writer.stdin.write("go\n")
         writer.stdin.flush()
         wall0, cpu0 = time.perf_counter(), time.process_time()
-        got, bundles, deadline = 0, 0, time.monotonic() + duration + 5.0
-        period = 1.0 / tick_hz if tick_hz > 0 else 0.001
-        next_tick = time.monotonic()
-        while got < n and time.monotonic() < deadline:
-            next_tick += period
-            delay = next_tick - time.monotonic()
-            if delay > 0:
-                time.sleep(delay)
-            tp = time.monotonic()
-            samples = reader.read()
-            if len(samples) == 0:
-                continue
-            bundle = pipe.feed(samples)
-            if on_bundle is not None:
-                on_bundle(bundle)
-            t = time.monotonic()
-            proc.append(t - tp)
-            seq = np.rint(bundle.tick * rate_hz / 1e6).astype(np.int64)
-            arrived.append(samples.cube["host_time"])
-            seqs.append(seq)
-            ready.append(np.full(seq.size, t))
-            latest_seq.append((int(seq[-1]), t))
-            c = bundle.contacts
-            if c is not None and c.valid.any():
-                pts_face = np.einsum("fji,fj->fi", R, c.point - p)  # core -> face frame
-                errs.append(np.linalg.norm(pts_face - truth["points"][seq[-1]], axis=1)[c.valid])
-            got += seq.size
-            bundles += 1
+        got, bundles = _poll(reader, pipe, log, n, duration + 5.0, tick_hz, on_bundle)
         wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
         stats = dev.stats()
         acq.close()
@@ -309,19 +279,72 @@ def run_live(duration: float = 5.0, rate_hz: float = 1000.0, *, on_bundle=None, 
         if writer.poll() is None:
             writer.kill()
     t_write = np.asarray(json.loads(out.strip().splitlines()[-1])["t_write"])
-    seq = np.concatenate(seqs) if seqs else np.zeros(0, np.int64)
-    lat = np.concatenate(ready) - t_write[seq] if seqs else np.zeros(0)
-    lat_latest = [t - t_write[s] for s, t in latest_seq]
-    transport = np.concatenate(arrived) - t_write[seq] if seqs else np.zeros(0)
-    e = np.concatenate(errs) if errs else np.zeros(0)
+    lat, lat_latest, transport, e = log.delays(t_write)
     return {
         "rate_hz": rate_hz, "duration_s": duration, "tick_hz": tick_hz, "frames": int(got), "frames_sent": n,
         "bundles": bundles, "dropped": int(stats["dropped"]), "crc_errors": int(stats["crc_errors"]),
         "latency_ms": _stats_ms(lat), "latest_latency_ms": _stats_ms(lat_latest),
-        "transport_ms": _stats_ms(transport), "processing_ms": _stats_ms(proc),
+        "transport_ms": _stats_ms(transport), "processing_ms": _stats_ms(log.proc),
         "cpu_share": cpu / wall if wall > 0 else float("nan"), "wall_s": wall,
         "contact_error_mm": float(np.sqrt(np.mean(e**2)) * 1e3) if e.size else float("nan"),
     }
+
+
+def _poll(reader, pipe, log, n: int, timeout: float, tick_hz: float, on_bundle) -> tuple[int, int]:
+    """Read new samples (every 1 ms, or on a timer at ``tick_hz``) into the pipeline until ``n``
+    frames or ``timeout`` s; each bundle goes to ``on_bundle`` and ``log``. Returns ``(frames, bundles)``."""
+    got, bundles, deadline = 0, 0, time.monotonic() + timeout
+    period = 1.0 / tick_hz if tick_hz > 0 else 0.001
+    next_tick = time.monotonic()
+    while got < n and time.monotonic() < deadline:
+        next_tick += period
+        delay = next_tick - time.monotonic()
+        if delay > 0:
+            time.sleep(delay)
+        tp = time.monotonic()
+        samples = reader.read()
+        if len(samples) == 0:
+            continue
+        bundle = pipe.feed(samples)
+        if on_bundle is not None:
+            on_bundle(bundle)
+        got += log.add(samples, bundle, tp, time.monotonic())
+        bundles += 1
+    return got, bundles
+
+
+class _LiveLog:
+    """Per bundle of :func:`run_live`: its frames' sequence numbers and times, processing time, contact error."""
+
+    def __init__(self, core, truth: dict, rate_hz: float):
+        self.R = core.face_poses()[:, :3, :3]
+        self.p = core.face_poses()[:, :3, 3]
+        self.truth, self.rate_hz = truth, rate_hz
+        self.seqs, self.ready, self.arrived, self.latest_seq, self.errs, self.proc = [], [], [], [], [], []
+
+    def add(self, samples, bundle, tp: float, t: float) -> int:
+        """Record ``bundle`` (read at ``tp``, ready at ``t``, host monotonic s); returns its frame count."""
+        self.proc.append(t - tp)
+        seq = np.rint(bundle.tick * self.rate_hz / 1e6).astype(np.int64)
+        self.arrived.append(samples.cube["host_time"])
+        self.seqs.append(seq)
+        self.ready.append(np.full(seq.size, t))
+        self.latest_seq.append((int(seq[-1]), t))
+        c = bundle.contacts
+        if c is not None and c.valid.any():
+            pts_face = np.einsum("fji,fj->fi", self.R, c.point - self.p)  # core -> face frame
+            self.errs.append(np.linalg.norm(pts_face - self.truth["points"][seq[-1]], axis=1)[c.valid])
+        return seq.size
+
+    def delays(self, t_write: np.ndarray):
+        """``(latency, latest latency, transport, contact errors)``: s, s, s, m, from the frames' write times ``t_write``."""
+        seqs = self.seqs
+        seq = np.concatenate(seqs) if seqs else np.zeros(0, np.int64)
+        lat = np.concatenate(self.ready) - t_write[seq] if seqs else np.zeros(0)
+        lat_latest = [t - t_write[s] for s, t in self.latest_seq]
+        transport = np.concatenate(self.arrived) - t_write[seq] if seqs else np.zeros(0)
+        e = np.concatenate(self.errs) if self.errs else np.zeros(0)
+        return lat, lat_latest, transport, e
 
 
 def task_pipeline(n_decode=20_000, duration=5.0, ticks=(0.0,), tick_ticks=600) -> dict:

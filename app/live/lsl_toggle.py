@@ -10,6 +10,8 @@ LSL discovery multicasts on the network unless ``LSLAPICFG`` names a machine-onl
 
 from __future__ import annotations
 
+import importlib.util
+
 from PySide6.QtWidgets import QHBoxLayout, QLabel, QPushButton, QWidget
 
 from pito_core.interop import LslPublisher
@@ -43,13 +45,11 @@ class LslToggle(QWidget):
         lay.addWidget(self.button)
         lay.addWidget(self.label)
         if publisher_factory is None:
-            try:
-                import pylsl  # noqa: F401
-
+            if importlib.util.find_spec("pylsl") is not None:  # present, not loaded until publishing starts
                 publisher_factory = lambda pipe: LslPublisher(pipe, simulated=self.simulated)  # noqa: E731
-            except ImportError as exc:
+            else:
                 self.button.setEnabled(False)
-                self.button.setToolTip(f"LSL unavailable: {exc} (pip install -e '.[interop]')")
+                self.button.setToolTip("LSL unavailable: pylsl is not installed (pip install -e '.[interop]')")
         self.factory = publisher_factory
         self.button.toggled.connect(self.set_publishing)
         worker.bundle.connect(self.on_bundle)

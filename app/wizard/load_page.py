@@ -70,6 +70,22 @@ class LoadPage(WizardPage):
     def __init__(self, model, parent=None):
         super().__init__(model, parent)
         row = QHBoxLayout()
+        row.addLayout(self._scene_column(model), 5)
+        row.addLayout(self._status_column(model), 4)
+        self.body.addLayout(row, 1)
+
+        self._dirty = 0
+        self._face_since = -np.inf
+        self.settle = 0.3  # s after a change of face before samples count for the new face
+        self.undo.clicked.connect(self.undo_last)
+        self.next_face.clicked.connect(self.goto_next_face)
+        model.face_changed.connect(self._on_face)
+        model.mount_changed.connect(self._on_mount)
+        model.captures_changed.connect(lambda f: self.refresh())
+        self._on_mount()
+
+    def _scene_column(self, model) -> QVBoxLayout:
+        """The cube scene and a chip per face (a click makes it the current face)."""
         left = QVBoxLayout()
         self.scene = CubeScene(model.core)
         self.scene.setMinimumSize(460, 380)
@@ -85,8 +101,10 @@ class LoadPage(WizardPage):
             chips.addWidget(b)
             self.chips[i] = b
         left.addLayout(chips)
-        row.addLayout(left, 5)
+        return left
 
+    def _status_column(self, model) -> QVBoxLayout:
+        """The stage note, face title, coverage bars, the gates' figures and the Undo / Next buttons."""
         right = QVBoxLayout()
         self.stage_note = QLabel()  # the validation pass or the second mount: what it is for, in one line
         self.stage_note.setObjectName("emphasis")
@@ -99,6 +117,19 @@ class LoadPage(WizardPage):
         right.addWidget(QLabel("Coverage per axis and sign (kept loads against full scale)"))
         self.bars = CoverageBars(self.coverage_model)
         right.addWidget(self.bars, 1)
+        right.addLayout(self._gates_grid())
+        buttons = QHBoxLayout()
+        self.undo = QPushButton("Undo last capture")
+        self.next_face = QPushButton("Next face ▸")
+        self.next_face.setObjectName("primary")
+        buttons.addWidget(self.undo)
+        buttons.addStretch(1)
+        buttons.addWidget(self.next_face)
+        right.addLayout(buttons)
+        return right
+
+    def _gates_grid(self) -> QGridLayout:
+        """Label / value rows: the progress toward done, κ, still loads, coverage, samples, live state."""
         grid = QGridLayout()
         # the face is done when all four gates pass; the bar shows the one furthest behind
         self.progress = QProgressBar()
@@ -120,27 +151,7 @@ class LoadPage(WizardPage):
         for r, (text, w) in enumerate(rows):
             grid.addWidget(QLabel(text), r, 0)
             grid.addWidget(w, r, 1)
-        right.addLayout(grid)
-        buttons = QHBoxLayout()
-        self.undo = QPushButton("Undo last capture")
-        self.next_face = QPushButton("Next face ▸")
-        self.next_face.setObjectName("primary")
-        buttons.addWidget(self.undo)
-        buttons.addStretch(1)
-        buttons.addWidget(self.next_face)
-        right.addLayout(buttons)
-        row.addLayout(right, 4)
-        self.body.addLayout(row, 1)
-
-        self._dirty = 0
-        self._face_since = -np.inf
-        self.settle = 0.3  # s after a change of face before samples count for the new face
-        self.undo.clicked.connect(self.undo_last)
-        self.next_face.clicked.connect(self.goto_next_face)
-        model.face_changed.connect(self._on_face)
-        model.mount_changed.connect(self._on_mount)
-        model.captures_changed.connect(lambda f: self.refresh())
-        self._on_mount()
+        return grid
 
     # ------------------------------------------------------------ model → view
     def _on_mount(self) -> None:

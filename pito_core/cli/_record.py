@@ -184,30 +184,9 @@ def _record(args) -> int:
                               meta={"simulated": info["simulated"]})
             reader = AcquisitionReader(acq, simulated=info["simulated"], history=0.0)
             t0 = time.monotonic()
-            next_progress = t0 + args.progress
-            stall_reporter = StallReporter()
-            tared = args.tare <= 0
             try:
                 acq.start()
-                while not stop["flag"]:
-                    now = time.monotonic()
-                    if args.duration is not None and now - t0 >= args.duration:
-                        break
-                    bundle = pipeline.feed(reader.read())
-                    for sink in sinks:
-                        sink(bundle)
-                    if not tared and now - t0 >= args.tare:
-                        try:
-                            writer.append_event(pipeline.tare())
-                            tared = True
-                        except ValueError:  # no sample yet: try at the next read
-                            pass
-                    for change in stall_reporter.changes(acq.stats()):  # "stalled" within 200 ms
-                        print(f"{now - t0:7.1f} s  {change}", file=sys.stderr, flush=True)
-                    if args.progress > 0 and now >= next_progress:
-                        print(_line(now - t0, acq.stats()), file=sys.stderr, flush=True)
-                        next_progress += args.progress
-                    time.sleep(0.02)
+                _record_loop(args, acq, reader, pipeline, sinks, writer, stop, t0)
             except KeyboardInterrupt:
                 pass
             finally:
@@ -221,3 +200,31 @@ def _record(args) -> int:
     finally:
         signal.signal(signal.SIGTERM, old)
     return 0
+
+
+def _record_loop(args, acq, reader, pipeline, sinks, writer, stop: dict, t0: float) -> None:
+    """Every 20 ms until ``--duration`` s after ``t0`` (host monotonic) or ``stop["flag"]``: new samples
+    through the pipeline to the sinks, the tare once after ``--tare`` s (an event in the file), stall
+    and progress lines on stderr."""
+    next_progress = t0 + args.progress
+    stall_reporter = StallReporter()
+    tared = args.tare <= 0
+    while not stop["flag"]:
+        now = time.monotonic()
+        if args.duration is not None and now - t0 >= args.duration:
+            break
+        bundle = pipeline.feed(reader.read())
+        for sink in sinks:
+            sink(bundle)
+        if not tared and now - t0 >= args.tare:
+            try:
+                writer.append_event(pipeline.tare())
+                tared = True
+            except ValueError:  # no sample yet: try at the next read
+                pass
+        for change in stall_reporter.changes(acq.stats()):  # "stalled" within 200 ms
+            print(f"{now - t0:7.1f} s  {change}", file=sys.stderr, flush=True)
+        if args.progress > 0 and now >= next_progress:
+            print(_line(now - t0, acq.stats()), file=sys.stderr, flush=True)
+            next_progress += args.progress
+        time.sleep(0.02)

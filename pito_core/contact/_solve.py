@@ -152,6 +152,25 @@ def solve(
     if Sn.ndim == 3 and not all_strong:
         Sn = Sn[strong]
 
+    c, n, force, tau, ok, facet, cov, test = _solve_rows(
+        surface, f, m, ws, Sn, with_cov=S is not None, point_contact=point_contact, single_contact=single_contact,
+        boundary=boundary, mu=mu, torsion_radius=e, alpha=alpha)
+    out = _assemble(N, strong, all_strong, c, n, force, tau, ok, facet, cov, test)
+    if len(lead) == 1:
+        return out
+    return out._reshape(lead)
+
+
+def _solve_rows(surface, f, m, ws, Sn, *, with_cov, point_contact, single_contact, boundary, mu, torsion_radius,
+                alpha):
+    """Solve the rows that push hard enough: ``c, n, force, tau, ok, facet, cov, test``.
+
+    ``f``, ``m``, ``ws``: their force ``(n, 3)`` N, moment ``(n, 3)`` N·m and wrench ``(n, 6)``;
+    ``Sn``: the wrench noise covariance ``(6, 6)`` or ``(n, 6, 6)`` the weights and the test
+    assume; ``cov`` only ``with_cov`` (a covariance given by the caller), ``test`` only with
+    ``single_contact``.
+    """
+    e = torsion_radius
     c, n, tau, ok, facet = _solve_surface(surface, np.ascontiguousarray(f), np.ascontiguousarray(m))
     force = f.copy()
     W = np.linalg.inv(Sn) if point_contact else None
@@ -176,14 +195,11 @@ def solve(
     if boundary is not None and len(c):
         ok &= boundary._contains(c)
     cov = None
-    if S is not None:
+    if with_cov:
         J[~ok] = np.nan
         cov = covariance_from_jacobian(J, T, Sn)
 
-    out = _assemble(N, strong, all_strong, c, n, force, tau, ok, facet, cov, test)
-    if len(lead) == 1:
-        return out
-    return out._reshape(lead)
+    return c, n, force, tau, ok, facet, cov, test
 
 
 def _refine(surface, c, n, force, ok, sel, ws, Wn):

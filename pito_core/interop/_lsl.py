@@ -27,6 +27,7 @@ Safety: liblsl multicasts to find peers unless configured; run under a machine-o
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -70,8 +71,6 @@ KnownPeers = {127.0.0.1}
 
 def machine_only_config(path) -> str:
     """Write :data:`MACHINE_ONLY_CONFIG` to ``path``; returns the path (for ``LSLAPICFG``)."""
-    from pathlib import Path
-
     Path(path).write_text(MACHINE_ONLY_CONFIG)
     return str(Path(path).resolve())
 
@@ -135,7 +134,7 @@ def _common(desc, calibration: dict | None, assembly: dict | None, simulated: bo
 def lsl_stream_infos(calibration: dict | None, assembly: dict | None, *, rate_hz: float = 1000.0,
                      source_id: str = "pito", simulated: bool = False):
     """``(wrench StreamInfo, contact StreamInfo)`` with the full ``desc`` (see the module docstring)."""
-    import pylsl
+    import pylsl  # deferred: optional dependency (extra "interop"); pito_core.interop loads without it
 
     wi = pylsl.StreamInfo(WRENCH_STREAM, WRENCH_TYPE, 36, float(rate_hz), "float32", f"{source_id}-wrenches")
     d = wi.desc()
@@ -170,7 +169,7 @@ class LslPublisher:
 
     def __init__(self, pipeline, *, rate_hz: float = 1000.0, source_id: str = "pito", simulated: bool = False,
                  calibration_record: dict | None = None, assembly_record: dict | None = None):
-        import pylsl
+        import pylsl  # deferred: optional dependency (extra "interop"); pito_core.interop loads without it
 
         if pipeline.calibration is None:
             raise ValueError("calibration: the LSL streams carry wrenches; give a calibration (--calibration FILE)")

@@ -27,6 +27,7 @@ from __future__ import annotations
 import json
 
 import numpy as np
+from scipy.spatial.transform import Rotation
 
 from ..frames import CubeCore
 from ._conventions import ROS_CORE_FRAME, ROS_FACE_FRAME
@@ -113,8 +114,6 @@ def _float64_array(values: np.ndarray) -> np.ndarray:
 
 
 def _quat_xyzw(R: np.ndarray) -> list[float]:
-    from scipy.spatial.transform import Rotation
-
     return [float(v) for v in Rotation.from_matrix(R).as_quat()]
 
 
@@ -123,89 +122,112 @@ def write_mcap(data, path, *, raw_counts: bool = True, progress=None) -> dict:
 
     Returns ``{topic: message count}``.
     """
-    from mcap_ros2.writer import Writer
+    from mcap_ros2.writer import Writer  # deferred: optional dependency (extra "interop"), as mcap itself
 
-    def report(f, text):
-        if progress is not None:
-            progress(float(f), text)
-
-    counts_by_topic: dict[str, int] = {}
     stamp = (np.round((data.start_unix + np.asarray(data.time, float)) * 1e9)).astype(np.int64)
+    n_steps = 2 + 6 * (data.face_wrenches is not None) + 6 * (data.contacts is not None)
+    step = 0
+
+    def advance(text):
+        nonlocal step
+        step += 1
+        if progress is not None:
+            progress(float(0.7 + 0.3 * step / n_steps), text)
+
     with open(path, "wb") as fh:
         w = Writer(fh)
-        schemas = {k: w.register_msgdef(k, v) for k, v in MSGDEFS.items()}
-        raw = w._writer  # the plain mcap writer: messages encoded here in bulk
-
-        def channel(topic, datatype):
-            return raw.register_channel(topic=topic, message_encoding="cdr", schema_id=schemas[datatype].id)
-
-        def put(topic, datatype, stamps, encoded):
-            cid = channel(topic, datatype)
-            add = raw.add_message
-            for s, (t, row) in enumerate(zip(stamps.tolist(), encoded)):
-                add(channel_id=cid, log_time=t, publish_time=t, sequence=s, data=row.tobytes())
-            counts_by_topic[topic] = len(encoded)
-
-        meta = {"note": data.note, "simulated": json.dumps(data.simulated),
-                "assembly": json.dumps(data.assembly), "calibration": json.dumps(
-                    None if data.calibration is None else
-                    {k: v for k, v in data.calibration.items() if k not in ("matrix", "offset")}, default=str)}
-        w.add_metadata("pito_provenance", meta)
-        if data.calibration is not None:
-            w.add_attachment(0, int(stamp[0]) if stamp.size else 0, "calibration.json", "application/json",
-                             json.dumps(data.calibration, default=str).encode())
-        edge = (data.assembly or {}).get("core_edge_m") or (data.calibration or {}).get("core_edge_m")
-        core = CubeCore(edge) if edge else CubeCore()
-        t0 = int(stamp[0]) if stamp.size else int(data.start_unix * 1e9)
-        tfs = []
-        for i in range(1, 7):
-            T = core.face_pose(i)
-            tfs.append({"header": {"stamp": {"sec": t0 // 10**9, "nanosec": t0 % 10**9}, "frame_id": ROS_CORE_FRAME},
-                        "child_frame_id": ROS_FACE_FRAME.format(i=i),
-                        "transform": {"translation": dict(zip("xyz", map(float, T[:3, 3]))),
-                                      "rotation": dict(zip("xyzw", _quat_xyzw(T[:3, :3])))}})
-        w.write_message("/tf_static", schemas["tf2_msgs/msg/TFMessage"], {"transforms": tfs}, log_time=t0, publish_time=t0)
-        counts_by_topic["/tf_static"] = 1
-        n_steps = 2 + 6 * (data.face_wrenches is not None) + 6 * (data.contacts is not None)
-        step = 0
-
-        def advance(text):
-            nonlocal step
-            step += 1
-            report(0.7 + 0.3 * step / n_steps, text)
-
-        if raw_counts:
-            put("/pito/raw_counts", "std_msgs/msg/Int32MultiArray", stamp, _int32_array(data.counts))
-        advance("mcap: counts")
-        if data.reference is not None:
-            # only samples with a reference value (a cube sample before the first reference packet has none)
-            ok = np.isfinite(np.asarray(data.reference, float)).all(axis=1)
-            put("/pito/reference/wrench", "geometry_msgs/msg/WrenchStamped", stamp[ok],
-                _stamped(stamp[ok], "pito_reference", np.asarray(data.reference, float)[ok]))
-        advance("mcap: reference")
-        if data.face_wrenches is not None:
-            for i in range(1, 7):
-                fw = np.asarray(data.face_wrenches[:, i - 1], float)
-                ok = np.isfinite(fw).all(axis=1)  # no message where there is no value
-                put(f"/pito/face_{i}/wrench", "geometry_msgs/msg/WrenchStamped", stamp[ok],
-                    _stamped(stamp[ok], ROS_FACE_FRAME.format(i=i), fw[ok]))
-                advance(f"mcap: face {i}")
+        topics = _Topics(w)
+        _write_provenance(w, data, stamp)
+        _write_tf_static(topics, data, stamp)
+        _write_series(topics, data, stamp, raw_counts, advance)
         if data.contacts is not None:
-            c = data.contacts
-            for i in range(1, 7):
-                k = i - 1
-                v = np.asarray(c.valid[:, k], bool)
-                st = stamp[v]
-                put(f"/pito/face_{i}/contact/point", "geometry_msgs/msg/PointStamped", st,
-                    _stamped(st, ROS_CORE_FRAME, c.point[v, k]))
-                wr = np.concatenate([c.force[v, k], c.torsion[v, k, None] * c.normal[v, k]], axis=1)
-                put(f"/pito/face_{i}/contact/wrench", "geometry_msgs/msg/WrenchStamped", st,
-                    _stamped(st, ROS_CORE_FRAME, wr))
-                if getattr(c, "single_contact", None) is not None:
-                    flag = np.c_[c.single_contact[v, k], c.single_contact_p[v, k], c.single_contact_reason[v, k]]
-                    put(f"/pito/face_{i}/contact/single_contact", "std_msgs/msg/Float64MultiArray", st,
-                        _float64_array(flag))
-                advance(f"mcap: contacts {i}")
+            _write_contacts(topics, data.contacts, stamp, advance)
         w.finish()
-    report(1.0, "mcap: done")
-    return counts_by_topic
+    if progress is not None:
+        progress(1.0, "mcap: done")
+    return topics.counts
+
+
+class _Topics:
+    """The writer's schemas and channels; ``counts`` = ``{topic: messages written}``, in writing order."""
+
+    def __init__(self, writer):
+        self.writer = writer
+        self.schemas = {k: writer.register_msgdef(k, v) for k, v in MSGDEFS.items()}
+        self.raw = writer._writer  # the plain mcap writer: messages encoded here in bulk
+        self.counts: dict[str, int] = {}
+
+    def put(self, topic: str, datatype: str, stamps: np.ndarray, encoded: np.ndarray) -> None:
+        """Messages ``encoded`` ``(n, size)`` uint8 (CDR) on a new channel ``topic``, at ``stamps`` (ns)."""
+        cid = self.raw.register_channel(topic=topic, message_encoding="cdr", schema_id=self.schemas[datatype].id)
+        add = self.raw.add_message
+        for s, (t, row) in enumerate(zip(stamps.tolist(), encoded)):
+            add(channel_id=cid, log_time=t, publish_time=t, sequence=s, data=row.tobytes())
+        self.counts[topic] = len(encoded)
+
+
+def _write_provenance(w, data, stamp: np.ndarray) -> None:
+    """The ``pito_provenance`` metadata record and the ``calibration.json`` attachment."""
+    meta = {"note": data.note, "simulated": json.dumps(data.simulated),
+            "assembly": json.dumps(data.assembly), "calibration": json.dumps(
+                None if data.calibration is None else
+                {k: v for k, v in data.calibration.items() if k not in ("matrix", "offset")}, default=str)}
+    w.add_metadata("pito_provenance", meta)
+    if data.calibration is not None:
+        w.add_attachment(0, int(stamp[0]) if stamp.size else 0, "calibration.json", "application/json",
+                         json.dumps(data.calibration, default=str).encode())
+
+
+def _write_tf_static(topics: _Topics, data, stamp: np.ndarray) -> None:
+    """``/tf_static``: one message with ``pito_core`` → ``pito_face_{i}`` (i = 1..6) of the recording's core."""
+    edge = (data.assembly or {}).get("core_edge_m") or (data.calibration or {}).get("core_edge_m")
+    core = CubeCore(edge) if edge else CubeCore()
+    t0 = int(stamp[0]) if stamp.size else int(data.start_unix * 1e9)
+    tfs = []
+    for i in range(1, 7):
+        T = core.face_pose(i)
+        tfs.append({"header": {"stamp": {"sec": t0 // 10**9, "nanosec": t0 % 10**9}, "frame_id": ROS_CORE_FRAME},
+                    "child_frame_id": ROS_FACE_FRAME.format(i=i),
+                    "transform": {"translation": dict(zip("xyz", map(float, T[:3, 3]))),
+                                  "rotation": dict(zip("xyzw", _quat_xyzw(T[:3, :3])))}})
+    topics.writer.write_message("/tf_static", topics.schemas["tf2_msgs/msg/TFMessage"], {"transforms": tfs},
+                                log_time=t0, publish_time=t0)
+    topics.counts["/tf_static"] = 1
+
+
+def _write_series(topics: _Topics, data, stamp: np.ndarray, raw_counts: bool, advance) -> None:
+    """Raw counts, reference wrench and face wrenches, each sample with a finite value."""
+    if raw_counts:
+        topics.put("/pito/raw_counts", "std_msgs/msg/Int32MultiArray", stamp, _int32_array(data.counts))
+    advance("mcap: counts")
+    if data.reference is not None:
+        # only samples with a reference value (a cube sample before the first reference packet has none)
+        ok = np.isfinite(np.asarray(data.reference, float)).all(axis=1)
+        topics.put("/pito/reference/wrench", "geometry_msgs/msg/WrenchStamped", stamp[ok],
+                   _stamped(stamp[ok], "pito_reference", np.asarray(data.reference, float)[ok]))
+    advance("mcap: reference")
+    if data.face_wrenches is not None:
+        for i in range(1, 7):
+            fw = np.asarray(data.face_wrenches[:, i - 1], float)
+            ok = np.isfinite(fw).all(axis=1)  # no message where there is no value
+            topics.put(f"/pito/face_{i}/wrench", "geometry_msgs/msg/WrenchStamped", stamp[ok],
+                       _stamped(stamp[ok], ROS_FACE_FRAME.format(i=i), fw[ok]))
+            advance(f"mcap: face {i}")
+
+
+def _write_contacts(topics: _Topics, c, stamp: np.ndarray, advance) -> None:
+    """Each face's contact point, finger wrench and single-contact test, at the samples with a contact."""
+    for i in range(1, 7):
+        k = i - 1
+        v = np.asarray(c.valid[:, k], bool)
+        st = stamp[v]
+        topics.put(f"/pito/face_{i}/contact/point", "geometry_msgs/msg/PointStamped", st,
+                   _stamped(st, ROS_CORE_FRAME, c.point[v, k]))
+        wr = np.concatenate([c.force[v, k], c.torsion[v, k, None] * c.normal[v, k]], axis=1)
+        topics.put(f"/pito/face_{i}/contact/wrench", "geometry_msgs/msg/WrenchStamped", st,
+                   _stamped(st, ROS_CORE_FRAME, wr))
+        if getattr(c, "single_contact", None) is not None:
+            flag = np.c_[c.single_contact[v, k], c.single_contact_p[v, k], c.single_contact_reason[v, k]]
+            topics.put(f"/pito/face_{i}/contact/single_contact", "std_msgs/msg/Float64MultiArray", st,
+                       _float64_array(flag))
+        advance(f"mcap: contacts {i}")

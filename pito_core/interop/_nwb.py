@@ -55,14 +55,29 @@ def write_nwb(data, path, *, subject_id: str | None = None, species: str | None 
     given, nwbinspector finds nothing to report (tests/interop/test_nwb.py); see
     :func:`missing_metadata` for what is left out otherwise.
     """
-    from hdmf.common import DynamicTable, VectorData
-    from pynwb import NWBHDF5IO, NWBFile, TimeSeries
-    from pynwb.behavior import Position, SpatialSeries
-    from pynwb.file import Subject
+    from pynwb import NWBHDF5IO  # deferred: optional dependency (extra "interop"), over 1 s to load
 
     def report(f, text):
         if progress is not None:
             progress(float(f), text)
+
+    nwb = _nwb_file(data, experimenter=experimenter, session_description=session_description,
+                    institution=institution, lab=lab, identifier=identifier)
+    _add_subject(nwb, subject_id=subject_id, species=species, sex=sex, age=age)
+    counts = _add_acquisition(nwb, data)
+    report(0.75, "nwb: wrenches")
+    _add_behavior(nwb, data, counts)
+    if data.calibration is not None:
+        _add_calibration(nwb, data.calibration)
+    report(0.85, "nwb: writing")
+    with NWBHDF5IO(str(path), "w") as io:
+        io.write(nwb)
+    report(1.0, "nwb: done")
+
+
+def _nwb_file(data, *, experimenter, session_description, institution, lab, identifier):
+    """The ``NWBFile`` with the session metadata and the provenance record (JSON) as its notes."""
+    from pynwb import NWBFile  # deferred: optional dependency (extra "interop"), over 1 s to load
 
     start = _dt.datetime.fromtimestamp(data.start_unix or 0.0, tz=_dt.timezone.utc)
     prov = {"calibration": None if data.calibration is None else
@@ -70,7 +85,7 @@ def write_nwb(data, path, *, subject_id: str | None = None, species: str | None 
             "assembly": data.assembly, "note": data.note, "simulated": data.simulated,
             "recording_meta": {k: v for k, v in data.meta.items() if k not in ("calibration", "assembly")}}
     desc = session_description or ("PITO grasp recording" + (" (SIMULATED devices)" if data.simulated else ""))
-    nwb = NWBFile(
+    return NWBFile(
         session_description=desc,
         identifier=identifier or f"pito-{data.calibration['hash'][7:23] if data.calibration else 'raw'}-{int(data.start_unix)}",
         session_start_time=start,
@@ -84,6 +99,12 @@ def write_nwb(data, path, *, subject_id: str | None = None, species: str | None 
         source_script="pito export (pito_core.interop)",
         source_script_file_name="pito_core/interop/_nwb.py",
     )
+
+
+def _add_subject(nwb, *, subject_id, species, sex, age) -> None:
+    """Check ``sex`` (M, F, U, O) and ``age`` (ISO 8601 duration); a ``Subject`` when any is given."""
+    from pynwb.file import Subject  # deferred: optional dependency (extra "interop"), over 1 s to load
+
     if sex is not None and sex not in ("M", "F", "U", "O"):
         raise ValueError(f"sex: expected one of M, F, U, O (NWB), got {sex!r}")
     if age is not None and not str(age).startswith("P"):
@@ -92,6 +113,12 @@ def write_nwb(data, path, *, subject_id: str | None = None, species: str | None 
         nwb.subject = Subject(subject_id=subject_id, species=species, sex=sex, age=age,
                               description=f"participant {subject_id} handling the PITO object" if subject_id
                               else "participant handling the PITO object")
+
+
+def _add_acquisition(nwb, data):
+    """The raw counts (and the reference's force and torque) as acquisition; returns the counts series."""
+    from pynwb import TimeSeries  # deferred: optional dependency (extra "interop"), over 1 s to load
+
     t = np.asarray(data.time, float)
     counts = TimeSeries(name="pito_raw_counts", data=np.asarray(data.counts, np.int32), unit="counts",
                         timestamps=t, description="PITO cube raw gauge counts, 36 channels (6 per face, face-major)",
@@ -102,16 +129,21 @@ def write_nwb(data, path, *, subject_id: str | None = None, species: str | None 
             nwb.add_acquisition(TimeSeries(name=name, data=np.asarray(data.reference[:, cols]), unit=unit,
                                            timestamps=counts, description=f"reference sensor (ATI Net F/T) {name.split('_')[1]} "
                                            "[x, y, z] in the reference frame S_A, paired with the cube samples, tared"))
-    report(0.75, "nwb: wrenches")
-    behavior = None
-    if data.face_wrenches is not None or data.contacts is not None:
-        what = ["face wrenches"] * (data.face_wrenches is not None) + [
-            f"one point contact per face on the patch assembly {(data.assembly or {}).get('name')} (NaN where no "
-            "contact)"] * (data.contacts is not None)
-        behavior = nwb.create_processing_module(BEHAVIOR_MODULE, f"PITO {' and '.join(what)}, computed from the "
-                                                f"counts: {data.note}")
+    return counts
+
+
+def _add_behavior(nwb, data, counts) -> None:
+    """The ``behavior`` module: face wrenches and contacts, on the timestamps of ``counts``."""
+    from pynwb import TimeSeries  # deferred: optional dependency (extra "interop"), over 1 s to load
+
+    if data.face_wrenches is None and data.contacts is None:
+        return
+    what = ["face wrenches"] * (data.face_wrenches is not None) + [
+        f"one point contact per face on the patch assembly {(data.assembly or {}).get('name')} (NaN where no "
+        "contact)"] * (data.contacts is not None)
+    mod = nwb.create_processing_module(BEHAVIOR_MODULE, f"PITO {' and '.join(what)}, computed from the "
+                                       f"counts: {data.note}")
     if data.face_wrenches is not None:
-        mod = behavior
         for i in range(1, 7):
             w = data.face_wrenches[:, i - 1]
             mod.add(TimeSeries(name=f"face_{i}_force", data=w[:, :3], unit="N", timestamps=counts,
@@ -119,47 +151,53 @@ def write_nwb(data, path, *, subject_id: str | None = None, species: str | None 
             mod.add(TimeSeries(name=f"face_{i}_torque", data=w[:, 3:], unit="N*m", timestamps=counts,
                                description=f"torque on face {i} about its frame origin, [tx, ty, tz] in {FACE_FRAME.format(i=i)}"))
     if data.contacts is not None:
-        c = data.contacts
-        mod = behavior
         for i in range(1, 7):
-            k = i - 1
-            pos = Position(name=f"contact_face_{i}")
-            pos.add_spatial_series(SpatialSeries(name="point", data=c.point[:, k], timestamps=counts, unit="meters",
-                                                 reference_frame=CORE_FRAME,
-                                                 description=f"contact point on face {i}'s patch, m, core frame"))
-            mod.add(pos)
-            mod.add(TimeSeries(name=f"contact_face_{i}_normal", data=c.normal[:, k], unit="1", timestamps=counts,
-                               description="outward unit normal at the contact point, core frame"))
-            mod.add(TimeSeries(name=f"contact_face_{i}_force", data=c.force[:, k], unit="N", timestamps=counts,
-                               description="finger force [x, y, z] at the contact point, core frame"))
-            mod.add(TimeSeries(name=f"contact_face_{i}_torsion", data=c.torsion[:, k], unit="N*m", timestamps=counts,
-                               description="torsion about the normal"))
-            mod.add(TimeSeries(name=f"contact_face_{i}_valid", data=c.valid[:, k].astype(np.uint8), unit="1",
-                               timestamps=counts, description="1 where the face carries a contact, else 0"))
-            if getattr(c, "single_contact", None) is not None:
-                _add_single_contact(mod, c, i, counts)
-    if data.calibration is not None:
-        cal = data.calibration
-        M = np.asarray(cal["matrix"], float)
-        faces = [f for f in cal["output_faces"] for _ in range(6)]
-        comps = list(_COMPONENTS) * len(cal["output_faces"])
-        units = ["N/count" if c[0] == "f" else "N*m/count" for c in comps]
-        frame = "own face frame" if cal["output_frame"] == "face" else "reference frame S_A"
-        mod = nwb.create_processing_module(MISC_MODULE, f"PITO calibration used ({cal['method']}, {cal['hash']})")
-        mod.add(DynamicTable(name="calibration_matrix", description=json.dumps(
-            {k: v for k, v in cal.items() if k not in ("matrix", "offset")}, default=str), columns=[
-            VectorData(name="face", description="output face 1..6", data=faces),
-            VectorData(name="component", description=f"wrench component, in the face's {frame}", data=comps),
-            VectorData(name="unit", description="unit of the coefficients", data=units),
-            VectorData(name="coefficients", description="matrix row: wrench component per count of gauges 1..36 "
-                       "(applied to counts − offset)", data=M)]))
-        mod.add(DynamicTable(name="calibration_offset", description="unloaded counts subtracted before the matrix", columns=[
-            VectorData(name="channel", description="gauge channel 1..36", data=list(range(1, 37))),
-            VectorData(name="offset_counts", description="counts", data=np.asarray(cal["offset"], float))]))
-    report(0.85, "nwb: writing")
-    with NWBHDF5IO(str(path), "w") as io:
-        io.write(nwb)
-    report(1.0, "nwb: done")
+            _add_contact(mod, data.contacts, i, counts)
+
+
+def _add_contact(mod, c, i, timestamps) -> None:
+    """Face ``i``'s contact (``ContactEstimate``): point, normal, force, torsion, valid, single-contact test."""
+    from pynwb import TimeSeries  # deferred: optional dependency (extra "interop"), over 1 s to load
+    from pynwb.behavior import Position, SpatialSeries
+
+    k = i - 1
+    pos = Position(name=f"contact_face_{i}")
+    pos.add_spatial_series(SpatialSeries(name="point", data=c.point[:, k], timestamps=timestamps, unit="meters",
+                                         reference_frame=CORE_FRAME,
+                                         description=f"contact point on face {i}'s patch, m, core frame"))
+    mod.add(pos)
+    mod.add(TimeSeries(name=f"contact_face_{i}_normal", data=c.normal[:, k], unit="1", timestamps=timestamps,
+                       description="outward unit normal at the contact point, core frame"))
+    mod.add(TimeSeries(name=f"contact_face_{i}_force", data=c.force[:, k], unit="N", timestamps=timestamps,
+                       description="finger force [x, y, z] at the contact point, core frame"))
+    mod.add(TimeSeries(name=f"contact_face_{i}_torsion", data=c.torsion[:, k], unit="N*m", timestamps=timestamps,
+                       description="torsion about the normal"))
+    mod.add(TimeSeries(name=f"contact_face_{i}_valid", data=c.valid[:, k].astype(np.uint8), unit="1",
+                       timestamps=timestamps, description="1 where the face carries a contact, else 0"))
+    if getattr(c, "single_contact", None) is not None:
+        _add_single_contact(mod, c, i, timestamps)
+
+
+def _add_calibration(nwb, cal: dict) -> None:
+    """The ``misc`` module: the calibration matrix (one row per output component) and offset as tables."""
+    from hdmf.common import DynamicTable, VectorData  # deferred: optional dependency (extra "interop", with pynwb)
+
+    M = np.asarray(cal["matrix"], float)
+    faces = [f for f in cal["output_faces"] for _ in range(6)]
+    comps = list(_COMPONENTS) * len(cal["output_faces"])
+    units = ["N/count" if c[0] == "f" else "N*m/count" for c in comps]
+    frame = "own face frame" if cal["output_frame"] == "face" else "reference frame S_A"
+    mod = nwb.create_processing_module(MISC_MODULE, f"PITO calibration used ({cal['method']}, {cal['hash']})")
+    mod.add(DynamicTable(name="calibration_matrix", description=json.dumps(
+        {k: v for k, v in cal.items() if k not in ("matrix", "offset")}, default=str), columns=[
+        VectorData(name="face", description="output face 1..6", data=faces),
+        VectorData(name="component", description=f"wrench component, in the face's {frame}", data=comps),
+        VectorData(name="unit", description="unit of the coefficients", data=units),
+        VectorData(name="coefficients", description="matrix row: wrench component per count of gauges 1..36 "
+                   "(applied to counts − offset)", data=M)]))
+    mod.add(DynamicTable(name="calibration_offset", description="unloaded counts subtracted before the matrix", columns=[
+        VectorData(name="channel", description="gauge channel 1..36", data=list(range(1, 37))),
+        VectorData(name="offset_counts", description="counts", data=np.asarray(cal["offset"], float))]))
 
 
 def missing_metadata(*, subject_id=None, species=None, sex=None, age=None, experimenter=None, institution=None) -> list[str]:
@@ -176,7 +214,7 @@ def missing_metadata(*, subject_id=None, species=None, sex=None, age=None, exper
 
 def _add_single_contact(mod, c, i, timestamps) -> None:
     """The single-contact test of face ``i`` (``ContactEstimate.single_contact*``) as three series."""
-    from pynwb import TimeSeries  # deferred: pynwb is an optional dependency
+    from pynwb import TimeSeries  # deferred: optional dependency (extra "interop"), over 1 s to load
 
     k = i - 1
     names = ", ".join(f"{r.value} {r.name.lower()}" for r in SingleContactReason)

@@ -119,7 +119,7 @@ class Pipeline:
         self.calibration = calibration
         self._tare_history.clear()  # a new calibration starts from its own zero
         self._tare_event = None
-        # readings the calibration does not measure are NaN from here on (issue 21: never a silent 0)
+        # readings the calibration does not measure are NaN from here on: never a silent 0 that reads as "no load"
         self.coverage = getattr(calibration, "coverage", None)  # (duck-typed calibrations without one: unmasked)
         self.counts_offset = None
         self._wtail.clear()
@@ -306,8 +306,9 @@ class Pipeline:
                         b.sum_force, b.sum_torque = np.full(3, np.nan), np.full(3, np.nan)
                     b.measured = self.coverage.faces
                 b.contacts = self.contacts(latest, self._latest_cov(tail["counts"]))
-                # issue 13: a gauge at its ADC limit in the samples behind the latest wrenches: no valid
-                # contact (every face's wrench depends on all 36 gauges through the calibration matrix)
+                # a gauge at its ADC limit (saturated: the true load is unknown) in the samples behind the
+                # latest wrenches: no valid contact (every face's wrench depends on all 36 gauges through
+                # the calibration matrix)
                 if (np.abs(tail["counts"]) >= CUBE_ADC_LIMIT).any() and b.contacts is not None:
                     b.contacts.valid[...] = False
         return b
