@@ -42,7 +42,7 @@ def _reference_variance(mount, ref_cov, output_frame, carries, idx) -> np.ndarra
 
 
 def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, block_size, ref_covs=None,
-                    gauge_cov=None):
+                    gauge_cov=None, samples=None):
     """Per matrix row, non-negative coefficients of the residual variance on ``load_features``.
 
     Residuals of every usable training sample (all faces' rows, also those a method
@@ -54,6 +54,8 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     it does not suffer from subtracting a large reference noise).
     Also sets each group's ``inflation`` from the scores ``Aᵀ E`` of clusters of
     consecutive samples (cluster-robust covariance against ``Σ_r ⊗ P``).
+    ``samples`` (per session, a list of ``SessionBlock`` of every ``stride``-th sample, kept
+    by the fit's own pass) spares the two passes over the sessions.
     """
     F = len(cal.output_faces)
     idx = [f - 1 for f in cal.output_faces]
@@ -67,8 +69,8 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     EtE = np.zeros((F, 6, 6))
     ref_covs = [None] * len(sessions) if ref_covs is None else ref_covs
     floor = np.zeros(6 * F) if gauge_cov is None else np.einsum("ia,ab,ib->i", cal.matrix, gauge_cov, cal.matrix)
-    for s, mount, o, rc in zip(sessions, mounts, offsets, ref_covs):
-        for b in _strided(s.iter_blocks(block_size), stride):
+    for j, (s, mount, o, rc) in enumerate(zip(sessions, mounts, offsets, ref_covs)):
+        for b in (_strided(s.iter_blocks(block_size), stride) if samples is None else samples[j]):
             targets, carries, usable, _ = block_targets(b.reference, b.loaded, mount, spec.output_frame)
             x = b.counts[usable] - o
             Y = _predict(cal, x).reshape(-1, F, 6)
@@ -86,8 +88,8 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
                 f = own_face[id(g)]
                 rows = slice(None) if f is None else (carries[usable][:, f - 1] | unloaded)
                 A = np.zeros((x[rows].shape[0], n_int + g.inputs.size))
-                A[:, sessions.index(s)] = 1.0
-                A[:, n_int:] = b.counts[usable][rows][:, g.inputs] - tare_means[sessions.index(s)][g.inputs]
+                A[:, j] = 1.0
+                A[:, n_int:] = b.counts[usable][rows][:, g.inputs] - tare_means[j][g.inputs]
                 Eg = Eflat[rows][:, g.rows]
                 a = 0
                 while a < A.shape[0]:  # clusters of consecutive samples, across blocks
@@ -127,8 +129,8 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     # that ±1.96 σ (with the reference's noise added) holds 95 % of its training residuals
     hist = np.zeros((6 * F, _Z_N + 1))
     rows = np.arange(6 * F)
-    for s, mount, o, rc in zip(sessions, mounts, offsets, ref_covs):
-        for b in _strided(s.iter_blocks(block_size), stride):
+    for j, (s, mount, o, rc) in enumerate(zip(sessions, mounts, offsets, ref_covs)):
+        for b in (_strided(s.iter_blocks(block_size), stride) if samples is None else samples[j]):
             targets, carries, usable, _ = block_targets(b.reference, b.loaded, mount, spec.output_frame)
             x = b.counts[usable] - o
             E = (targets[usable][:, idx] - _predict(cal, x).reshape(-1, F, 6)).reshape(-1, 6 * F)

@@ -71,7 +71,7 @@ def block_targets(reference: np.ndarray, loaded: np.ndarray, mount: MountGeometr
         carries[elsewhere, c] = True
         sign[elsewhere, c] = -1.0
     if output_frame == "face":
-        per_face = np.einsum("fij,nj->nfi", mount.X_face_ati, reference)  # (n, 6, 6)
+        per_face = (reference @ mount.X_face_ati.reshape(36, 6).T).reshape(n, 6, 6)  # one product, (n, 6, 6)
     else:
         per_face = np.broadcast_to(reference[:, None, :], (n, 6, 6))
     targets = per_face * sign[:, :, None]
