@@ -162,9 +162,8 @@ def _tare_moments(session: CalibrationSession, block_size: int = 65536, with_ref
 
 def _check_block(b, lo, hi) -> None:
     """Refuse NaN or inf counts or reference, and counts at or beyond the ADC range ``[lo, hi]``, naming the samples."""
-    ok = (b.counts.min(axis=1) > lo) & (b.counts.max(axis=1) < hi) & np.isfinite(b.reference.sum(axis=1))
-    if ok.all():  # the usual case: one min, one max and one sum per sample
-        return
+    if b.counts.min() > lo and b.counts.max() < hi and np.isfinite(b.reference.sum()):
+        return  # the usual case: three reductions of the block (NaN fails the comparisons)
     bad = ~np.isfinite(b.counts).all(axis=1)
     if bad.any():
         raise ValueError(f"counts: NaN or inf at sample indices {_few(np.flatnonzero(bad) + b.start)}")
@@ -411,7 +410,7 @@ class Calibrator:
         # one pass: checks, tare moments, targets and their Gram (excitation, load rank), the
         # Gram of the affine design [offset column of each session | counts − tare mean | targets],
         # the error model's subsample; a second (QR) pass only where the Gram route is in doubt
-        st, (tare_means, gauge_cov, ref_covs), subsample = self._stream(spec, sessions, mounts, known)
+        st, (tare_means, gauge_cov, ref_covs, ref_n), subsample = self._stream(spec, sessions, mounts, known)
         out_faces = st.joint_faces or self._output_faces(spec, sessions, st.carried_any)
         if not out_faces:
             raise ValueError("loaded: no face carried load in the sessions; nothing to calibrate")
@@ -437,24 +436,25 @@ class Calibrator:
                           linear_fit=linear_fit)
         # pass 3: the error a sample brings itself (noise, what the linear model misses), against its load
         coef, corr = fit_error_model(cal, sessions, mounts, fit.offsets, tare_means, spec, fit.groups, self.block_size,
-                                     ref_covs, gauge_cov, samples=subsample)
+                                     ref_covs, gauge_cov, samples=subsample, ref_n=ref_n)
         cal.covariance = CalibrationCovariance(fit.groups, gauge_cov, None, coef, corr)
         self.calibration_ = cal
         return self
 
     def _rest_noise(self, sessions):
         """Pass 1: each session's tare mean (36,) counts, the pooled gauge covariance at rest
-        (36, 36) counts², and each session's reference covariance at rest (6, 6) N/N·m²."""
+        (36, 36) counts², each session's reference covariance at rest (6, 6) N/N·m², and the
+        samples at rest it comes from."""
         n_int = len(sessions)
         moments = [_tare_moments(s, self.block_size, with_reference=True) for s in sessions]
         tare_means = [m[0] for m in moments]
         n_tare = sum(m[2] for m in moments)
         gauge_cov = sum(m[1] * m[2] for m in moments) / max(n_tare - n_int, 1)  # pooled within sessions
         ref_covs = [m[3] * m[2] / max(m[2] - 1, 1) for m in moments]  # the reference's own noise at rest
-        return tare_means, gauge_cov, ref_covs
+        return tare_means, gauge_cov, ref_covs, [m[2] for m in moments]
 
     def _stream(self, spec, sessions, mounts, known):
-        """The one pass (:class:`GramPass`), then the factors: ``(_Streams, (tare_means, gauge_cov, ref_covs), subsample)``.
+        """The one pass (:class:`GramPass`), then the factors: ``(_Streams, (tare_means, gauge_cov, ref_covs, ref_n), subsample)``.
 
         Where a Gram factor is in doubt (``GramQR.trouble``: ill-conditioned or rank-deficient
         designs) the fit takes a second pass with the streamed Householder QR instead.
@@ -467,17 +467,20 @@ class Calibrator:
             poly = PolyAccumulator(spec.inputs == "own", joint_faces, n_int, _gauge_scale(sessions, known[0], self.block_size),
                                    {s.connected_face for s in sessions if s.flange == "face"}, [len(s) for s in sessions])
         total_samples = sum(len(s) for s in sessions)
-        gp = GramPass(n_int, FACES if need_own else (), total_samples, None if known is None else known[0])
+        # the same provisional centres whatever the model, so model="auto" that keeps the linear
+        # fit gives it bit for bit
+        gp = GramPass(n_int, FACES if need_own else (), total_samples, joint=bool(joint_faces))
         done = 0
         for k, (s, mount) in enumerate(zip(sessions, mounts)):
             lo, hi = s.counts_range
             for b in s.iter_blocks(self.block_size):
                 _check_block(b, lo, hi)
-                check_connected(gp.add(k, b, mount, spec.output_frame, poly), k, b, s.connected_face)
+                check_connected(gp.add(k, b, mount, spec.output_frame, poly, None if known is None else known[0][k]),
+                                k, b, s.connected_face)
                 done += b.counts.shape[0]
                 if self.progress is not None:
                     self.progress(done, total_samples)
-        rest = known if known is not None else gp.rest_noise()
+        rest = gp.rest_noise()
         own, joint = gp.factors(rest[0], joint_faces)
         st = _Streams(gp.target_gram() * _GRAM_SCALE, gp.carried_any, gp.n_used, own, joint_faces, joint, poly)
         if any(a.trouble() for a in [*own.values(), joint] if a is not None):

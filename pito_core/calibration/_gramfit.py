@@ -36,10 +36,14 @@ class GramPass:
         Samples of all sessions (sets the error model's subsample stride).
     centers : list of ndarray (36,) or None
         Known tare means (then ``c_k`` is exact and no re-centring is needed).
+    joint : bool
+        Whether the joint design (all 36 gauges) is needed; without it only the targets' Gram
+        and the own-gauge designs are summed.
     """
 
-    def __init__(self, n_int: int, own_faces, total_samples: int, centers=None):
+    def __init__(self, n_int: int, own_faces, total_samples: int, centers=None, joint: bool = True):
         self.n_int = n_int
+        self.joint = bool(joint)
         self.G = np.zeros((n_int + 72, n_int + 72))
         self.own = {f: np.zeros((n_int + 12, n_int + 12)) for f in own_faces}
         self.own_rows = {f: 0 for f in own_faces}
@@ -51,37 +55,51 @@ class GramPass:
         self.stride = max(1, int(total_samples) // ERROR_MODEL_SAMPLES)
         self.sub = [[] for _ in range(n_int)]
 
-    def add(self, k: int, b, mount, output_frame: str, poly=None):
-        """Add block ``b`` of session ``k``; returns ``bad_connected`` (n,) of :func:`block_targets`."""
+    def add(self, k: int, b, mount, output_frame: str, poly=None, poly_center=None):
+        """Add block ``b`` of session ``k``; returns ``bad_connected`` (n,) of :func:`block_targets`.
+
+        ``poly`` (a ``PolyAccumulator``) is fed the counts less ``poly_center`` (the tare mean).
+        """
         n = b.counts.shape[0]
         if self.centers[k] is None:
             self.centers[k] = b.counts[0].astype(float)
         c = self.centers[k]
         targets, carries, usable, bad = block_targets(b.reference, b.loaded, mount, output_frame)
-        Z = np.empty((n, 73))
-        Z[:, 0] = 1.0
-        np.subtract(b.counts, c, out=Z[:, 1:37])
-        Z[:, 37:] = targets.reshape(n, 36)
+        if self.joint:  # Z = [1 | X | T]: the joint design's Gram in one product
+            Z = np.empty((n, 73))
+            Z[:, 0] = 1.0
+            X, T = Z[:, 1:37], Z[:, 37:]
+            np.subtract(b.counts, c, out=X)
+            T[:] = targets.reshape(n, 36)
+        else:  # own-gauge fits only: no 36-gauge Gram
+            X, T = b.counts - c, targets.reshape(n, 36)
         unloaded = ~b.loaded.any(axis=1)
         if poly is not None:
-            poly.add(k, Z[:, 1:37], targets, usable, carries, b.loaded)
-        self._tare(k, Z[unloaded, 1:37], b.reference[unloaded])
+            poly.add(k, b.counts - poly_center, targets, usable, carries, b.loaded)
+        self._tare(k, X[unloaded], b.reference[unloaded])
         first = (-b.start) % self.stride
         # the subsample keeps counts less the centre in float32 (relative rounding 6·10⁻⁸: far below any
         # residual the error model reads), so it costs 200 B a sample
-        self.sub[k].append(SessionBlock(b.start + first, Z[first::self.stride, 1:37].astype(np.float32),
+        self.sub[k].append(SessionBlock(b.start + first, X[first::self.stride].astype(np.float32),
                                         b.reference[first::self.stride].copy(), b.loaded[first::self.stride].copy()))
         if not usable.all():
-            Z[~usable] = 0.0
-        nu = int(usable.sum())
-        self.n_used += nu
+            T[~usable] = 0.0  # (targets are NaN there; a view of them when not joint)
+            if self.joint:
+                Z[~usable] = 0.0
+        self.n_used += int(usable.sum())
         self.carried_any |= (carries & usable[:, None]).any(axis=0)
-        idx = np.r_[k, self.n_int + np.arange(72)]
-        self.G[np.ix_(idx, idx)] += Z.T @ Z
+        if self.joint:
+            idx = np.r_[k, self.n_int + np.arange(72)]
+            self.G[np.ix_(idx, idx)] += Z.T @ Z
+        else:
+            self.G[self.n_int + 36 :, self.n_int + 36 :] += T.T @ T
         for f, G in self.own.items():
             rows = np.flatnonzero(usable & (carries[:, f - 1] | unloaded))
-            cols = np.r_[0, 1 + np.arange(6 * (f - 1), 6 * f), 37 + np.arange(6 * (f - 1), 6 * f)]
-            Zf = Z[np.ix_(rows, cols)]
+            g = slice(6 * (f - 1), 6 * f)
+            Zf = np.empty((rows.size, 13))
+            Zf[:, 0] = 1.0
+            Zf[:, 1:7] = X[rows, g]
+            Zf[:, 7:] = T[rows, g]
             idx_f = np.r_[k, self.n_int + np.arange(12)]
             G[np.ix_(idx_f, idx_f)] += Zf.T @ Zf
             self.own_rows[f] += rows.size
@@ -102,7 +120,7 @@ class GramPass:
         t["rr"] += r.T @ r
 
     def rest_noise(self):
-        """``(tare_means, gauge_cov (36, 36), ref_covs)`` as :meth:`Calibrator._rest_noise` gives them."""
+        """``(tare_means, gauge_cov (36, 36), ref_covs, samples at rest)`` as :meth:`Calibrator._rest_noise` gives them."""
         means, covs, ns, ref_covs = [], [], [], []
         for k, t in enumerate(self.tare):
             n = t["n"]
@@ -117,7 +135,7 @@ class GramPass:
             rc = t["rr"] / n - np.outer(rm, rm)
             ref_covs.append(0.5 * (rc + rc.T) * n / max(n - 1, 1))
         gauge_cov = sum(c * n for c, n in zip(covs, ns)) / max(sum(ns) - self.n_int, 1)
-        return means, gauge_cov, ref_covs
+        return means, gauge_cov, ref_covs, ns
 
     def subsample(self, rows: int = 2048):
         """Per session, a list of :class:`SessionBlock` of every ``stride``-th sample (the error

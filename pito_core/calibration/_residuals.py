@@ -28,6 +28,11 @@ N_CLUSTERS = 16
 ERROR_MODEL_SAMPLES = 10_000
 #: Bins of |residual| / σ for the coverage calibration of the error model (pass 4): width, count.
 _Z_WIDTH, _Z_N = 0.005, 4000
+#: Reweighting steps of the error model against the reference's noise (each: weights from the last fit).
+_REWEIGHT = 3
+#: A load-dependent excess variance is kept only above this many standard errors (one-sided
+#: 0.13 %: among the 4 × 36 coefficients of a calibration, a false one in ~5 calibrations).
+_SIGNIFICANT = 3.0
 
 
 def _reference_variance(mount, ref_cov, output_frame, carries, idx) -> np.ndarray:
@@ -41,8 +46,62 @@ def _reference_variance(mount, ref_cov, output_frame, carries, idx) -> np.ndarra
     return carries[:, idx, None] * V[idx][None]
 
 
+def _reference_cov(mount, ref_cov, output_frame, idx) -> np.ndarray:
+    """``(F, 6, 6)`` covariance the reference's own noise puts into each output face's target when it carries."""
+    if ref_cov is None:
+        return np.zeros((len(idx), 6, 6))
+    if output_frame == "face":
+        return np.einsum("fij,jk,flk->fil", mount.X_face_ati[idx], ref_cov, mount.X_face_ati[idx])
+    return np.broadcast_to(ref_cov, (len(idx), 6, 6)).copy()
+
+
+def _nnls_rows(PtP, Pte2):
+    """Per output ``a``, non-negative ``c`` minimising ``‖Φ c − e2‖²`` from ``PtP (..., 4, 4)`` and ``Pte2 (..., 4)``."""
+    scale = np.sqrt(np.clip(np.diag(PtP), 1e-300, None))
+    G = PtP / np.outer(scale, scale)
+    w, V = np.linalg.eigh(G)
+    keep = w > 1e-10 * w[-1]
+    R = (V[:, keep] * np.sqrt(w[keep])).T  # G = Rᵀ R
+    rhs = (V[:, keep].T @ (Pte2 / scale)) / np.sqrt(w[keep])
+    return scipy.optimize.nnls(R, rhs)[0] / scale
+
+
+def _significant_nnls(PtWP, PtWe, PtWv, rel_var) -> np.ndarray:
+    """Generalised least squares of the excess variance on the features, non-negative, keeping a
+    feature only where its coefficient exceeds ``_SIGNIFICANT`` standard errors.
+
+    With a noisy reference the excess ``E² − v`` of a row is mostly that noise, and ``v`` itself
+    is known only to ``rel_var`` (relative variance, ``2/(n − 1)`` from ``n`` samples at rest):
+    the standard error is that of the rows (``PtWP⁻¹``) and of ``v`` (each session's ``v``
+    shifting every row it enters). A coefficient is kept only where the data show it, not where
+    the subtraction left noise.
+    """
+    active = np.ones(PtWe.size, dtype=bool)
+    c = np.zeros(PtWe.size)
+    while active.any():
+        ix = np.ix_(active, active)
+        c = np.zeros(PtWe.size)
+        c[active] = _nnls_rows(PtWP[ix], PtWe[active])
+        Pinv = np.linalg.pinv(PtWP[ix], hermitian=True)
+        var = np.clip(np.diag(Pinv), 0, None)
+        for j, rv in enumerate(rel_var):
+            var = var + rv * (Pinv @ PtWv[j][active]) ** 2
+        weak = np.zeros_like(active)
+        weak[active] = c[active] < _SIGNIFICANT * np.sqrt(var)
+        if not weak.any():
+            break
+        active &= ~weak
+    return c if active.any() else np.zeros(PtWe.size)
+
+
+def _psd(M) -> np.ndarray:
+    """The nearest positive semi-definite matrix (negative eigenvalues set to 0)."""
+    w, V = np.linalg.eigh(0.5 * (M + M.T))
+    return (V * np.clip(w, 0, None)) @ V.T
+
+
 def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, block_size, ref_covs=None,
-                    gauge_cov=None, samples=None):
+                    gauge_cov=None, samples=None, ref_n=None):
     """Per matrix row, non-negative coefficients of the residual variance on ``load_features``.
 
     Residuals of every usable training sample (all faces' rows, also those a method
@@ -55,7 +114,9 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     Also sets each group's ``inflation`` from the scores ``Aᵀ E`` of clusters of
     consecutive samples (cluster-robust covariance against ``Σ_r ⊗ P``).
     ``samples`` (per session, a list of ``SessionBlock`` of every ``stride``-th sample, kept
-    by the fit's own pass) spares the two passes over the sessions.
+    by the fit's own pass) spares the two passes over the sessions. ``ref_n`` (samples at rest
+    behind each ``ref_covs``) sets how uncertain that noise is; an excess of the residuals over
+    it is kept only where it exceeds that uncertainty (``_significant_nnls``).
     """
     F = len(cal.output_faces)
     idx = [f - 1 for f in cal.output_faces]
@@ -69,14 +130,19 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     EtE = np.zeros((F, 6, 6))
     ref_covs = [None] * len(sessions) if ref_covs is None else ref_covs
     floor = np.zeros(6 * F) if gauge_cov is None else np.einsum("ia,ab,ib->i", cal.matrix, gauge_cov, cal.matrix)
+    kept = []  # per block: E, v_ref, phi (float32) for pass 4, so the data are read once
     for j, (s, mount, o, rc) in enumerate(zip(sessions, mounts, offsets, ref_covs)):
         for b in (_strided(s.iter_blocks(block_size), stride) if samples is None else samples[j]):
             targets, carries, usable, _ = block_targets(b.reference, b.loaded, mount, spec.output_frame)
-            x = b.counts[usable] - o
+            counts = b.counts if usable.all() else b.counts[usable]
+            x = counts - o
             Y = _predict(cal, x).reshape(-1, F, 6)
             E = targets[usable][:, idx] - Y
             phi = _features(cal, x, idx)  # (n, F, 4)
-            E2 = E * E - _reference_variance(mount, rc, spec.output_frame, carries[usable], idx) - floor.reshape(F, 6)
+            v_ref = _reference_variance(mount, rc, spec.output_frame, carries[usable], idx)
+            E2 = E * E - v_ref - floor.reshape(F, 6)
+            kept.append((E.reshape(-1, 6 * F).astype(np.float32), v_ref.reshape(-1, 6 * F).astype(np.float32),
+                         phi.astype(np.float32), carries[usable][:, idx], j))
             for k in range(F):
                 PtP[k] += phi[:, k].T @ phi[:, k]
                 Pte2[k] += phi[:, k].T @ E2[:, k]
@@ -86,10 +152,12 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
             for g in groups:
                 cl = clusters[id(g)]
                 f = own_face[id(g)]
-                rows = slice(None) if f is None else (carries[usable][:, f - 1] | unloaded)
-                A = np.zeros((x[rows].shape[0], n_int + g.inputs.size))
+                rows = slice(None) if f is None else np.flatnonzero(carries[usable][:, f - 1] | unloaded)
+                Xg = counts[rows][:, g.inputs] if f is not None else counts
+                A = np.zeros((Xg.shape[0], n_int + g.inputs.size))
                 A[:, j] = 1.0
-                A[:, n_int:] = b.counts[usable][rows][:, g.inputs] - tare_means[j][g.inputs]
+                A[:, n_int:] = Xg if f is not None else Xg[:, g.inputs]
+                A[:, n_int:] -= tare_means[j][g.inputs]
                 Eg = Eflat[rows][:, g.rows]
                 a = 0
                 while a < A.shape[0]:  # clusters of consecutive samples, across blocks
@@ -111,41 +179,77 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
         # the scores are sums over every stride-th sample: × stride for the full data's (independent errors)
         g.inflation = np.maximum(1.0, stride * cl["meat"] / (rank * var))
     coef = np.zeros((6 * F, N_FEATURES))
-    corr = np.zeros((F, 6, 6))
     for k in range(F):
-        scale = np.sqrt(np.clip(np.diag(PtP[k]), 1e-300, None))
-        G = PtP[k] / np.outer(scale, scale)
-        w, V = np.linalg.eigh(G)
-        keep = w > 1e-10 * w[-1]
-        R = (V[:, keep] * np.sqrt(w[keep])).T  # G = Rᵀ R
         for a in range(6):
-            rhs = (V[:, keep].T @ (Pte2[k, :, a] / scale)) / np.sqrt(w[keep])
-            c, _ = scipy.optimize.nnls(R, rhs)
-            coef[6 * k + a] = c / scale
-        d = np.sqrt(np.clip(np.diag(EtE[k]), 1e-300, None))
-        corr[k] = EtE[k] / np.outer(d, d)
+            coef[6 * k + a] = _nnls_rows(PtP[k], Pte2[k, :, a])
+    # Where the reference's noise v is large against the error itself, E² − v says little about
+    # the error: refit with each row weighted by (var / (var + v))², its share of information
+    # (rows where the face carries nothing, or a quiet reference, weigh fully), so the model is
+    # that of the true wrench's error and not of noise left over from the subtraction.
+    vref_full = [_reference_cov(m, rc, spec.output_frame, idx) for m, rc in zip(mounts, ref_covs)]
+    floor_m = (np.zeros((F, 6, 6)) if gauge_cov is None else
+               np.einsum("kia,ab,kjb->kij", cal.matrix.reshape(F, 6, 36), gauge_cov, cal.matrix.reshape(F, 6, 36)))
+    rel_var = [0.0 if n is None else 2.0 / max(n - 1, 1) for n in (ref_n or [None] * len(sessions))]
+    for _ in range(_REWEIGHT):
+        weights, corr = _reweighted(kept, coef, floor, floor_m, vref_full, EtE, F, rel_var)
     coef[:, 0] += floor
     # pass 4: errors are not Gaussian (nonlinearity, drift): scale each row's variance so
-    # that ±1.96 σ (with the reference's noise added) holds 95 % of its training residuals
+    # that ±1.96 σ (with the reference's noise added) holds 95 % of its training residuals,
+    # rows weighted as above
     hist = np.zeros((6 * F, _Z_N + 1))
     rows = np.arange(6 * F)
-    for j, (s, mount, o, rc) in enumerate(zip(sessions, mounts, offsets, ref_covs)):
-        for b in (_strided(s.iter_blocks(block_size), stride) if samples is None else samples[j]):
-            targets, carries, usable, _ = block_targets(b.reference, b.loaded, mount, spec.output_frame)
-            x = b.counts[usable] - o
-            E = (targets[usable][:, idx] - _predict(cal, x).reshape(-1, F, 6)).reshape(-1, 6 * F)
-            v_ref = _reference_variance(mount, rc, spec.output_frame, carries[usable], idx).reshape(-1, 6 * F)
-            phi = _features(cal, x, idx)
-            var = np.concatenate([phi[:, k] @ coef[6 * k : 6 * k + 6].T for k in range(F)], axis=1)  # (n, 6F)
-            # the scale s with |E| ≤ 1.96·√(s·var + v_ref) on 95 % of rows (E holds the reference's
-            # noise, the interval is of the true wrench): each row needs s ≥ z²/1.96² with
-            z = np.sqrt(np.clip(E * E - 1.959964**2 * v_ref, 0, None) / np.clip(var, 1e-300, None))
-            bins = np.minimum(z / _Z_WIDTH, _Z_N).astype(np.int64) + rows * (_Z_N + 1)
-            hist += np.bincount(bins.ravel(), minlength=hist.size).reshape(hist.shape)
+    for (E, v_ref, phi, _, _), w in zip(kept, weights):
+        var = np.concatenate([phi[:, k] @ coef[6 * k : 6 * k + 6].T for k in range(F)], axis=1)  # (n, 6F)
+        # the scale s with |E| ≤ 1.96·√(s·var + v_ref) on 95 % of rows (E holds the reference's
+        # noise, the interval is of the true wrench): each row needs s ≥ z²/1.96² with
+        E = E.astype(float)
+        z = np.sqrt(np.clip(E * E - 1.959964**2 * v_ref, 0, None) / np.clip(var, 1e-300, None))
+        bins = np.minimum(z / _Z_WIDTH, _Z_N).astype(np.int64) + rows * (_Z_N + 1)
+        hist += np.bincount(bins.ravel(), weights=w.ravel(), minlength=hist.size).reshape(hist.shape)
     cdf = np.cumsum(hist, axis=1) / np.clip(hist.sum(axis=1, keepdims=True), 1, None)
     q95 = (np.argmax(cdf >= 0.95, axis=1) + 1) * _Z_WIDTH
     coef *= ((q95 / 1.959964) ** 2)[:, None]
     return coef, corr
+
+
+def _reweighted(kept, coef, floor, floor_m, vref_full, EtE, F, rel_var):
+    """One reweighting step of the error model (updates ``coef`` in place): ``(weights, corr)``."""
+    PtWP = np.zeros((6 * F, N_FEATURES, N_FEATURES))
+    PtWe = np.zeros((6 * F, N_FEATURES))
+    PtWv = np.zeros((len(rel_var), 6 * F, N_FEATURES))  # per session: response to a relative error of its v
+    S, w_sum = np.zeros((F, 6, 6)), np.zeros(F)
+    weights = []
+    for E, v_ref, phi, carr, j in kept:
+        var0 = np.concatenate([phi[:, k] @ coef[6 * k : 6 * k + 6].T for k in range(F)], axis=1) + floor
+        var0 = np.clip(var0, 1e-300, None)
+        w = (var0 / (var0 + v_ref)) ** 2  # (n, 6F) each row's share of information on the error
+        weights.append(w)
+        gls = 1.0 / (2.0 * (var0 + v_ref) ** 2)  # 1 / Var(E²) of a Gaussian residual
+        E2 = E.astype(float) ** 2 - v_ref - floor
+        ph = phi.astype(float)
+        for k in range(F):
+            wk, gk = w[:, 6 * k : 6 * k + 6], gls[:, 6 * k : 6 * k + 6]
+            PtWP[6 * k : 6 * k + 6] += np.einsum("na,ni,nj->aij", gk, ph[:, k], ph[:, k])
+            PtWe[6 * k : 6 * k + 6] += np.einsum("na,ni,na->ai", gk, ph[:, k], E2[:, 6 * k : 6 * k + 6])
+            PtWv[j, 6 * k : 6 * k + 6] += np.einsum("na,ni,na->ai", gk, ph[:, k], v_ref[:, 6 * k : 6 * k + 6])
+            wf = wk.mean(axis=1)
+            Ek = E[:, 6 * k : 6 * k + 6].astype(float)
+            S[k] += (Ek * wf[:, None]).T @ Ek - (wf * carr[:, k]).sum() * vref_full[j][k]
+            w_sum[k] += wf.sum()
+    corr = np.zeros((F, 6, 6))
+    for k in range(F):
+        for a in range(6):
+            if PtWP[6 * k + a, 0, 0] > 0:
+                coef[6 * k + a] = _significant_nnls(PtWP[6 * k + a], PtWe[6 * k + a], PtWv[:, 6 * k + a], rel_var)
+        # the error's correlation between a face's axes: the residuals' less the reference's, the
+        # gauge noise through the matrix at least (so the correlation is the true wrench's error's)
+        Sk = _psd(S[k] / max(w_sum[k], 1e-300) - floor_m[k]) + floor_m[k]
+        d = np.sqrt(np.clip(np.diag(Sk), 1e-300, None))
+        corr[k] = Sk / np.outer(d, d)
+        if not np.all(np.isfinite(corr[k])) or np.any(np.diag(Sk) <= 0):
+            d = np.sqrt(np.clip(np.diag(EtE[k]), 1e-300, None))
+            corr[k] = EtE[k] / np.outer(d, d)
+    return weights, corr
 
 
 def _strided(blocks, stride):
