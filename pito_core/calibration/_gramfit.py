@@ -65,6 +65,8 @@ class GramPass:
             self.centers[k] = b.counts[0].astype(float)
         c = self.centers[k]
         targets, carries, usable, bad = block_targets(b.reference, b.loaded, mount, output_frame)
+        if poly is not None:  # before Z exists: the polynomial features are the largest arrays of a block
+            poly.add(k, b.counts - poly_center, targets, usable, carries, b.loaded)
         if self.joint:  # Z = [1 | X | T]: the joint design's Gram in one product
             Z = np.empty((n, 73))
             Z[:, 0] = 1.0
@@ -74,8 +76,6 @@ class GramPass:
         else:  # own-gauge fits only: no 36-gauge Gram
             X, T = b.counts - c, targets.reshape(n, 36)
         unloaded = ~b.loaded.any(axis=1)
-        if poly is not None:
-            poly.add(k, b.counts - poly_center, targets, usable, carries, b.loaded)
         self._tare(k, X[unloaded], b.reference[unloaded])
         first = (-b.start) % self.stride
         # the subsample keeps counts less the centre in float32 (relative rounding 6·10⁻⁸: far below any

@@ -61,29 +61,37 @@ def _nnls_rows(PtP, Pte2):
     G = PtP / np.outer(scale, scale)
     w, V = np.linalg.eigh(G)
     keep = w > 1e-10 * w[-1]
+    if w[-1] <= 0 or not keep.any():
+        return np.zeros(Pte2.size)
     R = (V[:, keep] * np.sqrt(w[keep])).T  # G = Rᵀ R
     rhs = (V[:, keep].T @ (Pte2 / scale)) / np.sqrt(w[keep])
     return scipy.optimize.nnls(R, rhs)[0] / scale
 
 
-def _significant_nnls(PtWP, PtWe, PtWv, rel_var) -> np.ndarray:
-    """Generalised least squares of the excess variance on the features, non-negative, keeping a
+def _significant_nnls(PtWP, PtWe, meat, PtWv, rel_var) -> np.ndarray:
+    """Weighted least squares of the excess variance on the features, non-negative, keeping a
     feature only where its coefficient exceeds ``_SIGNIFICANT`` standard errors.
 
     With a noisy reference the excess ``E² − v`` of a row is mostly that noise, and ``v`` itself
     is known only to ``rel_var`` (relative variance, ``2/(n − 1)`` from ``n`` samples at rest):
-    the standard error is that of the rows (``PtWP⁻¹``) and of ``v`` (each session's ``v``
-    shifting every row it enters). A coefficient is kept only where the data show it, not where
-    the subtraction left noise.
+    the standard error is the rows' (sandwich ``P⁻¹ meat P⁻¹``) and that of ``v`` (each
+    session's ``v`` shifting every row it enters). A coefficient is kept only where the data
+    show it, not where the subtraction left noise.
     """
     active = np.ones(PtWe.size, dtype=bool)
     c = np.zeros(PtWe.size)
+    if not (np.all(np.isfinite(PtWP)) and np.all(np.isfinite(PtWe))):
+        return c
     while active.any():
         ix = np.ix_(active, active)
         c = np.zeros(PtWe.size)
         c[active] = _nnls_rows(PtWP[ix], PtWe[active])
+        active &= c > 0  # the standard errors of the features in use (collinear unused ones would swell them)
+        if not active.any():
+            break
+        ix = np.ix_(active, active)
         Pinv = np.linalg.pinv(PtWP[ix], hermitian=True)
-        var = np.clip(np.diag(Pinv), 0, None)
+        var = np.clip(np.diag(Pinv @ meat[ix] @ Pinv), 0, None)
         for j, rv in enumerate(rel_var):
             var = var + rv * (Pinv @ PtWv[j][active]) ** 2
         weak = np.zeros_like(active)
@@ -91,7 +99,8 @@ def _significant_nnls(PtWP, PtWe, PtWv, rel_var) -> np.ndarray:
         if not weak.any():
             break
         active &= ~weak
-    return c if active.any() else np.zeros(PtWe.size)
+        c = np.zeros(PtWe.size)
+    return c
 
 
 def _psd(M) -> np.ndarray:
@@ -130,7 +139,7 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     EtE = np.zeros((F, 6, 6))
     ref_covs = [None] * len(sessions) if ref_covs is None else ref_covs
     floor = np.zeros(6 * F) if gauge_cov is None else np.einsum("ia,ab,ib->i", cal.matrix, gauge_cov, cal.matrix)
-    kept = []  # per block: E, v_ref, phi (float32) for pass 4, so the data are read once
+    kept = []  # per block: E, phi (float32), which faces carry, session: the data are read once
     for j, (s, mount, o, rc) in enumerate(zip(sessions, mounts, offsets, ref_covs)):
         for b in (_strided(s.iter_blocks(block_size), stride) if samples is None else samples[j]):
             targets, carries, usable, _ = block_targets(b.reference, b.loaded, mount, spec.output_frame)
@@ -141,8 +150,7 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
             phi = _features(cal, x, idx)  # (n, F, 4)
             v_ref = _reference_variance(mount, rc, spec.output_frame, carries[usable], idx)
             E2 = E * E - v_ref - floor.reshape(F, 6)
-            kept.append((E.reshape(-1, 6 * F).astype(np.float32), v_ref.reshape(-1, 6 * F).astype(np.float32),
-                         phi.astype(np.float32), carries[usable][:, idx], j))
+            kept.append((E.reshape(-1, 6 * F).astype(np.float32), phi.astype(np.float32), carries[usable][:, idx], j))
             for k in range(F):
                 PtP[k] += phi[:, k].T @ phi[:, k]
                 Pte2[k] += phi[:, k].T @ E2[:, k]
@@ -189,17 +197,20 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     vref_full = [_reference_cov(m, rc, spec.output_frame, idx) for m, rc in zip(mounts, ref_covs)]
     floor_m = (np.zeros((F, 6, 6)) if gauge_cov is None else
                np.einsum("kia,ab,kjb->kij", cal.matrix.reshape(F, 6, 36), gauge_cov, cal.matrix.reshape(F, 6, 36)))
+    vdiag = [np.diagonal(V, axis1=-2, axis2=-1) for V in vref_full]  # (F, 6) per session
     rel_var = [0.0 if n is None else 2.0 / max(n - 1, 1) for n in (ref_n or [None] * len(sessions))]
     for _ in range(_REWEIGHT):
-        weights, corr = _reweighted(kept, coef, floor, floor_m, vref_full, EtE, F, rel_var)
+        corr = _reweighted(kept, coef, floor, floor_m, vref_full, EtE, F, rel_var)
     coef[:, 0] += floor
     # pass 4: errors are not Gaussian (nonlinearity, drift): scale each row's variance so
     # that ±1.96 σ (with the reference's noise added) holds 95 % of its training residuals,
     # rows weighted as above
     hist = np.zeros((6 * F, _Z_N + 1))
     rows = np.arange(6 * F)
-    for (E, v_ref, phi, _, _), w in zip(kept, weights):
+    for E, phi, carr, j in kept:
         var = np.concatenate([phi[:, k] @ coef[6 * k : 6 * k + 6].T for k in range(F)], axis=1)  # (n, 6F)
+        v_ref = (carr[:, :, None] * vdiag[j][None]).reshape(-1, 6 * F)
+        w = (var / np.clip(var + v_ref, 1e-300, None)) ** 2  # each row's share of information on the error
         # the scale s with |E| ≤ 1.96·√(s·var + v_ref) on 95 % of rows (E holds the reference's
         # noise, the interval is of the true wrench): each row needs s ≥ z²/1.96² with
         E = E.astype(float)
@@ -213,43 +224,53 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
 
 
 def _reweighted(kept, coef, floor, floor_m, vref_full, EtE, F, rel_var):
-    """One reweighting step of the error model (updates ``coef`` in place): ``(weights, corr)``."""
+    """One reweighting step of the error model (updates ``coef`` in place); returns ``corr (F, 6, 6)``.
+
+    Rows weigh ``w = (var / (var + v))²``, their share of information on the error (1 where the
+    reference adds nothing); the coefficients' standard errors are the sandwich of Gaussian
+    residuals (``Var(E²) = 2 (var + v)²``) and of the reference noise's own uncertainty.
+    """
+    n_s = len(rel_var)
     PtWP = np.zeros((6 * F, N_FEATURES, N_FEATURES))
+    meat = np.zeros((6 * F, N_FEATURES, N_FEATURES))
     PtWe = np.zeros((6 * F, N_FEATURES))
-    PtWv = np.zeros((len(rel_var), 6 * F, N_FEATURES))  # per session: response to a relative error of its v
+    PtWv = np.zeros((n_s, 6 * F, N_FEATURES))  # per session: response to a relative error of its v
     S, w_sum = np.zeros((F, 6, 6)), np.zeros(F)
-    weights = []
-    for E, v_ref, phi, carr, j in kept:
-        var0 = np.concatenate([phi[:, k] @ coef[6 * k : 6 * k + 6].T for k in range(F)], axis=1) + floor
-        var0 = np.clip(var0, 1e-300, None)
-        w = (var0 / (var0 + v_ref)) ** 2  # (n, 6F) each row's share of information on the error
-        weights.append(w)
-        gls = 1.0 / (2.0 * (var0 + v_ref) ** 2)  # 1 / Var(E²) of a Gaussian residual
-        E2 = E.astype(float) ** 2 - v_ref - floor
+    for E, phi, carr, j in kept:
         ph = phi.astype(float)
+        var0 = np.clip(np.concatenate([ph[:, k] @ coef[6 * k : 6 * k + 6].T for k in range(F)], axis=1) + floor, 0, None)
+        v_ref = (carr[:, :, None] * np.diagonal(vref_full[j], axis1=-2, axis2=-1)[None]).reshape(-1, 6 * F)
+        tot = np.clip(var0 + v_ref, 1e-300, None)
+        w = (var0 / tot) ** 2  # (n, 6F)
+        E = E.astype(float)
+        E2 = E * E - v_ref - floor
         for k in range(F):
-            wk, gk = w[:, 6 * k : 6 * k + 6], gls[:, 6 * k : 6 * k + 6]
-            PtWP[6 * k : 6 * k + 6] += np.einsum("na,ni,nj->aij", gk, ph[:, k], ph[:, k])
-            PtWe[6 * k : 6 * k + 6] += np.einsum("na,ni,na->ai", gk, ph[:, k], E2[:, 6 * k : 6 * k + 6])
-            PtWv[j, 6 * k : 6 * k + 6] += np.einsum("na,ni,na->ai", gk, ph[:, k], v_ref[:, 6 * k : 6 * k + 6])
+            o = slice(6 * k, 6 * k + 6)
+            wk = w[:, o]
+            PtWP[o] += np.einsum("na,ni,nj->aij", wk, ph[:, k], ph[:, k])
+            meat[o] += np.einsum("na,ni,nj->aij", 2.0 * (wk * tot[:, o]) ** 2, ph[:, k], ph[:, k])
+            PtWe[o] += np.einsum("na,ni,na->ai", wk, ph[:, k], E2[:, o])
+            PtWv[j, o] += np.einsum("na,ni,na->ai", wk, ph[:, k], v_ref[:, o])
             wf = wk.mean(axis=1)
-            Ek = E[:, 6 * k : 6 * k + 6].astype(float)
-            S[k] += (Ek * wf[:, None]).T @ Ek - (wf * carr[:, k]).sum() * vref_full[j][k]
+            S[k] += (E[:, o] * wf[:, None]).T @ E[:, o] - (wf * carr[:, k]).sum() * vref_full[j][k]
             w_sum[k] += wf.sum()
     corr = np.zeros((F, 6, 6))
     for k in range(F):
         for a in range(6):
-            if PtWP[6 * k + a, 0, 0] > 0:
-                coef[6 * k + a] = _significant_nnls(PtWP[6 * k + a], PtWe[6 * k + a], PtWv[:, 6 * k + a], rel_var)
-        # the error's correlation between a face's axes: the residuals' less the reference's, the
-        # gauge noise through the matrix at least (so the correlation is the true wrench's error's)
-        Sk = _psd(S[k] / max(w_sum[k], 1e-300) - floor_m[k]) + floor_m[k]
+            r = 6 * k + a
+            if PtWP[r, 0, 0] > 0:
+                coef[r] = _significant_nnls(PtWP[r], PtWe[r], meat[r], PtWv[:, r], rel_var)
+        # the error's correlation between a face's axes: the residuals' less the reference's (where
+        # that is not positive, the gauge noise through the matrix where it is), the true wrench's error's
+        Sk = S[k] / max(w_sum[k], 1e-300)
+        if np.all(np.isfinite(Sk)) and np.linalg.eigvalsh(0.5 * (Sk + Sk.T))[0] < 0:
+            Sk = _psd(Sk - floor_m[k]) + floor_m[k]
         d = np.sqrt(np.clip(np.diag(Sk), 1e-300, None))
         corr[k] = Sk / np.outer(d, d)
         if not np.all(np.isfinite(corr[k])) or np.any(np.diag(Sk) <= 0):
             d = np.sqrt(np.clip(np.diag(EtE[k]), 1e-300, None))
             corr[k] = EtE[k] / np.outer(d, d)
-    return weights, corr
+    return corr
 
 
 def _strided(blocks, stride):
