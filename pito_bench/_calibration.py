@@ -223,15 +223,15 @@ def interval_coverage(cal, session) -> dict:
     return {"min": float(v.min()), "median": float(np.median(v)), "max": float(v.max()), "per_face": per.tolist()}
 
 
-def task_stream(path, method, test_path, block_size=65536) -> dict:
+def task_stream(path, method, test_path, block_size=65536, model="auto") -> dict:
     """One streamed fit from a session file (lazy), alone in its process: time and memory."""
     session = CalibrationSession.load(path, lazy=True)
     rss0 = _current_rss_mb()
     t0 = time.perf_counter()
-    cal = calibrate(session, method, block_size=block_size)
+    cal = calibrate(session, method, block_size=block_size, model=model)
     dt = time.perf_counter() - t0
     peak = peak_rss_mb()
-    row = {"method": method, "k": len(session), "mode": "streamed", "fit_s": dt, "rss_before_MB": rss0,
+    row = {"method": method, "k": len(session), "mode": "streamed", "model": model, "fit_s": dt, "rss_before_MB": rss0,
            "fit_peak_rss_MB": peak, "fit_extra_MB": peak - rss0, "block_size": block_size}
     row.update(rmse_summary(evaluate(cal, CalibrationSession.load(test_path))))
     # baseline: one bare pass over the file (HDF5 read + gzip inflate, float conversion)
@@ -276,9 +276,11 @@ def run_calibration(sizes, workdir, *, quick: bool = False, methods=METHODS, thr
         for m in stream_methods:
             progress(f"calibration: streamed fit from file, {m}, k = {k:.0e}")
             fl = MOUNT_OF_METHOD[m][0]
-            row = run_worker("cal_stream", {"path": train[fl], "method": m, "test_path": test[fl]}, threads=threads)
-            row["peak_rss_MB"] = row.pop("peak_rss_mb")
-            stream_rows.append(row)
+            for model in ("linear", "auto"):  # the papers' fit, and the default (model chosen by cross-validation)
+                row = run_worker("cal_stream", {"path": train[fl], "method": m, "test_path": test[fl], "model": model},
+                                 threads=threads)
+                row["peak_rss_MB"] = row.pop("peak_rss_mb")
+                stream_rows.append(row)
         for p in train.values():
             os.remove(p)
     mem_by = {(r["method"], r["k"]): r for r in memory_rows}

@@ -76,12 +76,14 @@ def _significant_nnls(PtWP, PtWe, meat, PtWv, rel_var) -> np.ndarray:
     is known only to ``rel_var`` (relative variance, ``2/(n − 1)`` from ``n`` samples at rest):
     the standard error is the rows' (sandwich ``P⁻¹ meat P⁻¹``) and that of ``v`` (each
     session's ``v`` shifting every row it enters). A coefficient is kept only where the data
-    show it, not where the subtraction left noise.
+    show it, not where the subtraction left noise. Without reference noise: the plain fit.
     """
     active = np.ones(PtWe.size, dtype=bool)
     c = np.zeros(PtWe.size)
     if not (np.all(np.isfinite(PtWP)) and np.all(np.isfinite(PtWe))):
         return c
+    if not np.any(PtWv):  # no reference noise in these rows: nothing was subtracted, keep the fit
+        return _nnls_rows(PtWP, PtWe)
     while active.any():
         ix = np.ix_(active, active)
         c = np.zeros(PtWe.size)
