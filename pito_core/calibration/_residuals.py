@@ -29,7 +29,7 @@ ERROR_MODEL_SAMPLES = 10_000
 #: Bins of |residual| / σ for the coverage calibration of the error model (pass 4): width, count.
 _Z_WIDTH, _Z_N = 0.005, 4000
 #: Reweighting steps of the error model against the reference's noise (each: weights from the last fit).
-_REWEIGHT = 2
+_REWEIGHT = 3
 #: A term of the excess variance is kept only above this many standard errors of what the
 #: uncertainty of the reference's noise (measured at rest) can put into it.
 _SIGNIFICANT = 3.0
