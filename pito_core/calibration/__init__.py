@@ -23,7 +23,7 @@ from ._fit import (
     session_offsets,
 )
 from ._uncertainty import CalibrationCovariance, CovarianceGroup
-from ._lstsq import LstsqResult, StreamedQR
+from ._lstsq import GRAM_KAPPA_MAX, GramQR, LstsqResult, StreamedQR
 from ._cv import MODELS, ModelChoice, segment_ids
 from ._poly import PolyCorrection
 from ._sensor import SensorFit, fit_sensor
@@ -63,6 +63,8 @@ __all__ = [
     "UNCERTAINTY_WORDS",
     "LstsqResult",
     "StreamedQR",
+    "GramQR",
+    "GRAM_KAPPA_MAX",
     "MountGeometry",
     "block_targets",
     "AXES",

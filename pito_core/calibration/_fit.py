@@ -24,6 +24,7 @@ from ..frames import FACES
 from ._calibration import Calibration
 from ._coverage import measured_directions
 from ._cv import MODELS, ModelChoice
+from ._gramfit import GramPass, check_connected
 from ._lstsq import RANK_RTOL, StreamedQR
 from ._nlfit import PolyAccumulator, correction as poly_correction, mixed_offsets
 from ._methods import MethodSpec, get_method
@@ -134,18 +135,7 @@ def _tare_moments(session: CalibrationSession, block_size: int = 65536, with_ref
     shift = None  # first unloaded sample: sums of squares about it do not cancel catastrophically
     lo, hi = session.counts_range
     for b in session.iter_blocks(block_size):
-        bad = ~np.isfinite(b.counts).all(axis=1)
-        if bad.any():
-            raise ValueError(f"counts: NaN or inf at sample indices {_few(np.flatnonzero(bad) + b.start)}")
-        bad = ~np.isfinite(b.reference).all(axis=1)
-        if bad.any():
-            raise ValueError(f"reference: NaN or inf at sample indices {_few(np.flatnonzero(bad) + b.start)}")
-        sat = ((b.counts <= lo) | (b.counts >= hi)).any(axis=1)
-        if sat.any():
-            raise ValueError(
-                f"counts: saturated (at or beyond the ADC range [{lo}, {hi}]) at sample indices "
-                f"{_few(np.flatnonzero(sat) + b.start)}"
-            )
+        _check_block(b, lo, hi)
         free = ~b.loaded.any(axis=1)
         if free.any():
             c = b.counts[free]
@@ -168,6 +158,23 @@ def _tare_moments(session: CalibrationSession, block_size: int = 65536, with_ref
         rc = r_sq / n - np.outer(rm, rm)
         out = out + (0.5 * (rc + rc.T),)
     return out
+
+
+def _check_block(b, lo, hi) -> None:
+    """Refuse NaN or inf counts or reference, and counts at or beyond the ADC range ``[lo, hi]``, naming the samples."""
+    if b.counts.min() > lo and b.counts.max() < hi and np.isfinite(b.reference.sum()):
+        return  # the usual case: three reductions of the block (NaN fails the comparisons)
+    bad = ~np.isfinite(b.counts).all(axis=1)
+    if bad.any():
+        raise ValueError(f"counts: NaN or inf at sample indices {_few(np.flatnonzero(bad) + b.start)}")
+    bad = ~np.isfinite(b.reference).all(axis=1)
+    if bad.any():
+        raise ValueError(f"reference: NaN or inf at sample indices {_few(np.flatnonzero(bad) + b.start)}")
+    sat = ((b.counts <= lo) | (b.counts >= hi)).any(axis=1)
+    raise ValueError(
+        f"counts: saturated (at or beyond the ADC range [{lo}, {hi}]) at sample indices "
+        f"{_few(np.flatnonzero(sat) + b.start)}"
+    )
 
 
 def _gauge_scale(sessions, tare_means, block_size) -> np.ndarray:
@@ -398,12 +405,14 @@ class Calibrator:
         sessions = _as_sessions(sessions)
         self._check_sessions(spec, sessions)
         n_int = len(sessions)
-        # pass 1: tare means and the gauge noise at rest (refusing NaN, inf and saturated samples)
-        tare_means, gauge_cov, ref_covs = self._rest_noise(sessions)
         mounts = [MountGeometry(s) for s in sessions]
-        # pass 2: targets, their Gram matrix (excitation, load rank) and streamed QR of the
-        # affine design [offset column of each session | counts − tare mean]
-        st = self._stream(spec, sessions, mounts, tare_means)
+        # the polynomial features are monomials of counts less the tare mean: that model needs
+        # the tare means before its pass (pass 1); the linear fit takes them in its one pass
+        known = self._rest_noise(sessions) if self.model != "linear" and self.prior is None else None
+        # one pass: checks, tare moments, targets and their Gram (excitation, load rank), the
+        # Gram of the affine design [offset column of each session | counts − tare mean | targets],
+        # the error model's subsample; a second (QR) pass only where the Gram route is in doubt
+        st, (tare_means, gauge_cov, ref_covs, ref_n), subsample = self._stream(spec, sessions, mounts, known)
         out_faces = st.joint_faces or self._output_faces(spec, sessions, st.carried_any)
         if not out_faces:
             raise ValueError("loaded: no face carried load in the sessions; nothing to calibrate")
@@ -429,49 +438,70 @@ class Calibrator:
                           linear_fit=linear_fit)
         # pass 3: the error a sample brings itself (noise, what the linear model misses), against its load
         coef, corr = fit_error_model(cal, sessions, mounts, fit.offsets, tare_means, spec, fit.groups, self.block_size,
-                                     ref_covs, gauge_cov)
+                                     ref_covs, gauge_cov, samples=subsample, ref_n=ref_n)
         cal.covariance = CalibrationCovariance(fit.groups, gauge_cov, None, coef, corr)
         self.calibration_ = cal
         return self
 
     def _rest_noise(self, sessions):
         """Pass 1: each session's tare mean (36,) counts, the pooled gauge covariance at rest
-        (36, 36) counts², and each session's reference covariance at rest (6, 6) N/N·m²."""
+        (36, 36) counts², each session's reference covariance at rest (6, 6) N/N·m², and the
+        samples at rest it comes from."""
         n_int = len(sessions)
         moments = [_tare_moments(s, self.block_size, with_reference=True) for s in sessions]
         tare_means = [m[0] for m in moments]
         n_tare = sum(m[2] for m in moments)
         gauge_cov = sum(m[1] * m[2] for m in moments) / max(n_tare - n_int, 1)  # pooled within sessions
         ref_covs = [m[3] * m[2] / max(m[2] - 1, 1) for m in moments]  # the reference's own noise at rest
-        return tare_means, gauge_cov, ref_covs
+        return tare_means, gauge_cov, ref_covs, [m[2] for m in moments]
 
-    def _stream(self, spec, sessions, mounts, tare_means) -> "_Streams":
-        """Pass 2: the accumulators (Gram of the targets, streamed QRs, polynomial sums) over every block."""
+    def _stream(self, spec, sessions, mounts, known):
+        """The one pass (:class:`GramPass`), then the factors: ``(_Streams, (tare_means, gauge_cov, ref_covs, ref_n), subsample)``.
+
+        Where a Gram factor is in doubt (``GramQR.trouble``: ill-conditioned or rank-deficient
+        designs) the fit takes a second pass with the streamed Householder QR instead.
+        """
         n_int = len(sessions)
         need_own = spec.inputs == "own" or self.prior == "own_gauge"
-        own = {f: StreamedQR(n_int + 6, 6, flush_rows=self.block_size) for f in FACES} if need_own else {}
         joint_faces = self._output_faces(spec, sessions, None) if spec.inputs == "all" else ()
-        joint = StreamedQR(n_int + 36, 6 * len(joint_faces), flush_rows=self.block_size) if joint_faces else None
         poly = None
-        if self.model != "linear" and self.prior is None:
-            poly = PolyAccumulator(spec.inputs == "own", joint_faces, n_int, _gauge_scale(sessions, tare_means, self.block_size),
+        if known is not None:
+            poly = PolyAccumulator(spec.inputs == "own", joint_faces, n_int, _gauge_scale(sessions, known[0], self.block_size),
                                    {s.connected_face for s in sessions if s.flange == "face"}, [len(s) for s in sessions])
-        st = _Streams(np.zeros((36, 36)), np.zeros(6, dtype=bool), 0, own, joint_faces, joint, poly)
         total_samples = sum(len(s) for s in sessions)
+        # the same provisional centres whatever the model, so model="auto" that keeps the linear
+        # fit gives it bit for bit
+        gp = GramPass(n_int, FACES if need_own else (), total_samples, joint=bool(joint_faces))
         done = 0
-        for k, (s, mount, center) in enumerate(zip(sessions, mounts, tare_means)):
+        for k, (s, mount) in enumerate(zip(sessions, mounts)):
+            lo, hi = s.counts_range
             for b in s.iter_blocks(self.block_size):
-                targets, carries, usable, bad = block_targets(b.reference, b.loaded, mount, spec.output_frame)
-                if bad.any():
-                    raise ValueError(
-                        f"sessions[{k}].loaded: the connected face {s.connected_face} cannot be loaded with "
-                        f"flange 'frame', yet it is marked loaded at sample indices {_few(np.flatnonzero(bad) + b.start)}"
-                    )
-                _add_block(st, k, n_int, b, center, targets, carries, usable)
+                _check_block(b, lo, hi)
+                check_connected(gp.add(k, b, mount, spec.output_frame, poly, None if known is None else known[0][k]),
+                                k, b, s.connected_face)
                 done += b.counts.shape[0]
                 if self.progress is not None:
                     self.progress(done, total_samples)
-        return st
+        rest = gp.rest_noise()
+        own, joint = gp.factors(rest[0], joint_faces)
+        st = _Streams(gp.target_gram() * _GRAM_SCALE, gp.carried_any, gp.n_used, own, joint_faces, joint, poly)
+        if any(a.trouble() for a in [*own.values(), joint] if a is not None):
+            self._stream_qr(spec, sessions, mounts, rest[0], st)
+        return st, rest, gp.subsample()
+
+    def _stream_qr(self, spec, sessions, mounts, tare_means, st) -> None:
+        """The stable second pass: streamed Householder QR of every design (replaces ``st.own``, ``st.joint``)."""
+        n_int = len(sessions)
+        qr = _Streams(np.zeros((36, 36)), np.zeros(6, dtype=bool), 0,
+                      {f: StreamedQR(n_int + 6, 6, flush_rows=self.block_size) for f in st.own},
+                      st.joint_faces,
+                      StreamedQR(n_int + 36, 6 * len(st.joint_faces), flush_rows=self.block_size) if st.joint_faces else None,
+                      None)
+        for k, (s, mount, center) in enumerate(zip(sessions, mounts, tare_means)):
+            for b in s.iter_blocks(self.block_size):
+                targets, carries, usable, _ = block_targets(b.reference, b.loaded, mount, spec.output_frame)
+                _add_block(qr, k, n_int, b, center, targets, carries, usable)
+        st.own, st.joint = qr.own, qr.joint
 
     def _solve_own(self, spec, st, out_faces, n_int, center, weights, fit):
         """Each output face's own-gauge fit: the block-diagonal ``own_C`` (6F, 36) and intercepts (n_int, 6F)."""

@@ -28,6 +28,11 @@ N_CLUSTERS = 16
 ERROR_MODEL_SAMPLES = 10_000
 #: Bins of |residual| / σ for the coverage calibration of the error model (pass 4): width, count.
 _Z_WIDTH, _Z_N = 0.005, 4000
+#: Reweighting steps of the error model against the reference's noise (each: weights from the last fit).
+_REWEIGHT = 3
+#: A term of the excess variance is kept only above this many standard errors of what the
+#: uncertainty of the reference's noise (measured at rest) can put into it.
+_SIGNIFICANT = 3.0
 
 
 def _reference_variance(mount, ref_cov, output_frame, carries, idx) -> np.ndarray:
@@ -41,8 +46,74 @@ def _reference_variance(mount, ref_cov, output_frame, carries, idx) -> np.ndarra
     return carries[:, idx, None] * V[idx][None]
 
 
+def _reference_cov(mount, ref_cov, output_frame, idx) -> np.ndarray:
+    """``(F, 6, 6)`` covariance the reference's own noise puts into each output face's target when it carries."""
+    if ref_cov is None:
+        return np.zeros((len(idx), 6, 6))
+    if output_frame == "face":
+        return np.einsum("fij,jk,flk->fil", mount.X_face_ati[idx], ref_cov, mount.X_face_ati[idx])
+    return np.broadcast_to(ref_cov, (len(idx), 6, 6)).copy()
+
+
+def _nnls_rows(PtP, Pte2):
+    """Per output ``a``, non-negative ``c`` minimising ``‖Φ c − e2‖²`` from ``PtP (..., 4, 4)`` and ``Pte2 (..., 4)``."""
+    scale = np.sqrt(np.clip(np.diag(PtP), 1e-300, None))
+    G = PtP / np.outer(scale, scale)
+    w, V = np.linalg.eigh(G)
+    keep = w > 1e-10 * w[-1]
+    if w[-1] <= 0 or not keep.any():
+        return np.zeros(Pte2.size)
+    R = (V[:, keep] * np.sqrt(w[keep])).T  # G = Rᵀ R
+    rhs = (V[:, keep].T @ (Pte2 / scale)) / np.sqrt(w[keep])
+    return scipy.optimize.nnls(R, rhs)[0] / scale
+
+
+def _significant_nnls(PtWP, PtWe, PtWv, rel_var) -> np.ndarray:
+    """Weighted least squares of the excess variance on the features, non-negative, keeping a
+    feature only where the reference's noise cannot explain it.
+
+    ``E² − v`` subtracts the reference's variance ``v``, known only to ``rel_var`` (relative
+    variance, ``2/(n − 1)`` from ``n`` samples at rest): an error of ``v`` shifts every row it
+    enters and fits as a load-dependent term. A coefficient is kept only above ``_SIGNIFICANT``
+    standard errors of that (``PtWP⁻¹ PtWv`` per session). Without reference noise: the plain fit.
+    (The rows' own scatter is not counted: pruning real terms on it left intervals too short
+    on nonlinear cubes.)
+    """
+    active = np.ones(PtWe.size, dtype=bool)
+    c = np.zeros(PtWe.size)
+    if not (np.all(np.isfinite(PtWP)) and np.all(np.isfinite(PtWe))):
+        return c
+    if not np.any(PtWv):  # no reference noise in these rows: nothing was subtracted, keep the fit
+        return _nnls_rows(PtWP, PtWe)
+    while active.any():
+        ix = np.ix_(active, active)
+        c = np.zeros(PtWe.size)
+        c[active] = _nnls_rows(PtWP[ix], PtWe[active])
+        active &= c > 0  # the standard errors of the features in use (collinear unused ones would swell them)
+        if not active.any():
+            break
+        ix = np.ix_(active, active)
+        Pinv = np.linalg.pinv(PtWP[ix], hermitian=True)
+        var = np.zeros(int(active.sum()))
+        for j, rv in enumerate(rel_var):
+            var = var + rv * (Pinv @ PtWv[j][active]) ** 2
+        weak = np.zeros_like(active)
+        weak[active] = c[active] < _SIGNIFICANT * np.sqrt(var)
+        if not weak.any():
+            break
+        active &= ~weak
+        c = np.zeros(PtWe.size)
+    return c
+
+
+def _psd(M) -> np.ndarray:
+    """The nearest positive semi-definite matrix (negative eigenvalues set to 0)."""
+    w, V = np.linalg.eigh(0.5 * (M + M.T))
+    return (V * np.clip(w, 0, None)) @ V.T
+
+
 def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, block_size, ref_covs=None,
-                    gauge_cov=None):
+                    gauge_cov=None, samples=None, ref_n=None):
     """Per matrix row, non-negative coefficients of the residual variance on ``load_features``.
 
     Residuals of every usable training sample (all faces' rows, also those a method
@@ -54,6 +125,10 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     it does not suffer from subtracting a large reference noise).
     Also sets each group's ``inflation`` from the scores ``Aᵀ E`` of clusters of
     consecutive samples (cluster-robust covariance against ``Σ_r ⊗ P``).
+    ``samples`` (per session, a list of ``SessionBlock`` of every ``stride``-th sample, kept
+    by the fit's own pass) spares the two passes over the sessions. ``ref_n`` (samples at rest
+    behind each ``ref_covs``) sets how uncertain that noise is; an excess of the residuals over
+    it is kept only where it exceeds that uncertainty (``_significant_nnls``).
     """
     F = len(cal.output_faces)
     idx = [f - 1 for f in cal.output_faces]
@@ -67,14 +142,18 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     EtE = np.zeros((F, 6, 6))
     ref_covs = [None] * len(sessions) if ref_covs is None else ref_covs
     floor = np.zeros(6 * F) if gauge_cov is None else np.einsum("ia,ab,ib->i", cal.matrix, gauge_cov, cal.matrix)
-    for s, mount, o, rc in zip(sessions, mounts, offsets, ref_covs):
-        for b in _strided(s.iter_blocks(block_size), stride):
+    kept = []  # per block: E, phi (float32), which faces carry, session: the data are read once
+    for j, (s, mount, o, rc) in enumerate(zip(sessions, mounts, offsets, ref_covs)):
+        for b in (_strided(s.iter_blocks(block_size), stride) if samples is None else samples[j]):
             targets, carries, usable, _ = block_targets(b.reference, b.loaded, mount, spec.output_frame)
-            x = b.counts[usable] - o
+            counts = b.counts if usable.all() else b.counts[usable]
+            x = counts - o
             Y = _predict(cal, x).reshape(-1, F, 6)
             E = targets[usable][:, idx] - Y
             phi = _features(cal, x, idx)  # (n, F, 4)
-            E2 = E * E - _reference_variance(mount, rc, spec.output_frame, carries[usable], idx) - floor.reshape(F, 6)
+            v_ref = _reference_variance(mount, rc, spec.output_frame, carries[usable], idx)
+            E2 = E * E - v_ref - floor.reshape(F, 6)
+            kept.append((E.reshape(-1, 6 * F).astype(np.float32), phi.astype(np.float32), carries[usable][:, idx], j))
             for k in range(F):
                 PtP[k] += phi[:, k].T @ phi[:, k]
                 Pte2[k] += phi[:, k].T @ E2[:, k]
@@ -84,10 +163,12 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
             for g in groups:
                 cl = clusters[id(g)]
                 f = own_face[id(g)]
-                rows = slice(None) if f is None else (carries[usable][:, f - 1] | unloaded)
-                A = np.zeros((x[rows].shape[0], n_int + g.inputs.size))
-                A[:, sessions.index(s)] = 1.0
-                A[:, n_int:] = b.counts[usable][rows][:, g.inputs] - tare_means[sessions.index(s)][g.inputs]
+                rows = slice(None) if f is None else np.flatnonzero(carries[usable][:, f - 1] | unloaded)
+                Xg = counts[rows][:, g.inputs] if f is not None else counts
+                A = np.zeros((Xg.shape[0], n_int + g.inputs.size))
+                A[:, j] = 1.0
+                A[:, n_int:] = Xg if f is not None else Xg[:, g.inputs]
+                A[:, n_int:] -= tare_means[j][g.inputs]
                 Eg = Eflat[rows][:, g.rows]
                 a = 0
                 while a < A.shape[0]:  # clusters of consecutive samples, across blocks
@@ -109,41 +190,88 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
         # the scores are sums over every stride-th sample: × stride for the full data's (independent errors)
         g.inflation = np.maximum(1.0, stride * cl["meat"] / (rank * var))
     coef = np.zeros((6 * F, N_FEATURES))
-    corr = np.zeros((F, 6, 6))
     for k in range(F):
-        scale = np.sqrt(np.clip(np.diag(PtP[k]), 1e-300, None))
-        G = PtP[k] / np.outer(scale, scale)
-        w, V = np.linalg.eigh(G)
-        keep = w > 1e-10 * w[-1]
-        R = (V[:, keep] * np.sqrt(w[keep])).T  # G = Rᵀ R
         for a in range(6):
-            rhs = (V[:, keep].T @ (Pte2[k, :, a] / scale)) / np.sqrt(w[keep])
-            c, _ = scipy.optimize.nnls(R, rhs)
-            coef[6 * k + a] = c / scale
-        d = np.sqrt(np.clip(np.diag(EtE[k]), 1e-300, None))
-        corr[k] = EtE[k] / np.outer(d, d)
+            coef[6 * k + a] = _nnls_rows(PtP[k], Pte2[k, :, a])
+    # Where the reference's noise v is large against the error itself, E² − v says little about
+    # the error: refit with each row weighted by (var / (var + v))², its share of information
+    # (rows where the face carries nothing, or a quiet reference, weigh fully), so the model is
+    # that of the true wrench's error and not of noise left over from the subtraction.
+    vref_full = [_reference_cov(m, rc, spec.output_frame, idx) for m, rc in zip(mounts, ref_covs)]
+    floor_m = (np.zeros((F, 6, 6)) if gauge_cov is None else
+               np.einsum("kia,ab,kjb->kij", cal.matrix.reshape(F, 6, 36), gauge_cov, cal.matrix.reshape(F, 6, 36)))
+    vdiag = [np.diagonal(V, axis1=-2, axis2=-1) for V in vref_full]  # (F, 6) per session
+    rel_var = [0.0 if n is None else 2.0 / max(n - 1, 1) for n in (ref_n or [None] * len(sessions))]
+    for _ in range(_REWEIGHT):
+        corr = _reweighted(kept, coef, floor, floor_m, vref_full, EtE, F, rel_var)
     coef[:, 0] += floor
     # pass 4: errors are not Gaussian (nonlinearity, drift): scale each row's variance so
-    # that ±1.96 σ (with the reference's noise added) holds 95 % of its training residuals
+    # that ±1.96 σ (with the reference's noise added) holds 95 % of its training residuals,
+    # rows weighted as above
     hist = np.zeros((6 * F, _Z_N + 1))
     rows = np.arange(6 * F)
-    for s, mount, o, rc in zip(sessions, mounts, offsets, ref_covs):
-        for b in _strided(s.iter_blocks(block_size), stride):
-            targets, carries, usable, _ = block_targets(b.reference, b.loaded, mount, spec.output_frame)
-            x = b.counts[usable] - o
-            E = (targets[usable][:, idx] - _predict(cal, x).reshape(-1, F, 6)).reshape(-1, 6 * F)
-            v_ref = _reference_variance(mount, rc, spec.output_frame, carries[usable], idx).reshape(-1, 6 * F)
-            phi = _features(cal, x, idx)
-            var = np.concatenate([phi[:, k] @ coef[6 * k : 6 * k + 6].T for k in range(F)], axis=1)  # (n, 6F)
-            # the scale s with |E| ≤ 1.96·√(s·var + v_ref) on 95 % of rows (E holds the reference's
-            # noise, the interval is of the true wrench): each row needs s ≥ z²/1.96² with
-            z = np.sqrt(np.clip(E * E - 1.959964**2 * v_ref, 0, None) / np.clip(var, 1e-300, None))
-            bins = np.minimum(z / _Z_WIDTH, _Z_N).astype(np.int64) + rows * (_Z_N + 1)
-            hist += np.bincount(bins.ravel(), minlength=hist.size).reshape(hist.shape)
+    for E, phi, carr, j in kept:
+        var = np.concatenate([phi[:, k] @ coef[6 * k : 6 * k + 6].T for k in range(F)], axis=1)  # (n, 6F)
+        v_ref = (carr[:, :, None] * vdiag[j][None]).reshape(-1, 6 * F)
+        w = (var / np.clip(var + v_ref, 1e-300, None)) ** 2  # each row's share of information on the error
+        # the scale s with |E| ≤ 1.96·√(s·var + v_ref) on 95 % of rows (E holds the reference's
+        # noise, the interval is of the true wrench): each row needs s ≥ z²/1.96² with
+        E = E.astype(float)
+        z = np.sqrt(np.clip(E * E - 1.959964**2 * v_ref, 0, None) / np.clip(var, 1e-300, None))
+        bins = np.minimum(z / _Z_WIDTH, _Z_N).astype(np.int64) + rows * (_Z_N + 1)
+        hist += np.bincount(bins.ravel(), weights=w.ravel(), minlength=hist.size).reshape(hist.shape)
     cdf = np.cumsum(hist, axis=1) / np.clip(hist.sum(axis=1, keepdims=True), 1, None)
     q95 = (np.argmax(cdf >= 0.95, axis=1) + 1) * _Z_WIDTH
     coef *= ((q95 / 1.959964) ** 2)[:, None]
     return coef, corr
+
+
+def _reweighted(kept, coef, floor, floor_m, vref_full, EtE, F, rel_var):
+    """One reweighting step of the error model (updates ``coef`` in place); returns ``corr (F, 6, 6)``.
+
+    Rows weigh ``w = (var / (var + v))²``, their share of information on the error (1 where the
+    reference adds nothing).
+    """
+    n_s = len(rel_var)
+    PtWP = np.zeros((6 * F, N_FEATURES, N_FEATURES))
+    PtWe = np.zeros((6 * F, N_FEATURES))
+    PtWv = np.zeros((n_s, 6 * F, N_FEATURES))  # per session: response to a relative error of its v
+    S, w_sum = np.zeros((F, 6, 6)), np.zeros(F)
+    for E, phi, carr, j in kept:
+        ph = phi.astype(float)
+        var0 = np.clip(np.concatenate([ph[:, k] @ coef[6 * k : 6 * k + 6].T for k in range(F)], axis=1) + floor, 0, None)
+        v_ref = (carr[:, :, None] * np.diagonal(vref_full[j], axis1=-2, axis2=-1)[None]).reshape(-1, 6 * F)
+        tot = np.clip(var0 + v_ref, 1e-300, None)
+        w = (var0 / tot) ** 2  # (n, 6F)
+        E = E.astype(float)
+        E2 = E * E - v_ref - floor
+        for k in range(F):
+            o = slice(6 * k, 6 * k + 6)
+            wk = w[:, o]
+            pk = ph[:, k]
+            PtWP[o] += (wk.T @ (pk[:, :, None] * pk[:, None, :]).reshape(-1, N_FEATURES**2)).reshape(6, N_FEATURES, N_FEATURES)
+            PtWe[o] += (wk * E2[:, o]).T @ pk  # products, not einsum: ten times faster here
+            PtWv[j, o] += (wk * v_ref[:, o]).T @ pk
+            wf = wk.mean(axis=1)
+            S[k] += (E[:, o] * wf[:, None]).T @ E[:, o] - (wf * carr[:, k]).sum() * vref_full[j][k]
+            w_sum[k] += wf.sum()
+    corr = np.zeros((F, 6, 6))
+    for k in range(F):
+        for a in range(6):
+            r = 6 * k + a
+            if PtWP[r, 0, 0] > 0:
+                coef[r] = _significant_nnls(PtWP[r], PtWe[r], PtWv[:, r], rel_var)
+        # the error's correlation between a face's axes: the residuals' less the reference's (where
+        # that is not positive, the gauge noise through the matrix where it is), the true wrench's error's
+        Sk = S[k] / max(w_sum[k], 1e-300)
+        if np.all(np.isfinite(Sk)) and np.linalg.eigvalsh(0.5 * (Sk + Sk.T))[0] < 0:
+            Sk = _psd(Sk - floor_m[k]) + floor_m[k]
+        d = np.sqrt(np.clip(np.diag(Sk), 1e-300, None))
+        corr[k] = Sk / np.outer(d, d)
+        if not np.all(np.isfinite(corr[k])) or np.any(np.diag(Sk) <= 0):
+            d = np.sqrt(np.clip(np.diag(EtE[k]), 1e-300, None))
+            corr[k] = EtE[k] / np.outer(d, d)
+    return corr
 
 
 def _strided(blocks, stride):

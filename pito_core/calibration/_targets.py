@@ -54,26 +54,25 @@ def block_targets(reference: np.ndarray, loaded: np.ndarray, mount: MountGeometr
         Samples that load the connected face under a ``frame`` flange (impossible).
     """
     n = reference.shape[0]
-    n_loaded = loaded.sum(axis=1)
+    n_loaded = np.count_nonzero(loaded, axis=1)
     usable = n_loaded <= 1
     c = mount.connected_face - 1
-    direct = loaded & usable[:, None]
-    bad_connected = np.zeros(n, dtype=bool)
-    if mount.flange == "frame":
-        bad_connected = loaded[:, c].copy()
+    direct = loaded if usable.all() else loaded & usable[:, None]
+    bad_connected = loaded[:, c].copy() if mount.flange == "frame" else np.zeros(n, dtype=bool)
     carries = direct.copy()
-    sign = np.where(direct, 1.0, 0.0)
+    sign = direct.astype(float)
     if mount.flange == "face":
         # eq. 6 of the multi-touch paper: a direct load on the connected face is carried by
         # it (+W in its frame, already set above); a load elsewhere by its reaction −W
-        on_connected = direct[:, c]
-        elsewhere = direct.any(axis=1) & ~on_connected
-        carries[elsewhere, c] = True
-        sign[elsewhere, c] = -1.0
+        elsewhere = (n_loaded == 1) & ~direct[:, c]
+        carries[:, c] |= elsewhere
+        sign[:, c] -= elsewhere
     if output_frame == "face":
-        per_face = np.einsum("fij,nj->nfi", mount.X_face_ati, reference)  # (n, 6, 6)
+        T = reference @ mount.X_face_ati.reshape(36, 6).T  # (n, 36): every face's frame in one product
     else:
-        per_face = np.broadcast_to(reference[:, None, :], (n, 6, 6))
-    targets = per_face * sign[:, :, None]
-    targets[~usable] = np.nan
+        T = np.tile(reference, 6)
+    T *= np.repeat(sign, 6, axis=1)  # same-shape product: far faster than broadcasting over (n, 6, 6)
+    targets = T.reshape(n, 6, 6)
+    if not usable.all():
+        targets[~usable] = np.nan
     return targets, carries, usable, bad_connected

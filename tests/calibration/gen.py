@@ -52,13 +52,14 @@ def T_core_ati_for(connected_face, core=None, offset=0.03):
 
 def make_session(K, flange="face", connected_face=6, faces=None, k=2000, n_unloaded=300, noise=2.0,
                  offset_level=1e6, seed=1, core=None, directions=None, squeeze_pairs=(), counts_dtype=np.int64,
-                 free_only=False, response=None):
+                 free_only=False, response=None, reference_noise=0.0):
     """A session with ``k`` single-face loads per face in ``faces`` (+ squeeze pairs).
 
     ``free_only`` leaves the connected face unloaded. ``directions`` (6,) bool limits the excited wrench components. Counts are rounded
     to integers unless ``counts_dtype`` is float. ``response`` (optional) replaces the linear
     ``F @ K.T``: a callable of the face wrenches ``F (n, 6, 6)`` (face frames) giving counts less
-    the offset ``(n, 36)``.
+    the offset ``(n, 36)``. ``reference_noise`` is the reference's own noise (standard deviation
+    as a fraction of ``FULL_SCALE`` per axis of S_A, on every sample, the unloaded ones too).
     """
     rng = np.random.default_rng(seed)
     core = core or CubeCore()
@@ -104,6 +105,8 @@ def make_session(K, flange="face", connected_face=6, faces=None, k=2000, n_unloa
     if np.issubdtype(counts_dtype, np.integer):
         counts = np.round(counts).astype(counts_dtype)
     reference = transform_wrench(total, T_core_ati)
+    if reference_noise:
+        reference = reference + rng.normal(size=reference.shape) * reference_noise * FULL_SCALE
     s = CalibrationSession(counts, reference, loaded, T_core_ati, flange, c, core=core, meta={"generator": "tests"})
     s.true_face_wrenches = F
     s.true_offset = offset
