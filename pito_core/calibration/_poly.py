@@ -5,7 +5,9 @@ monomials of the offset-free channels ``u = (counts − offset) / scale``: withi
 of channels (a face's own six gauges), every square and pairwise product (``u_i u_j``,
 ``i ≤ j``) and every cube (``u_i³``). Squares and products model a quadratic response
 (hub bending, load-dependent contact in the frame's screw joints); cubes a per-gauge
-odd nonlinearity (amplifier or bridge saturation).
+odd nonlinearity (amplifier or bridge saturation). Beyond the range its channels were
+fitted on, a polynomial grows fast and its fit says nothing: the correction clips each
+channel's ``u`` to that range (``lower``, ``upper``) before forming the features.
 """
 
 from __future__ import annotations
@@ -59,9 +61,13 @@ class PolyCorrection:
     coef : array-like, shape (q, P + Q)
         Output units per feature: rows in the order of the calibration's matrix rows
         (``[fx, fy, fz, tx, ty, tz]`` per output face, N and N·m, in its output frame).
+    lower, upper : array-like, shape (m,), optional
+        Range of ``u`` (dimensionless) the correction was fitted on; each channel is clipped
+        to it before the features are formed (a polynomial fitted on a range says nothing
+        beyond it). None (files written before the range was kept): unclipped.
     """
 
-    def __init__(self, scale, pairs, cubes, coef):
+    def __init__(self, scale, pairs, cubes, coef, lower=None, upper=None):
         self.scale = np.asarray(scale, dtype=float).reshape(-1)
         self.pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
         self.cubes = np.asarray(cubes, dtype=np.int64).reshape(-1)
@@ -74,6 +80,20 @@ class PolyCorrection:
                 raise ValueError(f"{name}: expected channel indices in 0..{m - 1}")
         if self.coef.ndim != 2 or self.coef.shape[1] != r or not np.all(np.isfinite(self.coef)):
             raise ValueError(f"coef: expected finite values of shape (q, {r}), got {self.coef.shape}")
+        if (lower is None) != (upper is None):
+            raise ValueError("lower, upper: expected both or neither")
+        self.lower = self.upper = None
+        if lower is not None:
+            self.lower = np.asarray(lower, dtype=float).reshape(-1)
+            self.upper = np.asarray(upper, dtype=float).reshape(-1)
+            if self.lower.shape != (m,) or self.upper.shape != (m,) or np.any(np.isnan(self.lower)) \
+                    or np.any(np.isnan(self.upper)) or np.any(self.lower > self.upper):
+                raise ValueError(f"lower, upper: expected ({m},) ranges with lower ≤ upper")
+
+    def _u(self, x: np.ndarray) -> np.ndarray:
+        """``(N, m)`` scaled channels of offset-free counts ``x``, clipped to the fitted range."""
+        u = np.asarray(x, dtype=float) / self.scale
+        return u if self.lower is None else np.clip(u, self.lower, self.upper)
 
     @property
     def n_features(self) -> int:
@@ -81,12 +101,12 @@ class PolyCorrection:
 
     def features(self, x: np.ndarray) -> np.ndarray:
         """``(N, P + Q)`` features of offset-free counts ``x (N, m)``."""
-        return poly_features(x / self.scale, self.pairs, self.cubes)
+        return poly_features(self._u(x), self.pairs, self.cubes)
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         """``(N, q)`` correction for offset-free counts ``x (N, m)``, output units."""
         used = np.flatnonzero(np.any(self.coef != 0, axis=0))  # rows that keep the affine fit use none
         P = self.pairs.shape[0]
-        uT = np.ascontiguousarray((np.asarray(x, dtype=float) / self.scale).T)
+        uT = np.ascontiguousarray(self._u(x).T)
         phi = poly_features_t(uT, self.pairs[used[used < P]], self.cubes[used[used >= P] - P])
         return (self.coef[:, used] @ phi).T
