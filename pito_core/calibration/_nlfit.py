@@ -76,7 +76,7 @@ class PolyAccumulator:
         self.reaction_faces = set(reaction_faces)
         self.counter = SegmentCounter(max(1, int(np.ceil(max(session_lengths) * MAX_SEGMENT_FRACTION))))
         self.stride = max(1, int(np.ceil(sum(session_lengths) / MAX_ROWS)))
-        # range of each scaled channel over the fitted rows: the correction is clipped to it
+        # range of each scaled channel over the fitted rows: the correction is tapered beyond it
         self.lower, self.upper = np.full(N_GAUGES, np.inf), np.full(N_GAUGES, -np.inf)
         self._session, self._seen = None, 0
         if own:

@@ -25,7 +25,7 @@ Layout (docs/file-formats.md)::
         cubes             (Q,) int64 gauges of the cubes u_i³
         coef              (6·F, P + Q) float64: N, N·m per feature, rows as /matrix
         linear_matrix     (6·F, 36) float64, linear_offset (36,): the papers' linear fit of the same data
-        lower, upper      (36,) float64 (optional): range of u fitted, each channel clipped to it (absent: unclipped)
+        lower, upper      (36,) float64 (optional): range of u fitted; the monomials are tapered beyond it (absent: not)
 
 Versions 1 and 2 have no model: they load as the papers' linear model.
 """
