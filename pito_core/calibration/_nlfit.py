@@ -187,8 +187,8 @@ class PolyAccumulator:
 
 
 def correction(poly: PolyAccumulator, D) -> PolyCorrection:
-    """The calibration's correction from the fitted feature coefficients ``D (6F, 162)``, clipped
-    to the range of the gauges the accumulator ``poly`` saw (``_poly.py``)."""
+    """The calibration's correction from the fitted feature coefficients ``D (6F, 162)``, tapered
+    beyond the range of the gauges the accumulator ``poly`` saw (``_poly.py``)."""
     seen = poly.lower <= poly.upper
     lower, upper = np.where(seen, poly.lower, 0.0), np.where(seen, poly.upper, 0.0)
     return PolyCorrection(poly.scale, _PAIRS, _CUBES, D, lower, upper)

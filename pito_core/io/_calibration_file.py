@@ -46,7 +46,7 @@ CALIBRATION_VERSION = 3
 #: Versions this pito reads (version 1: no covariance; 1 and 2: no model choice).
 CALIBRATION_READ_VERSIONS = {1, 2, 3}
 _CORRECTION_FIELDS = ("scale", "pairs", "cubes", "coef")
-#: The range the correction was fitted on (optional: files written before it load unclipped).
+#: The range the correction was fitted on (optional: older files load without, the plain polynomial).
 _CORRECTION_RANGE = ("lower", "upper")
 _GROUP_FIELDS = ("inputs", "rows", "design_pinv", "residual_cov", "center", "weights", "inflation")
 
