@@ -107,14 +107,15 @@ class PolyCorrection:
         uT = np.ascontiguousarray((np.asarray(x, dtype=float) / self.scale).T)  # (m, N)
         if self.lower is None:
             return poly_features_t(uT, pairs, cubes)
-        cT = np.clip(uT, self.lower[:, None], self.upper[:, None])
+        cT = np.clip(uT, self.lower[:, None], self.upper[:, None], out=np.empty_like(uT))
         out = poly_features_t(cT, pairs, cubes)
-        dT = uT - cT
-        if np.any(dT):
+        beyond = np.flatnonzero(np.any(cT != uT, axis=0))  # samples with a channel beyond the range
+        if beyond.size:
+            c, d = cT[:, beyond], uT[:, beyond] - cT[:, beyond]
             P = pairs.shape[0]
             i, j = pairs[:, 0], pairs[:, 1]
-            out[:P] += EDGE_SLOPE * (cT[j] * dT[i] + cT[i] * dT[j])
-            out[P:] += EDGE_SLOPE * 3.0 * cT[cubes] ** 2 * dT[cubes]
+            out[:P, beyond] += EDGE_SLOPE * (c[j] * d[i] + c[i] * d[j])
+            out[P:, beyond] += EDGE_SLOPE * 3.0 * c[cubes] ** 2 * d[cubes]
         return out
 
     @property
