@@ -556,7 +556,7 @@ class Calibrator:
                 fit.matrix[:] = C
                 # the zero-load counts: the tare means for the corrected rows, the affine rows' fitted offsets
                 fit.offsets = mixed_offsets(C, linear_fit[0], choice.row_alpha, tare_means, fit.offsets)
-                corr = poly_correction(poly.scale, D)
+                corr = poly_correction(poly, D)
                 _rescale_groups(fit.groups, fit.residual, out_faces, E2, poly)
         elif self.model != "linear":
             choice = ModelChoice(requested=self.model, reason="the papers' affine least squares: prior='own_gauge' "

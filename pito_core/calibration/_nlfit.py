@@ -76,6 +76,8 @@ class PolyAccumulator:
         self.reaction_faces = set(reaction_faces)
         self.counter = SegmentCounter(max(1, int(np.ceil(max(session_lengths) * MAX_SEGMENT_FRACTION))))
         self.stride = max(1, int(np.ceil(sum(session_lengths) / MAX_ROWS)))
+        # range of each scaled channel over the fitted rows: the correction is tapered beyond it
+        self.lower, self.upper = np.full(N_GAUGES, np.inf), np.full(N_GAUGES, -np.inf)
         self._session, self._seen = None, 0
         if own:
             self.acc = {f: FoldedGram(n_int + 6 + 27, 6, n_folds) for f in FACES}
@@ -86,6 +88,9 @@ class PolyAccumulator:
         """Rows of session ``k``: ``x (n, 36)`` counts less its tare mean, ``targets (n, 6, 6)``."""
         fold = self.counter.ids(loaded, new_session=self._session != k) % self.K
         self._session = k
+        if usable.any():
+            u = x[usable] / self.scale
+            self.lower, self.upper = np.minimum(self.lower, u.min(axis=0)), np.maximum(self.upper, u.max(axis=0))
         if self.stride > 1:  # every stride-th sample of the sessions
             keep = (self._seen + np.arange(x.shape[0])) % self.stride == 0
             self._seen += x.shape[0]
@@ -181,9 +186,12 @@ class PolyAccumulator:
         return choice, (C, B, D, E2)
 
 
-def correction(scale, D) -> PolyCorrection:
-    """The calibration's correction from the fitted feature coefficients ``D (6F, 162)``."""
-    return PolyCorrection(scale, _PAIRS, _CUBES, D)
+def correction(poly: PolyAccumulator, D) -> PolyCorrection:
+    """The calibration's correction from the fitted feature coefficients ``D (6F, 162)``, tapered
+    beyond the range of the gauges the accumulator ``poly`` saw (``_poly.py``)."""
+    seen = poly.lower <= poly.upper
+    lower, upper = np.where(seen, poly.lower, 0.0), np.where(seen, poly.upper, 0.0)
+    return PolyCorrection(poly.scale, _PAIRS, _CUBES, D, lower, upper)
 
 
 def mixed_offsets(C, linear_matrix, row_alpha, tare_means, linear_offsets) -> list:

@@ -5,14 +5,24 @@ monomials of the offset-free channels ``u = (counts − offset) / scale``: withi
 of channels (a face's own six gauges), every square and pairwise product (``u_i u_j``,
 ``i ≤ j``) and every cube (``u_i³``). Squares and products model a quadratic response
 (hub bending, load-dependent contact in the frame's screw joints); cubes a per-gauge
-odd nonlinearity (amplifier or bridge saturation).
+odd nonlinearity (amplifier or bridge saturation). Beyond the range its channels were
+fitted on (``lower``, ``upper``), a polynomial grows fast and its fit says nothing: there
+each monomial continues from its value at the range's edge along ``EDGE_SLOPE`` of its
+slope there (a taper between holding the edge value and the tangent line).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["poly_terms", "poly_features", "poly_features_t", "PolyCorrection"]
+__all__ = ["poly_terms", "poly_features", "poly_features_t", "PolyCorrection", "EDGE_SLOPE"]
+
+#: Beyond the fitted range, a monomial continues along this fraction of its slope at the edge.
+#: 0 holds the edge value, 1 follows the tangent. Measured (held-out RMSE on a later session,
+#: docs/calibration.md): holding (0) lost to the linear fit on a cube whose gauges saturate
+#: (tanh) when the later loads were twice the training's (1.23×); the tangent (1) lost on
+#: ``pito_core.sim``'s free-face torques (1.06×); 0.5 won on both (≤ 0.55×, ≤ 1.013×).
+EDGE_SLOPE = 0.5
 
 
 def poly_terms(blocks) -> tuple[np.ndarray, np.ndarray]:
@@ -59,9 +69,13 @@ class PolyCorrection:
     coef : array-like, shape (q, P + Q)
         Output units per feature: rows in the order of the calibration's matrix rows
         (``[fx, fy, fz, tx, ty, tz]`` per output face, N and N·m, in its output frame).
+    lower, upper : array-like, shape (m,), optional
+        Range of ``u`` (dimensionless) the correction was fitted on; beyond it the monomials
+        are tapered (``EDGE_SLOPE``). None (files written before the range was kept): the
+        plain polynomial everywhere.
     """
 
-    def __init__(self, scale, pairs, cubes, coef):
+    def __init__(self, scale, pairs, cubes, coef, lower=None, upper=None):
         self.scale = np.asarray(scale, dtype=float).reshape(-1)
         self.pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
         self.cubes = np.asarray(cubes, dtype=np.int64).reshape(-1)
@@ -74,6 +88,35 @@ class PolyCorrection:
                 raise ValueError(f"{name}: expected channel indices in 0..{m - 1}")
         if self.coef.ndim != 2 or self.coef.shape[1] != r or not np.all(np.isfinite(self.coef)):
             raise ValueError(f"coef: expected finite values of shape (q, {r}), got {self.coef.shape}")
+        if (lower is None) != (upper is None):
+            raise ValueError("lower, upper: expected both or neither")
+        self.lower = self.upper = None
+        if lower is not None:
+            self.lower = np.asarray(lower, dtype=float).reshape(-1)
+            self.upper = np.asarray(upper, dtype=float).reshape(-1)
+            if self.lower.shape != (m,) or self.upper.shape != (m,) or np.any(np.isnan(self.lower)) \
+                    or np.any(np.isnan(self.upper)) or np.any(self.lower > self.upper):
+                raise ValueError(f"lower, upper: expected ({m},) ranges with lower ≤ upper")
+
+    def _features_t(self, x: np.ndarray, pairs: np.ndarray, cubes: np.ndarray) -> np.ndarray:
+        """``(P + Q, N)`` features of offset-free counts ``x (N, m)``, tapered beyond the fitted range.
+
+        With ``c`` the channels clipped to the range, ``d = u − c`` and ``s = EDGE_SLOPE``:
+        ``u_i u_j → c_i c_j + s (c_j d_i + c_i d_j)`` and ``u_i³ → c_i³ + 3 s c_i² d_i``.
+        """
+        uT = np.ascontiguousarray((np.asarray(x, dtype=float) / self.scale).T)  # (m, N)
+        if self.lower is None:
+            return poly_features_t(uT, pairs, cubes)
+        cT = np.clip(uT, self.lower[:, None], self.upper[:, None], out=np.empty_like(uT))
+        out = poly_features_t(cT, pairs, cubes)
+        beyond = np.flatnonzero(np.any(cT != uT, axis=0))  # samples with a channel beyond the range
+        if beyond.size:
+            c, d = cT[:, beyond], uT[:, beyond] - cT[:, beyond]
+            P = pairs.shape[0]
+            i, j = pairs[:, 0], pairs[:, 1]
+            out[:P, beyond] += EDGE_SLOPE * (c[j] * d[i] + c[i] * d[j])
+            out[P:, beyond] += EDGE_SLOPE * 3.0 * c[cubes] ** 2 * d[cubes]
+        return out
 
     @property
     def n_features(self) -> int:
@@ -81,12 +124,11 @@ class PolyCorrection:
 
     def features(self, x: np.ndarray) -> np.ndarray:
         """``(N, P + Q)`` features of offset-free counts ``x (N, m)``."""
-        return poly_features(x / self.scale, self.pairs, self.cubes)
+        return self._features_t(x, self.pairs, self.cubes).T
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         """``(N, q)`` correction for offset-free counts ``x (N, m)``, output units."""
         used = np.flatnonzero(np.any(self.coef != 0, axis=0))  # rows that keep the affine fit use none
         P = self.pairs.shape[0]
-        uT = np.ascontiguousarray((np.asarray(x, dtype=float) / self.scale).T)
-        phi = poly_features_t(uT, self.pairs[used[used < P]], self.cubes[used[used >= P] - P])
+        phi = self._features_t(x, self.pairs[used[used < P]], self.cubes[used[used >= P] - P])
         return (self.coef[:, used] @ phi).T

@@ -162,5 +162,6 @@ def fit_sensor(counts, wrench, groups=None, model: str = "auto", *, n_folds: int
                 f"the affine least squares: {n_groups} loading segment(s) are too few to cross-validate"
             choice = ModelChoice(name="linear", requested=model, n_segments=n_groups, reason=why)
     coef = (X[1 : 1 + m] / scale[:, None]).T
-    correction = PolyCorrection(scale, pairs, cubes, D) if choice.name == "poly" else None
+    u = (c - center) / scale  # the range fitted: the correction is tapered beyond it (_poly.py)
+    correction = PolyCorrection(scale, pairs, cubes, D, u.min(axis=0), u.max(axis=0)) if choice.name == "poly" else None
     return SensorFit(choice, coef, X[0].copy(), center, correction)

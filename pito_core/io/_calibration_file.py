@@ -25,6 +25,7 @@ Layout (docs/file-formats.md)::
         cubes             (Q,) int64 gauges of the cubes u_i³
         coef              (6·F, P + Q) float64: N, N·m per feature, rows as /matrix
         linear_matrix     (6·F, 36) float64, linear_offset (36,): the papers' linear fit of the same data
+        lower, upper      (36,) float64 (optional): range of u fitted; the monomials are tapered beyond it (absent: not)
 
 Versions 1 and 2 have no model: they load as the papers' linear model.
 """
@@ -45,6 +46,8 @@ CALIBRATION_VERSION = 3
 #: Versions this pito reads (version 1: no covariance; 1 and 2: no model choice).
 CALIBRATION_READ_VERSIONS = {1, 2, 3}
 _CORRECTION_FIELDS = ("scale", "pairs", "cubes", "coef")
+#: The range the correction was fitted on (optional: older files load without, the plain polynomial).
+_CORRECTION_RANGE = ("lower", "upper")
 _GROUP_FIELDS = ("inputs", "rows", "design_pinv", "residual_cov", "center", "weights", "inflation")
 
 
@@ -64,8 +67,9 @@ def write_calibration(path, cal) -> None:
         f.attrs["model"] = json_attr(cal.model.to_dict())
         if cal.correction is not None:
             g = f.create_group("correction")
-            for name in _CORRECTION_FIELDS:
-                checked_dataset(g, name, data=getattr(cal.correction, name))
+            for name in _CORRECTION_FIELDS + _CORRECTION_RANGE:
+                if getattr(cal.correction, name, None) is not None:
+                    checked_dataset(g, name, data=getattr(cal.correction, name))
             checked_dataset(g, "linear_matrix", data=cal.linear_fit[0])
             checked_dataset(g, "linear_offset", data=cal.linear_fit[1])
         cov = getattr(cal, "covariance", None)
@@ -106,7 +110,8 @@ def read_calibration_fields(path) -> dict:
             T = np.asarray(require(f, "T_core_ati", path)[()])
             covariance = _read_covariance(f, path) if "covariance" in f else None
             correction = ({name: np.asarray(require(f["correction"], name, path)[()])
-                           for name in _CORRECTION_FIELDS + ("linear_matrix", "linear_offset")}
+                           for name in _CORRECTION_FIELDS + ("linear_matrix", "linear_offset")
+                           + tuple(n for n in _CORRECTION_RANGE if n in f["correction"])}
                           if "correction" in f else None)
         except OSError as exc:
             raise FileFormatError(f"{path}: data could not be read (truncated or corrupt?): {exc}") from None

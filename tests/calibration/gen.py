@@ -52,7 +52,7 @@ def T_core_ati_for(connected_face, core=None, offset=0.03):
 
 def make_session(K, flange="face", connected_face=6, faces=None, k=2000, n_unloaded=300, noise=2.0,
                  offset_level=1e6, seed=1, core=None, directions=None, squeeze_pairs=(), counts_dtype=np.int64,
-                 free_only=False, response=None, reference_noise=0.0):
+                 free_only=False, response=None, reference_noise=0.0, load_scale=1.0):
     """A session with ``k`` single-face loads per face in ``faces`` (+ squeeze pairs).
 
     ``free_only`` leaves the connected face unloaded. ``directions`` (6,) bool limits the excited wrench components. Counts are rounded
@@ -60,6 +60,7 @@ def make_session(K, flange="face", connected_face=6, faces=None, k=2000, n_unloa
     ``F @ K.T``: a callable of the face wrenches ``F (n, 6, 6)`` (face frames) giving counts less
     the offset ``(n, 36)``. ``reference_noise`` is the reference's own noise (standard deviation
     as a fraction of ``FULL_SCALE`` per axis of S_A, on every sample, the unloaded ones too).
+    ``load_scale`` scales every load (1: uniform in ± full scale).
     """
     rng = np.random.default_rng(seed)
     core = core or CubeCore()
@@ -71,7 +72,7 @@ def make_session(K, flange="face", connected_face=6, faces=None, k=2000, n_unloa
     poses = core.face_poses()
     rows_loaded, rows_W = [], []  # per sample: loaded mask, applied loads per face in core frame
     for f in faces:
-        W = rng.uniform(-1, 1, size=(k, 6)) * FULL_SCALE
+        W = rng.uniform(-1, 1, size=(k, 6)) * FULL_SCALE * load_scale
         if directions is not None:
             W[:, ~np.asarray(directions)] = 0.0
         Wc = transform_wrench(W, invert_pose(poses[f - 1]))  # face frame -> core frame
@@ -85,7 +86,7 @@ def make_session(K, flange="face", connected_face=6, faces=None, k=2000, n_unloa
         applied = np.zeros((k, 6, 6))
         m = np.zeros((k, 6), bool)
         for f in (a, b):
-            W = rng.uniform(-1, 1, size=(k, 6)) * FULL_SCALE
+            W = rng.uniform(-1, 1, size=(k, 6)) * FULL_SCALE * load_scale
             applied[:, f - 1] = transform_wrench(W, invert_pose(poses[f - 1]))
             m[:, f - 1] = True
         rows_loaded.append(m)

@@ -111,6 +111,10 @@ def test_model_choice_survives_save_and_load(tmp_path):
     back = type(cal).load(tmp_path / "c.h5")
     assert back.model == cal.model
     np.testing.assert_array_equal(back.wrenches(s.counts[:50]), cal.wrenches(s.counts[:50]))
+    for name in ("lower", "upper"):  # the fitted range, beyond which the correction is tapered
+        np.testing.assert_array_equal(getattr(back.correction, name), getattr(cal.correction, name))
+    big = 3 * (s.counts[:50] - cal.offset) + cal.offset  # beyond the range
+    np.testing.assert_array_equal(back.wrenches(big), cal.wrenches(big))
     lin = calibrate(s, "total", model="linear")
     assert lin.model.name == "linear" and lin.model.requested == "linear"
 
