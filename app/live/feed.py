@@ -158,13 +158,15 @@ class LiveFeed(QObject):
         self._thread.join(timeout)
 
     def _close_source(self) -> None:
-        source, self.source = self.source, None
+        """Stop taking the source's bundles, close its recording (said on ``recording_closed``), close it."""
+        source = self.source
         if source is None:
             return
         source.set_sink(None)
         try:
             self.stop_recording()
         finally:
+            self.source = None
             source.close()
 
     # ------------------------------------------------------------ settings (run them through post)

@@ -141,7 +141,9 @@ def test_the_feed_says_when_a_recording_is_closed(qtbot, tmp_path):
         assert feed.stop_recording() == 1234
         assert closed == [(str(path), 1234)]  # emitted once the file is closed
         assert feed.stop_recording() == 0 and len(closed) == 1  # nothing open: nothing said
+        feed.start_recording(path, simulated=True)
         feed.set_source(PipelineThread(_FakeReader()))  # a source that cannot record (a replay)
+        assert closed == [(str(path), 1234)] * 2  # the change of source closed the recording, and said so
         with pytest.raises(ValueError, match="cannot be recorded"):
             feed.start_recording(path)
         assert len(failed) == 1 and "cannot be recorded" in failed[0]
