@@ -182,7 +182,7 @@ def test_the_feed_merges_while_the_gui_draws_and_loses_nothing(qtbot):
 
 
 def test_a_replay_thread_feeds_the_views_through_the_same_route(qtbot):
-    """PipelineThread (a source run in this process) → LiveFeed → GUI: every sample once, contacts off the GUI thread."""
+    """PipelineThread (a source in this process) → LiveFeed → GUI: every sample once, contacts off the GUI thread."""
     feed = LiveFeed()
     got, sink_threads = [], set()
     feed.bundle.connect(lambda b: (got.append(b), feed.ack()))
@@ -267,7 +267,8 @@ def test_settings_go_once_to_the_pipeline_that_runs(qtbot):
         # a new calibration goes to the running pipeline once, and starts from its own zero
         log.clear()
         feed.set_calibration(FakeCalibration())
-        assert log == ["set_calibration"] and feed.live_tare is None and status[-1] == ("Tare: the calibration's own zero", False)
+        assert log == ["set_calibration"] and feed.live_tare is None
+        assert status[-1] == ("Tare: the calibration's own zero", False)
     finally:
         feed.stop()
 
@@ -374,7 +375,7 @@ def test_the_live_scene_draws_in_its_own_thread(live, qtbot):
 
 
 def test_contacts_go_from_the_source_thread_to_the_drawing_thread(live, qtbot):
-    """The feed hands each bundle's contacts to the 3D view itself, from the source's thread (not through the GUI thread)."""
+    """The feed hands each bundle's contacts to the 3D view itself, from the source's thread (not the GUI thread)."""
     scene = live.scene
     qtbot.waitUntil(lambda: scene.render_thread is not None, timeout=5000)
     live.direct_contacts = True
