@@ -164,12 +164,21 @@ class PipelineProcess:
             except (EOFError, OSError):
                 break
             if msg[0] == "bundle":
-                self._arrived(msg[1])
+                b, gone = msg[1], False
+                try:  # bundles already waiting go with it, merged (a consumer that fell behind catches up at once)
+                    while self._conn.poll(0):
+                        msg = self._conn.recv()
+                        if msg[0] == "bundle":
+                            b = b.merged(msg[1])
+                        else:
+                            self._reply(msg)
+                except (EOFError, OSError):
+                    gone = True
+                self._arrived(b)
+                if gone:
+                    break
             elif msg[0] == "reply":
-                with self._reply_ready:
-                    self._replies[msg[1]] = (msg[2], msg[3])
-                    self.tare_in_force = msg[4]
-                    self._reply_ready.notify_all()
+                self._reply(msg)
         closed = self._closing
         self.ended = self.ended or f"the pipeline process (pid {self.pid}) ended"
         with self._reply_ready:
@@ -181,6 +190,12 @@ class PipelineProcess:
             if on_error is not None:
                 with contextlib.suppress(Exception):
                     on_error(self.ended)
+
+    def _reply(self, msg: tuple) -> None:
+        with self._reply_ready:
+            self._replies[msg[1]] = (msg[2], msg[3])
+            self.tare_in_force = msg[4]
+            self._reply_ready.notify_all()
 
     def _arrived(self, b: LiveBundle) -> None:
         """A bundle from the child: to the sink (with any kept for :meth:`take` before it), else kept."""
