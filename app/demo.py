@@ -48,7 +48,7 @@ class DemoDevices:
         return self.sim.describe()
 
     def open_source(self):
-        """A worker source on the demo's pipeline process (the demo keeps it: the source's close leaves it running)."""
+        """A live-feed source on the demo's pipeline process (the demo keeps it: the source's close leaves it running)."""
         return self.process.borrowed()
 
     def set_scenario(self, name: str) -> None:

@@ -67,9 +67,9 @@ class HealthIndicator(QLabel):
 
 
 def install_health_indicator(window) -> HealthIndicator:
-    """Add the indicator to ``window``'s status bar, fed by ``window.worker.bundle``."""
+    """Add the indicator to ``window``'s status bar, fed by ``window.feed.bundle``."""
     ind = HealthIndicator(window)
     window.statusBar().addPermanentWidget(ind)
-    window.worker.bundle.connect(ind.on_bundle)
+    window.feed.bundle.connect(ind.on_bundle)
     window.health = ind
     return ind

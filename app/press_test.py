@@ -133,8 +133,8 @@ def install_press_test_menu(window):
 
     def show():
         dlg = PressTestDialog(window, getattr(window, "calibration", None))
-        window.worker.bundle.connect(dlg.on_bundle)
-        dlg.finished.connect(lambda *_: window.worker.bundle.disconnect(dlg.on_bundle))
+        window.feed.bundle.connect(dlg.on_bundle)
+        dlg.finished.connect(lambda *_: window.feed.bundle.disconnect(dlg.on_bundle))
         window.press_test_dialog = dlg
         dlg.show()
 

@@ -1,4 +1,4 @@
-"""The main window: the calibration wizard and the live view as tabs, over one acquisition worker."""
+"""The main window: the calibration wizard and the live view as tabs, fed by one live feed."""
 
 from __future__ import annotations
 
@@ -12,17 +12,16 @@ from pito_core.calibration import load_calibration
 from pito_core.frames import CubeCore
 from pito_core.io import calibration_hash, short_hash
 
-from pito_core.pipeline import PipelineProcess, RecordingReader
+from pito_core.pipeline import PipelineProcess, PipelineThread, RecordingReader
 from pito_core.sim import reference_pose
 
 from .filetypes import CALIBRATION_FILTER
 from .demo import DEMO_METHOD, DemoDevices, demo_calibration
-from .live import LiveView
+from .live import LiveFeed, LiveView
 from .tasks import TaskBar, cancel_tasks, run_in_process, run_task
 from .objects import display_meshes, list_assemblies, load_assembly, weight
 from .wizard.model import WizardModel
 from .wizard.wizard import CalibrationWizard
-from .workers import DeviceWorker, WorkerThread
 from .export_dialog import install_export_menu
 from .live.lsl_toggle import install_lsl_toggle
 from .health import install_health_indicator
@@ -50,7 +49,7 @@ class MainWindow(QMainWindow):
         Calibration file for the live view; in demo mode without one, the virtual cube is
         calibrated at startup.
     rate : float
-        Display ticks per second (Hz).
+        Reads per second of a replayed recording (Hz).
 
     Signals: ``recording_saved(str, int)`` — a recording was closed and is complete on disk
     (path, cube samples written); ``recording_failed(str)`` — starting or closing one failed.
@@ -91,16 +90,17 @@ class MainWindow(QMainWindow):
         self._loading_calibration = False
         self.resize(1440, 900)
 
-        self.worker = DeviceWorker(rate=rate, core=self.core)
-        self.worker_thread = WorkerThread(self.worker)
-        self.worker.bundle.connect(self.on_bundle)
-        self.worker.contacts_sink = self.live.take_contacts  # the 3D view's contacts skip the GUI thread
+        self.rate = float(rate)
+        # bundles from the running pipeline's thread straight to the views (app/live/feed.py)
+        self.feed = LiveFeed(core=self.core)
+        self.feed.bundle.connect(self.on_bundle)
+        self.feed.contacts_sink = self.live.take_contacts  # the 3D view's contacts skip the GUI thread
         self.live.direct_contacts = True
-        self.worker.error.connect(self.on_worker_error)
-        self.worker.recording_closed.connect(self._recording_closed)
-        self.worker.recording_failed.connect(self._recording_failed)
+        self.feed.error.connect(self.on_error)
+        self.feed.recording_closed.connect(self._recording_closed)
+        self.feed.recording_failed.connect(self._recording_failed)
         install_export_menu(self)
-        install_lsl_toggle(self.live, self.worker, simulated=demo)
+        install_lsl_toggle(self.live, self.feed, simulated=demo)
         install_health_indicator(self)
         install_press_test_menu(self)
         install_analysis_menu(self)  # File → Analyse recording
@@ -113,9 +113,9 @@ class MainWindow(QMainWindow):
 
         self.tabs.currentChanged.connect(self._tab_changed)
         self.wizard.pages["devices"].connect_requested.connect(self.connect_devices)
-        self.live.tare_requested.connect(lambda: self.worker.post(self.worker.tare))
-        self.live.undo_tare_requested.connect(lambda: self.worker.post(self.worker.undo_tare))
-        self.worker.tare_status.connect(self.live.set_tare_status)
+        self.live.tare_requested.connect(lambda: self.feed.post(self.feed.tare))
+        self.live.undo_tare_requested.connect(lambda: self.feed.post(self.feed.undo_tare))
+        self.feed.tare_status.connect(self.live.set_tare_status)
         self.live.record_toggled.connect(self.toggle_recording)
         self.live.replay_requested.connect(self.open_replay)
         self.live.live_requested.connect(self.back_to_live)
@@ -136,7 +136,6 @@ class MainWindow(QMainWindow):
         self.set_assembly(self.live.assembly.currentText())
         if calibration_path is not None:
             self.load_calibration(calibration_path)
-        self.worker_thread.start()
         if demo:
             self.start_demo(demo_k)
 
@@ -146,7 +145,7 @@ class MainWindow(QMainWindow):
         self.rig = DemoDevices(seed=self.seed, speed=self.demo_speed, period=self.demo_period)
         self.rig.set_scenario("grasp")
         source = self.rig.open_source()
-        self.worker.post(lambda: self.worker.set_source(source))
+        self.feed.post(lambda: self.feed.set_source(source))
         self.wizard.pages["devices"].set_connected(f"✔ SIMULATED: {self.rig.describe()}", True)
         self.statusBar().showMessage(f"SIMULATED DEVICE: {self.rig.describe()}")
         if self.calibration is None and not self._loading_calibration:
@@ -166,7 +165,7 @@ class MainWindow(QMainWindow):
             # in a child process (the fit's LAPACK holds the GIL): the window shows the raw demo meanwhile
             self.calibration_task = run_in_process(
                 _demo_calibration_job, (k, seed), f"Calibrating the virtual cube ({m}, SIMULATED)", done,
-                self.on_worker_error, bar=self.taskbar, owner=self)
+                self.on_error, bar=self.taskbar, owner=self)
 
     def _tab_changed(self, index: int) -> None:
         self.live.direct_contacts = self.tabs.widget(index) is self.live  # (bundles go to the wizard otherwise)
@@ -203,13 +202,13 @@ class MainWindow(QMainWindow):
         except Exception as exc:  # noqa: BLE001 - shown to the operator
             page.set_connected(f"✘ {exc}", False)
             return
-        self.worker.post(lambda: self.worker.set_source(source))
+        self.feed.post(lambda: self.feed.set_source(source))
         page.set_connected(text, True)
 
     # ------------------------------------------------------------ calibration and object
     def set_calibration(self, calibration, label: str = "") -> None:
         self.calibration = calibration
-        self.worker.post(lambda: self.worker.set_calibration(calibration))
+        self.feed.post(lambda: self.feed.set_calibration(calibration))
         h = short_hash(calibration_hash(calibration))  # the calibration's identity
         self.cal_label.setText(f"calibration: {label or calibration.method} [{h}]")
         self.cal_label.setStyleSheet("")
@@ -272,25 +271,25 @@ class MainWindow(QMainWindow):
             self.rig.set_assembly(self.assembly)
 
     def _install_solver(self, *_) -> None:
-        """Contact solver for the worker; the Cramér–Rao covariance only while it is displayed (~4× the cost).
+        """Contact solver for the pipeline; the Cramér–Rao covariance only while it is displayed (~4× the cost).
 
         The face wrenches' covariance is the calibration's own (fit and gauge noise, at the
         latest counts): the ellipsoids show how well this calibration places the contact.
         """
         cov = "calibration" if self.live.show_uncertainty.isChecked() else None
         assembly = self.assembly
-        self.worker.post(lambda: self.worker.set_assembly(assembly, cov))
+        self.feed.post(lambda: self.feed.set_assembly(assembly, cov))
 
     # ------------------------------------------------------------ record / replay
     def toggle_recording(self, on: bool, path=None) -> None:
         """Start recording (asks for the file unless ``path``) or stop it.
 
-        Stopping is done by the worker, which closes the file (end marker written, flushed to
+        Stopping is done by the feed's command thread, which closes the file (end marker written, flushed to
         disk) and then emits ``recording_closed``: :attr:`recording_saved` follows, once the
         file is complete.
         """
         if not on:
-            self.worker.post(self.worker.stop_recording)
+            self.feed.post(self.feed.stop_recording)
             if self.recording_path is not None:
                 self.statusBar().showMessage(f"Closing the recording {self.recording_path}…")
             return
@@ -305,7 +304,7 @@ class MainWindow(QMainWindow):
             return
         self.recording_path = str(path)
         simulated = self.model.simulated or self.demo
-        self.worker.post(lambda: self.worker.start_recording(path, simulated))
+        self.feed.post(lambda: self.feed.start_recording(path, simulated))
         self.statusBar().showMessage(f"Recording both devices to {path}" + (" (SIMULATED)" if simulated else ""))
 
     def _recording_closed(self, path: str, rows: int) -> None:
@@ -328,9 +327,11 @@ class MainWindow(QMainWindow):
         if not path:
             return
 
-        def done(source):
-            self.worker.post(lambda: self.worker.set_source(source))
-            self.live.set_replay_mode(True, source.duration)
+        def done(reader):
+            # the recording read and processed in a thread of this process, at the replay rate
+            source = PipelineThread(reader, core=self.core, rate_hz=self.rate)
+            self.feed.post(lambda: self.feed.set_source(source))
+            self.live.set_replay_mode(True, reader.duration)
             self.wizard.pages["devices"].set_connected(f"▶ replaying {Path(path).name} (recorded data, not live devices)", True)
 
         def failed(message):
@@ -341,19 +342,19 @@ class MainWindow(QMainWindow):
                         bar=self.taskbar, owner=self)
 
     def seek(self, t: float) -> None:
-        self.worker.post(lambda: getattr(self.worker.source, "seek", lambda _t: None)(t))
+        self.feed.post(lambda: self.feed.seek(t))
 
     def back_to_live(self) -> None:
         self.live.set_replay_mode(False)
         if self.rig is not None:
             source = self.rig.open_source()
-            self.worker.post(lambda: self.worker.set_source(source))
+            self.feed.post(lambda: self.feed.set_source(source))
             self.wizard.pages["devices"].set_connected(f"✔ SIMULATED: {self.rig.describe()}", True)
         else:
             self.wizard.pages["devices"].set_connected("not connected", False)
 
     # ------------------------------------------------------------ data
-    def on_worker_error(self, message: str) -> None:
+    def on_error(self, message: str) -> None:
         self.errors.append(message)
         print(f"pito-app: acquisition: {message}", file=sys.stderr)
         self.statusBar().showMessage(f"acquisition: {message}", 8000)
@@ -365,20 +366,20 @@ class MainWindow(QMainWindow):
             else:
                 self.wizard.on_bundle(bundle)
         finally:
-            self.worker.ack()
+            self.feed.ack()
 
     def closeEvent(self, event):  # noqa: N802
         self.shutdown()
         super().closeEvent(event)
 
     def shutdown(self) -> None:
-        """Cancel the window's background tasks, stop the worker and the devices (idempotent).
+        """Cancel the window's background tasks, stop the feed and the devices (idempotent).
 
         A task still running (the demo's startup calibration, a file load, the wizard's fit)
         is cancelled here, so none of its callbacks reaches the window once it is gone.
         """
         cancel_tasks(self)
-        self.worker_thread.stop()
+        self.feed.stop()
         if self.rig is not None:
             self.rig.close()
             self.rig = None

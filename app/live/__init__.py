@@ -1,5 +1,6 @@
-"""The live view: the patched object in 3D with contacts, side plots, tare/pause/record/replay."""
+"""The live view: the patched object in 3D with contacts, side plots, tare/pause/record/replay; the feed that brings it the bundles."""
 
+from .feed import LiveFeed
 from .view import LiveView
 
-__all__ = ["LiveView"]
+__all__ = ["LiveFeed", "LiveView"]

@@ -1,8 +1,9 @@
 """The live view's "LSL" toggle: publish ``pito-wrenches`` and ``pito-contacts`` while it is on.
 
-The toggle creates a :class:`pito_core.interop.LslPublisher` on the worker's pipeline (the
-calibration and object shown) and pushes every bundle the worker emits (bundles are merged,
-never dropped, so every sample is published once). The label next to it names the streams.
+The toggle creates a :class:`pito_core.interop.LslPublisher` on the live feed (the
+calibration and object shown, and the contacts of each sample on that object) and pushes every
+bundle the feed sends to the GUI (bundles are merged, never dropped, so every sample is
+published once). The label next to it names the streams.
 Without the ``interop`` extra (pylsl) the toggle is disabled with the reason as its tooltip.
 LSL discovery multicasts on the network unless ``LSLAPICFG`` names a machine-only config
 (docs/interop.md).
@@ -24,15 +25,16 @@ class LslToggle(QWidget):
 
     Parameters
     ----------
-    worker : app.workers.DeviceWorker
-        Its ``pipeline`` computes the wrenches; its ``bundle`` signal delivers them.
-    publisher_factory : callable(pipeline) -> sink, optional
+    feed : app.live.feed.LiveFeed
+        Its ``calibration``, ``assembly`` and ``contacts`` describe the streams; its ``bundle``
+        signal delivers the samples.
+    publisher_factory : callable(feed) -> sink, optional
         Default :class:`pito_core.interop.LslPublisher`.
     """
 
-    def __init__(self, worker, publisher_factory=None, simulated: bool = False, parent=None):
+    def __init__(self, feed, publisher_factory=None, simulated: bool = False, parent=None):
         super().__init__(parent)
-        self.worker = worker
+        self.feed = feed
         self.simulated = simulated
         self.publisher = None
         self.button = QPushButton("LSL")
@@ -46,19 +48,19 @@ class LslToggle(QWidget):
         lay.addWidget(self.label)
         if publisher_factory is None:
             if importlib.util.find_spec("pylsl") is not None:  # present, not loaded until publishing starts
-                publisher_factory = lambda pipe: LslPublisher(pipe, simulated=self.simulated)  # noqa: E731
+                publisher_factory = lambda feed: LslPublisher(feed, simulated=self.simulated)  # noqa: E731
             else:
                 self.button.setEnabled(False)
                 self.button.setToolTip("LSL unavailable: pylsl is not installed (pip install -e '.[interop]')")
         self.factory = publisher_factory
         self.button.toggled.connect(self.set_publishing)
-        worker.bundle.connect(self.on_bundle)
+        feed.bundle.connect(self.on_bundle)
 
     def set_publishing(self, on: bool) -> None:
-        """Start (a new publisher on the current pipeline) or stop publishing."""
+        """Start (a new publisher with the feed's calibration and object) or stop publishing."""
         if on:
             try:
-                self.publisher = self.factory(self.worker.pipeline)
+                self.publisher = self.factory(self.feed)
             except (ValueError, RuntimeError) as exc:  # no calibration yet, liblsl failure
                 self.publisher = None
                 self.button.blockSignals(True)
@@ -83,9 +85,9 @@ class LslToggle(QWidget):
                 self.label.setText(f"LSL stopped: {type(exc).__name__}: {exc}")
 
 
-def install_lsl_toggle(view, worker, simulated: bool = False) -> LslToggle:
+def install_lsl_toggle(view, feed, simulated: bool = False) -> LslToggle:
     """Put an :class:`LslToggle` into ``view``'s toolbar, after its Replay button."""
-    toggle = LslToggle(worker, simulated=simulated, parent=view)
+    toggle = LslToggle(feed, simulated=simulated, parent=view)
     for lay in view.findChildren(QHBoxLayout):
         i = lay.indexOf(view.replay)
         if i >= 0:

@@ -1,6 +1,6 @@
 """Live view: contacts on the patched object, force and equilibrium plots, controls.
 
-The view only *shows* bundles from the worker (:class:`app.workers.DeviceWorker`). A bundle
+The view only *shows* bundles from the live feed (:class:`app.live.feed.LiveFeed`). A bundle
 moves the contact glyphs in place and appends its samples to the plots' ring buffers — no
 drawing. Drawing is paced by the display, not by the data: a single-shot timer fires at most
 ``display_rate`` times a second (and only when something new arrived), refreshes the plots
@@ -49,7 +49,7 @@ def unmeasured_faces_text(measured, sums: bool = False) -> str:
 class LiveView(QWidget):
     """The assembled object with its contacts, plus plots and acquisition controls.
 
-    Signals are requests to the owner (the main window forwards them to the worker):
+    Signals are requests to the owner (the main window posts them to the feed):
     ``tare_requested``, ``pause_toggled(bool)``, ``record_toggled(bool)``,
     ``replay_requested``, ``seek_requested(float)`` (s), ``calibration_requested``,
     ``assembly_requested(str)``.
@@ -193,7 +193,7 @@ class LiveView(QWidget):
         self.timeline.sliderReleased.connect(self._seek)
         self._last_contacts = None
         self._last_contacts_time = float("nan")
-        #: the worker hands contacts to the drawing thread itself (:meth:`take_contacts`, set by
+        #: the feed hands contacts to the drawing thread itself (:meth:`take_contacts`, set by
         #: the main window while this view is the current tab); on_bundle then only counts them
         self.direct_contacts = False
         self._n_shown = 0
@@ -282,7 +282,7 @@ class LiveView(QWidget):
         return self.scene.show_contacts(c, t)
 
     def take_contacts(self, contacts, t: float) -> None:
-        """Contacts (sample time ``t``, s) straight from the worker's thread to the 3D view's next frame.
+        """Contacts (sample time ``t``, s) straight from the source's thread (the feed's sink) to the 3D view's next frame.
 
         Thread-safe; does nothing while paused, when not :attr:`direct_contacts`, or when the
         scene draws in the GUI thread (it is not drawing in a thread of its own yet).
@@ -317,7 +317,7 @@ class LiveView(QWidget):
             # the 3D view is not held back by the plots' pacing
             self._last_contacts, self._last_contacts_time = b.contacts, t
             if self.direct_contacts and self.scene.render_thread is not None:
-                self._n_shown = int(self.scene.glyphs.visible(b.contacts).sum())  # (already queued by the worker)
+                self._n_shown = int(self.scene.glyphs.visible(b.contacts).sum())  # (already queued by the feed)
             else:
                 self._n_shown = int(self._show_contacts(b.contacts, t).sum())
                 self.scene.redraw()

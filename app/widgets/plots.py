@@ -1,7 +1,7 @@
 """Time plots over ring buffers (pyqtgraph): force norm per face, equilibrium.
 
 Data and drawing are decoupled: ``append`` writes new samples into a ring buffer (O(new
-samples), called once per worker bundle); ``refresh`` (one routine for both plots) — called by
+samples), called once per live bundle); ``refresh`` (one routine for both plots) — called by
 the live view's display pacer, at most at the display rate — hands each curve the last
 ``window`` seconds as a view of the ring (no copy), decimated to the plot's pixel width by
 min–max per pixel column, so a 1 kHz stream costs the same to draw as a 60 Hz one and no peak

@@ -37,7 +37,7 @@ class DevicesPage(WizardPage):
             "values move when you touch the cube, that both sample rates are steady, and that nothing saturates "
             "or drops frames.")
 
-    #: (port, host, simulated): the window opens the devices and feeds the worker
+    #: (port, host, simulated): the window opens the devices and gives them to the live feed
     connect_requested = Signal(str, str, bool)
 
     def __init__(self, model, parent=None):
@@ -123,7 +123,7 @@ class DevicesPage(WizardPage):
         self.connect_requested.emit(self.port.currentText(), self.host.text(), self.simulated.isChecked())
 
     def set_connected(self, text: str, ok: bool) -> None:
-        """The state of the source the worker reads (the window calls this whenever it changes it)."""
+        """The state of the source the live feed reads (the window calls this whenever it changes it)."""
         self.connected = bool(ok)
         self.status.setText(text)
         self.status.setProperty("ok", ok)

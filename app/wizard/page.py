@@ -13,7 +13,7 @@ class WizardPage(QWidget):
 
     Subclasses set ``title`` and ``help``, build their widgets in ``self.body`` (a layout),
     call :meth:`set_ready` when the operator may go on, and may override :meth:`enter`,
-    :meth:`leave` and :meth:`on_bundle` (live data from the acquisition worker).
+    :meth:`leave` and :meth:`on_bundle` (live data from the live feed).
     """
 
     title = ""
@@ -53,4 +53,4 @@ class WizardPage(QWidget):
         """Called when the page is left (forward or back)."""
 
     def on_bundle(self, bundle) -> None:
-        """Live data (one :class:`app.workers.Bundle` per display tick) while the page is shown."""
+        """Live data (a :class:`pito_core.pipeline.LiveBundle`, merged while the GUI drew) while the page is shown."""

@@ -157,5 +157,5 @@ class CalibrationWizard(QWidget):
         self.hint.setText("" if page.is_ready() and not last else hints[self.current_name])
 
     def on_bundle(self, bundle) -> None:
-        """Live data from the worker, to the page on screen."""
+        """Live data from the live feed, to the page on screen."""
         self.current.on_bundle(bundle)

@@ -5,8 +5,8 @@
 >>> reader = AcquisitionReader(acquisition)
 >>> bundle = pipe.feed(reader.read())      # every tick: a LiveBundle of the new samples
 
-The app's acquisition worker, ``pito record``, ``pito replay``/the app's timeline
-(:class:`RecordingReader`, :func:`replay_recording`) and ``pito bench`` all call
+The app (devices: :class:`PipelineProcess`; a replay: :class:`PipelineThread`), ``pito record``,
+``pito replay`` (:class:`RecordingReader`, :func:`replay_recording`) and ``pito bench`` all call
 :meth:`Pipeline.feed`/:meth:`Pipeline.process`; the pairing rule is
 :mod:`pito_core.devices._clock` (docs/devices.md, "Pairing the cube and the reference").
 """
@@ -18,6 +18,7 @@ from ._open import open_acquisition, open_reader
 from ._process import PipelineProcess, PipelineProcessError
 from ._readers import AcquisitionReader, NewSamples, RecordingReader, recording_samples
 from ._replay import replay_recording
+from ._thread import PipelineThread
 
 __all__ = [
     "TareCheck",
@@ -30,6 +31,7 @@ __all__ = [
     "Pipeline",
     "PipelineProcess",
     "PipelineProcessError",
+    "PipelineThread",
     "RecordingReader",
     "face_sums",
     "open_acquisition",

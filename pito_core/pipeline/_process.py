@@ -10,17 +10,19 @@ collecting thread, :class:`~pito_core.pipeline.Pipeline` and the recorder in a c
 child's loop) and sends the caller one
 :class:`~pito_core.pipeline.LiveBundle` over a socket pair as soon as new rows arrive (the
 collecting thread wakes the child's loop through a pipe; at most one bundle per
-``push_interval`` s); a receiving thread (blocked in ``recv`` without the lock) merges them
-until :meth:`take` and can call a listener on each (:meth:`set_listener`).
+``push_interval`` s); a receiving thread (blocked in ``recv`` without the lock) hands each
+to the caller's sink as it arrives (:meth:`set_sink`: the app's views take them there), or
+merges them until :meth:`take`. :class:`~pito_core.pipeline.PipelineThread` has the same
+interface for a pipeline run in the caller's process (a replay).
 It is the same pipeline, with the same pairing rule, as ``pito record``, replay and
 ``pito bench``; sample times are made in the child (``CLOCK_MONOTONIC`` is one clock for
 both processes).
 
 Protocol (``multiprocessing.connection.Connection`` on a socket pair, pickled tuples)
     child → parent: ``("ready", info)`` or ``("failed", message)`` once; then ``("bundle",
-    LiveBundle)`` with its ``stats`` and ``recorded`` filled, and ``("reply", id, ok, value)``
-    to each request (``value`` is the request's exception, pickled, when ``ok`` is false:
-    :func:`_portable`).
+    LiveBundle)`` with its ``stats`` and ``recorded`` filled, and ``("reply", id, ok, value,
+    tare_in_force)`` to each request (``value`` is the request's exception, pickled, when ``ok``
+    is false: :func:`_portable`; ``tare_in_force``: the pipeline's after the request).
     parent → child: ``(request, id, *args)``, requests ``set_calibration`` (Calibration or
     None), ``set_assembly`` (library name, Assembly or None; wrench covariance), ``tare``
     (duration), ``reset``, ``open_recording`` (path, meta), ``close_recording``,
@@ -86,17 +88,24 @@ class PipelineProcess:
     PipelineProcessError
         The child could not open the devices (its message says why).
 
+    Attributes
+    ----------
+    calibration, assembly, wrench_cov
+        The settings the child's pipeline uses (as last accepted by it; None before).
+    tare_in_force : dict or None
+        The child's :attr:`Pipeline.tare_in_force`, as its last reply said.
+
     Notes
     -----
-    A worker uses it in place of a reader and a pipeline: :meth:`take` returns the bundles
-    made since the previous call, merged (or None); the settings of
-    :class:`~pito_core.pipeline.Pipeline` are requests (:meth:`set_calibration`,
+    A consumer sets a sink (:meth:`set_sink`: called with each bundle in the receiving
+    thread) or calls :meth:`take` (the bundles since the previous call, merged, or None); the
+    settings of :class:`~pito_core.pipeline.Pipeline` are requests (:meth:`set_calibration`,
     :meth:`set_assembly`, :meth:`tare`, :meth:`reset`), and so is recording
     (:meth:`open_recording`, :meth:`close_recording`, :meth:`record_event`).
     """
 
-    #: Tells a worker that this source runs the pipeline itself (``take()`` gives bundles).
-    runs_pipeline = True
+    #: Not a recording (``PipelineThread.replay`` says whether it replays one).
+    replay = False
 
     def __init__(self, pito: str, ati: str | None = None, *, simulated: bool = False, buffered: bool = False,
                  reference_rate_hz: float = 1000.0, edge: float | None = None, push_interval: float = 0.005,
@@ -113,7 +122,11 @@ class PipelineProcess:
         self._send_lock = threading.Lock()
         self.ended: str | None = None  # why the child ended, once it has
         self.bundles_received = 0
-        self._listener = None
+        self._sink = None
+        self._on_error = None
+        self._closing = False  # close() was called: the end is expected
+        self.calibration = self.assembly = self.wrench_cov = None
+        self.tare_in_force: dict | None = None
         cfg = {"pito": pito, "ati": ati, "buffered": bool(buffered), "reference_rate_hz": float(reference_rate_hz),
                "simulated": self.simulated, "edge": None if edge is None else float(edge),
                "push_interval": float(push_interval),
@@ -151,31 +164,67 @@ class PipelineProcess:
             except (EOFError, OSError):
                 break
             if msg[0] == "bundle":
-                b = msg[1]
-                with self._lock:
-                    self._pending = b if self._pending is None else self._pending.merged(b)
-                    self._latest_stats = b.stats
-                    self.bundles_received += 1
-                    listener = self._listener
-                if listener is not None:
-                    try:
-                        listener()
-                    except Exception:  # noqa: BLE001 - a gone listener must not end the receiving
-                        self._listener = None
+                b, gone = msg[1], False
+                try:  # bundles already waiting go with it, merged (a consumer that fell behind catches up at once)
+                    while self._conn.poll(0):
+                        msg = self._conn.recv()
+                        if msg[0] == "bundle":
+                            b = b.merged(msg[1])
+                        else:
+                            self._reply(msg)
+                except (EOFError, OSError):
+                    gone = True
+                self._arrived(b)
+                if gone:
+                    break
             elif msg[0] == "reply":
-                with self._reply_ready:
-                    self._replies[msg[1]] = (msg[2], msg[3])
-                    self._reply_ready.notify_all()
+                self._reply(msg)
+        closed = self._closing
         self.ended = self.ended or f"the pipeline process (pid {self.pid}) ended"
         with self._reply_ready:
             self._reply_ready.notify_all()
-
-    def set_listener(self, listener) -> None:
-        """Call ``listener()`` each time a bundle arrives (None: stop), so a consumer can :meth:`take`
-        it at once instead of polling. It runs in the receiving thread: keep it short (e.g. emit a
-        queued Qt signal); if it raises, it is dropped."""
         with self._lock:
-            self._listener = listener
+            on_error = self._on_error
+        if not closed:  # the sink sees the devices gone (stats: connected False), and why
+            self._arrived(LiveBundle(np.zeros(0), np.zeros((0, 36)), np.zeros((0, 6)), stats=self.stats()))
+            if on_error is not None:
+                with contextlib.suppress(Exception):
+                    on_error(self.ended)
+
+    def _reply(self, msg: tuple) -> None:
+        with self._reply_ready:
+            self._replies[msg[1]] = (msg[2], msg[3])
+            self.tare_in_force = msg[4]
+            self._reply_ready.notify_all()
+
+    def _arrived(self, b: LiveBundle) -> None:
+        """A bundle from the child: to the sink (with any kept for :meth:`take` before it), else kept."""
+        with self._lock:
+            self._latest_stats = b.stats
+            self.bundles_received += 1
+            sink = self._sink
+            if self._pending is not None:  # kept while no sink was set: they go first
+                b, self._pending = self._pending.merged(b), None
+            if sink is None:
+                self._pending = b
+                return
+        try:
+            sink(b)
+        except Exception as exc:  # noqa: BLE001 - a failing sink must not end the receiving; it is told
+            with self._lock:
+                on_error = self._on_error
+            if on_error is not None:
+                with contextlib.suppress(Exception):
+                    on_error(f"{type(exc).__name__}: {exc}")
+
+    def set_sink(self, sink, on_error=None) -> None:
+        """Hand each bundle to ``sink(bundle)`` as it arrives (None: keep them for :meth:`take`).
+
+        ``sink`` runs in the receiving thread, one bundle at a time; bundles kept before go with
+        the first. ``on_error(message)`` (optional) is told when ``sink`` raises or the child ends.
+        """
+        with self._lock:
+            self._sink, self._on_error = sink, on_error
 
     def take(self) -> LiveBundle | None:
         """The bundles received since the previous call, merged (every sample once, the latest state), or None."""
@@ -224,10 +273,12 @@ class PipelineProcess:
     def set_calibration(self, calibration) -> None:
         """:meth:`Pipeline.set_calibration` in the child (the calibration is sent pickled)."""
         self._request("set_calibration", calibration)
+        self.calibration = calibration
 
     def set_assembly(self, assembly, wrench_cov=None) -> None:
         """:meth:`Pipeline.set_assembly` in the child (a library assembly goes by name)."""
         self._request("set_assembly", assembly, wrench_cov)
+        self.assembly, self.wrench_cov = assembly, wrench_cov
 
     def tare(self, duration: float = 0.5, check: bool = False) -> dict:
         """:meth:`Pipeline.tare` in the child; the event is recorded there when recording. Returns the event.
@@ -263,6 +314,7 @@ class PipelineProcess:
     # ------------------------------------------------------------------ lifetime
     def close(self) -> None:
         """Close the recording (if any) and the devices, and end the child process."""
+        self._closing = True
         if self._proc.poll() is None and not self.ended:
             with contextlib.suppress(PipelineProcessError, ValueError):
                 self._request("close", timeout=10.0)
@@ -292,7 +344,7 @@ class PipelineProcess:
 
 
 class _Borrowed:
-    """A :class:`PipelineProcess` lent to a worker: everything but :meth:`close` goes to the process."""
+    """A :class:`PipelineProcess` lent to a consumer: everything but :meth:`close` goes to the process."""
 
     def __init__(self, process: PipelineProcess):
         self._process = process
@@ -301,9 +353,15 @@ class _Borrowed:
         return getattr(self._process, name)
 
     def close(self) -> None:
-        """Leave the process running; a recording it holds is closed (a worker closes its source on a switch)."""
+        """Leave the process running; a recording it holds is closed, and its bundles are dropped until
+        the next :meth:`set_sink` (a consumer closes its source on a switch)."""
+        self._process.set_sink(_drop)
         with contextlib.suppress(PipelineProcessError, ValueError):
             self._process.close_recording()
+
+
+def _drop(bundle) -> None:
+    """The sink of a process nobody reads (a lent process while its borrower replays a recording)."""
 
 
 # ---------------------------------------------------------------------- the exceptions' crossing

@@ -3,9 +3,10 @@
 The devices, the acquisition's collecting thread, the one :class:`~pito_core.pipeline.Pipeline`
 and the recorder, served over the socket ``FD`` to the parent's
 :class:`~pito_core.pipeline.PipelineProcess` (:mod:`pito_core.pipeline._process`: the protocol
-and how the child ends with its parent). :class:`_Child` holds the state and answers one
-request per method; :func:`_serve` is the loop: it waits for rows or requests, runs the
-pipeline and sends a bundle. The package never imports this module, so ``-m`` runs it once.
+and how the child ends with its parent). :class:`_Child` holds the acquisition and a
+:class:`~pito_core.pipeline._runner.PipelineRunner` (the same runner as a replay's
+``PipelineThread``), which answers the requests; :func:`_serve` is the loop: it waits for rows
+or requests, runs the pipeline and sends a bundle. The package never imports this module, so ``-m`` runs it once.
 """
 
 from __future__ import annotations
@@ -26,20 +27,21 @@ from ._open import open_acquisition
 from ._pipeline import Pipeline
 from ._process import _portable
 from ._readers import AcquisitionReader
+from ._runner import REQUESTS, PipelineRunner
 
 __all__ = ["main"]
 
 
 class _Child:
-    """The child's state: the acquisition, its reader, the pipeline; :meth:`handle` answers the requests."""
+    """The child's state: the acquisition and its :class:`PipelineRunner`; :meth:`handle` answers the requests."""
 
     def __init__(self, cfg: dict):
         self.acq = open_acquisition(cfg["pito"], cfg.get("ati"), buffered=cfg["buffered"], buffer_seconds=10.0,
                                     reference_rate_hz=cfg["reference_rate_hz"], meta={"simulated": cfg["simulated"]})
-        self.reader = AcquisitionReader(self.acq, simulated=cfg["simulated"], owns=True)
+        reader = AcquisitionReader(self.acq, simulated=cfg["simulated"], owns=True)
         core = CubeCore() if cfg.get("edge") is None else CubeCore(edge=cfg["edge"])
-        self.pipeline = Pipeline(core=core, has_reference=self.reader.has_reference)
-        self.recording_from: int | None = None  # cube cursor where the recording began
+        self.runner = PipelineRunner(reader, Pipeline(core=core, has_reference=reader.has_reference))
+        self.has_reference = reader.has_reference
         # the collecting thread writes a byte here when rows arrive: the serving loop waits on it
         # and on the parent's requests at once (no polling period in the latency)
         self.wake_r, self._wake_w = os.pipe2(os.O_NONBLOCK | os.O_CLOEXEC)
@@ -55,43 +57,25 @@ class _Child:
                 pass
 
     def handle(self, name: str, args: tuple):
-        p, acq = self.pipeline, self.acq
-        if name == "set_calibration":
-            return p.set_calibration(*args)
-        if name == "set_assembly":
-            return p.set_assembly(*args)
-        if name in ("tare", "undo_tare"):
-            event = p.tare(args[0], check=bool(args[1])) if name == "tare" else p.undo_tare()
-            acq.record_event(event)
-            return event
-        if name == "apply_tare":
-            return p.apply_tare(*args)
-        if name == "reset":
-            return p.reset()
-        if name == "open_recording":
-            path, meta = args
-            meta.setdefault("simulated", bool(acq.meta.get("simulated", False)))
-            acq.open_recording(path, meta)
-            self.recording_from = acq.cursors()[0]
-            return None
-        if name == "close_recording":
-            self.recording_from = None
-            return acq.close_recording()
-        if name == "record_event":
-            return acq.record_event(*args)
-        raise ValueError(f"request: unknown {name!r}")
+        """The runner's method ``name`` (one of :data:`REQUESTS`) on ``args``."""
+        if name not in REQUESTS:
+            raise ValueError(f"request: unknown {name!r}")
+        return getattr(self.runner, name)(*args)
+
+    @property
+    def tare_in_force(self) -> dict | None:
+        return self.runner.pipeline.tare_in_force
 
     def bundle(self) -> LiveBundle:
-        b = self.pipeline.feed(self.reader.read())
-        b.stats = _plain(self.reader.stats())
-        b.recorded = 0 if self.recording_from is None else self.acq.cursors()[0] - self.recording_from
+        b = self.runner.bundle()
+        b.stats = _plain(b.stats)
         return b
 
     def close(self) -> None:
         self.acq.listener = None
         with contextlib.suppress(Exception):
             self.acq.close_recording()
-        self.reader.close()
+        self.runner.reader.close()
         for fd in (self.wake_r, self._wake_w):
             with contextlib.suppress(OSError):
                 os.close(fd)
@@ -104,7 +88,7 @@ def _serve(conn: Connection, cfg: dict) -> None:
         conn.send(("failed", f"{type(exc).__name__}: {exc}"))
         return
     signalled = install_stop_signals()
-    conn.send(("ready", {"reference": child.reader.has_reference, "pid": os.getpid()}))
+    conn.send(("ready", {"reference": child.has_reference, "pid": os.getpid()}))
     parent = os.getppid()
     gap = cfg["push_interval"]  # shortest time between two bundles (a cube that sends every frame
     last_fed = last_sent = 0.0  # alone would otherwise cost a pipeline run per frame)
@@ -115,12 +99,12 @@ def _serve(conn: Connection, cfg: dict) -> None:
             while conn.poll(0):
                 name, rid, *args = conn.recv()
                 if name == "close":
-                    conn.send(("reply", rid, True, None))
+                    conn.send(("reply", rid, True, None, child.tare_in_force))
                     return
-                try:
-                    conn.send(("reply", rid, True, child.handle(name, tuple(args))))
+                try:  # each reply carries the tare in force after the request (the parent shows it)
+                    conn.send(("reply", rid, True, child.handle(name, tuple(args)), child.tare_in_force))
                 except (ValueError, OSError) as exc:  # a bad argument, or a file that cannot be written
-                    conn.send(("reply", rid, False, _portable(exc)))
+                    conn.send(("reply", rid, False, _portable(exc), child.tare_in_force))
             if child.wake_r in ready:
                 time.sleep(max(0.0, last_fed + gap - time.monotonic()))
                 child.drain_wakes()

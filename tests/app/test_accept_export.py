@@ -31,7 +31,7 @@ def test_accept_applies_to_the_live_view_and_disables(window, fitted, qtbot):
     assert window.calibration is cal
     assert short_hash(calibration_hash(cal)) in window.cal_label.text() and "wizard" in window.cal_label.text()
     assert not page.accept_btn.isEnabled() and "live view" in page.accept_btn.text()
-    qtbot.waitUntil(lambda: window.worker.calibration is cal, timeout=3000)
+    qtbot.waitUntil(lambda: window.feed.calibration is cal, timeout=3000)  # no source: kept for the next one
 
 
 def test_export_says_where_the_report_went(window, fitted, qtbot, tmp_path):

@@ -88,6 +88,8 @@ def test_closing_the_window_cancels_the_startup_calibration(qtbot, styled):
 class _FakeAcquisition:
     def __init__(self):
         self.path = None
+        self.meta = {"simulated": True}
+        self.events = []
 
     def open_recording(self, path, meta):
         self.path = str(path)
@@ -95,11 +97,14 @@ class _FakeAcquisition:
     def close_recording(self):
         return {"rows": {"pito": 1234, "netft": 1200}, "path": self.path}
 
+    def record_event(self, event):
+        self.events.append(event)
+
     def cursors(self):
         return (0, 0)
 
 
-class _FakeSource:
+class _FakeReader:
     simulated = True
     has_reference = True
 
@@ -107,25 +112,40 @@ class _FakeSource:
         if acq is not None:
             self.acq = acq
 
+    def read(self):
+        from pito_core.pipeline import NewSamples
+
+        return NewSamples(None)
+
+    def stats(self):
+        return {}
+
     def close(self):
         pass
 
 
-def test_the_worker_says_when_a_recording_is_closed(qtbot, tmp_path):
-    from app.workers import DeviceWorker
+def test_the_feed_says_when_a_recording_is_closed(qtbot, tmp_path):
+    from app.live import LiveFeed
+    from pito_core.pipeline import PipelineThread
 
-    worker = DeviceWorker()
-    worker.set_source(_FakeSource(_FakeAcquisition()))
-    closed, failed = [], []
-    worker.recording_closed.connect(lambda path, rows: closed.append((path, rows)))
-    worker.recording_failed.connect(failed.append)
-    path = tmp_path / "r.pitorec"
-    worker.start_recording(path, simulated=True)
-    assert closed == []
-    assert worker.stop_recording() == 1234
-    assert closed == [(str(path), 1234)]  # emitted once the file is closed
-    assert worker.stop_recording() == 0 and len(closed) == 1  # nothing open: nothing said
-    worker.set_source(_FakeSource())  # a source that cannot record (a replay)
-    with pytest.raises(ValueError, match="cannot be recorded"):
-        worker.start_recording(path)
-    assert len(failed) == 1 and "cannot be recorded" in failed[0]
+    feed = LiveFeed()
+    try:
+        acq = _FakeAcquisition()
+        feed.set_source(PipelineThread(_FakeReader(acq)))
+        closed, failed = [], []
+        feed.recording_closed.connect(lambda path, rows: closed.append((path, rows)))
+        feed.recording_failed.connect(failed.append)
+        path = tmp_path / "r.pitorec"
+        feed.start_recording(path, simulated=True)
+        assert closed == [] and acq.path == str(path)
+        assert feed.stop_recording() == 1234
+        assert closed == [(str(path), 1234)]  # emitted once the file is closed
+        assert feed.stop_recording() == 0 and len(closed) == 1  # nothing open: nothing said
+        feed.start_recording(path, simulated=True)
+        feed.set_source(PipelineThread(_FakeReader()))  # a source that cannot record (a replay)
+        assert closed == [(str(path), 1234)] * 2  # the change of source closed the recording, and said so
+        with pytest.raises(ValueError, match="cannot be recorded"):
+            feed.start_recording(path)
+        assert len(failed) == 1 and "cannot be recorded" in failed[0]
+    finally:
+        feed.stop()

@@ -1,12 +1,15 @@
-"""The live view's update path: actors moved in place, hidden under the threshold; the worker."""
+"""The live view's update path: actors moved in place, hidden under the threshold; the live feed."""
 
 import numpy as np
 import pytest
 
-from app.workers import Bundle, DeviceWorker, face_sums, merge_bundles
+import threading
+
+from app.live import LiveFeed
 from pito_core.contact import ContactEstimate
 from pito_core.frames import CubeCore
-from pito_core.pipeline import NewSamples
+from pito_core.pipeline import LiveBundle as Bundle
+from pito_core.pipeline import NewSamples, PipelineThread, face_sums
 
 pytestmark = pytest.mark.needs_display
 
@@ -108,19 +111,24 @@ def test_torsion_and_uncertainty_toggles(live):
     assert not g.rings[1].GetVisibility()
 
 
-class FakeSource:
+class FakeReader:
+    """17 samples per read, 5 N on face 1 once calibrated (no reference: records pass at once)."""
+
     simulated = True
     has_reference = False
 
     def __init__(self):
         self.t = 0.0
+        self.tick = 0
 
     def read(self):
         t = self.t + np.arange(17) / 1000
         self.t = t[-1] + 1e-3
         counts = np.zeros((17, 36))
         counts[:, 2] = 1000.0
-        return NewSamples({"time": t, "counts": counts, "tick": np.rint(t * 1e6).astype(np.int64)})
+        tick = self.tick + 1000 * np.arange(17, dtype=np.int64)
+        self.tick = int(tick[-1]) + 1000
+        return NewSamples({"time": t, "counts": counts, "tick": tick})
 
     def stats(self):
         return {"rate_cube": 1000.0}
@@ -139,23 +147,130 @@ class FakeCalibration:
         return W
 
 
-def test_worker_bundles_and_backpressure(qtbot):
-    worker = DeviceWorker(rate=60)
-    worker.set_source(FakeSource())
-    worker.set_calibration(FakeCalibration())
-    got = []
-    worker.bundle.connect(got.append)
-    for _ in range(5):
-        worker.tick()
-    # the GUI has not acknowledged the first bundle: the later ticks were merged, not queued
-    assert worker.emitted == 1 and len(got) == 1
-    worker.ack()
-    worker.tick()
-    assert worker.emitted == 2
-    b = got[-1]
-    assert b.time.size == 5 * 17  # every sample of the merged ticks
-    assert np.allclose(b.wrenches[0, 2], -5.0)
-    assert np.allclose(b.sum_force, [-5.0, 0, 0])  # face 1's z is the core's +x
+def _bundle_at(k, n=3):
+    """A bundle of ``n`` samples, ticks ``k·n … k·n + n − 1`` ms, with contacts at its last sample time."""
+    t = (k * n + np.arange(n)) / 1000
+    return Bundle(t, np.full((n, 36), float(k)), np.zeros((n, 6)), tick=np.rint(t * 1e6).astype(np.int64),
+                  wrenches=np.zeros((6, 6)), contacts=contacts(), contacts_time=float(t[-1]))
+
+
+def test_the_feed_merges_while_the_gui_draws_and_loses_nothing(qtbot):
+    """Back-pressure: bundles that arrive before the GUI's ack are merged into one, none queued, none lost."""
+    feed = LiveFeed()
+    got, drawn = [], []
+    feed.bundle.connect(got.append)
+    feed.contacts_sink = lambda c, t: drawn.append(t)
+    try:
+        for k in range(5):
+            feed.deliver(_bundle_at(k))
+        # the GUI has not acknowledged the first bundle: the next four wait, merged into one
+        assert feed.delivered == 5 and feed.emitted == 1 and len(got) == 1 and len(got[0]) == 3
+        # ... while the drawing thread had every bundle's contacts at once
+        assert drawn == pytest.approx([0.002, 0.005, 0.008, 0.011, 0.014])
+        feed.ack()
+        qtbot.waitUntil(lambda: feed.emitted == 2, timeout=2000)  # the unsent one goes (queued) after the ack
+        assert got[1].tick.tolist() == [1000 * i for i in range(3, 15)]  # every sample once, in order
+        np.testing.assert_array_equal(got[1].counts[:, 0], np.repeat([1.0, 2, 3, 4], 3))
+        assert got[1].contacts_time == pytest.approx(0.014)  # the newest state
+        feed.ack()
+        qtbot.wait(50)
+        assert feed.emitted == 2  # nothing new: nothing sent
+        feed.deliver(_bundle_at(5))
+        assert feed.emitted == 3 and got[2].tick.tolist() == [15000, 16000, 17000]  # ack'd: at once
+    finally:
+        feed.stop()
+
+
+def test_a_replay_thread_feeds_the_views_through_the_same_route(qtbot):
+    """PipelineThread (a source in this process) → LiveFeed → GUI: every sample once, contacts off the GUI thread."""
+    feed = LiveFeed()
+    got, sink_threads = [], set()
+    feed.bundle.connect(lambda b: (got.append(b), feed.ack()))
+    feed.contacts_sink = lambda c, t: sink_threads.add(threading.current_thread().name)
+    src = PipelineThread(FakeReader(), rate_hz=200)
+    try:
+        feed.set_calibration(FakeCalibration())
+        feed.set_assembly(None)
+        feed.set_source(src)
+        assert src.calibration is feed.calibration  # the setting reached the one pipeline that runs
+        qtbot.waitUntil(lambda: sum(len(b) for b in got) >= 200, timeout=10_000)
+        tick = np.concatenate([b.tick for b in got])
+        assert np.all(np.diff(tick) == 1000)  # every sample once, in order
+        last = [b for b in got if b.wrenches is not None][-1]
+        assert np.allclose(last.wrenches[0, 2], -5.0) and np.allclose(last.sum_force, [-5.0, 0, 0])
+        assert sink_threads == {"pito-pipeline"}  # the contacts went to the drawing side from the source's thread
+        assert feed.delivered >= feed.emitted > 0
+    finally:
+        feed.stop()
+    assert not src._thread.is_alive()
+
+
+class CountingSource:
+    """A source that records the requests it gets (the pipeline process's interface, no process)."""
+
+    replay = False
+
+    def __init__(self, log):
+        self.log = log
+        self.calibration = self.assembly = self.wrench_cov = self.tare_in_force = None
+        self.sink = None
+
+    def set_sink(self, sink, on_error=None):
+        self.sink = sink
+
+    def set_calibration(self, c):
+        self.log.append("set_calibration")
+        self.calibration, self.tare_in_force = c, None
+
+    def set_assembly(self, a, cov=None):
+        self.log.append("set_assembly")
+        self.assembly, self.wrench_cov = a, cov
+
+    def tare(self, duration, check):
+        self.log.append("tare")
+        self.tare_in_force = {"counts_offset": [1.0] * 36, "taken_at": 0.0}
+        return dict(self.tare_in_force)
+
+    def apply_tare(self, event):
+        self.log.append("apply_tare")
+        self.tare_in_force = dict(event)
+
+    def close(self):
+        self.log.append("close")
+
+
+def test_settings_go_once_to_the_pipeline_that_runs(qtbot):
+    feed = LiveFeed()
+    log = []
+    status = []
+    feed.tare_status.connect(lambda text, undo: status.append((text, undo)))
+    try:
+        cal = FakeCalibration()
+        feed.set_calibration(cal)
+        feed.set_assembly("cube", "calibration")
+        assert log == []  # no source yet: kept as the operator's settings, no pipeline here
+        live = CountingSource(log)
+        feed.set_source(live)
+        assert log == ["set_calibration", "set_assembly"] and live.sink == feed.deliver
+        feed.tare()
+        assert log[-1] == "tare" and status[-1][0].startswith("Tare: taken") and status[-1][1]
+        assert feed.tare_in_force is live.tare_in_force  # shown from the one owner
+        # the same pipeline again (Back to live on the demo's process): nothing to send
+        log.clear()
+        feed.set_source(live)
+        assert log == []
+        # new devices: the settings and the live tare, once each; the old source is closed
+        other = CountingSource(log)
+        feed.set_source(other)
+        assert log == ["close", "set_calibration", "set_assembly", "apply_tare"]
+        assert other.tare_in_force["counts_offset"] == [1.0] * 36
+        # a new calibration goes to the running pipeline once, and starts from its own zero
+        log.clear()
+        feed.set_calibration(FakeCalibration())
+        assert log == ["set_calibration"] and feed.live_tare is None
+        assert status[-1] == ("Tare: the calibration's own zero", False)
+    finally:
+        feed.stop()
 
 
 def test_face_sums_about_the_centre_of_gravity():
@@ -174,7 +289,7 @@ def test_merge_keeps_every_sample():
     rng = np.random.default_rng(5)
     a = Bundle(np.arange(3.0), rng.normal(size=(3, 36)), rng.normal(size=(3, 6)), wrenches=rng.normal(size=(6, 6)))
     b = Bundle(np.arange(3.0, 5.0), rng.normal(size=(2, 36)), rng.normal(size=(2, 6)))
-    m = merge_bundles(a, b)
+    m = a.merged(b)
     # every sample of both, the older first
     assert m.time.tolist() == [0, 1, 2, 3, 4]
     np.testing.assert_array_equal(m.counts, np.vstack([a.counts, b.counts]))
@@ -183,7 +298,7 @@ def test_merge_keeps_every_sample():
     np.testing.assert_array_equal(m.wrenches, a.wrenches)
     # when both have them, the newest state wins
     c = Bundle(np.arange(5.0, 6.0), rng.normal(size=(1, 36)), rng.normal(size=(1, 6)), wrenches=rng.normal(size=(6, 6)))
-    np.testing.assert_array_equal(merge_bundles(m, c).wrenches, c.wrenches)
+    np.testing.assert_array_equal(m.merged(c).wrenches, c.wrenches)
 
 
 def test_the_live_scene_draws_in_its_own_thread(live, qtbot):
@@ -259,23 +374,24 @@ def test_the_live_scene_draws_in_its_own_thread(live, qtbot):
     assert scene.render_thread is None and not rt.running
 
 
-def test_contacts_go_from_the_worker_thread_to_the_drawing_thread(live, qtbot):
-    """The worker hands each bundle's contacts to the 3D view itself (not through the GUI thread)."""
-    import threading
-
+def test_contacts_go_from_the_source_thread_to_the_drawing_thread(live, qtbot):
+    """The feed hands each bundle's contacts to the 3D view itself, from the source's thread (not the GUI thread)."""
     scene = live.scene
     qtbot.waitUntil(lambda: scene.render_thread is not None, timeout=5000)
-    # the worker calls its sink with every bundle's contacts and newest sample time
-    worker = DeviceWorker(rate=60)
-    worker.set_source(FakeSource())
-    worker.set_calibration(FakeCalibration())
-    worker.set_assembly("cube")
-    seen = []
-    worker.contacts_sink = lambda c, t: seen.append((c, t))
-    worker.tick()
-    assert len(seen) == 1 and np.isclose(seen[0][1], 0.016) and seen[0][0].valid[0]
-    # from another thread, the live view queues them for the next frame; paused, it does not
     live.direct_contacts = True
+    feed = LiveFeed()
+    feed.contacts_sink = live.take_contacts  # as the main window wires it; the GUI never sees these bundles
+    feed.set_calibration(FakeCalibration())
+    feed.set_assembly("cube")
+    t0 = scene.contacts_time
+    feed.set_source(PipelineThread(FakeReader(), rate_hz=100))
+    try:
+        qtbot.waitUntil(lambda: np.isfinite(scene.contacts_time) and scene.contacts_time != t0, timeout=10_000)
+        assert feed.emitted == 1 and live.bundles_shown == 0  # not acknowledged, not shown by the GUI thread
+        assert scene.glyphs.spheres[1].GetVisibility()  # 5 N on face 1, drawn
+    finally:
+        feed.stop()
+    # from another thread, the live view queues them for the next frame; paused, it does not
 
     def from_worker(t, c):
         th = threading.Thread(target=live.take_contacts, args=(c, t))
@@ -297,3 +413,23 @@ def test_contacts_go_from_the_worker_thread_to_the_drawing_thread(live, qtbot):
     from_worker(3.5, contacts())
     scene.sync()
     assert scene.contacts_time == 1.5
+
+
+def test_the_feeds_per_sample_contacts_are_the_pipelines(qtbot):
+    """The LSL publisher's per-sample contacts (from the feed's object) equal the one pipeline's."""
+    from pito_core.contact import load_assembly
+    from pito_core.pipeline import Pipeline
+
+    feed = LiveFeed()
+    try:
+        asm = load_assembly("pito_mixed")
+        feed.set_assembly(asm)
+        W = np.zeros((4, 6, 6))
+        W[:, 0, 2] = -np.array([0.1, 1.0, 4.0, 9.0])  # pressing on face 1, under and over the threshold
+        W[:, 0, 4] = 0.01
+        mine, theirs = feed.contacts(W), Pipeline(assembly=asm).contacts(W)
+        np.testing.assert_array_equal(mine.valid, theirs.valid)
+        np.testing.assert_allclose(mine.point, theirs.point, equal_nan=True)
+        assert mine.valid[1:, 0].all() and not mine.valid[0, 0]
+    finally:
+        feed.stop()

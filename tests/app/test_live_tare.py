@@ -17,7 +17,7 @@ def test_live_tare_refuses_under_load_undoes_and_survives_a_replay(qtbot, styled
     window.resize(1280, 800)
     window.show()
     qtbot.waitExposed(window)
-    live, worker = window.live, window.worker
+    live, feed = window.live, window.feed
     path = tmp_path / "short.pitorec"
     try:
         assert wait_until(lambda: window.calibration is not None and live.bundles_shown > 5, timeout=60)
@@ -26,7 +26,7 @@ def test_live_tare_refuses_under_load_undoes_and_survives_a_replay(qtbot, styled
         live.tare.click()
         assert wait_until(lambda: live.tare_label.text().startswith("✘ Tare refused"), timeout=10)
         assert " N" in live.tare_label.text()  # the reason, with its figure: a load on a face, or motion
-        assert worker.pipeline.tare_in_force is None and not live.undo_tare.isEnabled()
+        assert feed.source.tare_in_force is None and not live.undo_tare.isEnabled()
         # nothing touches the cube (it hangs on its flange, the operator's hands off): accepted
         window.rig.set_scenario("calibration")
         window.rig.set_operator_face(None)
@@ -34,14 +34,14 @@ def test_live_tare_refuses_under_load_undoes_and_survives_a_replay(qtbot, styled
         live.tare.click()
         assert wait_until(lambda: live.tare_label.text().startswith("Tare: taken"), timeout=10), live.tare_label.text()
         assert live.undo_tare.isEnabled()
-        first = np.asarray(worker.pipeline.tare_in_force["counts_offset"])
+        first = np.asarray(feed.source.tare_in_force["counts_offset"])
         # undo: back to the calibration's own zero
         live.undo_tare.click()
         assert wait_until(lambda: live.tare_label.text() == "Tare: the calibration's own zero", timeout=10)
-        assert worker.pipeline.tare_in_force is None and not live.undo_tare.isEnabled()
+        assert feed.source.tare_in_force is None and not live.undo_tare.isEnabled()
         live.tare.click()
         assert wait_until(lambda: live.tare_label.text().startswith("Tare: taken"), timeout=10)
-        kept = np.asarray(worker.pipeline.tare_in_force["counts_offset"])
+        kept = np.asarray(feed.source.tare_in_force["counts_offset"])
         assert np.abs(kept - first).max() < 1e4  # the same unloaded state (counts)
         # record a little, replay it, and come back: the live tare is in force again, and shown
         window.toggle_recording(True, path)
@@ -56,7 +56,7 @@ def test_live_tare_refuses_under_load_undoes_and_survives_a_replay(qtbot, styled
         window.back_to_live()
         assert wait_until(lambda: live.tare_label.text().startswith("Tare: taken"), timeout=20), live.tare_label.text()
         process_for(0.5)
-        assert np.allclose(worker.pipeline.tare_in_force["counts_offset"], kept)
+        assert np.allclose(feed.source.tare_in_force["counts_offset"], kept)
         assert window.errors == []
     finally:
         window.shutdown()

@@ -95,7 +95,7 @@ def test_back_to_live_is_a_break_not_a_jump(plots):
 
 def test_resume_after_pause_shows_the_samples_measured_meanwhile(qtbot, styled):
     from app.live import LiveView
-    from app.workers import Bundle
+    from pito_core.pipeline import LiveBundle as Bundle
     from pito_core.frames import CubeCore
 
     view = LiveView(CubeCore(), ["cube"])

@@ -52,16 +52,16 @@ def test_lsl_toggle_publishes_every_bundle_while_on(qtbot):
     from PySide6.QtWidgets import QHBoxLayout, QPushButton, QWidget
 
     from app.live.lsl_toggle import LslToggle, install_lsl_toggle
-    from app.workers import DeviceWorker
+    from app.live import LiveFeed
 
-    worker = DeviceWorker()
+    feed = LiveFeed()
     got = []
 
     class Sink:
         names = ("pito-wrenches", "pito-contacts")
 
-        def __init__(self, pipeline):
-            assert pipeline is worker.pipeline
+        def __init__(self, source):
+            assert source is feed  # the feed's calibration and object describe the streams
 
         def __call__(self, bundle):
             got.append(bundle)
@@ -74,23 +74,23 @@ def test_lsl_toggle_publishes_every_bundle_while_on(qtbot):
     view.replay = QPushButton("Replay…")
     bar.addWidget(view.replay)
     qtbot.addWidget(view)
-    toggle = install_lsl_toggle(view, worker)
+    toggle = install_lsl_toggle(view, feed)
     assert bar.indexOf(toggle) == 1 and view.lsl is toggle
     toggle.factory = Sink
-    worker.bundle.emit("before")
+    feed.bundle.emit("before")
     toggle.button.setChecked(True)
     assert "pito-wrenches" in toggle.label.text() and "pito-contacts" in toggle.label.text()
-    worker.bundle.emit("b1")
-    worker.bundle.emit("b2")
+    feed.bundle.emit("b1")
+    feed.bundle.emit("b2")
     toggle.button.setChecked(False)
-    worker.bundle.emit("after")
+    feed.bundle.emit("after")
     assert got == ["b1", "b2", "closed"] and toggle.label.text() == ""
 
-    def refuse(pipeline):
+    def refuse(source):
         raise ValueError("calibration: the LSL streams carry wrenches")
 
-    t2 = LslToggle(worker, publisher_factory=refuse)
+    t2 = LslToggle(feed, publisher_factory=refuse)
     qtbot.addWidget(t2)
     t2.button.setChecked(True)
     assert not t2.button.isChecked() and "calibration" in t2.label.text()
-
+    feed.stop()

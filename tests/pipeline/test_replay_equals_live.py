@@ -173,3 +173,40 @@ def test_replay_reader_in_chunks_equals_replay_at_once(live_run):
     assert np.array_equal(out.tick, whole.tick)
     np.testing.assert_allclose(out.reference, whole.reference, rtol=0, atol=1e-12)
     np.testing.assert_allclose(out.face_wrenches, whole.face_wrenches, rtol=0, atol=1e-12)
+
+
+def test_a_replay_in_a_pipeline_thread_gives_the_replayed_samples_once_each(live_run):
+    """PipelineThread (the app's replay route) on a recording: every sample once, in order, with
+    the face wrenches of replay_recording (the recording's tare applied at its sample)."""
+    import threading
+
+    from pito_core.pipeline import PipelineThread, RecordingReader
+
+    path, cal, _, _ = live_run
+    whole, _ = replay_recording(path, cal)
+    got, threads = [], set()
+
+    def sink(b):
+        threads.add(threading.current_thread().name)
+        got.append(b)
+
+    reader = RecordingReader(path, speed=8.0, loop=False)
+    with PipelineThread(reader, rate_hz=60) as src:
+        src.set_calibration(cal)
+        assert src.calibration is cal and src.tare_in_force is None and src.replay
+        src.set_sink(sink)
+        deadline = time.monotonic() + 30
+        while not reader.finished and time.monotonic() < deadline:
+            time.sleep(0.05)
+        time.sleep(0.1)
+        with pytest.raises(ValueError, match="cannot be recorded"):
+            src.open_recording("never.pitorec")
+    assert reader.finished and threads == {"pito-pipeline"}
+    out = got[0]
+    for b in got[1:]:
+        out = out.merged(b)
+    n = out.tick.size
+    assert n > 0.9 * whole.tick.size  # all but the last few, which wait for a reference that never comes
+    np.testing.assert_array_equal(out.tick, whole.tick[:n])  # each once, in order
+    np.testing.assert_allclose(out.face_wrenches, whole.face_wrenches[:n], rtol=0, atol=1e-12)
+    assert out.replay_duration == pytest.approx(reader.duration)

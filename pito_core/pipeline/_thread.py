@@ -1,0 +1,211 @@
+"""The one pipeline run in a thread of the caller's process: a replay, with the interface of the pipeline process.
+
+:class:`PipelineThread` reads a reader (a :class:`~pito_core.pipeline.RecordingReader` in the
+app's replay) at a fixed rate, runs :class:`~pito_core.pipeline.Pipeline` on the new rows
+(:class:`~pito_core.pipeline._runner.PipelineRunner`, the runner of the pipeline process's child
+too) and hands each :class:`~pito_core.pipeline.LiveBundle` to a sink, in its own thread. Its
+methods are those of :class:`~pito_core.pipeline.PipelineProcess` (``set_sink``, ``take``, the
+settings, tare and recording requests, ``stats``, ``close``), so a consumer has one route
+whichever runs.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import threading
+import time
+
+from ..frames import CubeCore
+from ._bundle import LiveBundle
+from ._pipeline import Pipeline
+from ._runner import PipelineRunner
+
+__all__ = ["PipelineThread"]
+
+
+class PipelineThread:
+    """``reader`` read and processed ``rate_hz`` times a second in a thread of this process.
+
+    Parameters
+    ----------
+    reader : RecordingReader or AcquisitionReader
+        ``read()``, ``stats()``, ``close()``, ``has_reference``, ``simulated``; ``seek(t)`` for a
+        recording; an ``acq`` (a running acquisition) to record.
+    core : CubeCore, optional
+    rate_hz : float
+        Reads per second, Hz (the display rate: a replay shows no more than that).
+    name : str
+        The thread's name.
+
+    Attributes
+    ----------
+    replay : bool
+        The reader is a recording (it can :meth:`seek`; a replay cannot be recorded or tared).
+    pipeline : Pipeline
+        The one pipeline (changed by this object's methods only, under its lock).
+
+    Notes
+    -----
+    The settings' methods hold the lock the thread holds while it reads and runs the pipeline,
+    so a change applies between two reads. Each bundle is new arrays (or views of the
+    recording's, which nobody writes): the sink may keep them.
+    """
+
+    def __init__(self, reader, *, core: CubeCore | None = None, rate_hz: float = 60.0, name: str = "pito-pipeline"):
+        if not rate_hz > 0:
+            raise ValueError(f"rate_hz: expected > 0 Hz, got {rate_hz!r}")
+        self.simulated = bool(getattr(reader, "simulated", False))
+        self.has_reference = bool(getattr(reader, "has_reference", True))
+        self.replay = hasattr(reader, "seek")
+        self.pipeline = Pipeline(core=core, has_reference=self.has_reference)
+        self._runner = PipelineRunner(reader, self.pipeline)
+        self.period = 1.0 / float(rate_hz)
+        self._lock = threading.Lock()  # the runner's: one read or one request at a time
+        self._sink_lock = threading.Lock()
+        self._sink = None
+        self._on_error = None
+        self._pending: LiveBundle | None = None
+        self._latest_stats: dict = {}
+        self._stop = threading.Event()
+        self.errors: list[str] = []
+        self._closed = False
+        self._thread = threading.Thread(target=self._run, name=name, daemon=True)
+        self._thread.start()
+
+    # ------------------------------------------------------------------ the thread
+    def _run(self) -> None:
+        due = time.monotonic()
+        while not self._stop.wait(max(0.0, due - time.monotonic())):
+            due = max(due + self.period, time.monotonic())
+            try:
+                with self._lock:
+                    b = self._runner.bundle()
+            except Exception as exc:  # noqa: BLE001 - told to the consumer; the thread goes on
+                self._error(f"{type(exc).__name__}: {exc}")
+                continue
+            self._arrived(b)
+
+    def _arrived(self, b: LiveBundle) -> None:
+        with self._sink_lock:
+            self._latest_stats = b.stats
+            sink = self._sink
+            if self._pending is not None:  # kept while no sink was set: they go first
+                b, self._pending = self._pending.merged(b), None
+            if sink is None:
+                self._pending = b
+                return
+        try:
+            sink(b)
+        except Exception as exc:  # noqa: BLE001 - a failing sink must not end the thread; it is told
+            self._error(f"{type(exc).__name__}: {exc}")
+
+    def _error(self, message: str) -> None:
+        self.errors.append(message)
+        del self.errors[:-20]
+        with self._sink_lock:
+            on_error = self._on_error
+        if on_error is not None:
+            with contextlib.suppress(Exception):
+                on_error(message)
+
+    def set_sink(self, sink, on_error=None) -> None:
+        """Hand each bundle to ``sink(bundle)`` in this object's thread (None: keep them for :meth:`take`);
+        ``on_error(message)`` is told of a failed read or sink (as :meth:`PipelineProcess.set_sink`)."""
+        with self._sink_lock:
+            self._sink, self._on_error = sink, on_error
+
+    def take(self) -> LiveBundle | None:
+        """The bundles made since the previous call while no sink was set, merged, or None."""
+        with self._sink_lock:
+            b, self._pending = self._pending, None
+        return b
+
+    def stats(self) -> dict:
+        """The reader's latest figures (as the last bundle's ``stats``)."""
+        with self._sink_lock:
+            return dict(self._latest_stats)
+
+    # ------------------------------------------------------------------ the pipeline's state and settings
+    @property
+    def calibration(self):
+        return self.pipeline.calibration
+
+    @property
+    def assembly(self):
+        return self.pipeline.assembly
+
+    @property
+    def wrench_cov(self):
+        return self.pipeline.wrench_cov
+
+    @property
+    def tare_in_force(self) -> dict | None:
+        return self.pipeline.tare_in_force
+
+    def _locked(self, name: str, *args):
+        with self._lock:
+            return getattr(self._runner, name)(*args)
+
+    def set_calibration(self, calibration) -> None:
+        """:meth:`Pipeline.set_calibration`, between two reads."""
+        self._locked("set_calibration", calibration)
+
+    def set_assembly(self, assembly, wrench_cov=None) -> None:
+        """:meth:`Pipeline.set_assembly`, between two reads."""
+        self._locked("set_assembly", assembly, wrench_cov)
+
+    def tare(self, duration: float = 0.5, check: bool = False) -> dict:
+        """:meth:`Pipeline.tare` (recorded when recording); returns the event. Refused: ``TareRefused``."""
+        return self._locked("tare", float(duration), bool(check))
+
+    def undo_tare(self) -> dict:
+        """:meth:`Pipeline.undo_tare` (recorded when recording); returns the event."""
+        return self._locked("undo_tare")
+
+    def apply_tare(self, event: dict) -> None:
+        self._locked("apply_tare", dict(event))
+
+    def reset(self) -> None:
+        self._locked("reset")
+
+    def seek(self, t: float) -> None:
+        """Continue the recording from ``t`` s into it (the pipeline starts over there).
+
+        Raises
+        ------
+        ValueError
+            The reader is not a recording.
+        """
+        if not self.replay:
+            raise ValueError("seek: the source is not a recording")
+        with self._lock:
+            self._runner.reader.seek(t)
+
+    # ------------------------------------------------------------------ recording
+    def open_recording(self, path, meta: dict | None = None) -> None:
+        """Record every sample from now on (a reader on a running acquisition only; else ``ValueError``)."""
+        self._locked("open_recording", path, meta)
+
+    def close_recording(self) -> dict:
+        """Close the recording (returns once closed): ``{"rows": {...}, "path": ...}`` or {}."""
+        return self._locked("close_recording")
+
+    def record_event(self, event: dict) -> None:
+        self._locked("record_event", dict(event))
+
+    # ------------------------------------------------------------------ lifetime
+    def close(self, timeout: float = 5.0) -> None:
+        """Stop the thread, close the recording (if any) and the reader (idempotent)."""
+        self._stop.set()
+        if self._thread.is_alive() and self._thread is not threading.current_thread():
+            self._thread.join(timeout)
+        with self._lock:
+            if not self._closed:
+                self._closed = True
+                self._runner.close()
+
+    def __enter__(self) -> "PipelineThread":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
