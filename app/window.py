@@ -66,14 +66,41 @@ class MainWindow(QMainWindow):
         self.demo_speed, self.demo_period = demo_speed, demo_period
         self.core = CubeCore()
         self.setWindowTitle("pito — Patched Intrinsic Tactile Object" + ("  [SIMULATED DEVICE]" if demo else ""))
+        self._build_tabs(wizard_k if demo else 10000)
+        self._build_corner_and_status_bar(demo)
+        self.rate = float(rate)
+        self._start_feed(demo)
+        self.errors: list[str] = []
+        self.recording_path = None
+        self.rig = None  # demo: the simulated devices and their scenarios
+        self.calibration = None
+        self.calibration_task = None  # the demo's startup calibration, while it runs
+        self.assembly = None
+
+        self._connect_views()
+        if demo:
+            self._simulated_wizard()
+        self.model.mount_changed.connect(self._mount_changed)
+        self._mount_changed()
+        self.set_assembly(self.live.assembly.currentText())
+        if calibration_path is not None:
+            self.load_calibration(calibration_path)
+        if demo:
+            self.start_demo(demo_k)
+
+    def _build_tabs(self, wizard_k: int) -> None:
+        """The wizard's model (collecting ``wizard_k`` samples on each face), the live view and the wizard as tabs."""
         self.model = WizardModel(self.core)
-        self.model.set_k(wizard_k if demo else 10000)
+        self.model.set_k(wizard_k)
         self.wizard = CalibrationWizard(self.model)
         self.live = LiveView(self.core, list_assemblies())
         self.tabs = QTabWidget()
         self.tabs.addTab(self.live, "Live view")
         self.tabs.addTab(self.wizard, "Calibration wizard")
         self.setCentralWidget(self.tabs)
+
+    def _build_corner_and_status_bar(self, demo: bool) -> None:
+        """The calibration's name and the SIMULATED badge beside the tabs; the task bar below; the size."""
         corner = QWidget()
         cl = QHBoxLayout(corner)
         cl.setContentsMargins(0, 0, 8, 0)
@@ -90,7 +117,8 @@ class MainWindow(QMainWindow):
         self._loading_calibration = False
         self.resize(1440, 900)
 
-        self.rate = float(rate)
+    def _start_feed(self, demo: bool) -> None:
+        """The live feed (bundles straight to the views) and the menus and indicators that use it."""
         # bundles from the running pipeline's thread straight to the views (app/live/feed.py)
         self.feed = LiveFeed(core=self.core)
         self.feed.bundle.connect(self.on_bundle)
@@ -104,13 +132,9 @@ class MainWindow(QMainWindow):
         install_health_indicator(self)
         install_press_test_menu(self)
         install_analysis_menu(self)  # File → Analyse recording
-        self.errors: list[str] = []
-        self.recording_path = None
-        self.rig = None  # demo: the simulated devices and their scenarios
-        self.calibration = None
-        self.calibration_task = None  # the demo's startup calibration, while it runs
-        self.assembly = None
 
+    def _connect_views(self) -> None:
+        """The tabs', live view's and wizard's signals to this window's and the feed's handlers."""
         self.tabs.currentChanged.connect(self._tab_changed)
         self.wizard.pages["devices"].connect_requested.connect(self.connect_devices)
         self.live.tare_requested.connect(lambda: self.feed.post(self.feed.tare))
@@ -125,19 +149,13 @@ class MainWindow(QMainWindow):
         self.live.show_uncertainty.toggled.connect(self._install_solver)
         self.model.result_changed.connect(self._wizard_result)
 
-        if demo:
-            self.model.simulated = True
-            dev = self.wizard.pages["devices"]
-            dev.simulated.setChecked(True)
-            self.wizard.pages["tare"].operator = lambda face: self.rig and self.rig.set_operator_face(face)
-            self.wizard.pages["load"].operator = lambda face: self.rig and self.rig.set_operator_face(face)
-        self.model.mount_changed.connect(self._mount_changed)
-        self._mount_changed()
-        self.set_assembly(self.live.assembly.currentText())
-        if calibration_path is not None:
-            self.load_calibration(calibration_path)
-        if demo:
-            self.start_demo(demo_k)
+    def _simulated_wizard(self) -> None:
+        """Demo: the wizard on the simulated devices; its tare and load pages move the simulated operator."""
+        self.model.simulated = True
+        dev = self.wizard.pages["devices"]
+        dev.simulated.setChecked(True)
+        self.wizard.pages["tare"].operator = lambda face: self.rig and self.rig.set_operator_face(face)
+        self.wizard.pages["load"].operator = lambda face: self.rig and self.rig.set_operator_face(face)
 
     # ------------------------------------------------------------ demo
     def start_demo(self, k: int) -> None:

@@ -67,6 +67,17 @@ class LiveView(QWidget):
 
     def __init__(self, core=None, assemblies=(), parent=None):
         super().__init__(parent)
+        self._init_scene_and_plots(core)
+        bar, status = self._build_toolbar(assemblies)
+        self._build_notice()
+        timeline = self._build_timeline()
+        options = self._build_display_options()
+        self._lay_out(bar, status, options, timeline)
+        self._connect_controls()
+        self._init_display_pacing()
+
+    def _init_scene_and_plots(self, core) -> None:
+        """The 3D scene (its glyph scale), the two plots and the display counters."""
         self.paused = False
         self.scene = CubeScene(core, threaded=True)  # drawn in a thread of its own (app/render_thread.py)
         self.scene.setMinimumSize(640, 480)
@@ -78,7 +89,8 @@ class LiveView(QWidget):
         self.scene.glyphs.force_scale = 0.0035  # m/N: 12 N (full scale) -> 4.2 cm
         self.scene.frame_glyphs = True  # the camera holds full-scale arrows, for every object
 
-        # --- toolbar
+    def _build_toolbar(self, assemblies) -> tuple[QHBoxLayout, QHBoxLayout]:
+        """The row of buttons (object, calibration, tare, pause, record, replay) and the tare status line."""
         bar = QHBoxLayout()
         self.assembly = QComboBox()
         self.assembly.addItems(list(assemblies) or ["cube"])
@@ -110,8 +122,10 @@ class LiveView(QWidget):
         self.tare_label.setWordWrap(True)
         self.tare_label.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Preferred)
         status.addWidget(self.tare_label, 1)
+        return bar, status
 
-        # --- a notice over the view: what is wrong and what to do (e.g. no calibration)
+    def _build_notice(self) -> None:
+        """A notice over the view: what is wrong and what to do (e.g. no calibration)."""
         self.notice = QLabel("")
         self.notice.setObjectName("notice")
         self.notice.setWordWrap(True)
@@ -119,7 +133,8 @@ class LiveView(QWidget):
                                   " font-weight: bold; border: 1px solid #e74c3c; border-radius: 5px; padding: 8px; }")
         self.notice.setVisible(False)
 
-        # --- timeline (replay)
+    def _build_timeline(self) -> QHBoxLayout:
+        """The replay timeline: slider and time label."""
         tl = QHBoxLayout()
         self.timeline = QSlider(Qt.Orientation.Horizontal)
         self.timeline.setRange(0, 1000)
@@ -129,8 +144,10 @@ class LiveView(QWidget):
         tl.addWidget(QLabel("Timeline"))
         tl.addWidget(self.timeline, 1)
         tl.addWidget(self.time_label)
+        return tl
 
-        # --- display options
+    def _build_display_options(self) -> QGroupBox:
+        """The "Display" box: contact threshold, arrow and ring scales, torsion rings, ellipsoids."""
         opts = QGroupBox("Display")
         form = QFormLayout(opts)
         self.threshold = QDoubleSpinBox()
@@ -156,7 +173,10 @@ class LiveView(QWidget):
         form.addRow("Torsion ring radius", self.torque_scale)
         form.addRow(self.show_torsion)
         form.addRow(self.show_uncertainty)
+        return opts
 
+    def _lay_out(self, bar, status, opts, tl) -> None:
+        """Scene beside the plots and options (a splitter), under the toolbar, status and notice."""
         side = QVBoxLayout()
         side.addWidget(self.force_plot, 3)
         side.addWidget(self.equilibrium, 4)
@@ -176,6 +196,8 @@ class LiveView(QWidget):
         lay.addWidget(split, 1)
         lay.addLayout(tl)
 
+    def _connect_controls(self) -> None:
+        """Widgets ← glyph settings, then every control's signal to its handler or to this view's signals."""
         self.sync_options()
         self.threshold.valueChanged.connect(self._options_changed)
         self.force_scale.valueChanged.connect(self._options_changed)
@@ -191,6 +213,9 @@ class LiveView(QWidget):
         self.load_cal.clicked.connect(self.calibration_requested)
         self.assembly.currentTextChanged.connect(self.assembly_requested)
         self.timeline.sliderReleased.connect(self._seek)
+
+    def _init_display_pacing(self) -> None:
+        """The latest contacts and sums, the pacer (timer and rates) that draws the scene and plots, the readout."""
         self._last_contacts = None
         self._last_contacts_time = float("nan")
         #: the feed hands contacts to the drawing thread itself (:meth:`take_contacts`, set by

@@ -132,16 +132,48 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     """
     F = len(cal.output_faces)
     idx = [f - 1 for f in cal.output_faces]
-    n_int = len(sessions)
     stride = max(1, sum(len(s) for s in sessions) // ERROR_MODEL_SAMPLES)
+    ref_covs = [None] * len(sessions) if ref_covs is None else ref_covs
+    floor = np.zeros(6 * F) if gauge_cov is None else np.einsum("ia,ab,ib->i", cal.matrix, gauge_cov, cal.matrix)
+    PtP, Pte2, EtE, kept, clusters = _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups,
+                                                 block_size, ref_covs, floor, samples, stride)
+    _set_inflation(groups, clusters, stride)
+    coef = _nnls_coefficients(PtP, Pte2)
+    # Where the reference's noise v is large against the error itself, E² − v says little about
+    # the error: refit with each row weighted by (var / (var + v))², its share of information
+    # (rows where the face carries nothing, or a quiet reference, weigh fully), so the model is
+    # that of the true wrench's error and not of noise left over from the subtraction.
+    vref_full = [_reference_cov(m, rc, spec.output_frame, idx) for m, rc in zip(mounts, ref_covs)]
+    floor_m = (np.zeros((F, 6, 6)) if gauge_cov is None else
+               np.einsum("kia,ab,kjb->kij", cal.matrix.reshape(F, 6, 36), gauge_cov, cal.matrix.reshape(F, 6, 36)))
+    vdiag = [np.diagonal(V, axis1=-2, axis2=-1) for V in vref_full]  # (F, 6) per session
+    rel_var = [0.0 if n is None else 2.0 / max(n - 1, 1) for n in (ref_n or [None] * len(sessions))]
+    for _ in range(_REWEIGHT):
+        corr = _reweighted(kept, coef, floor, floor_m, vref_full, EtE, F, rel_var)
+    coef[:, 0] += floor
+    coef *= _coverage_scale(kept, coef, vdiag, F)[:, None]
+    return coef, corr
+
+
+def _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups, block_size, ref_covs, floor, samples,
+                stride):
+    """One pass over every ``stride``-th usable sample: the sums the error model is fitted from.
+
+    Returns ``PtP (F, 4, 4)``, ``Pte2 (F, 4, 6)``: per output face, the normal equations of the
+    squared residuals less the reference's variance and ``floor (6F,)`` on ``load_features``;
+    ``EtE (F, 6, 6)``, the residuals' sums of products; ``kept``, per block ``(E (n, 6F) float32,
+    phi (n, F, 4) float32, carries (n, F) bool, session index)`` for the later passes; and the
+    groups' cluster scores (see :func:`_add_cluster_scores`).
+    """
+    F = len(cal.output_faces)
+    idx = [f - 1 for f in cal.output_faces]
+    n_int = len(sessions)
     own_face = {id(g): (cal.output_faces[int(g.rows[0]) // 6] if g.inputs.size == 6 else None) for g in groups}
     clusters = {id(g): dict(score=np.zeros((g.design_pinv.shape[0], g.rows.size)), n=0,
                             meat=np.zeros(g.rows.size), length=max(50, -(-g.dof // (N_CLUSTERS * stride)))) for g in groups}
     PtP = np.zeros((F, N_FEATURES, N_FEATURES))
     Pte2 = np.zeros((F, N_FEATURES, 6))
     EtE = np.zeros((F, 6, 6))
-    ref_covs = [None] * len(sessions) if ref_covs is None else ref_covs
-    floor = np.zeros(6 * F) if gauge_cov is None else np.einsum("ia,ab,ib->i", cal.matrix, gauge_cov, cal.matrix)
     kept = []  # per block: E, phi (float32), which faces carry, session: the data are read once
     for j, (s, mount, o, rc) in enumerate(zip(sessions, mounts, offsets, ref_covs)):
         for b in (_strided(s.iter_blocks(block_size), stride) if samples is None else samples[j]):
@@ -158,29 +190,46 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
                 PtP[k] += phi[:, k].T @ phi[:, k]
                 Pte2[k] += phi[:, k].T @ E2[:, k]
                 EtE[k] += E[:, k].T @ E[:, k]
-            Eflat = E.reshape(-1, 6 * F)
             unloaded = ~b.loaded[usable].any(axis=1)
-            for g in groups:
-                cl = clusters[id(g)]
-                f = own_face[id(g)]
-                rows = slice(None) if f is None else np.flatnonzero(carries[usable][:, f - 1] | unloaded)
-                Xg = counts[rows][:, g.inputs] if f is not None else counts
-                A = np.zeros((Xg.shape[0], n_int + g.inputs.size))
-                A[:, j] = 1.0
-                A[:, n_int:] = Xg if f is not None else Xg[:, g.inputs]
-                A[:, n_int:] -= tare_means[j][g.inputs]
-                Eg = Eflat[rows][:, g.rows]
-                a = 0
-                while a < A.shape[0]:  # clusters of consecutive samples, across blocks
-                    take = min(A.shape[0] - a, cl["length"] - cl["n"])
-                    cl["score"] += A[a : a + take].T @ Eg[a : a + take]
-                    cl["n"] += take
-                    a += take
-                    if cl["n"] >= cl["length"]:
-                        sc = cl["score"]
-                        cl["meat"] += np.einsum("pj,pq,qj->j", sc, g.design_pinv, sc)
-                        cl["score"] = np.zeros_like(sc)
-                        cl["n"] = 0
+            _add_cluster_scores(groups, clusters, own_face, counts, E.reshape(-1, 6 * F), carries[usable], unloaded,
+                                tare_means[j], j, n_int)
+    return PtP, Pte2, EtE, kept, clusters
+
+
+def _add_cluster_scores(groups, clusters, own_face, counts, Eflat, carries, unloaded, tare_mean, j, n_int):
+    """Add one block's scores ``Aᵀ E`` to each group's current cluster of consecutive samples.
+
+    ``A`` is the group's design (session intercepts, then its input counts less the tare mean);
+    a group of one face takes only the samples where that face carries or nothing loads the
+    cube. A cluster full at ``length`` samples adds ``scoreᵀ design_pinv score`` to its ``meat``.
+    ``counts (n, 36)``, ``Eflat (n, 6F)`` residuals, ``carries (n, 6)`` and ``unloaded (n,)``
+    of the block's usable samples; ``j`` is the session's index among ``n_int``.
+    """
+    for g in groups:
+        cl = clusters[id(g)]
+        f = own_face[id(g)]
+        rows = slice(None) if f is None else np.flatnonzero(carries[:, f - 1] | unloaded)
+        Xg = counts[rows][:, g.inputs] if f is not None else counts
+        A = np.zeros((Xg.shape[0], n_int + g.inputs.size))
+        A[:, j] = 1.0
+        A[:, n_int:] = Xg if f is not None else Xg[:, g.inputs]
+        A[:, n_int:] -= tare_mean[g.inputs]
+        Eg = Eflat[rows][:, g.rows]
+        a = 0
+        while a < A.shape[0]:  # clusters of consecutive samples, across blocks
+            take = min(A.shape[0] - a, cl["length"] - cl["n"])
+            cl["score"] += A[a : a + take].T @ Eg[a : a + take]
+            cl["n"] += take
+            a += take
+            if cl["n"] >= cl["length"]:
+                sc = cl["score"]
+                cl["meat"] += np.einsum("pj,pq,qj->j", sc, g.design_pinv, sc)
+                cl["score"] = np.zeros_like(sc)
+                cl["n"] = 0
+
+
+def _set_inflation(groups, clusters, stride) -> None:
+    """Each group's ``inflation (rows,)``: cluster-robust variance over that of ``Σ_r ⊗ P``, at least 1."""
     for g in groups:
         cl = clusters[id(g)]
         sc = cl["score"]
@@ -189,25 +238,25 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
         var = np.clip(np.diag(g.residual_cov), 1e-300, None)
         # the scores are sums over every stride-th sample: × stride for the full data's (independent errors)
         g.inflation = np.maximum(1.0, stride * cl["meat"] / (rank * var))
+
+
+def _nnls_coefficients(PtP, Pte2) -> np.ndarray:
+    """``(6F, 4)`` non-negative variance coefficients of each row from the first pass's sums, unweighted."""
+    F = PtP.shape[0]
     coef = np.zeros((6 * F, N_FEATURES))
     for k in range(F):
         for a in range(6):
             coef[6 * k + a] = _nnls_rows(PtP[k], Pte2[k, :, a])
-    # Where the reference's noise v is large against the error itself, E² − v says little about
-    # the error: refit with each row weighted by (var / (var + v))², its share of information
-    # (rows where the face carries nothing, or a quiet reference, weigh fully), so the model is
-    # that of the true wrench's error and not of noise left over from the subtraction.
-    vref_full = [_reference_cov(m, rc, spec.output_frame, idx) for m, rc in zip(mounts, ref_covs)]
-    floor_m = (np.zeros((F, 6, 6)) if gauge_cov is None else
-               np.einsum("kia,ab,kjb->kij", cal.matrix.reshape(F, 6, 36), gauge_cov, cal.matrix.reshape(F, 6, 36)))
-    vdiag = [np.diagonal(V, axis1=-2, axis2=-1) for V in vref_full]  # (F, 6) per session
-    rel_var = [0.0 if n is None else 2.0 / max(n - 1, 1) for n in (ref_n or [None] * len(sessions))]
-    for _ in range(_REWEIGHT):
-        corr = _reweighted(kept, coef, floor, floor_m, vref_full, EtE, F, rel_var)
-    coef[:, 0] += floor
-    # pass 4: errors are not Gaussian (nonlinearity, drift): scale each row's variance so
-    # that ±1.96 σ (with the reference's noise added) holds 95 % of its training residuals,
-    # rows weighted as above
+    return coef
+
+
+def _coverage_scale(kept, coef, vdiag, F) -> np.ndarray:
+    """``(6F,)`` factor on each row's variance so that ±1.96 σ holds 95 % of its training residuals.
+
+    Errors are not Gaussian (nonlinearity, drift): the interval, with the reference's noise
+    ``vdiag`` (per session, ``(F, 6)``) added, is scaled to cover 95 % of the rows, weighted as
+    in the reweighting.
+    """
     hist = np.zeros((6 * F, _Z_N + 1))
     rows = np.arange(6 * F)
     for E, phi, carr, j in kept:
@@ -222,8 +271,7 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
         hist += np.bincount(bins.ravel(), weights=w.ravel(), minlength=hist.size).reshape(hist.shape)
     cdf = np.cumsum(hist, axis=1) / np.clip(hist.sum(axis=1, keepdims=True), 1, None)
     q95 = (np.argmax(cdf >= 0.95, axis=1) + 1) * _Z_WIDTH
-    coef *= ((q95 / 1.959964) ** 2)[:, None]
-    return coef, corr
+    return (q95 / 1.959964) ** 2
 
 
 def _reweighted(kept, coef, floor, floor_m, vref_full, EtE, F, rel_var):
