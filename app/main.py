@@ -62,6 +62,9 @@ def main(argv=None) -> int:
 
     app = QApplication.instance() or QApplication(sys.argv[:1])
     app.setApplicationName("pito-app")
+    from .gc_guard import GuiThreadCollector  # deferred with QApplication (above): it imports Qt
+
+    app.gc_collector = GuiThreadCollector(app).install()  # cycles freed in the GUI thread only
     from .fonts import install_app_font  # deferred with QApplication (above): these import Qt
     from .theme import STYLE
     from .window import MainWindow

@@ -26,6 +26,27 @@ def pytest_configure(config):
     config.addinivalue_line("markers", "needs_display: creates windows (skipped without an X server)")
 
 
+@pytest.fixture(autouse=True)
+def gc_in_gui_thread(request):
+    """Garbage cycles (closed windows, pages, menus) freed in the GUI thread only, as in
+    pito-app (app/gc_guard.py): a collection started by a worker thread could run a Qt
+    destructor there and deadlock against the GUI thread."""
+    if "qapp" not in request.fixturenames and "qtbot" not in request.fixturenames:
+        yield
+        return
+    import gc
+
+    from app.gc_guard import GuiThreadCollector
+
+    qapp = request.getfixturevalue("qapp")
+    gc.collect()
+    collector = GuiThreadCollector(qapp).install()
+    yield
+    collector.uninstall()
+    gc.collect()  # what the test left, here in the GUI thread
+    collector.deleteLater()
+
+
 @pytest.fixture(scope="session")
 def qapp_args():
     return ["pito-app-tests"]
