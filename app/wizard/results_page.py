@@ -15,7 +15,8 @@ from PySide6.QtWidgets import (
     QTabWidget,
 )
 
-from pito_core.calibration import CalibrationSession, RankDeficientError, calibrate, evaluate, validation_figures
+from pito_core.calibration import (CalibrationSession, RankDeficientError, calibrate, confirm_model, evaluate,
+                                   validation_figures)
 
 from .. import report
 from ..filetypes import CALIBRATION_SAVE_FILTER, CALIBRATION_SUFFIX
@@ -66,13 +67,16 @@ def fit_and_evaluate(sessions, method: str, holdout: float = 0.25, seed: int = 0
             warnings.simplefilter("ignore")
             cal = calibrate(train, method, allow_rank_deficient=True, **fit_options)
         note = f"minimum-norm fit — {exc}"
-    progress(0.7, f"evaluating on {test.counts.shape[0]} held-out samples")
-    heldout = evaluate(cal, test)
-    headline, figures = heldout, None
+    figures = None
     if validation is not None:
-        progress(0.8, f"validating on {validation.counts.shape[0]} fresh samples")
-        headline = evaluate(cal, validation)
-        figures = validation_figures(cal, validation, seed=seed)
+        progress(0.7, f"validating on {validation.counts.shape[0]} fresh samples")
+        if model == "auto":  # a correction the validation pass does not confirm gives way to the linear fit
+            cal, figures = confirm_model(cal, validation, seed=seed)
+        else:
+            figures = validation_figures(cal, validation, seed=seed)
+    progress(0.8, f"evaluating on {test.counts.shape[0]} held-out samples")
+    heldout = evaluate(cal, test)
+    headline = heldout if validation is None else evaluate(cal, validation)
     progress(1.0, "done")
     return cal, headline, note, heldout, figures
 

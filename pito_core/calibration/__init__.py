@@ -32,10 +32,11 @@ from ._targets import MountGeometry, block_targets
 from ..io import (  # the session format and its one builder (io), re-exported
     DEFAULT_COUNTS_RANGE, FLANGES, CalibrationSession, SessionBlock, saturated_samples, session_from_arrays,
 )
-from ._validation import ValidationFigures, validation_figures
+from ._validation import ValidationFigures, confirm_model, validation_figures
 
 __all__ = [
     "ValidationFigures",
+    "confirm_model",
     "validation_figures",
     "saturated_samples",
     "session_from_arrays",

@@ -7,6 +7,8 @@ loaded face, split where the time jumps), not over samples.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from ._calibration import Calibration
@@ -14,7 +16,7 @@ from ._fit import session_offsets
 from ..io import CalibrationSession
 from ._targets import MountGeometry, block_targets
 
-__all__ = ["ValidationFigures", "validation_figures"]
+__all__ = ["ValidationFigures", "confirm_model", "validation_figures"]
 
 #: Bootstrap draws of the intervals.
 N_BOOT = 400
@@ -114,3 +116,49 @@ def validation_figures(calibration: Calibration, session: CalibrationSession, *,
         worst[b] = np.nanmax(r, axis=0) if np.isfinite(r).any() else np.nan
     lo, hi = np.nanpercentile(worst, [2.5, 97.5], axis=0) if np.isfinite(worst).any() else (np.full(2, np.nan),) * 2
     return ValidationFigures(point[:6, 0], point[:6, 1], (lo[0], hi[0]), (lo[1], hi[1]), point[6], rows.size, used.size)
+
+
+def _corrected_groups(calibration: Calibration) -> list[tuple[int, int]]:
+    """``(face 1..6, part)`` (part 0: forces, 1: torques) whose rows use the polynomial correction."""
+    rows = calibration.model.row_alpha if calibration.model is not None else None
+    if not rows:  # a correction on every row (files written before the per-row choice)
+        return [(f, part) for f in calibration.output_faces for part in (0, 1)]
+    return sorted({(calibration.output_faces[r // 6], (r % 6) // 3) for r, a in enumerate(rows) if a is not None})
+
+
+def confirm_model(calibration: Calibration, session: CalibrationSession, *, seed: int = 0):
+    """Keep a polynomial correction only if the validation pass confirms it; its figures.
+
+    Cross-validation inside one session can miss what a later session shows (new loads,
+    drift). Each face's forces or torques that the correction serves are compared on
+    ``session`` (fresh loads, not fitted) with the papers' linear fit of the same data; if
+    the correction is worse on any of them, the linear fit is used, and its
+    ``model.reason`` says where the correction lost. The choice looks at the validation
+    pass, so that pass's figures are then, by a little, optimistic for the choice made.
+
+    Returns
+    -------
+    (Calibration, ValidationFigures)
+        The calibration to use and its figures on ``session`` (see :func:`validation_figures`).
+    """
+    figures = validation_figures(calibration, session, seed=seed)
+    if calibration.correction is None or calibration.linear_fit is None:
+        return calibration, figures
+    linear = calibration.linear_alternative()
+    lin_figures = validation_figures(linear, session, seed=seed)
+    c = session.connected_face - 1
+    lost = []
+    for face, part in _corrected_groups(calibration):
+        pick = (lambda fig: (fig.rmse_force, fig.rmse_torque)[part][face - 1]) if face - 1 != c or session.flange != "face" \
+            else (lambda fig: (fig.reaction_force, fig.reaction_torque)[part])
+        a, b = pick(figures), pick(lin_figures)
+        if np.isfinite(a) and np.isfinite(b) and a > b:
+            unit, k = ("N", 1.0) if part == 0 else ("mN·m", 1e3)
+            lost.append(f"face {face} {('forces', 'torques')[part]} {a * k:.3g} against {b * k:.3g} {unit}")
+    if not lost:
+        return calibration, figures
+    linear.model = dataclasses.replace(
+        linear.model, requested=calibration.model.requested,
+        reason="the papers' linear fit: the polynomial correction chosen by cross-validation lost on the "
+               f"validation pass ({'; '.join(lost)})")
+    return linear, lin_figures
