@@ -51,6 +51,7 @@ from multiprocessing.connection import Connection
 import numpy as np
 
 from ._bundle import LiveBundle
+from ._outlet import BundleOutlet
 
 __all__ = ["PipelineProcess", "PipelineProcessError"]
 
@@ -59,7 +60,7 @@ class PipelineProcessError(RuntimeError):
     """The pipeline process could not start, refused a request, or ended."""
 
 
-class PipelineProcess:
+class PipelineProcess(BundleOutlet):
     """The cube on ``pito`` and the Net F/T at ``ati``, read and processed in a child process.
 
     Parameters
@@ -112,18 +113,14 @@ class PipelineProcess:
                  startup_timeout: float = 30.0):
         if not push_interval > 0:
             raise ValueError(f"push_interval: expected > 0 s, got {push_interval!r}")
+        BundleOutlet.__init__(self)
         self.simulated = bool(simulated)
-        self._pending: LiveBundle | None = None
-        self._latest_stats: dict = {}
-        self._lock = threading.Lock()
         self._replies: dict = {}
         self._reply_ready = threading.Condition()
         self._next_id = 0
         self._send_lock = threading.Lock()
         self.ended: str | None = None  # why the child ended, once it has
         self.bundles_received = 0
-        self._sink = None
-        self._on_error = None
         self._closing = False  # close() was called: the end is expected
         self.calibration = self.assembly = self.wrench_cov = None
         self.tare_in_force: dict | None = None
@@ -183,13 +180,9 @@ class PipelineProcess:
         self.ended = self.ended or f"the pipeline process (pid {self.pid}) ended"
         with self._reply_ready:
             self._reply_ready.notify_all()
-        with self._lock:
-            on_error = self._on_error
         if not closed:  # the sink sees the devices gone (stats: connected False), and why
             self._arrived(LiveBundle(np.zeros(0), np.zeros((0, 36)), np.zeros((0, 6)), stats=self.stats()))
-            if on_error is not None:
-                with contextlib.suppress(Exception):
-                    on_error(self.ended)
+            self._tell(self.ended)
 
     def _reply(self, msg: tuple) -> None:
         with self._reply_ready:
@@ -199,45 +192,19 @@ class PipelineProcess:
 
     def _arrived(self, b: LiveBundle) -> None:
         """A bundle from the child: to the sink (with any kept for :meth:`take` before it), else kept."""
-        with self._lock:
-            self._latest_stats = b.stats
-            self.bundles_received += 1
-            sink = self._sink
-            if self._pending is not None:  # kept while no sink was set: they go first
-                b, self._pending = self._pending.merged(b), None
-            if sink is None:
-                self._pending = b
-                return
-        try:
-            sink(b)
-        except Exception as exc:  # noqa: BLE001 - a failing sink must not end the receiving; it is told
-            with self._lock:
-                on_error = self._on_error
-            if on_error is not None:
-                with contextlib.suppress(Exception):
-                    on_error(f"{type(exc).__name__}: {exc}")
-
-    def set_sink(self, sink, on_error=None) -> None:
-        """Hand each bundle to ``sink(bundle)`` as it arrives (None: keep them for :meth:`take`).
-
-        ``sink`` runs in the receiving thread, one bundle at a time; bundles kept before go with
-        the first. ``on_error(message)`` (optional) is told when ``sink`` raises or the child ends.
-        """
-        with self._lock:
-            self._sink, self._on_error = sink, on_error
+        self.bundles_received += 1  # (the receiving thread only)
+        self._deliver(b)
 
     def take(self) -> LiveBundle | None:
         """The bundles received since the previous call, merged (every sample once, the latest state), or None."""
-        with self._lock:
-            b, self._pending = self._pending, None
+        b = BundleOutlet.take(self)
         if b is None and self.ended:
             b = LiveBundle(np.zeros(0), np.zeros((0, 36)), np.zeros((0, 6)), stats=self.stats())
         return b
 
     def stats(self) -> dict:
         """The latest device figures (as ``AcquisitionReader.stats``), plus ``process`` (pid, alive, why ended)."""
-        with self._lock:
-            s = dict(self._latest_stats)
+        s = self._last_stats()
         s["process"] = {"pid": self.pid, "alive": self.ended is None, "ended": self.ended}
         if self.ended:
             s["connected"] = False

@@ -11,19 +11,18 @@ whichever runs.
 
 from __future__ import annotations
 
-import contextlib
 import threading
 import time
 
 from ..frames import CubeCore
-from ._bundle import LiveBundle
+from ._outlet import BundleOutlet
 from ._pipeline import Pipeline
 from ._runner import PipelineRunner
 
 __all__ = ["PipelineThread"]
 
 
-class PipelineThread:
+class PipelineThread(BundleOutlet):
     """``reader`` read and processed ``rate_hz`` times a second in a thread of this process.
 
     Parameters
@@ -61,11 +60,7 @@ class PipelineThread:
         self._runner = PipelineRunner(reader, self.pipeline)
         self.period = 1.0 / float(rate_hz)
         self._lock = threading.Lock()  # the runner's: one read or one request at a time
-        self._sink_lock = threading.Lock()
-        self._sink = None
-        self._on_error = None
-        self._pending: LiveBundle | None = None
-        self._latest_stats: dict = {}
+        BundleOutlet.__init__(self)
         self._stop = threading.Event()
         self.errors: list[str] = []
         self._closed = False
@@ -83,47 +78,16 @@ class PipelineThread:
             except Exception as exc:  # noqa: BLE001 - told to the consumer; the thread goes on
                 self._error(f"{type(exc).__name__}: {exc}")
                 continue
-            self._arrived(b)
-
-    def _arrived(self, b: LiveBundle) -> None:
-        with self._sink_lock:
-            self._latest_stats = b.stats
-            sink = self._sink
-            if self._pending is not None:  # kept while no sink was set: they go first
-                b, self._pending = self._pending.merged(b), None
-            if sink is None:
-                self._pending = b
-                return
-        try:
-            sink(b)
-        except Exception as exc:  # noqa: BLE001 - a failing sink must not end the thread; it is told
-            self._error(f"{type(exc).__name__}: {exc}")
+            self._deliver(b)
 
     def _error(self, message: str) -> None:
         self.errors.append(message)
         del self.errors[:-20]
-        with self._sink_lock:
-            on_error = self._on_error
-        if on_error is not None:
-            with contextlib.suppress(Exception):
-                on_error(message)
-
-    def set_sink(self, sink, on_error=None) -> None:
-        """Hand each bundle to ``sink(bundle)`` in this object's thread (None: keep them for :meth:`take`);
-        ``on_error(message)`` is told of a failed read or sink (as :meth:`PipelineProcess.set_sink`)."""
-        with self._sink_lock:
-            self._sink, self._on_error = sink, on_error
-
-    def take(self) -> LiveBundle | None:
-        """The bundles made since the previous call while no sink was set, merged, or None."""
-        with self._sink_lock:
-            b, self._pending = self._pending, None
-        return b
+        self._tell(message)
 
     def stats(self) -> dict:
         """The reader's latest figures (as the last bundle's ``stats``)."""
-        with self._sink_lock:
-            return dict(self._latest_stats)
+        return self._last_stats()
 
     # ------------------------------------------------------------------ the pipeline's state and settings
     @property
