@@ -3,8 +3,8 @@
 ``python -m pito_bench._live_window [--json] [--quick] [--seconds S]``
 
 What runs: ``pito-app --demo``'s own :class:`app.window.MainWindow` — the simulated devices in
-their child process (a pty and loopback UDP), the real drivers and acquisition, the worker
-thread and its core pipeline, the live tab at 1440×900 px — on a private Xvfb display
+their child process (a pty and loopback UDP), the real drivers, acquisition and core pipeline
+in the pipeline process, the live feed and the live tab at 1440×900 px — on a private Xvfb display
 (software OpenGL; ``QT_QPA_PLATFORM`` unset, no off-screen rendering).
 
 How it is measured, from outside the app's process:
