@@ -238,8 +238,8 @@ def _report_lines(calibration, evaluation, info: dict, generated: str) -> list[s
         f"| inverse condition number σmin/σmax | {calibration.inverse_condition_number:.3e} |",
         f"| calibration model | {calibration.model.name}: {calibration.model.reason} |",
     ] + [
-        f"| cross-validated RMSE, {key} model | forces {_rms(r, 0):.4f} N, torques {_rms(r, 3) * 1000:.3f} mN·m |"
-        for key, r in (calibration.model.cv_rmse or {}).items() if r
+        f"| cross-validated RMSE, {key} model | forces {force:.4f} N, torques {torque * 1000:.3f} mN·m |"
+        for key, (force, torque) in calibration.model.cv_rms().items()
     ] + [
         f"| held-out single-face samples | {evaluation.n_single} |",
         "",
@@ -265,12 +265,6 @@ def _report_lines(calibration, evaluation, info: dict, generated: str) -> list[s
         "",
     ]
     return lines
-
-
-def _rms(values, a0) -> float:
-    """RMS of the entries of axes ``a0..a0+2`` of a per-output list (``[fx … tz]`` per face)."""
-    v = np.asarray(values, dtype=float).reshape(-1, 6)[:, a0 : a0 + 3]
-    return float(np.sqrt(np.mean(v**2)))
 
 
 def _json_default(x):

@@ -126,14 +126,14 @@ def _live_targets(live: dict | None, pipe: dict | None) -> list[dict]:
     if live and live.get("status") == "ok" and "scene" in live:
         sc, pl = live["scene"], live["plots"]
         worst95 = max(_n(sc["latency_ms"]["p95"]), _n(pl["latency_ms"]["p95"]))
-        out.append({"target": "whole window: scene and plots each ≥ 30 frames/s (software GL, devices in their own process)",
+        out.append({"target": "whole window: scene ≥ 30, plots ≥ 50 frames/s (software GL, devices in their own process)",
                     "measured": f"scene {sc['frames_per_s']:.1f}, plots {pl['frames_per_s']:.1f} frames/s with new data "
                                 f"(load average {live['loadavg_before'][0]:.1f} on {live['cpus']} CPUs)",
-                    "met": sc["frames_per_s"] >= 30 and pl["frames_per_s"] >= 30})
-        out.append({"target": "frame → screen latency p95 ≤ 50 ms (sample time → pixels, read off the screen)",
+                    "met": sc["frames_per_s"] >= 30 and pl["frames_per_s"] >= 50})
+        out.append({"target": "frame → screen latency p95 ≤ 40 ms (sample time → pixels, read off the screen)",
                     "measured": f"scene p50 {_f(sc['latency_ms']['p50'])} / p95 {_f(sc['latency_ms']['p95'])} ms; "
                                 f"plots p50 {_f(pl['latency_ms']['p50'])} / p95 {_f(pl['latency_ms']['p95'])} ms",
-                    "met": worst95 <= 50})
+                    "met": worst95 <= 40})
     elif pipe and pipe.get("live"):
         r = pipe["live"][0]
         out.append({"target": "latency ≤ 20 ms (frame arrival → bundle ready, no scene)",

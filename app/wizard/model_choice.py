@@ -8,23 +8,18 @@ from PySide6.QtWidgets import QCheckBox, QGroupBox, QLabel, QVBoxLayout
 __all__ = ["ModelChoiceBox", "model_summary"]
 
 
-def _rms(values) -> float:
-    v = [float(x) for x in values]
-    return (sum(x * x for x in v) / max(len(v), 1)) ** 0.5
-
-
-def model_summary(choice) -> str:
-    """Words for a ``ModelChoice``: the model, why, cross-validated RMSE of both candidates and the chosen mix (N, N·m)."""
+def model_summary(choice, output_faces=()) -> str:
+    """Words for a ``ModelChoice``: the model, why, where the correction is used, and the cross-validated
+    RMSE of both candidates and of the chosen mix (N, N·m)."""
     words = {"linear": "the papers' linear fit (C = W S⁺)", "poly": "linear fit + polynomial correction",
              "chosen": "the chosen mix (the correction only where it won)"}
     text = f"<b>{words.get(choice.name, choice.name)}</b> — {choice.reason}"
-    for key in ("linear", "poly", "chosen"):
-        r = (choice.cv_rmse or {}).get(key) or []
-        if r:
-            force = [v for i, v in enumerate(r) if i % 6 < 3]
-            torque = [v for i, v in enumerate(r) if i % 6 >= 3]
-            text += (f"<br>cross-validated RMSE, {words[key]}: forces {_rms(force):.3f} N, "
-                     f"torques {_rms(torque) * 1000:.2f} mN·m")
+    groups = choice.corrected(output_faces)
+    if choice.name != "linear" and output_faces:
+        text += (f"<br>correction used on {len(groups)} of {2 * len(output_faces)} output groups: "
+                 + ", ".join(f"face {f} {part}" for f, part in groups))
+    for key, (force, torque) in choice.cv_rms().items():
+        text += f"<br>cross-validated RMSE, {words[key]}: forces {force:.3f} N, torques {torque * 1000:.2f} mN·m"
     return text
 
 
@@ -55,6 +50,6 @@ class ModelChoiceBox(QGroupBox):
     def requested(self) -> str:
         return "linear" if self.linear.isChecked() else "auto"
 
-    def show_choice(self, choice) -> None:
-        """Show a ``ModelChoice`` (or nothing for None)."""
-        self.text.setText("—" if choice is None else model_summary(choice))
+    def show_choice(self, choice, output_faces=()) -> None:
+        """Show a ``ModelChoice`` (or nothing for None), with the groups that use the correction."""
+        self.text.setText("—" if choice is None else model_summary(choice, output_faces))

@@ -386,7 +386,7 @@ class ResultsPage(WizardPage):
                 self.values["status"].setText(f"✘ fit failed: {self.note}")
             self.set_ready(False)
             return
-        self.model_box.show_choice(cal.model)
+        self.model_box.show_choice(cal.model, cal.output_faces)
         self._show_figures(cal, ev, m)
         status = "✔ accepted — the live view uses it" if m.accepted else "awaiting your decision"
         if m.saved_path:

@@ -306,6 +306,25 @@ class ModelChoice:
                 "n_folds": int(self.n_folds), "n_segments": int(self.n_segments), "reason": self.reason,
                 "row_alpha": list(self.row_alpha or [])}
 
+    def cv_rms(self) -> dict:
+        """``{candidate: (forces N, torques N·m)}``: RMS over outputs of each candidate's cross-validated RMSE."""
+        out = {}
+        for key in ("linear", "poly", "chosen"):
+            r = np.asarray((self.cv_rmse or {}).get(key) or [], dtype=float)
+            if r.size:
+                axis = np.arange(r.size) % 6
+                out[key] = (float(np.sqrt(np.mean(r[axis < 3] ** 2))), float(np.sqrt(np.mean(r[axis >= 3] ** 2))))
+        return out
+
+    def corrected(self, output_faces) -> list:
+        """``[(face, "forces" | "torques"), ...]``: the output groups that use the correction.
+
+        ``row_alpha`` runs six rows per face in the order of ``output_faces``.
+        """
+        rows = list(self.row_alpha or [])
+        return [(int(f), part) for k, f in enumerate(output_faces) for part, a in (("forces", 0), ("torques", 3))
+                if 6 * k + a < len(rows) and rows[6 * k + a] is not None]
+
     @classmethod
     def from_dict(cls, d: dict) -> "ModelChoice":
         d = dict(d)

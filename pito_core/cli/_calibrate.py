@@ -84,7 +84,7 @@ def run(args) -> int:
     dt = time.perf_counter() - t0
     print(f"{cal.method}: {cal.matrix.shape[0]}×36 matrix from {n} samples in {dt:.2f} s; "
           f"inverse condition number {cal.inverse_condition_number:.3e}")
-    print_model(cal.model)
+    print_model(cal.model, cal.output_faces)
     if test:
         ev = evaluate(cal, test)
         cal.meta["validation"] = ev.to_dict()

@@ -116,7 +116,7 @@ def run(args) -> int:
         print(json.dumps(ev.to_dict(series=args.series), indent=2))
     else:
         print(f"calibration: {args.calibration} [{short_hash(calibration_hash(cal))}] ({cal.method}, {cal.matrix.shape[0]}×36)")
-        print_model(cal.model)
+        print_model(cal.model, cal.output_faces)
         print_evaluation(ev, cal)
         if cal.model.name != "linear" and cal.linear_fit is not None:
             lin = evaluate(cal.linear_alternative(), sessions, tare=not args.no_tare, **thresholds)

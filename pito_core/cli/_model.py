@@ -4,18 +4,15 @@ from __future__ import annotations
 
 __all__ = ["print_model"]
 
+_WORDS = {"linear": "papers' linear fit", "poly": "linear + correction", "chosen": "chosen mix"}
 
-def print_model(model) -> None:
-    """The model in use, why, and the cross-validated RMSE of both candidates (N, N·m)."""
+
+def print_model(model, output_faces) -> None:
+    """The model in use, why, where the correction is used, and each candidate's cross-validated RMSE."""
     print(f"model: {model.name} — {model.reason}")
-    if model.cv_rmse:
-        for key in ("linear", "poly"):
-            r = model.cv_rmse.get(key) or []
-            force = [v for i, v in enumerate(r) if i % 6 < 3]
-            torque = [v for i, v in enumerate(r) if i % 6 >= 3]
-            if r:
-                print(f"  cross-validated RMSE, {key:6s}: forces {_rms(force):.4g} N, torques {_rms(torque):.4g} N·m")
-
-
-def _rms(v) -> float:
-    return float(sum(x * x for x in v) / max(len(v), 1)) ** 0.5
+    groups = model.corrected(output_faces)
+    if model.name != "linear":
+        names = ", ".join(f"face {f} {part}" for f, part in groups)
+        print(f"  correction used on {len(groups)} of {2 * len(output_faces)} output groups: {names}")
+    for key, (force, torque) in model.cv_rms().items():
+        print(f"  cross-validated RMSE, {_WORDS[key]:19s}: forces {force:.4g} N, torques {torque:.4g} N·m")

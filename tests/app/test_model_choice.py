@@ -17,3 +17,10 @@ def test_model_section_says_which_and_why_and_switches(qtbot):
     with qtbot.waitSignal(box.requested_changed) as sig:
         box.linear.setChecked(True)
     assert sig.args == ["linear"] and box.requested == "linear"
+
+
+def test_model_section_names_the_corrected_groups():
+    rows = [1e-3] * 3 + [None] * 3 + [None] * 6 + [None] * 3 + [2e-3] * 3  # faces 2, 4, 5 in that order
+    choice = ModelChoice(name="poly", requested="auto", alpha=2e-3, reason="r", row_alpha=rows)
+    text = model_summary(choice, (2, 4, 5))
+    assert "correction used on 2 of 6 output groups: face 2 forces, face 5 torques" in text
