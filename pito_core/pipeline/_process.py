@@ -51,6 +51,7 @@ from multiprocessing.connection import Connection
 import numpy as np
 
 from ._bundle import LiveBundle
+from ._controls import PipelineControls
 from ._outlet import BundleOutlet
 
 __all__ = ["PipelineProcess", "PipelineProcessError"]
@@ -60,7 +61,7 @@ class PipelineProcessError(RuntimeError):
     """The pipeline process could not start, refused a request, or ended."""
 
 
-class PipelineProcess(BundleOutlet):
+class PipelineProcess(PipelineControls, BundleOutlet):
     """The cube on ``pito`` and the Net F/T at ``ati``, read and processed in a child process.
 
     Parameters
@@ -236,47 +237,17 @@ class PipelineProcess(BundleOutlet):
             raise PipelineProcessError(f"{name}: {value}") from value
         return value
 
-    # ------------------------------------------------------------------ settings of the pipeline
+    # ------------------------------------------------------------------ settings (PipelineControls), kept here too
+    def _call(self, name: str, *args, timeout: float = 10.0):
+        return self._request(name, *args, timeout=timeout)
+
     def set_calibration(self, calibration) -> None:
-        """:meth:`Pipeline.set_calibration` in the child (the calibration is sent pickled)."""
-        self._request("set_calibration", calibration)
+        super().set_calibration(calibration)
         self.calibration = calibration
 
     def set_assembly(self, assembly, wrench_cov=None) -> None:
-        """:meth:`Pipeline.set_assembly` in the child (a library assembly goes by name)."""
-        self._request("set_assembly", assembly, wrench_cov)
+        super().set_assembly(assembly, wrench_cov)
         self.assembly, self.wrench_cov = assembly, wrench_cov
-
-    def tare(self, duration: float = 0.5, check: bool = False) -> dict:
-        """:meth:`Pipeline.tare` in the child; the event is recorded there when recording. Returns the event.
-
-        A refused tare (``check``) raises ``ValueError`` with the reason."""
-        return self._request("tare", float(duration), bool(check))
-
-    def undo_tare(self) -> dict:
-        """:meth:`Pipeline.undo_tare` in the child (recorded there when recording). Returns the event."""
-        return self._request("undo_tare")
-
-    def apply_tare(self, event: dict) -> None:
-        """:meth:`Pipeline.apply_tare` in the child (a tare taken before this process: Back to live)."""
-        self._request("apply_tare", dict(event))
-
-    def reset(self) -> None:
-        """:meth:`Pipeline.reset` in the child."""
-        self._request("reset")
-
-    # ------------------------------------------------------------------ recording
-    def open_recording(self, path, meta: dict | None = None) -> None:
-        """Record every sample of both devices from now on to ``path`` (``pito-recording``), written in the child."""
-        self._request("open_recording", os.fspath(path), dict(meta or {}))
-
-    def close_recording(self) -> dict:
-        """Stop recording and close the file (returns when it is closed): ``{"rows": {...}, "path": ...}`` or {}."""
-        return self._request("close_recording", timeout=30.0)
-
-    def record_event(self, event: dict) -> None:
-        """Append ``event`` (JSON-able dict) to the recording, if recording."""
-        self._request("record_event", dict(event))
 
     # ------------------------------------------------------------------ lifetime
     def close(self) -> None:

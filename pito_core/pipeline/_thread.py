@@ -15,6 +15,7 @@ import threading
 import time
 
 from ..frames import CubeCore
+from ._controls import PipelineControls
 from ._outlet import BundleOutlet
 from ._pipeline import Pipeline
 from ._runner import PipelineRunner
@@ -22,7 +23,7 @@ from ._runner import PipelineRunner
 __all__ = ["PipelineThread"]
 
 
-class PipelineThread(BundleOutlet):
+class PipelineThread(PipelineControls, BundleOutlet):
     """``reader`` read and processed ``rate_hz`` times a second in a thread of this process.
 
     Parameters
@@ -106,31 +107,10 @@ class PipelineThread(BundleOutlet):
     def tare_in_force(self) -> dict | None:
         return self.pipeline.tare_in_force
 
-    def _locked(self, name: str, *args):
+    def _call(self, name: str, *args, timeout: float = 10.0):
+        """A request of :class:`PipelineControls`, run on the runner under the lock (``timeout`` unused)."""
         with self._lock:
             return getattr(self._runner, name)(*args)
-
-    def set_calibration(self, calibration) -> None:
-        """:meth:`Pipeline.set_calibration`, between two reads."""
-        self._locked("set_calibration", calibration)
-
-    def set_assembly(self, assembly, wrench_cov=None) -> None:
-        """:meth:`Pipeline.set_assembly`, between two reads."""
-        self._locked("set_assembly", assembly, wrench_cov)
-
-    def tare(self, duration: float = 0.5, check: bool = False) -> dict:
-        """:meth:`Pipeline.tare` (recorded when recording); returns the event. Refused: ``TareRefused``."""
-        return self._locked("tare", float(duration), bool(check))
-
-    def undo_tare(self) -> dict:
-        """:meth:`Pipeline.undo_tare` (recorded when recording); returns the event."""
-        return self._locked("undo_tare")
-
-    def apply_tare(self, event: dict) -> None:
-        self._locked("apply_tare", dict(event))
-
-    def reset(self) -> None:
-        self._locked("reset")
 
     def seek(self, t: float) -> None:
         """Continue the recording from ``t`` s into it (the pipeline starts over there).
@@ -144,18 +124,6 @@ class PipelineThread(BundleOutlet):
             raise ValueError("seek: the source is not a recording")
         with self._lock:
             self._runner.reader.seek(t)
-
-    # ------------------------------------------------------------------ recording
-    def open_recording(self, path, meta: dict | None = None) -> None:
-        """Record every sample from now on (a reader on a running acquisition only; else ``ValueError``)."""
-        self._locked("open_recording", path, meta)
-
-    def close_recording(self) -> dict:
-        """Close the recording (returns once closed): ``{"rows": {...}, "path": ...}`` or {}."""
-        return self._locked("close_recording")
-
-    def record_event(self, event: dict) -> None:
-        self._locked("record_event", dict(event))
 
     # ------------------------------------------------------------------ lifetime
     def close(self, timeout: float = 5.0) -> None:
