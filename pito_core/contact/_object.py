@@ -66,13 +66,18 @@ def solve_object(assembly, face_wrenches, force_threshold=DEFAULT_FORCE_THRESHOL
             covs = np.moveaxis(covs.reshape((-1, 6, 6, 6)), 1, 0)  # (6, M, 6, 6)
         elif covs.shape != (6, 6, 6):
             raise ValueError(f"wrench_cov: expected shape (6, 6), (6, 6, 6) or {lead + (6, 6, 6)}, got {covs.shape}")
+    flat = w.reshape((-1, 6, 6))
+    M = len(flat)
+    face_frame = {}
+    for patch, faces in _face_groups(assembly):
+        rows = flat[:, faces, :].reshape(-1, 6)  # (M·k, 6), sample-major: rows are solved independently
+        est = solve(patch, rows, force_threshold, point_contact=point_contact,
+                    wrench_cov=_group_cov(covs, faces, M))
+        for j, i in enumerate(faces):
+            face_frame[i] = est[j::len(faces)] if len(faces) > 1 else est
     per_face = []
     for i in FACES:
-        cov_i = None if covs is None else covs[i - 1]
-        if cov_i is not None and np.isnan(cov_i).all():
-            cov_i = np.broadcast_to(np.eye(6), (6, 6))  # a face without output: NaN wrenches, no contact
-        est = solve(assembly.patches[i], w[..., i - 1, :].reshape(-1, 6), force_threshold,
-                    point_contact=point_contact, wrench_cov=cov_i)
+        est = face_frame[i - 1]
         T = assembly.core.face_pose(i)  # T_core_face
         R, t = T[:3, :3], T[:3, 3]
         est.point = np.einsum("ij,kj->ik", est.point, R) + t
@@ -83,6 +88,58 @@ def solve_object(assembly, face_wrenches, force_threshold=DEFAULT_FORCE_THRESHOL
                 setattr(est, k, R @ getattr(est, k) @ R.T)
         per_face.append(est)
     return _stack_faces(per_face, lead)
+
+
+def _face_cov(covs, i: int):
+    """Face index ``i``'s wrench covariance ``(6, 6)`` or ``(M, 6, 6)`` (None without one)."""
+    if covs is None:
+        return None
+    cov_i = covs[i]
+    if np.isnan(cov_i).all():
+        cov_i = np.broadcast_to(np.eye(6), (6, 6))  # a face without output: NaN wrenches, no contact
+    return cov_i
+
+
+def _group_cov(covs, faces: list, M: int):
+    """The covariance of a group's rows ``(M·k, 6)``: shared ``(6, 6)`` if the faces share one, else per row."""
+    per = [_face_cov(covs, i) for i in faces]
+    if per[0] is None:
+        return None
+    if all(c.ndim == 2 and np.array_equal(c, per[0]) for c in per):
+        return per[0]
+    return np.stack([np.broadcast_to(c, (M, 6, 6)) for c in per], axis=1).reshape(-1, 6, 6)
+
+
+def _params(obj) -> tuple:
+    """A hashable key of an object's parameters: arrays and numbers by value, anything else by identity."""
+    if obj is None:
+        return (None,)
+    key = [type(obj)]
+    for name, v in sorted(vars(obj).items()):
+        if isinstance(v, np.ndarray):
+            key.append((name, v.dtype.str, v.shape, v.tobytes()))
+        elif v is None or isinstance(v, (int, float, str, bool)):
+            key.append((name, v))
+        else:
+            key.append((name, id(v)))
+    return tuple(key)
+
+
+def _face_groups(assembly: Assembly) -> list:
+    """``(patch, [face index, ...])``: faces whose patches solve alike (same surface, boundary, friction).
+
+    One ``solve`` per group instead of one per face: the live view solves the six faces of one
+    sample per display tick, where numpy's per-call cost, not the arithmetic, dominates.
+    """
+    groups: dict = {}
+    for i in FACES:
+        p = assembly.patches[i]
+        if hasattr(p, "surface") and hasattr(p, "boundary"):
+            key = (_params(p.surface), _params(p.boundary), p.mu, p.torsion_radius)
+        else:
+            key = (id(p),)
+        groups.setdefault(key, (p, []))[1].append(i - 1)
+    return list(groups.values())
 
 
 def _stack_faces(per_face: list, lead: tuple) -> ContactEstimate:
