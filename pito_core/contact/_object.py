@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import weakref
 from functools import lru_cache
 
 import numpy as np
@@ -68,26 +69,43 @@ def solve_object(assembly, face_wrenches, force_threshold=DEFAULT_FORCE_THRESHOL
             raise ValueError(f"wrench_cov: expected shape (6, 6), (6, 6, 6) or {lead + (6, 6, 6)}, got {covs.shape}")
     flat = w.reshape((-1, 6, 6))
     M = len(flat)
-    face_frame = {}
-    for patch, faces in _face_groups(assembly):
-        rows = flat[:, faces, :].reshape(-1, 6)  # (M·k, 6), sample-major: rows are solved independently
+    poses, groups = _layout(assembly)
+    out: dict = {}
+    for patch, faces in groups:
+        at = faces[0] if len(faces) == 1 else faces  # one face: plain indexing (cheaper)
+        rows = flat[:, at, :].reshape(-1, 6)  # (M·k, 6), sample-major: rows are solved independently
         est = solve(patch, rows, force_threshold, point_contact=point_contact,
                     wrench_cov=_group_cov(covs, faces, M))
-        for j, i in enumerate(faces):
-            face_frame[i] = est[j::len(faces)] if len(faces) > 1 else est
-    per_face = []
-    for i in FACES:
-        est = face_frame[i - 1]
-        T = assembly.core.face_pose(i)  # T_core_face
-        R, t = T[:3, :3], T[:3, 3]
-        est.point = np.einsum("ij,kj->ik", est.point, R) + t
-        est.normal = np.einsum("ij,kj->ik", est.normal, R)
-        est.force = np.einsum("ij,kj->ik", est.force, R)
-        for k in ("point_cov", "force_cov"):
-            if getattr(est, k) is not None:
-                setattr(est, k, R @ getattr(est, k) @ R.T)
-        per_face.append(est)
-    return _stack_faces(per_face, lead)
+        _place(out, est, faces, M)
+    return _to_core(out, poses, lead)
+
+
+def _place(out: dict, est: ContactEstimate, faces: list, M: int) -> None:
+    """Put a group's face-frame fields ``(M·k, …)`` at their faces of ``out[name] (M, 6, …)``."""
+    for name, v in est._arrays():
+        if v is None:
+            continue
+        a = out.get(name)
+        if a is None:  # facets: −1 on the faces whose patch is not a mesh; the other fields cover every face
+            shape = (M, 6) + v.shape[1:]
+            a = out[name] = np.full(shape, -1, v.dtype) if name == "facet" else np.empty(shape, v.dtype)
+        if len(faces) == 1:
+            a[:, faces[0]] = v
+        else:
+            a[:, faces] = v.reshape((M, len(faces)) + v.shape[1:])
+
+
+def _to_core(out: dict, poses: tuple, lead: tuple) -> ContactEstimate:
+    """Face-frame fields ``(M, 6, …)`` → a core-frame :class:`ContactEstimate` of batch shape ``lead + (6,)``."""
+    R, t = poses  # (6, 3, 3), (6, 3): T_core_face of every face
+    out["point"] = np.einsum("mfj,fkj->mfk", out["point"], R) + t
+    out["normal"] = np.einsum("mfj,fkj->mfk", out["normal"], R)
+    out["force"] = np.einsum("mfj,fkj->mfk", out["force"], R)
+    Rt = np.swapaxes(R, 1, 2)
+    for k in ("point_cov", "force_cov"):
+        if k in out:
+            out[k] = R @ out[k] @ Rt
+    return ContactEstimate(**{k: v.reshape(lead + v.shape[1:]) for k, v in out.items()}, frame="core")
 
 
 def _face_cov(covs, i: int):
@@ -142,16 +160,19 @@ def _face_groups(assembly: Assembly) -> list:
     return list(groups.values())
 
 
-def _stack_faces(per_face: list, lead: tuple) -> ContactEstimate:
-    """Six core-frame estimates of ``M`` samples → one of shape ``lead + (6, …)`` (``lead`` flattens to M)."""
-    res = {}
-    for k, _ in per_face[0]._arrays():
-        v = [getattr(e, k) for e in per_face]
-        if all(a is None for a in v):
-            res[k] = None
-            continue
-        if k == "facet":  # faces whose patch is not a mesh: no facet
-            v = [np.full(len(per_face[0].valid), -1, np.intp) if a is None else a for a in v]
-        a = np.stack(v, axis=1)  # (M, 6, ...)
-        res[k] = a.reshape(lead + a.shape[1:])
-    return ContactEstimate(**res, frame="core")
+#: assembly → (what its layout was made from, (face rotations and origins, face groups))
+_LAYOUTS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _layout(assembly: Assembly) -> tuple:
+    """``((R (6, 3, 3), t (6, 3)), groups)`` of an assembly: made again when its core or a patch changes."""
+    made_from = [assembly.core]
+    for p in (assembly.patches[i] for i in FACES):
+        made_from += [p, *(getattr(p, k, None) for k in ("surface", "boundary", "mu", "torsion_radius"))]
+    got = _LAYOUTS.get(assembly)
+    if got is not None and all(a is b or (type(a) is float and a == b) for a, b in zip(got[0], made_from)):
+        return got[1]
+    T = np.stack([assembly.core.face_pose(i) for i in FACES])  # T_core_face
+    layout = ((T[:, :3, :3].copy(), T[:, :3, 3].copy()), _face_groups(assembly))
+    _LAYOUTS[assembly] = (made_from, layout)
+    return layout
