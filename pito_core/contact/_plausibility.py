@@ -175,7 +175,9 @@ def soft_finger_variance(J, c, S):
 
     def var(grad, rows):
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-            b = np.c_[grad[:, :2], grad[:, 5]] if grad.shape[1] == 6 else np.c_[grad[:, :2], np.zeros(len(grad))]
+            b = np.empty((len(grad), 3))
+            b[:, :2] = grad[:, :2]
+            b[:, 2] = grad[:, 5] if grad.shape[1] == 6 else 0.0
             um = np.einsum("nk,nkj->nj", b, adj[rows]) / det[rows][:, None]
             u = np.empty((len(grad), 6))
             u[:, 3:] = um
