@@ -137,3 +137,22 @@ def test_groups_follow_the_patch_parameters():
     assert len(_face_groups(load_assembly("ellipsoid"))) == 6  # six different caps
     assert sorted(len(f) for _, f in _face_groups(load_assembly("pito_mixed"))) == [1, 1, 4]
     assert sorted(len(f) for _, f in _face_groups(_assemblies()[5])) == [1, 1, 2, 2]
+
+
+def test_the_demos_simulated_grasp_gives_the_per_face_solves_bitwise():
+    # the demo's free grasp through the simulated cube's ideal calibration: noisy face wrenches, as live
+    from pito_core.calibration import Calibration
+    from pito_core.sim import VirtualCube, simulate_free_grasp
+
+    cube = VirtualCube(seed=0)
+    cal = Calibration("ideal", cube.ideal_calibration(), range(1, 7), "face", cube.offset, cube.core, np.eye(4))
+    run = simulate_free_grasp(k=3000, seed=1, model=cube)
+    W = cal.wrenches(run.counts.astype(float))[::10]
+    for name in ("cube", "pito_mixed"):
+        a = load_assembly(name)
+        got = solve_object(a, W, 0.3)
+        ref = _reference(a, W, 0.3)
+        assert got.valid.sum() > 100  # the fingers are on the object
+        _assert_same(got, ref)
+        for m in range(0, len(W), 37):  # the live view: one sample per tick
+            _assert_same(solve_object(a, W[m], 0.3), _reference(a, W[m], 0.3))
