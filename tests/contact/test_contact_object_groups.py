@@ -112,7 +112,8 @@ def test_a_mesh_face_among_analytic_ones():
     _assert_same(solve_object(a, W), _reference(a, W))
 
 
-def test_per_face_covariances_agree_to_rounding():
+@pytest.mark.parametrize("point_contact", [False, True])
+def test_per_face_covariances_agree_to_rounding(point_contact):
     # faces of one group with their own covariance: one batch with a covariance per row (another
     # summation order in the variance of the test, so equal to rounding, not bitwise)
     rng = np.random.default_rng(5)
@@ -123,7 +124,8 @@ def test_per_face_covariances_agree_to_rounding():
     W = _random_wrenches(rng, 25)
     W[:, 2] = np.nan
     for cov, Wc in ((covs, W), (np.broadcast_to(covs, (25, 6, 6, 6)), W), (covs, W[0])):
-        got, ref = solve_object(a, Wc, wrench_cov=cov), _reference(a, Wc, wrench_cov=cov)
+        got = solve_object(a, Wc, wrench_cov=cov, point_contact=point_contact)
+        ref = _reference(a, Wc, wrench_cov=cov, point_contact=point_contact)
         for k in FIELDS:
             x, y = getattr(got, k), ref[k]
             if k in ("valid", "single_contact", "single_contact_reason", "facet"):
