@@ -48,7 +48,7 @@ _GROUP_OF_PATTERN = np.array([0 if p == 0 else (p.bit_length() if p & (p - 1) ==
 
 def load_groups(loaded: np.ndarray) -> np.ndarray:
     """``(n,) int8``: each sample's load group (see ``_UNUSABLE``) from ``loaded (n, 6) bool``."""
-    return _GROUP_OF_PATTERN[np.asarray(loaded, dtype=bool).view(np.uint8) @ _BITS]
+    return np.take(_GROUP_OF_PATTERN, np.asarray(loaded, dtype=bool).view(np.uint8) @ _BITS)
 
 
 def group_signs(flange: str, connected_face: int) -> np.ndarray:
@@ -97,8 +97,7 @@ class GramPass:
                      for _ in range(n_int)]
         self.stride = max(1, int(total_samples) // ERROR_MODEL_SAMPLES)
         self.sub = [[] for _ in range(n_int)]
-        self._buf = np.empty((CHUNK, 43))
-        self._buf[:, _ONE] = 1.0
+        self._buf = np.empty(CHUNK * 43)  # one chunk of a group's design, rows of up to 43 columns
         self._cbuf = None
         self._ones = np.ones(CHUNK)
         self._xc = [None if c is None else np.r_[0.0, c, np.zeros(6)] for c in self.centers]  # c_k in Z's columns
@@ -137,19 +136,38 @@ class GramPass:
         return b.loaded[:, mount.connected_face - 1] if mount.flange == "frame" else np.zeros(b.loaded.shape[0], dtype=bool)
 
     def _add_group(self, k, g, b, rows) -> None:
-        """Add the samples ``rows`` (of load group ``g``) of block ``b`` to ``H[k, g]``, a chunk at a time."""
-        H, xc = self.H[k, g], self._xc[k]
+        """Add the samples ``rows`` (of load group ``g``) of block ``b`` to ``H[k, g]``, a chunk at a time.
+
+        Without the joint design only the gauges of the faces that carry load in the group enter
+        (every face's in the unloaded group): the own-gauge designs read nothing else.
+        """
+        faces, cols = self._group_columns(k, g)
+        w = cols.size
+        H = self.H[k, g] if w == 43 else np.zeros((w, w))
+        xc = self._xc[k][cols]
         for a in range(0, rows.size, CHUNK):
             idx = rows[a : a + CHUNK]
-            Z = self._buf[: idx.size]
-            np.copyto(Z[:, _X], np.take(b.counts, idx, axis=0, out=self._counts_buf(b.counts)[: idx.size], mode="clip"),
-                      casting="unsafe")
-            np.take(b.reference, idx, axis=0, out=Z[:, _R], mode="clip")
+            Z = self._buf[: idx.size * w].reshape(idx.size, w)
+            Z[:, _ONE] = 1.0
+            counts = np.take(b.counts, idx, axis=0, out=self._counts_buf(b.counts)[: idx.size], mode="clip")
+            if w == 43:
+                np.copyto(Z[:, _X], counts, casting="unsafe")
+            for j, f in enumerate(faces if w < 43 else ()):
+                np.copyto(Z[:, 1 + 6 * j : 7 + 6 * j], counts[:, 6 * f : 6 * f + 6], casting="unsafe")
+            np.take(b.reference, idx, axis=0, out=Z[:, w - 6 :], mode="clip")
             # counts − c_k in place, exactly as a subtraction (one rank-1 update: the rows are short for numpy)
             Z = scipy.linalg.blas.dger(-1.0, xc, self._ones[: idx.size], a=Z.T, overwrite_a=1).T
             H += Z.T @ Z
             if g == 0:
                 self._tare(k, Z[:, _X], Z[:, _R])
+        if w < 43:
+            self.H[k, g][np.ix_(cols, cols)] += H
+
+    def _group_columns(self, k, g):
+        """``(faces, columns)``: the faces (0-based) whose gauges load group ``g`` of session ``k`` sums,
+        and their columns in ``[1 | counts − c | r]`` (43)."""
+        faces = np.arange(6) if self.joint or g == 0 else np.flatnonzero(self.maps[k][0][g])
+        return faces, np.r_[0, 1 + (6 * faces[:, None] + np.arange(6)).ravel(), 37 + np.arange(6)]
 
     def _counts_buf(self, counts):
         """A reused (CHUNK, 36) buffer of the counts' dtype."""
