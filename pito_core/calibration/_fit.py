@@ -141,13 +141,13 @@ def _tare_moments(session: CalibrationSession, block_size: int = 65536, with_ref
     n = 0
     shift = None  # first unloaded sample: sums of squares about it do not cancel catastrophically
     lo, hi = session.counts_range
-    for b in session.iter_blocks(block_size):
+    for b in session.iter_blocks(block_size, counts_dtype=None):  # only the unloaded rows are converted
         _check_block(b, lo, hi)
         free = ~b.loaded.any(axis=1)
         if free.any():
             c = b.counts[free]
             if shift is None:
-                shift = c[0].copy()
+                shift = c[0].astype(float)
             c = c - shift
             total += c.sum(axis=0)
             total_sq += c.T @ c
@@ -188,7 +188,7 @@ def _gauge_scale(sessions, tare_means, block_size) -> np.ndarray:
     """``(36,)`` spread of each gauge about its tare (RMS over each session's first block), counts."""
     ss, n = np.zeros(36), 0
     for s, m in zip(sessions, tare_means):
-        b = next(iter(s.iter_blocks(block_size)))
+        b = next(iter(s.iter_blocks(block_size, counts_dtype=None)))
         d = b.counts - m
         ss += np.einsum("ij,ij->j", d, d)
         n += d.shape[0]
