@@ -10,9 +10,11 @@ face, or none) the signs are constant, so the Gram matrix of the joint design
 group's fixed (43, 73) map: the targets are never laid out per sample. Per block the
 samples are sorted by group (stable) and taken in cache-sized chunks into one reused
 buffer, each chunk adding its ``ZᵀZ`` (one ``syrk``) to its group's ``H``; ``c_k`` is a
-provisional centre of session ``k`` (its first sample). Samples loading two faces or more
-(``_targets.py``: not usable) add nothing. Each face's own-gauge design takes its rows
-and columns of the groups where the face carries load or none does.
+provisional centre of session ``k`` (its first sample), subtracted exactly (the counts are
+converted to float chunk by chunk, from their stored dtype). Samples loading two faces or
+more (``_targets.py``: not usable) add nothing. Each face's own-gauge design takes its rows
+and columns of the groups where the face carries load or none does; without the joint
+design (``face_to_face``) a group sums only the gauges of the faces that carry load in it.
 
 In the same pass: the tare moments (mean and covariance of the unloaded samples' counts,
 the reference's covariance at rest), which faces carried load, and a uniform subsample
@@ -80,7 +82,8 @@ class GramPass:
     centers : list of ndarray (36,) or None
         Known tare means (then ``c_k`` is exact and no re-centring is needed).
     joint : bool
-        Whether the joint design (all 36 gauges) is needed (the group Grams serve both).
+        Whether the joint design (all 36 gauges) is needed; without it a load group sums only
+        the gauges of the faces that carry load in it (all that the own-gauge designs read).
     """
 
     def __init__(self, n_int: int, own_faces, total_samples: int, centers=None, joint: bool = True):
@@ -240,7 +243,7 @@ class GramPass:
 
     def _joint_gram(self) -> np.ndarray:
         """``(n_int + 72, n_int + 72)`` Gram of ``[offset column of each session | counts − c | targets]``
-        over the usable samples (provisional centres)."""
+        over the usable samples (provisional centres); its counts' columns are complete only with ``joint``."""
         if self._G is None:
             n_int = self.n_int
             self._G = np.zeros((n_int + 72, n_int + 72))
