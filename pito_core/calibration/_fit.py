@@ -13,11 +13,12 @@ directions filled from each face's own-gauge fit (docs/calibration.md).
 from __future__ import annotations
 
 import datetime as _dt
+import functools
 import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
-from threadpoolctl import threadpool_limits
+from threadpoolctl import ThreadpoolController
 
 from ..defaults import FULL_SCALE_FACE
 from ..frames import FACES
@@ -53,6 +54,12 @@ NET_LOAD_PRIOR = "not measured: from the faces' own-gauge fits"
 NET_LOAD_UNIDENTIFIED = "not measured: not identified (plain least squares)"
 #: Flange of the extra sessions that measure the net-load directions for face-frame methods.
 NET_LOAD_FLANGE = "frame_hole"
+
+
+@functools.lru_cache(maxsize=1)
+def _threadpools() -> ThreadpoolController:
+    """The BLAS/OpenMP pools loaded (found once: the search costs ~1–3 ms, a fit's limit then ~20 µs)."""
+    return ThreadpoolController()
 
 
 class RankDeficientWarning(UserWarning):
@@ -134,13 +141,13 @@ def _tare_moments(session: CalibrationSession, block_size: int = 65536, with_ref
     n = 0
     shift = None  # first unloaded sample: sums of squares about it do not cancel catastrophically
     lo, hi = session.counts_range
-    for b in session.iter_blocks(block_size):
+    for b in session.iter_blocks(block_size, counts_dtype=None):  # only the unloaded rows are converted
         _check_block(b, lo, hi)
         free = ~b.loaded.any(axis=1)
         if free.any():
             c = b.counts[free]
             if shift is None:
-                shift = c[0].copy()
+                shift = c[0].astype(float)
             c = c - shift
             total += c.sum(axis=0)
             total_sq += c.T @ c
@@ -181,7 +188,7 @@ def _gauge_scale(sessions, tare_means, block_size) -> np.ndarray:
     """``(36,)`` spread of each gauge about its tare (RMS over each session's first block), counts."""
     ss, n = np.zeros(36), 0
     for s, m in zip(sessions, tare_means):
-        b = next(iter(s.iter_blocks(block_size)))
+        b = next(iter(s.iter_blocks(block_size, counts_dtype=None)))
         d = b.counts - m
         ss += np.einsum("ij,ij->j", d, d)
         n += d.shape[0]
@@ -397,7 +404,7 @@ class Calibrator:
         BLAS/LAPACK run single-threaded during the fit: its QR folds cache-sized chunks,
         which threads only slow down (and, on a busy machine, by ten times or more).
         """
-        with threadpool_limits(limits=1):
+        with _threadpools().limit(limits=1):
             return self._fit(sessions)
 
     def _fit(self, sessions) -> "Calibrator":
@@ -475,7 +482,7 @@ class Calibrator:
         done = 0
         for k, (s, mount) in enumerate(zip(sessions, mounts)):
             lo, hi = s.counts_range
-            for b in s.iter_blocks(self.block_size):
+            for b in s.iter_blocks(self.block_size, counts_dtype=None):  # GramPass converts chunk by chunk
                 _check_block(b, lo, hi)
                 check_connected(gp.add(k, b, mount, spec.output_frame, poly, None if known is None else known[0][k]),
                                 k, b, s.connected_face)

@@ -1,26 +1,71 @@
 """One pass over the sessions for the linear fit: every sum :meth:`Calibrator._fit` needs.
 
-Per block, the samples are checked (NaN, inf, saturation) and laid out once as
-``Z = [1 | counts − c_k | targets of all six faces]`` (``c_k`` a provisional centre of
-session ``k``: its tare mean when already known, else its first sample), and ``ZᵀZ``
-(one ``syrk``) is added to the Gram matrix of the joint design; each face's own-gauge
-design takes the Gram of its own rows and columns. In the same pass: the tare moments
-(mean and covariance of the unloaded samples' counts, the reference's covariance at rest),
-the Gram of the targets, and a uniform subsample (≤ ``ERROR_MODEL_SAMPLES``) for the error
-model. After the pass the design is re-centred exactly on each session's tare mean
-(``A_m = A_c M``, ``G_m = Mᵀ G_c M``) and factored by :class:`GramQR`.
+Every target is the reference ``r`` (n, 6) mapped by the mount: face ``f``'s target is
+``s_f r A_fᵀ`` with ``A_f`` the adjoint to face ``f``'s frame (or the identity in the
+reference frame) and ``s_f ∈ {0, ±1}`` set by which face is loaded (the load paths of
+``_targets.py``). Within a *load group* (the samples of one session with the same loaded
+face, or none) the signs are constant, so the Gram matrix of the joint design
+``Z = [1 | counts − c_k | targets of all six faces]`` (73 columns) is ``Eᵀ H E`` with
+``H`` the Gram of the group's ``[1 | counts − c_k | r]`` (43 columns) and ``E`` the
+group's fixed (43, 73) map: the targets are never laid out per sample. Per block the
+samples are sorted by group (stable) and taken in cache-sized chunks into one reused
+buffer, each chunk adding its ``ZᵀZ`` (one ``syrk``) to its group's ``H``; ``c_k`` is a
+provisional centre of session ``k`` (its first sample), subtracted exactly (the counts are
+converted to float chunk by chunk, from their stored dtype). Samples loading two faces or
+more (``_targets.py``: not usable) add nothing. Each face's own-gauge design takes its rows
+and columns of the groups where the face carries load or none does; without the joint
+design (``face_to_face``) a group sums only the gauges of the faces that carry load in it.
+
+In the same pass: the tare moments (mean and covariance of the unloaded samples' counts,
+the reference's covariance at rest), which faces carried load, and a uniform subsample
+(≤ ``ERROR_MODEL_SAMPLES``) for the error model. After the pass the design is re-centred
+exactly on each session's tare mean (``A_m = A_c M``, ``G_m = Mᵀ G_c M``) and factored by
+:class:`GramQR`.
 """
 
 from __future__ import annotations
 
 import numpy as np
+import scipy.linalg.blas
 
 from ..io import SessionBlock, few_indices as _few
 from ._lstsq import GramQR
 from ._residuals import ERROR_MODEL_SAMPLES
 from ._targets import block_targets
 
-__all__ = ["GramPass"]
+__all__ = ["GramPass", "check_connected"]
+
+#: Load groups: 0 unloaded, 1..6 the one loaded face, 7 two faces or more (not usable).
+_UNUSABLE = 7
+#: Rows per chunk of the sorted block (4096 × 43 × 8 B ≈ 1.4 MB: the chunk stays in cache).
+CHUNK = 4096
+_ONE, _X, _R = 0, slice(1, 37), slice(37, 43)  # columns of a group's design [1 | counts − c | r]
+
+
+_BITS = (1 << np.arange(6)).astype(np.uint8)
+#: Load group of each pattern of loaded faces (bit i-1: face i loaded).
+_GROUP_OF_PATTERN = np.array([0 if p == 0 else (p.bit_length() if p & (p - 1) == 0 else _UNUSABLE) for p in range(64)],
+                             dtype=np.int8)
+
+
+def load_groups(loaded: np.ndarray) -> np.ndarray:
+    """``(n,) int8``: each sample's load group (see ``_UNUSABLE``) from ``loaded (n, 6) bool``."""
+    return np.take(_GROUP_OF_PATTERN, np.asarray(loaded, dtype=bool).view(np.uint8) @ _BITS)
+
+
+def group_signs(flange: str, connected_face: int) -> np.ndarray:
+    """``(7, 6)`` sign ``s_f`` of face ``f``'s target in each load group (0: the face carries nothing).
+
+    As ``block_targets``: the loaded face carries ``+r``; under a ``face`` flange the connected
+    face carries the reaction ``−r`` of a load elsewhere (eq. 6 of the multi-touch paper).
+    """
+    s = np.zeros((7, 6))
+    s[np.arange(1, 7), np.arange(6)] = 1.0
+    if flange == "face":
+        c = connected_face - 1
+        s[1:, c] -= 1.0
+        s[1 + c, c] = 1.0
+    return s
 
 
 class GramPass:
@@ -37,16 +82,17 @@ class GramPass:
     centers : list of ndarray (36,) or None
         Known tare means (then ``c_k`` is exact and no re-centring is needed).
     joint : bool
-        Whether the joint design (all 36 gauges) is needed; without it only the targets' Gram
-        and the own-gauge designs are summed.
+        Whether the joint design (all 36 gauges) is needed; without it a load group sums only
+        the gauges of the faces that carry load in it (all that the own-gauge designs read).
     """
 
     def __init__(self, n_int: int, own_faces, total_samples: int, centers=None, joint: bool = True):
         self.n_int = n_int
         self.joint = bool(joint)
-        self.G = np.zeros((n_int + 72, n_int + 72))
-        self.own = {f: np.zeros((n_int + 12, n_int + 12)) for f in own_faces}
-        self.own_rows = {f: 0 for f in own_faces}
+        self.own_faces = tuple(own_faces)
+        self.H = np.zeros((n_int, 7, 43, 43))  # per session and load group: Gram of [1 | counts − c | r]
+        self.maps = [None] * n_int  # per session: (signs (7, 6), A (6, 6, 6)) of its mount and output frame
+        self.sizes = np.zeros((n_int, 7), dtype=np.int64)  # samples per session and load group
         self.n_used = 0
         self.carried_any = np.zeros(6, dtype=bool)
         self.centers = [None] * n_int if centers is None else [np.asarray(c, float) for c in centers]
@@ -54,56 +100,88 @@ class GramPass:
                      for _ in range(n_int)]
         self.stride = max(1, int(total_samples) // ERROR_MODEL_SAMPLES)
         self.sub = [[] for _ in range(n_int)]
+        self._buf = np.empty(CHUNK * 43)  # one chunk of a group's design, rows of up to 43 columns
+        self._cbuf = None
+        self._ones = np.ones(CHUNK)
+        self._xc = [None if c is None else np.r_[0.0, c, np.zeros(6)] for c in self.centers]  # c_k in Z's columns
+        self._G = None
 
     def add(self, k: int, b, mount, output_frame: str, poly=None, poly_center=None):
-        """Add block ``b`` of session ``k``; returns ``bad_connected`` (n,) of :func:`block_targets`.
+        """Add block ``b`` of session ``k``; returns ``bad_connected`` (n,): samples loading the
+        connected face under a ``frame`` flange (see :func:`check_connected`).
 
+        ``b.counts`` may be in the stored dtype (integer counts are converted chunk by chunk).
         ``poly`` (a ``PolyAccumulator``) is fed the counts less ``poly_center`` (the tare mean).
         """
-        n = b.counts.shape[0]
         if self.centers[k] is None:
             self.centers[k] = b.counts[0].astype(float)
-        c = self.centers[k]
-        targets, carries, usable, bad = block_targets(b.reference, b.loaded, mount, output_frame)
-        if poly is not None:  # before Z exists: the polynomial features are the largest arrays of a block
-            poly.add(k, b.counts - poly_center, targets, usable, carries, b.loaded)
-        if self.joint:  # Z = [1 | X | T]: the joint design's Gram in one product
-            Z = np.empty((n, 73))
-            Z[:, 0] = 1.0
-            X, T = Z[:, 1:37], Z[:, 37:]
-            np.subtract(b.counts, c, out=X)
-            T[:] = targets.reshape(n, 36)
-        else:  # own-gauge fits only: no 36-gauge Gram
-            X, T = b.counts - c, targets.reshape(n, 36)
-        unloaded = ~b.loaded.any(axis=1)
-        self._tare(k, X[unloaded], b.reference[unloaded])
+            self._xc[k] = np.r_[0.0, self.centers[k], np.zeros(6)]
+        if self.maps[k] is None:
+            A = mount.X_face_ati if output_frame == "face" else np.broadcast_to(np.eye(6), (6, 6, 6))
+            self.maps[k] = (group_signs(mount.flange, mount.connected_face), np.array(A))
+        self._G = None
+        group = load_groups(b.loaded)
+        if poly is not None:
+            self._add_poly(k, b, mount, output_frame, poly, poly_center)
         first = (-b.start) % self.stride
         # the subsample keeps counts less the centre in float32 (relative rounding 6·10⁻⁸: far below any
         # residual the error model reads), so it costs 200 B a sample
-        self.sub[k].append(SessionBlock(b.start + first, X[first::self.stride].astype(np.float32),
+        self.sub[k].append(SessionBlock(b.start + first, (b.counts[first::self.stride] - self.centers[k]).astype(np.float32),
                                         b.reference[first::self.stride].copy(), b.loaded[first::self.stride].copy()))
-        if not usable.all():
-            T[~usable] = 0.0  # (targets are NaN there; a view of them when not joint)
-            if self.joint:
-                Z[~usable] = 0.0
-        self.n_used += int(usable.sum())
-        self.carried_any |= (carries & usable[:, None]).any(axis=0)
-        if self.joint:
-            idx = np.r_[k, self.n_int + np.arange(72)]
-            self.G[np.ix_(idx, idx)] += Z.T @ Z
-        else:
-            self.G[self.n_int + 36 :, self.n_int + 36 :] += T.T @ T
-        for f, G in self.own.items():
-            rows = np.flatnonzero(usable & (carries[:, f - 1] | unloaded))
-            g = slice(6 * (f - 1), 6 * f)
-            Zf = np.empty((rows.size, 13))
-            Zf[:, 0] = 1.0
-            Zf[:, 1:7] = X[rows, g]
-            Zf[:, 7:] = T[rows, g]
-            idx_f = np.r_[k, self.n_int + np.arange(12)]
-            G[np.ix_(idx_f, idx_f)] += Zf.T @ Zf
-            self.own_rows[f] += rows.size
-        return bad
+        order = np.argsort(group, kind="stable")
+        ends = np.cumsum(np.bincount(group, minlength=8))
+        for g in range(7):
+            self._add_group(k, g, b, order[(ends[g - 1] if g else 0) : ends[g]])
+        sizes = np.diff(ends[:7], prepend=0)
+        self.sizes[k] += sizes
+        self.n_used += int(sizes.sum())
+        self.carried_any |= ((sizes[:, None] > 0) & (self.maps[k][0] != 0)).any(axis=0)
+        return b.loaded[:, mount.connected_face - 1] if mount.flange == "frame" else np.zeros(b.loaded.shape[0], dtype=bool)
+
+    def _add_group(self, k, g, b, rows) -> None:
+        """Add the samples ``rows`` (of load group ``g``) of block ``b`` to ``H[k, g]``, a chunk at a time.
+
+        Without the joint design only the gauges of the faces that carry load in the group enter
+        (every face's in the unloaded group): the own-gauge designs read nothing else.
+        """
+        faces, cols = self._group_columns(k, g)
+        w = cols.size
+        H = self.H[k, g] if w == 43 else np.zeros((w, w))
+        xc = self._xc[k][cols]
+        for a in range(0, rows.size, CHUNK):
+            idx = rows[a : a + CHUNK]
+            Z = self._buf[: idx.size * w].reshape(idx.size, w)
+            Z[:, _ONE] = 1.0
+            counts = np.take(b.counts, idx, axis=0, out=self._counts_buf(b.counts)[: idx.size], mode="clip")
+            if w == 43:
+                np.copyto(Z[:, _X], counts, casting="unsafe")
+            for j, f in enumerate(faces if w < 43 else ()):
+                np.copyto(Z[:, 1 + 6 * j : 7 + 6 * j], counts[:, 6 * f : 6 * f + 6], casting="unsafe")
+            np.take(b.reference, idx, axis=0, out=Z[:, w - 6 :], mode="clip")
+            # counts − c_k in place, exactly as a subtraction (one rank-1 update: the rows are short for numpy)
+            Z = scipy.linalg.blas.dger(-1.0, xc, self._ones[: idx.size], a=Z.T, overwrite_a=1).T
+            H += Z.T @ Z
+            if g == 0:
+                self._tare(k, Z[:, _X], Z[:, _R])
+        if w < 43:
+            self.H[k, g][np.ix_(cols, cols)] += H
+
+    def _group_columns(self, k, g):
+        """``(faces, columns)``: the faces (0-based) whose gauges load group ``g`` of session ``k`` sums,
+        and their columns in ``[1 | counts − c | r]`` (43)."""
+        faces = np.arange(6) if self.joint or g == 0 else np.flatnonzero(self.maps[k][0][g])
+        return faces, np.r_[0, 1 + (6 * faces[:, None] + np.arange(6)).ravel(), 37 + np.arange(6)]
+
+    def _counts_buf(self, counts):
+        """A reused (CHUNK, 36) buffer of the counts' dtype."""
+        if self._cbuf is None or self._cbuf.dtype != counts.dtype:
+            self._cbuf = np.empty((CHUNK, 36), dtype=counts.dtype)
+        return self._cbuf
+
+    @staticmethod
+    def _add_poly(k, b, mount, output_frame, poly, poly_center) -> None:
+        targets, carries, usable, _ = block_targets(b.reference, b.loaded, mount, output_frame)
+        poly.add(k, b.counts - poly_center, targets, usable, carries, b.loaded)
 
     def _tare(self, k, x, r) -> None:
         t = self.tare[k]
@@ -147,26 +225,71 @@ class GramPass:
                         for a in range(0, x.shape[0], rows)])
         return out
 
+    def _group_grams(self):
+        """Per session ``k``: ``(7, 73, 73)`` Gram of ``[1 | counts − c_k | targets of all six faces]``
+        in each load group, ``Eᵀ H E`` (see the module docstring); None for a session without blocks."""
+        out = []
+        for k in range(self.n_int):
+            if self.maps[k] is None:
+                out.append(None)
+                continue
+            signs, A = self.maps[k]
+            E = np.zeros((7, 43, 73))
+            E[:, :37, :37] = np.eye(37)
+            # face f's target is s_f r A_fᵀ: rows of r, columns 6f..6f+5 of the targets
+            E[:, 37:, 37:] = (signs[:, :, None, None] * A[None]).transpose(0, 3, 1, 2).reshape(7, 6, 36)
+            out.append(np.transpose(E, (0, 2, 1)) @ self.H[k] @ E)
+        return out
+
+    def _joint_gram(self) -> np.ndarray:
+        """``(n_int + 72, n_int + 72)`` Gram of ``[offset column of each session | counts − c | targets]``
+        over the usable samples (provisional centres); its counts' columns are complete only with ``joint``."""
+        if self._G is None:
+            n_int = self.n_int
+            self._G = np.zeros((n_int + 72, n_int + 72))
+            for k, Gk in enumerate(self._group_grams()):
+                if Gk is not None:
+                    idx = np.r_[k, n_int + np.arange(72)]
+                    self._G[np.ix_(idx, idx)] += Gk.sum(axis=0)
+        return self._G
+
+    def _own_grams(self):
+        """Per own face ``f``: ``(Gram (n_int + 12)² of [offset columns | its counts − c | its targets], rows)``
+        over the samples where it carries load or none is loaded."""
+        n_int = self.n_int
+        out = {f: [np.zeros((n_int + 12, n_int + 12)), 0] for f in self.own_faces}
+        for k, Gk in enumerate(self._group_grams()):
+            if Gk is None:
+                continue
+            signs = self.maps[k][0]
+            for f, acc in out.items():
+                groups = np.flatnonzero((signs[:, f - 1] != 0) | (np.arange(7) == 0))
+                sel = np.r_[0, 1 + np.arange(6 * (f - 1), 6 * f), 37 + np.arange(6 * (f - 1), 6 * f)]
+                idx = np.r_[k, n_int + np.arange(12)]
+                acc[0][np.ix_(idx, idx)] += Gk[np.ix_(groups, sel, sel)].sum(axis=0)
+                acc[1] += int(self.sizes[k, groups].sum())
+        return out
+
     def target_gram(self) -> np.ndarray:
         """``(36, 36)`` Gram of the targets of all six faces (face-major), unscaled."""
-        return self.G[self.n_int + 36 :, self.n_int + 36 :].copy()
+        return self._joint_gram()[self.n_int + 36 :, self.n_int + 36 :].copy()
 
     def factors(self, tare_means, joint_faces):
         """``(own, joint)``: :class:`GramQR` of each own-gauge design and of the joint design, centred on the tare means."""
         n_int = self.n_int
         D = np.stack([m - c for m, c in zip(tare_means, self.centers)])  # (n_int, 36) tare mean − provisional centre
-        M = np.eye(n_int + 72)
-        M[:n_int, n_int : n_int + 36] = -D
-        G = M.T @ self.G @ M
         own = {}
-        for f, Gf in self.own.items():
+        for f, (Gf, rows) in self._own_grams().items():
             Mf = np.eye(n_int + 12)
             Mf[:n_int, n_int : n_int + 6] = -D[:, 6 * (f - 1) : 6 * f]
             Gf = Mf.T @ Gf @ Mf
             p = n_int + 6
-            own[f] = GramQR(Gf[:p, :p], Gf[:p, p:], Gf[p:, p:], self.own_rows[f])
+            own[f] = GramQR(Gf[:p, :p], Gf[:p, p:], Gf[p:, p:], rows)
         joint = None
         if joint_faces:
+            M = np.eye(n_int + 72)
+            M[:n_int, n_int : n_int + 36] = -D
+            G = M.T @ self._joint_gram() @ M
             a = np.r_[np.arange(n_int), n_int + np.arange(36)]
             t = n_int + 36 + np.concatenate([np.arange(6 * (f - 1), 6 * f) for f in joint_faces])
             joint = GramQR(G[np.ix_(a, a)], G[np.ix_(a, t)], G[np.ix_(t, t)], self.n_used)

@@ -30,7 +30,7 @@ class SessionBlock:
     """A contiguous block of samples ``[start, stop)`` of a session, as arrays."""
 
     start: int
-    counts: np.ndarray  # (n, 36) float64
+    counts: np.ndarray  # (n, 36) float64 (the stored dtype from iter_blocks(counts_dtype=None))
     reference: np.ndarray  # (n, 6) float64
     loaded: np.ndarray  # (n, 6) bool
 
@@ -169,17 +169,18 @@ class CalibrationSession:
         return invert_pose(self.T_core_ati) @ self.core.face_pose(i)
 
     # ------------------------------------------------------------------ blocks
-    def iter_blocks(self, block_size: int = 65536) -> Iterator[SessionBlock]:
+    def iter_blocks(self, block_size: int = 65536, counts_dtype=float) -> Iterator[SessionBlock]:
         """Yield the samples in order as :class:`SessionBlock` of at most ``block_size`` rows.
 
-        File-backed sessions read one block at a time, so memory stays bounded.
+        File-backed sessions read one block at a time, so memory stays bounded. ``counts_dtype``
+        None keeps the counts in their stored dtype (e.g. int32: no float copy of the block).
         """
         n = len(self)
         for start in range(0, n, block_size):
             stop = min(n, start + block_size)
             yield SessionBlock(
                 start,
-                np.asarray(self.counts[start:stop], dtype=float),
+                np.asarray(self.counts[start:stop], dtype=counts_dtype),
                 np.asarray(self.reference[start:stop], dtype=float),
                 np.asarray(self.loaded[start:stop], dtype=bool),
             )
