@@ -160,9 +160,8 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
                np.einsum("kia,ab,kjb->kij", cal.matrix.reshape(F, 6, 36), gauge_cov, cal.matrix.reshape(F, 6, 36)))
     vdiag = [np.diagonal(V, axis1=-2, axis2=-1) for V in vref_full]  # (F, 6) per session
     rel_var = [0.0 if n is None else 2.0 / max(n - 1, 1) for n in (ref_n or [None] * len(sessions))]
-    prepared = _prepare(kept, vref_full, floor, F)
     for _ in range(_REWEIGHT):
-        corr = _reweighted(prepared, coef, floor_m, vref_full, EtE, F, rel_var, noisy)
+        corr = _reweighted(kept, coef, floor, floor_m, vref_full, EtE, F, rel_var, noisy)
     coef[:, 0] += floor
     coef *= _coverage_scale(kept, coef, vdiag, F)[:, None]
     if noisy:  # Σ_r → Σ_e: the reference's share is now in the groups' own term
@@ -299,28 +298,26 @@ def _row_reference_variance(carr, vdiag, vx) -> np.ndarray:
     return v if vx is None else np.where(c, v, vx)
 
 
-def _prepare(kept, vref_full, floor, F) -> list:
-    """What every reweighting step reads of each kept block, computed once: float64, face-major.
+def _prepared(kept, vref_full, floor, F):
+    """Each kept block as every reweighting step reads it: float64, face-major (made per step,
+    one block at a time: the working memory stays that of a block).
 
-    Per block a dict: ``phT (F, 4, n)`` features, ``outer (F, n, 16)`` their products, ``ET``
-    ``(F, 6, n)`` residuals, ``E2T`` their squares less the reference's variance and the floor,
-    ``v (F, n, 6)`` the reference's variance, ``floor (F, 1, 6)``, ``carrT (F, n)``, session ``j``.
+    Yields a dict per block: ``phT (F, 4, n)`` features, ``ET (F, 6, n)`` residuals, ``E2T`` their
+    squares less the reference's variance and the floor, ``v (F, n, 6)`` the reference's
+    variance, ``floor (F, 1, 6)``, ``carrT (F, n)``, session ``j``.
     """
-    out = []
     for E, phi, carr, j, vx in kept:
         n = E.shape[0]
         ph = np.asarray(phi, dtype=float).transpose(1, 0, 2)  # (F, n, 4)
         v = _row_reference_variance(carr, np.diagonal(vref_full[j], axis1=-2, axis2=-1), vx)
         Ef = np.asarray(E, dtype=float)
         E2 = Ef * Ef - v - floor
-        out.append(dict(phT=ph.transpose(0, 2, 1).copy(), outer=(ph[:, :, :, None] * ph[:, :, None, :]).reshape(F, n, -1),
-                        ET=Ef.reshape(n, F, 6).transpose(1, 2, 0).copy(), E2T=E2.reshape(n, F, 6).transpose(1, 2, 0).copy(),
-                        v=v.reshape(n, F, 6).transpose(1, 0, 2).copy(), floor=floor.reshape(F, 1, 6),
-                        carrT=np.asarray(carr, dtype=float).T.copy(), j=j))
-    return out
+        yield dict(phT=ph.transpose(0, 2, 1), ET=Ef.reshape(n, F, 6).transpose(1, 2, 0),
+                   E2T=E2.reshape(n, F, 6).transpose(1, 2, 0), v=v.reshape(n, F, 6).transpose(1, 0, 2),
+                   floor=floor.reshape(F, 1, 6), carrT=np.asarray(carr, dtype=float).T, j=j)
 
 
-def _reweighted(prepared, coef, floor_m, vref_full, EtE, F, rel_var, noisy=True):
+def _reweighted(kept, coef, floor, floor_m, vref_full, EtE, F, rel_var, noisy=True):
     """One reweighting step of the error model (updates ``coef`` in place); returns ``corr (F, 6, 6)``.
 
     With a ``noisy`` reference the variance fit weighs rows by ``1 / (var + v)²``, the inverse
@@ -335,12 +332,13 @@ def _reweighted(prepared, coef, floor_m, vref_full, EtE, F, rel_var, noisy=True)
     PtWv = np.zeros((n_s, F, 6, N_FEATURES))  # per session: response to a relative error of its v
     S, w_sum = np.zeros((F, 6, 6)), np.zeros(F)
     C = coef.reshape(F, 6, N_FEATURES)
-    for b in prepared:  # batched over faces: (F, 6, n) @ (F, n, ·)
+    for b in _prepared(kept, vref_full, floor, F):  # batched over faces: (F, 6, n) @ (F, n, ·)
         var0 = np.clip(np.matmul(b["phT"].transpose(0, 2, 1), C.transpose(0, 2, 1)) + b["floor"], 0, None)  # (F, n, 6)
         tot = np.clip(var0 + b["v"], 1e-300, None)
         share = (var0 / tot) ** 2
         wT = (1.0 / tot**2 if noisy else np.ones_like(tot)).transpose(0, 2, 1)  # (F, 6, n)
-        PtWP += np.matmul(wT, b["outer"])
+        ph = b["phT"].transpose(0, 2, 1)  # (F, n, 4)
+        PtWP += np.matmul(wT, (ph[:, :, :, None] * ph[:, :, None, :]).reshape(F, ph.shape[1], -1))
         PtWe += np.matmul(wT * b["E2T"], b["phT"].transpose(0, 2, 1))
         PtWv[b["j"]] += np.matmul(wT * b["v"].transpose(0, 2, 1), b["phT"].transpose(0, 2, 1))
         wf = share.mean(axis=2)  # (F, n)
