@@ -10,8 +10,9 @@ from ._fit import _as_sessions
 __all__ = ["calibration_uncertainty", "UNCERTAINTY_WORDS"]
 
 #: What :attr:`Evaluation.uncertainty95` is, in words (CLI, app, JSON).
-UNCERTAINTY_WORDS = ("± = 95 % interval (1.96 σ) of each face's wrench from the calibration's own covariance "
-                     "(fit residuals and design, gauge noise), median over the held-out loaded samples")
+UNCERTAINTY_WORDS = ("± = 95 % interval (1.96 σ) of each face's true wrench from the calibration's own covariance "
+                     "(fit residuals and design, gauge noise; the reference's noise, measured in the tare, taken out), "
+                     "median over the held-out loaded samples")
 
 
 def calibration_uncertainty(calibration: Calibration, sessions, max_samples: int = 2000, seed: int = 0):

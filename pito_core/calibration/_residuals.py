@@ -15,6 +15,7 @@ import numpy as np
 import scipy.optimize
 
 from ..io import SessionBlock
+from ._reference_noise import ReferenceLeverage, center_free_rows
 from ._targets import block_targets
 from ._uncertainty import N_FEATURES, load_features
 
@@ -55,7 +56,7 @@ def _reference_cov(mount, ref_cov, output_frame, idx) -> np.ndarray:
     return np.broadcast_to(ref_cov, (len(idx), 6, 6)).copy()
 
 
-def _nnls_rows(PtP, Pte2):
+def nnls_rows(PtP, Pte2):
     """Per output ``a``, non-negative ``c`` minimising ``‖Φ c − e2‖²`` from ``PtP (..., 4, 4)`` and ``Pte2 (..., 4)``."""
     scale = np.sqrt(np.clip(np.diag(PtP), 1e-300, None))
     G = PtP / np.outer(scale, scale)
@@ -84,11 +85,11 @@ def _significant_nnls(PtWP, PtWe, PtWv, rel_var) -> np.ndarray:
     if not (np.all(np.isfinite(PtWP)) and np.all(np.isfinite(PtWe))):
         return c
     if not np.any(PtWv):  # no reference noise in these rows: nothing was subtracted, keep the fit
-        return _nnls_rows(PtWP, PtWe)
+        return nnls_rows(PtWP, PtWe)
     while active.any():
         ix = np.ix_(active, active)
         c = np.zeros(PtWe.size)
-        c[active] = _nnls_rows(PtWP[ix], PtWe[active])
+        c[active] = nnls_rows(PtWP[ix], PtWe[active])
         active &= c > 0  # the standard errors of the features in use (collinear unused ones would swell them)
         if not active.any():
             break
@@ -128,35 +129,48 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     ``samples`` (per session, a list of ``SessionBlock`` of every ``stride``-th sample, kept
     by the fit's own pass) spares the two passes over the sessions. ``ref_n`` (samples at rest
     behind each ``ref_covs``) sets how uncertain that noise is; an excess of the residuals over
-    it is kept only where it exceeds that uncertainty (``_significant_nnls``).
+    it is kept only where it exceeds that uncertainty (``_significant_nnls``). With a noisy
+    reference, its noise in the coefficients goes, face by face, to the samples where the face
+    carries (``_reference_noise.py``: sets each group's ``reference_leverage``, ``reference_cov``
+    and replaces its ``residual_cov`` by the error model's).
     """
     F = len(cal.output_faces)
     idx = [f - 1 for f in cal.output_faces]
     stride = max(1, sum(len(s) for s in sessions) // ERROR_MODEL_SAMPLES)
     ref_covs = [None] * len(sessions) if ref_covs is None else ref_covs
     floor = np.zeros(6 * F) if gauge_cov is None else np.einsum("ia,ab,ib->i", cal.matrix, gauge_cov, cal.matrix)
+    noisy = any(np.any(rc) for rc in ref_covs if rc is not None)
+    lev = ReferenceLeverage(groups, cal.output_faces, len(sessions)) if noisy else None
     PtP, Pte2, EtE, kept, clusters = _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups,
-                                                 block_size, ref_covs, floor, samples, stride)
+                                                 block_size, ref_covs, floor, samples, stride, lev)
     _set_inflation(groups, clusters, stride)
     coef = _nnls_coefficients(PtP, Pte2)
-    # Where the reference's noise v is large against the error itself, E² − v says little about
-    # the error: refit with each row weighted by (var / (var + v))², its share of information
-    # (rows where the face carries nothing, or a quiet reference, weigh fully), so the model is
-    # that of the true wrench's error and not of noise left over from the subtraction.
     vref_full = [_reference_cov(m, rc, spec.output_frame, idx) for m, rc in zip(mounts, ref_covs)]
+    if noisy:  # the reference's noise in the coefficients, face by face, over the rows where the face carries
+        lev.finish(stride, vref_full)
+        kept = center_free_rows([(*k, v) for k, v in zip(kept, lev.in_sample(F))])
+    else:
+        kept = [(*k, None) for k in kept]
+    # Where the reference's noise v is large against the error itself, E² − v says little about
+    # the error: refit with each row weighted by 1 / (var + v)² (the inverse variance of E² − v),
+    # so the model is that of the true wrench's error and not of noise left over from the
+    # subtraction (a weight (var / (var + v))² let rows that carry nothing but crosstalk set the
+    # load term of the rows that carry: face_to_face at 3 % reference noise covered 18 %).
     floor_m = (np.zeros((F, 6, 6)) if gauge_cov is None else
                np.einsum("kia,ab,kjb->kij", cal.matrix.reshape(F, 6, 36), gauge_cov, cal.matrix.reshape(F, 6, 36)))
     vdiag = [np.diagonal(V, axis1=-2, axis2=-1) for V in vref_full]  # (F, 6) per session
     rel_var = [0.0 if n is None else 2.0 / max(n - 1, 1) for n in (ref_n or [None] * len(sessions))]
     for _ in range(_REWEIGHT):
-        corr = _reweighted(kept, coef, floor, floor_m, vref_full, EtE, F, rel_var)
+        corr = _reweighted(kept, coef, floor, floor_m, vref_full, EtE, F, rel_var, noisy)
     coef[:, 0] += floor
     coef *= _coverage_scale(kept, coef, vdiag, F)[:, None]
+    if noisy:  # Σ_r → Σ_e: the reference's share is now in the groups' own term
+        lev.set_error_cov(coef, corr, [k[1] for k in kept])
     return coef, corr
 
 
 def _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups, block_size, ref_covs, floor, samples,
-                stride):
+                stride, lev):
     """One pass over every ``stride``-th usable sample: the sums the error model is fitted from.
 
     Returns ``PtP (F, 4, 4)``, ``Pte2 (F, 4, 6)``: per output face, the normal equations of the
@@ -191,6 +205,8 @@ def _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups, block_
                 Pte2[k] += phi[:, k].T @ E2[:, k]
                 EtE[k] += E[:, k].T @ E[:, k]
             unloaded = ~b.loaded[usable].any(axis=1)
+            if lev is not None:  # a noisy reference: its noise in the coefficients, face by face
+                lev.add(counts, carries[usable][:, idx], unloaded, j, tare_means[j])
             _add_cluster_scores(groups, clusters, own_face, counts, E.reshape(-1, 6 * F), carries[usable], unloaded,
                                 tare_means[j], j, n_int)
     return PtP, Pte2, EtE, kept, clusters
@@ -246,7 +262,7 @@ def _nnls_coefficients(PtP, Pte2) -> np.ndarray:
     coef = np.zeros((6 * F, N_FEATURES))
     for k in range(F):
         for a in range(6):
-            coef[6 * k + a] = _nnls_rows(PtP[k], Pte2[k, :, a])
+            coef[6 * k + a] = nnls_rows(PtP[k], Pte2[k, :, a])
     return coef
 
 
@@ -259,9 +275,9 @@ def _coverage_scale(kept, coef, vdiag, F) -> np.ndarray:
     """
     hist = np.zeros((6 * F, _Z_N + 1))
     rows = np.arange(6 * F)
-    for E, phi, carr, j in kept:
+    for E, phi, carr, j, vx in kept:
         var = np.concatenate([phi[:, k] @ coef[6 * k : 6 * k + 6].T for k in range(F)], axis=1)  # (n, 6F)
-        v_ref = (carr[:, :, None] * vdiag[j][None]).reshape(-1, 6 * F)
+        v_ref = _row_reference_variance(carr, vdiag[j], vx)
         w = (var / np.clip(var + v_ref, 1e-300, None)) ** 2  # each row's share of information on the error
         # the scale s with |E| ≤ 1.96·√(s·var + v_ref) on 95 % of rows (E holds the reference's
         # noise, the interval is of the true wrench): each row needs s ≥ z²/1.96² with
@@ -274,35 +290,64 @@ def _coverage_scale(kept, coef, vdiag, F) -> np.ndarray:
     return (q95 / 1.959964) ** 2
 
 
-def _reweighted(kept, coef, floor, floor_m, vref_full, EtE, F, rel_var):
+def _row_reference_variance(carr, vdiag, vx) -> np.ndarray:
+    """``(n, 6F)`` the reference's noise in each training residual: its own where the face carries
+    (``vdiag (F, 6)``), else its share through the fitted coefficients (``vx``, None: none)."""
+    c = np.repeat(carr, 6, axis=1)
+    v = c * vdiag.reshape(1, -1)
+    return v if vx is None else np.where(c, v, vx)
+
+
+def _prepared(kept, vref_full, floor, F):
+    """Each kept block as every reweighting step reads it: float64, face-major (made per step,
+    one block at a time: the working memory stays that of a block).
+
+    Yields a dict per block: ``phT (F, 4, n)`` features, ``ET (F, 6, n)`` residuals, ``E2T`` their
+    squares less the reference's variance and the floor, ``v (F, n, 6)`` the reference's
+    variance, ``floor (F, 1, 6)``, ``carrT (F, n)``, session ``j``.
+    """
+    for E, phi, carr, j, vx in kept:
+        n = E.shape[0]
+        ph = np.asarray(phi, dtype=float).transpose(1, 0, 2)  # (F, n, 4)
+        v = _row_reference_variance(carr, np.diagonal(vref_full[j], axis1=-2, axis2=-1), vx)
+        Ef = np.asarray(E, dtype=float)
+        E2 = Ef * Ef - v - floor
+        yield dict(phT=ph.transpose(0, 2, 1), ET=Ef.reshape(n, F, 6).transpose(1, 2, 0),
+                   E2T=E2.reshape(n, F, 6).transpose(1, 2, 0), v=v.reshape(n, F, 6).transpose(1, 0, 2),
+                   floor=floor.reshape(F, 1, 6), carrT=np.asarray(carr, dtype=float).T, j=j)
+
+
+def _reweighted(kept, coef, floor, floor_m, vref_full, EtE, F, rel_var, noisy=True):
     """One reweighting step of the error model (updates ``coef`` in place); returns ``corr (F, 6, 6)``.
 
-    Rows weigh ``w = (var / (var + v))²``, their share of information on the error (1 where the
-    reference adds nothing).
+    With a ``noisy`` reference the variance fit weighs rows by ``1 / (var + v)²``, the inverse
+    variance of ``E² − v`` (the rows the reference's noise swamps count little, the rows it does not
+    touch fully); with an exact one, all alike. The axes' correlation weighs rows by
+    ``(var / (var + v))²``, each row's share of information on the error (1 where the reference
+    adds nothing).
     """
     n_s = len(rel_var)
-    PtWP = np.zeros((6 * F, N_FEATURES, N_FEATURES))
-    PtWe = np.zeros((6 * F, N_FEATURES))
-    PtWv = np.zeros((n_s, 6 * F, N_FEATURES))  # per session: response to a relative error of its v
+    PtWP = np.zeros((F, 6, N_FEATURES**2))
+    PtWe = np.zeros((F, 6, N_FEATURES))
+    PtWv = np.zeros((n_s, F, 6, N_FEATURES))  # per session: response to a relative error of its v
     S, w_sum = np.zeros((F, 6, 6)), np.zeros(F)
-    for E, phi, carr, j in kept:
-        ph = phi.astype(float)
-        var0 = np.clip(np.concatenate([ph[:, k] @ coef[6 * k : 6 * k + 6].T for k in range(F)], axis=1) + floor, 0, None)
-        v_ref = (carr[:, :, None] * np.diagonal(vref_full[j], axis1=-2, axis2=-1)[None]).reshape(-1, 6 * F)
-        tot = np.clip(var0 + v_ref, 1e-300, None)
-        w = (var0 / tot) ** 2  # (n, 6F)
-        E = E.astype(float)
-        E2 = E * E - v_ref - floor
-        for k in range(F):
-            o = slice(6 * k, 6 * k + 6)
-            wk = w[:, o]
-            pk = ph[:, k]
-            PtWP[o] += (wk.T @ (pk[:, :, None] * pk[:, None, :]).reshape(-1, N_FEATURES**2)).reshape(6, N_FEATURES, N_FEATURES)
-            PtWe[o] += (wk * E2[:, o]).T @ pk  # products, not einsum: ten times faster here
-            PtWv[j, o] += (wk * v_ref[:, o]).T @ pk
-            wf = wk.mean(axis=1)
-            S[k] += (E[:, o] * wf[:, None]).T @ E[:, o] - (wf * carr[:, k]).sum() * vref_full[j][k]
-            w_sum[k] += wf.sum()
+    C = coef.reshape(F, 6, N_FEATURES)
+    for b in _prepared(kept, vref_full, floor, F):  # batched over faces: (F, 6, n) @ (F, n, ·)
+        var0 = np.clip(np.matmul(b["phT"].transpose(0, 2, 1), C.transpose(0, 2, 1)) + b["floor"], 0, None)  # (F, n, 6)
+        tot = np.clip(var0 + b["v"], 1e-300, None)
+        share = (var0 / tot) ** 2
+        wT = (1.0 / tot**2 if noisy else np.ones_like(tot)).transpose(0, 2, 1)  # (F, 6, n)
+        ph = b["phT"].transpose(0, 2, 1)  # (F, n, 4)
+        PtWP += np.matmul(wT, (ph[:, :, :, None] * ph[:, :, None, :]).reshape(F, ph.shape[1], -1))
+        PtWe += np.matmul(wT * b["E2T"], b["phT"].transpose(0, 2, 1))
+        PtWv[b["j"]] += np.matmul(wT * b["v"].transpose(0, 2, 1), b["phT"].transpose(0, 2, 1))
+        wf = share.mean(axis=2)  # (F, n)
+        S += np.matmul(b["ET"] * wf[:, None, :], b["ET"].transpose(0, 2, 1))
+        S -= (wf * b["carrT"]).sum(axis=1)[:, None, None] * vref_full[b["j"]]
+        w_sum += wf.sum(axis=1)
+    PtWP = PtWP.reshape(6 * F, N_FEATURES, N_FEATURES)
+    PtWe = PtWe.reshape(6 * F, N_FEATURES)
+    PtWv = PtWv.reshape(n_s, 6 * F, N_FEATURES)
     corr = np.zeros((F, 6, 6))
     for k in range(F):
         for a in range(6):

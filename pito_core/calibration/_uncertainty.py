@@ -80,6 +80,13 @@ class CovarianceGroup:
         make them (≥ 1): residuals that drift together over consecutive samples (held
         loads, hysteresis, temperature) inform the fit less. Estimated by clusters of
         consecutive samples (a cluster-robust "sandwich" covariance, in ratio to ``Σ_r ⊗ P``).
+    reference_leverage : ndarray, shape (q // 6, n_int + m, n_int + m), or None
+        Per face block, ``P M_k P`` with ``M_k`` the design's ``Σ x̃ x̃ᵀ`` over the samples where
+        that face carries the reference's load: with ``reference_cov`` the reference's noise in
+        the coefficients, ``(x̃ᵀ P M_k P x̃) Σ_ref,k`` (docs/calibration.md, "Uncertainty"). None
+        (an exact reference, or files written before) when ``Σ_r`` holds it, spread over all rows.
+    reference_cov : ndarray, shape (q // 6, 6, 6), or None
+        ``Σ_ref,k``: the reference's noise at rest (from the tares) in each face block's output frame.
     """
 
     inputs: np.ndarray
@@ -90,6 +97,8 @@ class CovarianceGroup:
     weights: np.ndarray
     dof: int = 0
     inflation: np.ndarray | None = None
+    reference_leverage: np.ndarray | None = None
+    reference_cov: np.ndarray | None = None
 
     def __post_init__(self):
         self.inputs = np.asarray(self.inputs, dtype=np.int64).reshape(-1)
@@ -111,18 +120,40 @@ class CovarianceGroup:
         for name in ("design_pinv", "residual_cov", "center", "weights"):
             if not np.all(np.isfinite(getattr(self, name))):
                 raise ValueError(f"{name}: expected finite values")
+        self._check_reference(n_int + m, q // 6)
 
-    def leverage(self, counts: np.ndarray, offset: np.ndarray | None) -> np.ndarray:
-        """``x̃ᵀ P x̃`` per sample ``(N,)``: the fitted offset if ``offset`` is None, else slopes only."""
+    def _check_reference(self, p: int, blocks: int) -> None:
+        """``reference_leverage`` and ``reference_cov``: both or neither, finite, of their shapes."""
+        if (self.reference_leverage is None) != (self.reference_cov is None):
+            raise ValueError("reference_leverage, reference_cov: expected both or neither")
+        if self.reference_leverage is None:
+            return
+        self.reference_leverage = np.asarray(self.reference_leverage, dtype=float)
+        self.reference_cov = np.asarray(self.reference_cov, dtype=float)
+        for name, shape in (("reference_leverage", (blocks, p, p)), ("reference_cov", (blocks, 6, 6))):
+            a = getattr(self, name)
+            if a.shape != shape or not np.all(np.isfinite(a)):
+                raise ValueError(f"{name}: expected finite values of shape {shape}, got {a.shape}")
+
+    def _design(self, counts: np.ndarray, offset: np.ndarray | None):
+        """``(x̃ (N, p'), slice of the design)``: the fitted offset if ``offset`` is None, else slopes only."""
         n_int = self.weights.size
         if offset is None:
             x = counts[:, self.inputs] - self.center
-            P = self.design_pinv
-            xt = np.concatenate([np.broadcast_to(self.weights, (x.shape[0], n_int)), x], axis=1)
-        else:
-            xt = counts[:, self.inputs] - offset[self.inputs]
-            P = self.design_pinv[n_int:, n_int:]
-        return np.einsum("ni,ij,nj->n", xt, P, xt)
+            return np.concatenate([np.broadcast_to(self.weights, (x.shape[0], n_int)), x], axis=1), slice(None)
+        return counts[:, self.inputs] - offset[self.inputs], slice(n_int, None)
+
+    def leverage(self, counts: np.ndarray, offset: np.ndarray | None) -> np.ndarray:
+        """``x̃ᵀ P x̃`` per sample ``(N,)``: the fitted offset if ``offset`` is None, else slopes only."""
+        xt, s = self._design(counts, offset)
+        return np.einsum("ni,ij,nj->n", xt, self.design_pinv[s, s], xt)
+
+    def reference_leverages(self, counts: np.ndarray, offset: np.ndarray | None) -> np.ndarray:
+        """``x̃ᵀ P M_k P x̃`` per sample and face block ``(N, q // 6)`` (zeros without ``reference_leverage``)."""
+        if self.reference_leverage is None:
+            return np.zeros((counts.shape[0], self.rows.size // 6))
+        xt, s = self._design(counts, offset)
+        return np.einsum("ni,bij,nj->nb", xt, self.reference_leverage[:, s, s], xt)
 
 
 @dataclass
@@ -199,12 +230,15 @@ class CalibrationCovariance:
         fitted = self.n_tare is None and not explicit_offset
         for g in self.groups:
             h = g.leverage(counts, None if fitted else offset)
+            h_ref = g.reference_leverages(counts, None if fitted else offset)
             for k in range(g.rows.size // 6):
                 face = output_faces[int(g.rows[6 * k]) // 6] - 1
                 r = np.sqrt(g.inflation[6 * k : 6 * k + 6])
                 Sr = g.residual_cov[6 * k : 6 * k + 6, 6 * k : 6 * k + 6] * np.outer(r, r)
                 X = face_from_output[face]
                 out[:, face] = h[:, None, None] * (X @ Sr @ X.T)
+                if g.reference_cov is not None:  # the reference's noise in the coefficients, where this face carries
+                    out[:, face] += h_ref[:, k, None, None] * (X @ g.reference_cov[k] @ X.T)
         W = np.einsum("fij,nj->nfi", apply, counts - offset)
         feats = load_features(np.where(np.isin(np.arange(6), np.asarray(output_faces) - 1)[None, :, None], W, np.nan))
         for k, f in enumerate(output_faces):

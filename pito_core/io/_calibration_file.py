@@ -17,6 +17,8 @@ Layout (docs/file-formats.md)::
         g{k}_center       (m,) float64 counts
         g{k}_weights      (n_int,) float64
         g{k}_inflation    (q,) float64 ≥ 1: cluster-robust inflation of the coefficients' variance
+        g{k}_reference_leverage (q/6, n_int+m, n_int+m), g{k}_reference_cov (q/6, 6, 6) float64
+                          (optional: a noisy reference) P M_k P and Σ_ref,k per face block
         variance_coef     (6F, 4) float64: each row's error variance on [1, q, q², q_other]
         residual_corr     (F, 6, 6) float64: residual correlation between a face's six outputs
     /correction   group (version 3, model "poly" only): the polynomial correction
@@ -49,6 +51,8 @@ _CORRECTION_FIELDS = ("scale", "pairs", "cubes", "coef")
 #: The range the correction was fitted on (optional: older files load without, the plain polynomial).
 _CORRECTION_RANGE = ("lower", "upper")
 _GROUP_FIELDS = ("inputs", "rows", "design_pinv", "residual_cov", "center", "weights", "inflation")
+#: Group fields written only when set (the reference's noise per face block; absent: None).
+_GROUP_OPTIONAL = ("reference_leverage", "reference_cov")
 
 
 def write_calibration(path, cal) -> None:
@@ -81,6 +85,9 @@ def write_calibration(path, cal) -> None:
             for k, grp in enumerate(cov.groups):
                 for name in _GROUP_FIELDS:
                     checked_dataset(g, f"g{k}_{name}", data=getattr(grp, name))
+                for name in _GROUP_OPTIONAL:
+                    if getattr(grp, name, None) is not None:
+                        checked_dataset(g, f"g{k}_{name}", data=getattr(grp, name))
                 g[f"g{k}_residual_cov"].attrs["dof"] = int(grp.dof)
             checked_dataset(g, "variance_coef", data=cov.variance_coef)
             checked_dataset(g, "residual_corr", data=cov.residual_corr)
@@ -135,6 +142,7 @@ def _read_covariance(f, path) -> dict:
     groups = []
     for k in range(n_groups):
         fields = {name: np.asarray(require(g, f"g{k}_{name}", path)[()]) for name in _GROUP_FIELDS}
+        fields.update({name: np.asarray(g[f"g{k}_{name}"][()]) for name in _GROUP_OPTIONAL if f"g{k}_{name}" in g})
         dof = int(g[f"g{k}_residual_cov"].attrs.get("dof", 0))
         groups.append({**fields, "dof": dof})
     return {

@@ -138,8 +138,10 @@ def test_coverage_of_the_true_wrench_with_a_noisy_reference(method, flange, refe
 
     Random linear cubes (``pito_core.sim.random_sensor``), 2 × 1500 held-out samples per face
     and axis (binomial σ ≈ 0.2 %): the mean over faces and axes 94–96 %, every face and axis
-    91–99 % (issue 25 asks 93–97 %: at k = 2000 per face the coefficients' term, which spreads
-    the reference's noise over all rows, still leaves single axes outside; docs/calibration.md).
+    90.9–96.6 % (before the reference's noise was given to the faces that carried it: 91.8–98.6 %).
+    At 1 % the coefficients' error from the reference's noise is most of the error, and it is one
+    draw per calibration: a single axis scatters about 95 % more than the binomial σ (issue 25
+    asks 93–97 %; docs/calibration.md gives the figures).
     """
     hits, n = 0, 0
     for seed in (1, 2):
@@ -151,5 +153,76 @@ def test_coverage_of_the_true_wrench_with_a_noisy_reference(method, flange, refe
         c = _coverage(calibrate(train, method, model="linear"), test.counts, truth)
         hits, n = hits + c * len(test), n + len(test)
     cover = hits / n
-    assert 0.91 <= cover.min() and cover.max() <= 0.99, cover
+    assert 0.90 <= cover.min() and cover.max() <= 0.97, cover
     assert 0.94 <= cover.mean() <= 0.96, cover
+
+
+def _held_out_coverage(method, face, reference_noise, model, seed=1, response=None):
+    """Coverage of the true face wrench per face and axis on a LATER session (re-tared), cube of ``gen.py``."""
+    from gen import CASES
+
+    K = true_sensitivity(seed, coupling=0.05)
+    kw = dict(CASES[method], connected_face=face, noise=2.0, counts_dtype=float)
+    if response is not None:
+        kw["response"] = response(seed, K, face)
+    train = make_session(K, k=2000, seed=seed + 1, reference_noise=reference_noise, **kw)
+    test = make_session(K, k=1000, seed=seed + 1000, **kw)  # 6000 loaded samples: binomial σ ≈ 0.3 %
+    loaded = test.loaded.any(axis=1)
+    cal = calibrate(train, method, model=model).tare(test.counts[~loaded])
+    return _coverage(cal, test.counts[loaded], test.true_face_wrenches[loaded])
+
+
+@pytest.mark.parametrize("model", ["linear", "auto"])
+@pytest.mark.parametrize("reference_noise", [0.0, 0.01, 0.03])
+def test_intervals_cover_the_true_wrench_whatever_the_reference_noise(reference_noise, model):
+    """Issue 25 item 4: 93–97 % per face and axis of the TRUE wrench, the reference's noise (1 and
+    3 % of full scale, measured in the tare) not counted as calibration error.
+
+    ``face_to_face`` on a random linear cube of ``gen.py`` (not ``pito_core.sim``), held out on a
+    later session. Before the error model weighed each row by its share of information and read
+    the crosstalk of faces that carry nothing as load: 94.8–97.9 % at 1 %, 17.9–98.3 % at 3 %.
+    """
+    cover = _held_out_coverage("face_to_face", 3, reference_noise, model)
+    assert 0.93 <= cover.min() and cover.max() <= 0.97, cover
+
+
+def test_the_reference_noise_in_the_coefficients_goes_to_the_faces_that_carried_it():
+    """A joint fit (``loaded_frame``, 1 % reference noise): face k's coefficients hold the reference's
+    noise of the samples where face k carried, so a sample loading face k has the larger interval.
+
+    Checked as the ratio, over the held-out samples, of the mean predicted variance where the face
+    is loaded to where it is not, against the same ratio of the squared errors (within a factor 2).
+    Before, ``Σ_r`` spread it over every sample: there the ratio was 0.001–0.11.
+    """
+    from gen import CASES
+
+    K = true_sensitivity(1, coupling=0.05)
+    kw = dict(CASES["loaded_frame"], connected_face=5, noise=2.0, counts_dtype=float)
+    ratios = []
+    for d in range(3):
+        train = make_session(K, k=2000, seed=2 + 31 * d, reference_noise=0.01, **kw)
+        test = make_session(K, k=1000, seed=1001, **kw)
+        loaded = test.loaded.any(axis=1)
+        cal = calibrate(train, "loaded_frame", model="linear").tare(test.counts[~loaded])
+        W, cov = cal.wrenches(test.counts[loaded], return_cov=True)
+        e2 = (W - test.true_face_wrenches[loaded]) ** 2
+        var = np.diagonal(cov, axis1=-2, axis2=-1)
+        own = test.loaded[loaded]
+        for f in range(6):
+            emp = e2[own[:, f], f, :3].mean() / e2[~own[:, f], f, :3].mean()
+            pred = var[own[:, f], f, :3].mean() / var[~own[:, f], f, :3].mean()
+            ratios.append(pred / emp)
+    ratios = np.array(ratios)
+    assert 0.5 <= np.exp(np.log(ratios).mean()) <= 2.0 and ratios.min() > 0.25 and ratios.max() < 4.0, ratios
+
+
+def test_the_reference_noise_terms_round_trip(tmp_path):
+    K = true_sensitivity(45)
+    cal = calibrate(make_session(K, flange="face", connected_face=6, k=300, noise=2.0, reference_noise=0.01), "total")
+    assert all(g.reference_leverage is not None for g in cal.covariance.groups)
+    cal.save(tmp_path / "c.pitocal")
+    back = load_calibration(tmp_path / "c.pitocal")
+    x = np.random.default_rng(1).normal(size=(5, 36)) * 1e3 + cal.offset
+    np.testing.assert_array_equal(back.wrenches(x, return_cov=True)[1], cal.wrenches(x, return_cov=True)[1])
+    exact = calibrate(make_session(K, flange="face", connected_face=6, k=300, noise=2.0), "total")
+    assert all(g.reference_leverage is None for g in exact.covariance.groups)

@@ -1,0 +1,140 @@
+"""The reference's noise in the fitted coefficients, face by face (part of the error model).
+
+Face k's targets hold the reference's noise only on the samples where face k carries the
+reference's load (the carrying rows); elsewhere its target is an exact zero. The fit's
+residual covariance ``Σ_r`` spreads that noise over every row of the design, so the
+coefficients' term ``(x̃ᵀ P x̃) Σ_r`` gave it to every sample alike: too little where face k
+carries, too much where it does not. Here it is taken apart: the reference's share,
+``(x̃ᵀ P M_k P x̃) Σ_ref,k`` with ``M_k = Σ x̃ x̃ᵀ`` over face k's carrying rows, is stored with
+each group (large where face k carries, small elsewhere: the load features could not tell
+the two apart), and the groups' own term keeps ``Σ_e``, the error model's (``Σ_r`` less the
+reference's share is no estimate of it: the difference is far below the share's uncertainty).
+The error model takes the share out of the training residuals where the face carries nothing
+(:meth:`ReferenceLeverage.in_sample`, :func:`center_free_rows`). See docs/calibration.md,
+"Uncertainty".
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["ReferenceLeverage", "center_free_rows"]
+
+
+class ReferenceLeverage:
+    """Sums ``M_k`` of the design over each face's carrying rows, fed block by block.
+
+    Parameters
+    ----------
+    groups : list of CovarianceGroup
+    output_faces : tuple of int
+    n_int : int
+        Sessions (offset columns of the design).
+    """
+
+    def __init__(self, groups, output_faces, n_int):
+        self.groups, self.n_int = groups, n_int
+        self.out = {f: k for k, f in enumerate(output_faces)}
+        self.own = [output_faces[int(g.rows[0]) // 6] if g.inputs.size == 6 else None for g in groups]
+        self.kk = [[int(g.rows[6 * b]) // 6 for b in range(g.rows.size // 6)] for g in groups]
+        self.M = [np.zeros((len(kk), n_int + g.inputs.size, n_int + g.inputs.size)) for g, kk in zip(groups, self.kk)]
+        self.n = [np.zeros((len(kk), n_int)) for kk in self.kk]
+        self.rows = []  # per block: counts (n, 36) float32, session, its tare mean, carries (n, F), unloaded (n,)
+
+    def add(self, counts, carries, unloaded, j, tare_mean) -> None:
+        """One block's usable samples: ``counts (n, 36)``, ``carries (n, F)`` of the output faces, ``unloaded (n,)``."""
+        for g, own, kk, M, n in zip(self.groups, self.own, self.kk, self.M, self.n):
+            rows = slice(None) if own is None else carries[:, self.out[own]] | unloaded
+            A = self._design(g, counts[rows], j, tare_mean)
+            for b, k in enumerate(kk):
+                c = carries[rows, k]
+                if c.any():
+                    M[b] += A[c].T @ A[c]
+                    n[b, j] += np.count_nonzero(c)
+        self.rows.append((counts.astype(np.float32), j, tare_mean, carries, unloaded))
+
+    def _design(self, g, counts, j, tare_mean) -> np.ndarray:
+        """The group's design rows ``[session indicator | counts − tare mean]`` (as in the fit)."""
+        A = np.zeros((counts.shape[0], self.n_int + g.inputs.size))
+        A[:, j] = 1.0
+        A[:, self.n_int :] = counts[:, g.inputs] - tare_mean[g.inputs]
+        return A
+
+    def pooled(self, vref_full) -> list:
+        """Per group, ``(B, 6, 6)``: each face block's reference covariance, pooled over the sessions by carrying rows."""
+        out = []
+        for kk, n in zip(self.kk, self.n):
+            w = n / np.clip(n.sum(axis=1, keepdims=True), 1, None)
+            out.append(np.stack([sum(w[b, j] * vref_full[j][k] for j in range(self.n_int)) for b, k in enumerate(kk)]))
+        return out
+
+    def set_error_cov(self, coef, corr, feats) -> None:
+        """``Σ_r → Σ_e``: each group's residual covariance (its face blocks) becomes the mean, over the
+        group's design rows, of the error model's covariance (``coef (6F, 4)``, ``corr (F, 6, 6)``,
+        ``feats`` per block of :meth:`add`): the error that is not the reference's."""
+        for g, own, kk in zip(self.groups, self.own, self.kk):
+            R = g.residual_cov.copy()
+            for b, k in enumerate(kk):
+                acc, n = np.zeros((6, 6)), 0
+                for (_, _, _, carries, unloaded), ph in zip(self.rows, feats):
+                    rows = slice(None) if own is None else carries[:, self.out[own]] | unloaded
+                    var = np.asarray(ph[rows, k], dtype=float) @ coef[6 * k : 6 * k + 6].T  # (n, 6)
+                    sd = np.sqrt(np.clip(var, 0, None))
+                    acc += sd.T @ sd
+                    n += sd.shape[0]
+                R[6 * b : 6 * b + 6, 6 * b : 6 * b + 6] = corr[k] * acc / max(n, 1)
+            g.residual_cov = R
+
+    def finish(self, stride, vref_full) -> None:
+        """Give each group the reference's share of its coefficients' covariance, face block by face block.
+
+        ``reference_leverage (B, p, p) = P M_k P`` (``M_k`` over the full data: the subsample's
+        sums × ``stride``) and ``reference_cov (B, 6, 6)``, the reference's covariance in each
+        block's output frame pooled over the sessions by carrying rows: a sample's share is
+        ``(x̃ᵀ P M_k P x̃) Σ_ref,k`` (:meth:`CovarianceGroup.reference_leverages`).
+        """
+        for g, M, S in zip(self.groups, self.M, self.pooled(vref_full)):
+            P = g.design_pinv
+            g.reference_leverage = stride * (P @ M @ P)
+            g.reference_cov = S
+
+    def in_sample(self, F) -> list:
+        """Per block of :meth:`add`, ``(n, 6F)`` float32: the reference's share of the coefficients'
+        variance at each training sample, ``(x̃ᵀ P M_k P x̃) diag Σ_ref,k`` (after :meth:`finish`).
+
+        A sample where face k carries nothing has it in its residual all the same (the fitted
+        slopes hold the noise of the other rows): the error model takes it out there as it takes
+        the reference's own noise out where the face carries. (The offsets' share is one number
+        per session and output, taken out of those residuals as their mean: :func:`center_free_rows`.)
+        """
+        out = []
+        for counts, j, tare_mean, _, _ in self.rows:
+            v = np.zeros((counts.shape[0], 6 * F))
+            x = counts.astype(float)
+            for g, kk in zip(self.groups, self.kk):
+                B = self._design(g, x, j, tare_mean)[:, self.n_int :]  # slopes: the offsets' share is taken out apart
+                Q = g.reference_leverage[:, self.n_int :, self.n_int :]
+                for b, k in enumerate(kk):
+                    h = ((B @ Q[b]) * B).sum(axis=1)  # products, not einsum: BLAS
+                    v[:, 6 * k : 6 * k + 6] += h[:, None] * np.diag(g.reference_cov[b])[None]
+            out.append(v.astype(np.float32))
+        return out
+
+
+def center_free_rows(kept) -> list:
+    """``kept`` with each session's residuals on the rows where the output's face carries nothing
+    less their mean: the fitted offset's error (the reference's noise through it), one realised
+    number per session and output that a re-tared sample does not have and the groups' own term
+    covers for the fitted offset. ``kept`` as in the error model: ``(E (n, 6F), phi, carries (n, F), j, …)``.
+    """
+    sums, counts = {}, {}
+    for E, _, carr, j, *_ in kept:
+        free = ~np.repeat(carr, 6, axis=1)
+        sums[j] = sums.get(j, 0) + np.where(free, E, 0).sum(axis=0)
+        counts[j] = counts.get(j, 0) + free.sum(axis=0)
+    out = []
+    for E, phi, carr, j, *rest in kept:
+        free = ~np.repeat(carr, 6, axis=1)
+        mean = (sums[j] / np.clip(counts[j], 1, None)).astype(E.dtype)
+        out.append((np.where(free, E - mean, E), phi, carr, j, *rest))
+    return out

@@ -1,0 +1,74 @@
+"""The coverage table of docs/calibration.md, "Uncertainty" (a script, not a test: minutes of CPU).
+
+Nominal 95 % intervals against the TRUE face wrench of a later, re-tared session of a random
+``gen.py`` cube (linear, or the nonlinear one of ``test_nonlinear.py``), per face and axis,
+pooled over 4 calibrations (training draws) and, beside it, the range of single calibrations.
+
+    PYTHONPATH=. python tests/calibration/coverage_table.py [methods] [lin,nl] [0,0.01,0.03] [linear,auto]
+"""
+
+import itertools
+import sys
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).parent))
+from gen import CASES, make_session, true_sensitivity  # noqa: E402
+from test_nonlinear import nonlinear_response  # noqa: E402
+
+from pito_core.calibration import calibrate  # noqa: E402
+
+FACE = {"face_to_face": 3, "quasi_total": 2, "total": 6, "loaded_frame": 5, "unloaded_frame": 1}
+
+
+def hits(cal, test):
+    """Samples within the interval per face and axis (NaN where not measured), and the loaded samples."""
+    loaded = test.loaded.any(axis=1)
+    W, cov = cal.wrenches(test.counts[loaded], return_cov=True)
+    e = W - test.true_face_wrenches[loaded]
+    h = (np.abs(e) <= 1.959964 * np.sqrt(np.diagonal(cov, axis1=-2, axis2=-1))).sum(axis=0).astype(float)
+    h[~(cal.coverage.faces & cal.has_output[:, None])] = np.nan
+    return h, loaded.sum()
+
+
+def sessions(method, K, kw, seed, k, noise):
+    """The training (or held-out) sessions of a method: ``unloaded_frame`` takes its completing mount."""
+    if method != "unloaded_frame":
+        return [make_session(K, k=k, seed=seed, reference_noise=noise, **CASES[method], **kw)]
+    return [make_session(K, flange="face", free_only=True, k=k, seed=seed, reference_noise=noise, **kw),
+            make_session(K, flange="frame_hole", faces=[kw["connected_face"]], k=k, seed=seed + 500,
+                         reference_noise=noise, **kw)]
+
+
+def run(method, cube, noise, model, draws=4, seed=1, k=2000, kt=1000):
+    K = true_sensitivity(seed, coupling=0.05)
+    kw = dict(connected_face=FACE[method], noise=2.0, counts_dtype=float)
+    if cube == "nl":
+        kw["response"] = nonlinear_response(seed, K, FACE[method], 0.08)
+    tests = sessions(method, K, kw, seed + 1000, kt, 0.0)
+    H, N, single = 0, 0, []
+    for d in range(draws):
+        cal = calibrate(sessions(method, K, kw, seed + 1 + 31 * d, k, noise), method, model=model)
+        hh, nn = 0, 0
+        for t in tests:
+            h, n = hits(cal.tare(t.counts[~t.loaded.any(axis=1)]), t)
+            hh, nn = hh + h, nn + n
+        single.append(hh / nn)
+        H, N = H + hh, N + nn
+    return H / N, np.array(single), N
+
+
+if __name__ == "__main__":
+    args = sys.argv[1:] + [None] * 4
+    methods = args[0].split(",") if args[0] else sorted(FACE)
+    cubes = args[1].split(",") if args[1] else ["lin", "nl"]
+    noises = [float(x) for x in args[2].split(",")] if args[2] else [0.0, 0.01, 0.03]
+    models = args[3].split(",") if args[3] else ["linear", "auto"]
+    for method, cube, noise, model in itertools.product(methods, cubes, noises, models):
+        c, s, N = run(method, cube, noise, model)
+        v, sv = c[np.isfinite(c)], s[np.isfinite(s)]
+        out = int(((v < 0.93) | (v > 0.97)).sum())
+        print(f"{method:14s} {cube:3s} ref={noise:.2f} {model:6s} n={N:6d} pooled {v.min()*100:5.1f}-{v.max()*100:5.1f} "
+              f"mean {v.mean()*100:5.1f} out of 93-97: {out:2d}/{v.size} | single {sv.min()*100:5.1f}-{sv.max()*100:5.1f}",
+              flush=True)
