@@ -206,8 +206,9 @@ def _model_choice_row(s, te, method, cal_lin, t_lin, repeat, budget) -> dict:
 def interval_coverage(cal, session) -> dict:
     """Fraction of single-face samples whose target lies within the nominal 95 % interval, per face and axis.
 
-    Targets come from the (simulated) reference, so its own noise is in them: the figure is a
-    lower bound of the coverage of the true wrench. Returns ``min``, ``median``, ``max`` over
+    Targets come from the session's reference: the bench's simulated reference is noise-free
+    (``_data.py``), so they are the true wrench; a noisy reference would make the figure a
+    lower bound. Returns ``min``, ``median``, ``max`` over
     faces and axes, and ``per_face`` (6 × 6, NaN where no output).
     """
     counts = np.asarray(session.counts, dtype=float)

@@ -184,8 +184,8 @@ def _calibration_tables(cal: dict) -> list[str]:
     if rows:
         parts.append(text_table(
             "Calibration model chosen by cross-validation (default) against the papers' linear fit: held-out RMSE "
-            "and fit-time ratios; coverage of the nominal 95 % interval per face and axis (targets from the "
-            "simulated reference, its noise included)",
+            "and fit-time ratios; coverage of the nominal 95 % interval per face and axis (targets: the "
+            "bench's simulated reference, which is noise-free, so the true wrench)",
             ["method", "k (samples)", "model", "RMSE F ratio", "RMSE T ratio", "auto fit (ms)", "fit time ratio",
              "coverage min", "coverage max", "linear cov. min", "linear cov. max"], rows))
     rows = [[f"{r['method']} ({r.get('model', 'auto')})", f"{r['k']:,}", _f(r["fit_s"]), _f(r.get("read_pass_s")), _f(r.get("ratio_read_pass")),
