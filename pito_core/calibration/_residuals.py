@@ -160,10 +160,14 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
                np.einsum("kia,ab,kjb->kij", cal.matrix.reshape(F, 6, 36), gauge_cov, cal.matrix.reshape(F, 6, 36)))
     vdiag = [np.diagonal(V, axis1=-2, axis2=-1) for V in vref_full]  # (F, 6) per session
     rel_var = [0.0 if n is None else 2.0 / max(n - 1, 1) for n in (ref_n or [None] * len(sessions))]
-    for _ in range(_REWEIGHT):
-        corr = _reweighted(kept, coef, floor, floor_m, vref_full, EtE, F, rel_var, noisy)
+    b = _stacked(kept, vdiag, floor, F)
+    for _ in range(_REWEIGHT - 1 if noisy else 1):  # exact reference: the weights do not change
+        _reweighted(b, coef, len(rel_var), rel_var, noisy)
+    corr = _correlation(b, coef, floor_m, vref_full, EtE)  # weighted by the last step's variances
+    if noisy:
+        _reweighted(b, coef, len(rel_var), rel_var, noisy)
     coef[:, 0] += floor
-    coef *= _coverage_scale(kept, coef, vdiag, F)[:, None]
+    coef *= _coverage_scale(b, coef)[:, None]
     if noisy:  # Σ_r → Σ_e: the reference's share is now in the groups' own term
         lev.set_error_cov(coef, corr, [k[1] for k in kept])
     return coef, corr
@@ -266,30 +270,6 @@ def _nnls_coefficients(PtP, Pte2) -> np.ndarray:
     return coef
 
 
-def _coverage_scale(kept, coef, vdiag, F) -> np.ndarray:
-    """``(6F,)`` factor on each row's variance so that ±1.96 σ holds 95 % of its training residuals.
-
-    Errors are not Gaussian (nonlinearity, drift): the interval, with the reference's noise
-    ``vdiag`` (per session, ``(F, 6)``) added, is scaled to cover 95 % of the rows, weighted as
-    in the reweighting.
-    """
-    hist = np.zeros((6 * F, _Z_N + 1))
-    rows = np.arange(6 * F)
-    for E, phi, carr, j, vx in kept:
-        var = np.concatenate([phi[:, k] @ coef[6 * k : 6 * k + 6].T for k in range(F)], axis=1)  # (n, 6F)
-        v_ref = _row_reference_variance(carr, vdiag[j], vx)
-        w = (var / np.clip(var + v_ref, 1e-300, None)) ** 2  # each row's share of information on the error
-        # the scale s with |E| ≤ 1.96·√(s·var + v_ref) on 95 % of rows (E holds the reference's
-        # noise, the interval is of the true wrench): each row needs s ≥ z²/1.96² with
-        E = E.astype(float)
-        z = np.sqrt(np.clip(E * E - 1.959964**2 * v_ref, 0, None) / np.clip(var, 1e-300, None))
-        bins = np.minimum(z / _Z_WIDTH, _Z_N).astype(np.int64) + rows * (_Z_N + 1)
-        hist += np.bincount(bins.ravel(), weights=w.ravel(), minlength=hist.size).reshape(hist.shape)
-    cdf = np.cumsum(hist, axis=1) / np.clip(hist.sum(axis=1, keepdims=True), 1, None)
-    q95 = (np.argmax(cdf >= 0.95, axis=1) + 1) * _Z_WIDTH
-    return (q95 / 1.959964) ** 2
-
-
 def _row_reference_variance(carr, vdiag, vx) -> np.ndarray:
     """``(n, 6F)`` the reference's noise in each training residual: its own where the face carries
     (``vdiag (F, 6)``), else its share through the fitted coefficients (``vx``, None: none)."""
@@ -298,64 +278,82 @@ def _row_reference_variance(carr, vdiag, vx) -> np.ndarray:
     return v if vx is None else np.where(c, v, vx)
 
 
-def _prepared(kept, vref_full, floor, F):
-    """Each kept block as every reweighting step reads it: float64, face-major (made per step,
-    one block at a time: the working memory stays that of a block).
+def _stacked(kept, vdiag, floor, F) -> dict:
+    """Every kept block at once as the reweighting steps and pass 4 read them, float64, face-major
+    (made once: none of it depends on the variance coefficients).
 
-    Yields a dict per block: ``phT (F, 4, n)`` features, ``ET (F, 6, n)`` residuals, ``E2T`` their
-    squares less the reference's variance and the floor, ``v (F, n, 6)`` the reference's
-    variance, ``floor (F, 1, 6)``, ``carrT (F, n)``, session ``j``.
+    ``phT (F, 4, n)`` features, ``PP (F, n, 16)`` their products (``PP[..., :4]`` is ``phi``: its
+    first feature is 1), ``ET (F, 6, n)`` residuals, ``E2T`` their squares less the reference's
+    variance and the floor, ``vT (F, 6, n)`` the reference's variance, ``floorT (F, 6, 1)``,
+    ``carr (F, n)`` and ``sessions``, ``(j, slice)`` of each session's (consecutive) rows.
     """
-    for E, phi, carr, j, vx in kept:
-        n = E.shape[0]
-        ph = np.asarray(phi, dtype=float).transpose(1, 0, 2)  # (F, n, 4)
-        v = _row_reference_variance(carr, np.diagonal(vref_full[j], axis1=-2, axis2=-1), vx)
-        Ef = np.asarray(E, dtype=float)
-        E2 = Ef * Ef - v - floor
-        yield dict(phT=ph.transpose(0, 2, 1), ET=Ef.reshape(n, F, 6).transpose(1, 2, 0),
-                   E2T=E2.reshape(n, F, 6).transpose(1, 2, 0), v=v.reshape(n, F, 6).transpose(1, 0, 2),
-                   floor=floor.reshape(F, 1, 6), carrT=np.asarray(carr, dtype=float).T, j=j)
+    E = np.concatenate([k[0] for k in kept]).astype(float)
+    n = E.shape[0]
+    ph = np.concatenate([k[1] for k in kept]).astype(float).transpose(1, 0, 2)  # (F, n, 4)
+    v = np.concatenate([_row_reference_variance(carr, vdiag[j], vx) for _, _, carr, j, vx in kept])
+    sessions, start = [], 0
+    for _, _, carr, j, _ in kept:
+        if sessions and sessions[-1][0] == j:
+            sessions[-1][2] += carr.shape[0]
+        else:
+            sessions.append([j, start, start + carr.shape[0]])
+        start += carr.shape[0]
+    ET = E.reshape(n, F, 6).transpose(1, 2, 0)
+    vT = np.ascontiguousarray(v.reshape(n, F, 6).transpose(1, 2, 0))
+    return dict(phT=np.ascontiguousarray(ph.transpose(0, 2, 1)), PP=(ph[:, :, :, None] * ph[:, :, None, :]).reshape(F, n, -1),
+                ET=np.ascontiguousarray(ET), E2T=ET * ET - vT - floor.reshape(F, 6, 1), vT=vT,
+                floorT=floor.reshape(F, 6, 1), carr=np.concatenate([k[2] for k in kept]).astype(float).T,
+                sessions=[(j, slice(a, b)) for j, a, b in sessions])
 
 
-def _reweighted(kept, coef, floor, floor_m, vref_full, EtE, F, rel_var, noisy=True):
-    """One reweighting step of the error model (updates ``coef`` in place); returns ``corr (F, 6, 6)``.
+def _variances(b, coef) -> np.ndarray:
+    """``(F, 6, n)`` each row's modelled variance (the floor added, not below 0) at each kept sample."""
+    F = b["phT"].shape[0]
+    return np.clip(np.matmul(coef.reshape(F, 6, N_FEATURES), b["phT"]) + b["floorT"], 0, None)
+
+
+def _reweighted(b, coef, n_s, rel_var, noisy=True) -> None:
+    """One reweighting step of the error model's variance (updates ``coef`` in place).
 
     With a ``noisy`` reference the variance fit weighs rows by ``1 / (var + v)²``, the inverse
     variance of ``E² − v`` (the rows the reference's noise swamps count little, the rows it does not
-    touch fully); with an exact one, all alike. The axes' correlation weighs rows by
-    ``(var / (var + v))²``, each row's share of information on the error (1 where the reference
-    adds nothing).
+    touch fully); with an exact one, all alike (and one step is all: the weights do not change).
     """
-    n_s = len(rel_var)
+    F = b["phT"].shape[0]
+    tot = np.clip(_variances(b, coef) + b["vT"], 1e-300, None)
+    w = 1.0 / (tot * tot) if noisy else np.ones_like(tot)
+    L = np.concatenate([w, w * b["E2T"], w * b["vT"]], axis=1)  # (F, 18, n)
     PtWP = np.zeros((F, 6, N_FEATURES**2))
     PtWe = np.zeros((F, 6, N_FEATURES))
     PtWv = np.zeros((n_s, F, 6, N_FEATURES))  # per session: response to a relative error of its v
-    S, w_sum = np.zeros((F, 6, 6)), np.zeros(F)
-    C = coef.reshape(F, 6, N_FEATURES)
-    for b in _prepared(kept, vref_full, floor, F):  # batched over faces: (F, 6, n) @ (F, n, ·)
-        var0 = np.clip(np.matmul(b["phT"].transpose(0, 2, 1), C.transpose(0, 2, 1)) + b["floor"], 0, None)  # (F, n, 6)
-        tot = np.clip(var0 + b["v"], 1e-300, None)
-        share = (var0 / tot) ** 2
-        wT = (1.0 / tot**2 if noisy else np.ones_like(tot)).transpose(0, 2, 1)  # (F, 6, n)
-        ph = b["phT"].transpose(0, 2, 1)  # (F, n, 4)
-        PtWP += np.matmul(wT, (ph[:, :, :, None] * ph[:, :, None, :]).reshape(F, ph.shape[1], -1))
-        PtWe += np.matmul(wT * b["E2T"], b["phT"].transpose(0, 2, 1))
-        PtWv[b["j"]] += np.matmul(wT * b["v"].transpose(0, 2, 1), b["phT"].transpose(0, 2, 1))
-        wf = share.mean(axis=2)  # (F, n)
-        S += np.matmul(b["ET"] * wf[:, None, :], b["ET"].transpose(0, 2, 1))
-        S -= (wf * b["carrT"]).sum(axis=1)[:, None, None] * vref_full[b["j"]]
-        w_sum += wf.sum(axis=1)
+    for j, sl in b["sessions"]:  # one product per session: (F, 18, n) @ (F, n, 16)
+        M = np.matmul(L[:, :, sl], b["PP"][:, sl])
+        PtWP += M[:, :6]
+        PtWe += M[:, 6:12, :N_FEATURES]
+        PtWv[j] += M[:, 12:, :N_FEATURES]
     PtWP = PtWP.reshape(6 * F, N_FEATURES, N_FEATURES)
     PtWe = PtWe.reshape(6 * F, N_FEATURES)
     PtWv = PtWv.reshape(n_s, 6 * F, N_FEATURES)
+    for r in range(6 * F):
+        if PtWP[r, 0, 0] > 0:
+            coef[r] = _significant_nnls(PtWP[r], PtWe[r], PtWv[:, r], rel_var)
+
+
+def _correlation(b, coef, floor_m, vref_full, EtE) -> np.ndarray:
+    """``corr (F, 6, 6)``: the error's correlation between a face's axes, rows weighted by
+    ``(var / (var + v))²``, each row's share of information on the error (1 where the reference
+    adds nothing): the residuals' less the reference's (where that is not positive, the gauge noise
+    through the matrix where it is), the true wrench's error's."""
+    F = b["phT"].shape[0]
+    var0 = _variances(b, coef)
+    share = (var0 / np.clip(var0 + b["vT"], 1e-300, None)) ** 2
+    wf = share.mean(axis=1)  # (F, n)
+    S = np.matmul(b["ET"] * wf[:, None, :], b["ET"].transpose(0, 2, 1))
+    w_sum = wf.sum(axis=1)
+    for j, sl in b["sessions"]:
+        S -= (wf[:, sl] * b["carr"][:, sl]).sum(axis=1)[:, None, None] * vref_full[j]
     corr = np.zeros((F, 6, 6))
     for k in range(F):
-        for a in range(6):
-            r = 6 * k + a
-            if PtWP[r, 0, 0] > 0:
-                coef[r] = _significant_nnls(PtWP[r], PtWe[r], PtWv[:, r], rel_var)
-        # the error's correlation between a face's axes: the residuals' less the reference's (where
-        # that is not positive, the gauge noise through the matrix where it is), the true wrench's error's
         Sk = S[k] / max(w_sum[k], 1e-300)
         if np.all(np.isfinite(Sk)) and np.linalg.eigvalsh(0.5 * (Sk + Sk.T))[0] < 0:
             Sk = _psd(Sk - floor_m[k]) + floor_m[k]
@@ -365,6 +363,27 @@ def _reweighted(kept, coef, floor, floor_m, vref_full, EtE, F, rel_var, noisy=Tr
             d = np.sqrt(np.clip(np.diag(EtE[k]), 1e-300, None))
             corr[k] = EtE[k] / np.outer(d, d)
     return corr
+
+
+def _coverage_scale(b, coef) -> np.ndarray:
+    """``(6F,)`` factor on each row's variance so that ±1.96 σ holds 95 % of its training residuals.
+
+    Errors are not Gaussian (nonlinearity, drift): the interval, with the reference's noise
+    (``b["vT"]``) added, is scaled to cover 95 % of the rows, weighted as in the reweighting.
+    """
+    F = b["phT"].shape[0]
+    var = np.matmul(coef.reshape(F, 6, N_FEATURES), b["phT"]).reshape(6 * F, -1)  # (6F, n)
+    v_ref = b["vT"].reshape(6 * F, -1)
+    w = (var / np.clip(var + v_ref, 1e-300, None)) ** 2  # each row's share of information on the error
+    # the scale s with |E| ≤ 1.96·√(s·var + v_ref) on 95 % of rows (E holds the reference's
+    # noise, the interval is of the true wrench): each row needs s ≥ z²/1.96² with
+    E = b["ET"].reshape(6 * F, -1)
+    z = np.sqrt(np.clip(E * E - 1.959964**2 * v_ref, 0, None) / np.clip(var, 1e-300, None))
+    bins = np.minimum(z / _Z_WIDTH, _Z_N).astype(np.int64) + np.arange(6 * F)[:, None] * (_Z_N + 1)
+    hist = np.bincount(bins.ravel(), weights=w.ravel(), minlength=6 * F * (_Z_N + 1)).reshape(6 * F, _Z_N + 1)
+    cdf = np.cumsum(hist, axis=1) / np.clip(hist.sum(axis=1, keepdims=True), 1, None)
+    q95 = (np.argmax(cdf >= 0.95, axis=1) + 1) * _Z_WIDTH
+    return (q95 / 1.959964) ** 2
 
 
 def _strided(blocks, stride):
