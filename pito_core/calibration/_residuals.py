@@ -107,6 +107,66 @@ def _significant_nnls(PtWP, PtWe, PtWv, rel_var) -> np.ndarray:
     return c
 
 
+#: Every support of the four features (rows of booleans), for the NNLS by enumeration.
+_SUPPORTS = ((np.arange(2**N_FEATURES)[:, None] >> np.arange(N_FEATURES)) & 1).astype(bool)
+#: Scaled normal matrices better conditioned than this are solved in a batch (the others one by one).
+_BATCH_COND = 1e8
+
+
+def _masked(G, m) -> np.ndarray:
+    """``G (..., 4, 4)`` on the features ``m (..., 4)``, identity elsewhere (the sub-problem, padded)."""
+    mm = m[..., :, None] & m[..., None, :]
+    return np.where(mm, G, np.eye(N_FEATURES))
+
+
+def _nnls_batch(Gs, bs, active) -> np.ndarray:
+    """Per row, the non-negative ``c`` on ``active (R, 4)`` minimising ``½ cᵀ Gs c − bsᵀ c`` (scaled,
+    positive definite ``Gs (R, 4, 4)``): the best of the sixteen supports' unconstrained solutions
+    that are not negative (the minimum of a strictly convex problem is one of them)."""
+    m = _SUPPORTS[None] & active[:, None]  # (R, 16, 4)
+    c = np.linalg.solve(_masked(Gs[:, None], m), np.where(m, bs[:, None], 0.0)[..., None])[..., 0]
+    obj = 0.5 * np.einsum("rsi,rsi->rs", c, np.einsum("rij,rsj->rsi", Gs, c)) - np.einsum("rsi,ri->rs", c, bs)
+    obj[~np.all(c >= 0, axis=-1)] = np.inf
+    return c[np.arange(c.shape[0]), np.argmin(obj, axis=1)]
+
+
+def _significant_rows(PtWP, PtWe, PtWv, rel_var) -> np.ndarray:
+    """:func:`_significant_nnls` of every row ``(R, 4)`` at once (rows of well-conditioned ``PtWP``;
+    the others one by one)."""
+    R = PtWe.shape[0]
+    coef = np.zeros((R, N_FEATURES))
+    finite = np.all(np.isfinite(PtWP), axis=(1, 2)) & np.all(np.isfinite(PtWe), axis=1)
+    scale = np.sqrt(np.clip(np.diagonal(PtWP, axis1=1, axis2=2), 1e-300, None))
+    Gs = PtWP / (scale[:, :, None] * scale[:, None, :])
+    w = np.linalg.eigvalsh(np.where(finite[:, None, None], Gs, np.eye(N_FEATURES)))
+    batch = finite & (w[:, 0] > w[:, -1] / _BATCH_COND)
+    for r in np.flatnonzero(finite & ~batch):
+        coef[r] = _significant_nnls(PtWP[r], PtWe[r], PtWv[:, r], rel_var)
+    rows = np.flatnonzero(batch)
+    Gs, bs, sc, P, Vs = Gs[rows], PtWe[rows] / scale[rows], scale[rows], PtWP[rows], PtWv[:, rows]
+    active = np.ones((rows.size, N_FEATURES), dtype=bool)
+    prune = np.any(Vs != 0, axis=(0, 2))  # no reference noise in these rows: nothing was subtracted, keep the fit
+    todo = np.ones(rows.size, dtype=bool)
+    c = np.zeros((rows.size, N_FEATURES))
+    while todo.any():
+        t = np.flatnonzero(todo)
+        c[t] = _nnls_batch(Gs[t], bs[t], active[t])
+        active[t] &= c[t] > 0  # the standard errors of the features in use
+        todo &= prune & active.any(axis=1)
+        t = np.flatnonzero(todo)
+        mm = active[t][:, :, None] & active[t][:, None, :]  # pinv of the unscaled sub-matrix, as one by one
+        Pinv = np.linalg.pinv(np.where(mm, P[t], 0.0), hermitian=True)
+        var = sum(rv * np.einsum("rij,rj->ri", Pinv, np.where(active[t], V[t], 0.0)) ** 2
+                  for rv, V in zip(rel_var, Vs))
+        weak = active[t] & (c[t] / sc[t] < _SIGNIFICANT * np.sqrt(var))
+        more = weak.any(axis=1)
+        active[t[more]] &= ~weak[more]
+        c[t[more]] = 0.0
+        todo[t[~more]] = False
+    coef[rows] = c / sc
+    return coef
+
+
 def _psd(M) -> np.ndarray:
     """The nearest positive semi-definite matrix (negative eigenvalues set to 0)."""
     w, V = np.linalg.eigh(0.5 * (M + M.T))
@@ -334,9 +394,8 @@ def _reweighted(b, coef, n_s, rel_var, noisy=True) -> None:
     PtWP = PtWP.reshape(6 * F, N_FEATURES, N_FEATURES)
     PtWe = PtWe.reshape(6 * F, N_FEATURES)
     PtWv = PtWv.reshape(n_s, 6 * F, N_FEATURES)
-    for r in range(6 * F):
-        if PtWP[r, 0, 0] > 0:
-            coef[r] = _significant_nnls(PtWP[r], PtWe[r], PtWv[:, r], rel_var)
+    fit = PtWP[:, 0, 0] > 0
+    coef[fit] = _significant_rows(PtWP[fit], PtWe[fit], PtWv[:, fit], rel_var)
 
 
 def _correlation(b, coef, floor_m, vref_full, EtE) -> np.ndarray:
