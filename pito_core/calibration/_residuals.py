@@ -338,18 +338,23 @@ def _row_reference_variance(carr, vdiag, vx) -> np.ndarray:
     return v if vx is None else np.where(c, v, vx)
 
 
+#: The distinct products ``φ_i φ_j`` (i ≤ j) of the features; the first four are ``φ`` itself (``φ_0 = 1``).
+_PAIRS = np.triu_indices(N_FEATURES)
+
+
 def _stacked(kept, vdiag, floor, F) -> dict:
     """Every kept block at once as the reweighting steps and pass 4 read them, float64, face-major
     (made once: none of it depends on the variance coefficients).
 
-    ``phT (F, 4, n)`` features, ``PP (F, n, 16)`` their products (``PP[..., :4]`` is ``phi``: its
-    first feature is 1), ``ET (F, 6, n)`` residuals, ``E2T`` their squares less the reference's
-    variance and the floor, ``vT (F, 6, n)`` the reference's variance, ``floorT (F, 6, 1)``,
-    ``carr (F, n)`` and ``sessions``, ``(j, slice)`` of each session's (consecutive) rows.
+    ``phT (F, 4, n)`` features, ``PPT (F, 10, n)`` their distinct products (:data:`_PAIRS`),
+    ``ET (F, 6, n)`` residuals, ``E2T`` their squares less the reference's variance and the floor,
+    ``vT (F, 6, n)`` the reference's variance, ``floor (6F,)``, ``carr (F, n)``, ``sessions``,
+    ``(j, slice)`` of each session's (consecutive) rows, and ``L (F, 18, n)``, the reweighting's
+    work space.
     """
-    E = np.concatenate([k[0] for k in kept]).astype(float)
+    E = np.concatenate([k[0] for k in kept])
     n = E.shape[0]
-    ph = np.concatenate([k[1] for k in kept]).astype(float).transpose(1, 0, 2)  # (F, n, 4)
+    phT = np.array(np.concatenate([k[1] for k in kept]).transpose(1, 2, 0), dtype=float, order="C")  # (F, 4, n)
     v = np.concatenate([_row_reference_variance(carr, vdiag[j], vx) for _, _, carr, j, vx in kept])
     sessions, start = [], 0
     for _, _, carr, j, _ in kept:
@@ -358,18 +363,23 @@ def _stacked(kept, vdiag, floor, F) -> dict:
         else:
             sessions.append([j, start, start + carr.shape[0]])
         start += carr.shape[0]
-    ET = E.reshape(n, F, 6).transpose(1, 2, 0)
-    vT = np.ascontiguousarray(v.reshape(n, F, 6).transpose(1, 2, 0))
-    return dict(phT=np.ascontiguousarray(ph.transpose(0, 2, 1)), PP=(ph[:, :, :, None] * ph[:, :, None, :]).reshape(F, n, -1),
-                ET=np.ascontiguousarray(ET), E2T=ET * ET - vT - floor.reshape(F, 6, 1), vT=vT,
-                floorT=floor.reshape(F, 6, 1), carr=np.concatenate([k[2] for k in kept]).astype(float).T,
+    ET = np.array(E.T, dtype=float, order="C").reshape(F, 6, n)
+    vT = np.ascontiguousarray(v.T).reshape(F, 6, n)
+    E2T = ET * ET
+    E2T -= vT
+    E2T -= floor.reshape(F, 6, 1)
+    return dict(phT=phT, PPT=phT[:, _PAIRS[0]] * phT[:, _PAIRS[1]], ET=ET, E2T=E2T, vT=vT, floor=floor,
+                carr=np.concatenate([k[2] for k in kept]).astype(float).T, L=np.empty((F, 18, n)),
                 sessions=[(j, slice(a, b)) for j, a, b in sessions])
 
 
-def _variances(b, coef) -> np.ndarray:
+def _variances(b, coef, out=None) -> np.ndarray:
     """``(F, 6, n)`` each row's modelled variance (the floor added, not below 0) at each kept sample."""
     F = b["phT"].shape[0]
-    return np.clip(np.matmul(coef.reshape(F, 6, N_FEATURES), b["phT"]) + b["floorT"], 0, None)
+    C = coef.reshape(F, 6, N_FEATURES).copy()
+    C[..., 0] += b["floor"].reshape(F, 6)  # φ_0 = 1
+    var = np.matmul(C, b["phT"], out=out)
+    return np.maximum(var, 0, out=var)
 
 
 def _reweighted(b, coef, n_s, rel_var, noisy=True) -> None:
@@ -380,20 +390,27 @@ def _reweighted(b, coef, n_s, rel_var, noisy=True) -> None:
     touch fully); with an exact one, all alike (and one step is all: the weights do not change).
     """
     F = b["phT"].shape[0]
-    tot = np.clip(_variances(b, coef) + b["vT"], 1e-300, None)
-    w = 1.0 / (tot * tot) if noisy else np.ones_like(tot)
-    L = np.concatenate([w, w * b["E2T"], w * b["vT"]], axis=1)  # (F, 18, n)
-    PtWP = np.zeros((F, 6, N_FEATURES**2))
-    PtWe = np.zeros((F, 6, N_FEATURES))
-    PtWv = np.zeros((n_s, F, 6, N_FEATURES))  # per session: response to a relative error of its v
-    for j, sl in b["sessions"]:  # one product per session: (F, 18, n) @ (F, n, 16)
-        M = np.matmul(L[:, :, sl], b["PP"][:, sl])
-        PtWP += M[:, :6]
-        PtWe += M[:, 6:12, :N_FEATURES]
-        PtWv[j] += M[:, 12:, :N_FEATURES]
+    L = b["L"]
+    w = L[:, :6]
+    if noisy:
+        tot = _variances(b, coef, out=w)  # in place: w = 1 / tot², tot = max(var + v, 1e-300)
+        tot += b["vT"]
+        np.maximum(tot, 1e-300, out=tot)
+        np.multiply(tot, tot, out=w)
+        np.divide(1.0, w, out=w)
+    else:
+        w[...] = 1.0
+    np.multiply(w, b["E2T"], out=L[:, 6:12])
+    np.multiply(w, b["vT"], out=L[:, 12:])
+    M = np.zeros((n_s, F, 18, len(_PAIRS[0])))
+    for j, sl in b["sessions"]:  # one product per session: (F, 18, n) @ (F, n, 10)
+        M[j] += np.matmul(L[:, :, sl], b["PPT"][:, :, sl].transpose(0, 2, 1))
+    PtWP = np.empty((F, 6, N_FEATURES, N_FEATURES))
+    PtWP[..., _PAIRS[0], _PAIRS[1]] = M[:, :, :6].sum(axis=0)
+    PtWP[..., _PAIRS[1], _PAIRS[0]] = PtWP[..., _PAIRS[0], _PAIRS[1]]
     PtWP = PtWP.reshape(6 * F, N_FEATURES, N_FEATURES)
-    PtWe = PtWe.reshape(6 * F, N_FEATURES)
-    PtWv = PtWv.reshape(n_s, 6 * F, N_FEATURES)
+    PtWe = M[:, :, 6:12, :N_FEATURES].sum(axis=0).reshape(6 * F, N_FEATURES)
+    PtWv = M[:, :, 12:, :N_FEATURES].reshape(n_s, 6 * F, N_FEATURES)  # per session: response to a relative error of its v
     fit = PtWP[:, 0, 0] > 0
     coef[fit] = _significant_rows(PtWP[fit], PtWe[fit], PtWv[:, fit], rel_var)
 
@@ -405,7 +422,9 @@ def _correlation(b, coef, floor_m, vref_full, EtE) -> np.ndarray:
     through the matrix where it is), the true wrench's error's."""
     F = b["phT"].shape[0]
     var0 = _variances(b, coef)
-    share = (var0 / np.clip(var0 + b["vT"], 1e-300, None)) ** 2
+    tot = np.maximum(var0 + b["vT"], 1e-300)
+    share = np.divide(var0, tot, out=tot)
+    share *= share
     wf = share.mean(axis=1)  # (F, n)
     S = np.matmul(b["ET"] * wf[:, None, :], b["ET"].transpose(0, 2, 1))
     w_sum = wf.sum(axis=1)
@@ -433,12 +452,21 @@ def _coverage_scale(b, coef) -> np.ndarray:
     F = b["phT"].shape[0]
     var = np.matmul(coef.reshape(F, 6, N_FEATURES), b["phT"]).reshape(6 * F, -1)  # (6F, n)
     v_ref = b["vT"].reshape(6 * F, -1)
-    w = (var / np.clip(var + v_ref, 1e-300, None)) ** 2  # each row's share of information on the error
+    w = np.maximum(var + v_ref, 1e-300)
+    np.divide(var, w, out=w)
+    w *= w  # each row's share of information on the error
     # the scale s with |E| ≤ 1.96·√(s·var + v_ref) on 95 % of rows (E holds the reference's
     # noise, the interval is of the true wrench): each row needs s ≥ z²/1.96² with
     E = b["ET"].reshape(6 * F, -1)
-    z = np.sqrt(np.clip(E * E - 1.959964**2 * v_ref, 0, None) / np.clip(var, 1e-300, None))
-    bins = np.minimum(z / _Z_WIDTH, _Z_N).astype(np.int64) + np.arange(6 * F)[:, None] * (_Z_N + 1)
+    z = E * E
+    z -= 1.959964**2 * v_ref
+    np.maximum(z, 0, out=z)
+    z /= np.maximum(var, 1e-300, out=var)
+    np.sqrt(z, out=z)
+    z /= _Z_WIDTH
+    np.minimum(z, _Z_N, out=z)
+    bins = z.astype(np.int64)
+    bins += np.arange(6 * F)[:, None] * (_Z_N + 1)
     hist = np.bincount(bins.ravel(), weights=w.ravel(), minlength=6 * F * (_Z_N + 1)).reshape(6 * F, _Z_N + 1)
     cdf = np.cumsum(hist, axis=1) / np.clip(hist.sum(axis=1, keepdims=True), 1, None)
     q95 = (np.argmax(cdf >= 0.95, axis=1) + 1) * _Z_WIDTH
