@@ -17,7 +17,7 @@ import scipy.optimize
 from ..io import SessionBlock
 from ._reference_noise import ReferenceLeverage, center_free_rows
 from ._targets import block_targets
-from ._uncertainty import N_FEATURES, load_features
+from ._uncertainty import FULL_SCALE, N_FEATURES, q_features
 
 __all__ = ["fit_error_model", "N_CLUSTERS"]
 
@@ -264,10 +264,10 @@ def _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups, block_
             v_ref = _reference_variance(mount, rc, spec.output_frame, carries[usable], idx)
             E2 = E * E - v_ref - floor.reshape(F, 6)
             kept.append((E.reshape(-1, 6 * F).astype(np.float32), phi.astype(np.float32), carries[usable][:, idx], j))
-            for k in range(F):
-                PtP[k] += phi[:, k].T @ phi[:, k]
-                Pte2[k] += phi[:, k].T @ E2[:, k]
-                EtE[k] += E[:, k].T @ E[:, k]
+            phT = phi.transpose(1, 2, 0)  # (F, 4, n) @ (F, n, ·), batched over faces
+            PtP += np.matmul(phT, phi.transpose(1, 0, 2))
+            Pte2 += np.matmul(phT, E2.transpose(1, 0, 2))
+            EtE += np.matmul(E.transpose(1, 2, 0), E.transpose(1, 0, 2))
             unloaded = ~b.loaded[usable].any(axis=1)
             if lev is not None:  # a noisy reference: its noise in the coefficients, face by face
                 lev.add(counts, carries[usable][:, idx], unloaded, j, tare_means[j])
@@ -368,7 +368,12 @@ def _stacked(kept, vdiag, floor, F) -> dict:
     E2T = ET * ET
     E2T -= vT
     E2T -= floor.reshape(F, 6, 1)
-    return dict(phT=phT, PPT=phT[:, _PAIRS[0]] * phT[:, _PAIRS[1]], ET=ET, E2T=E2T, vT=vT, floor=floor,
+    PPT = np.empty((F, len(_PAIRS[0]), n))
+    PPT[:, :N_FEATURES] = phT  # φ_0 φ_j = φ_j
+    for p, (i, k) in enumerate(zip(*_PAIRS)):
+        if i > 0:
+            np.multiply(phT[:, i], phT[:, k], out=PPT[:, p])
+    return dict(phT=phT, PPT=PPT, ET=ET, E2T=E2T, vT=vT, floor=floor,
                 carr=np.concatenate([k[2] for k in kept]).astype(float).T, L=np.empty((F, 18, n)),
                 sessions=[(j, slice(a, b)) for j, a, b in sessions])
 
@@ -488,8 +493,9 @@ def _predict(cal, x) -> np.ndarray:
 
 
 def _features(cal, x, idx) -> np.ndarray:
-    """``load_features`` of the output faces ``idx`` (0-based) for offset-free counts ``x (n, 36)``: (n, F, 4)."""
-    A = cal._apply.reshape(36, 36)  # rows: face-major wrench components
-    Wf = np.full((x.shape[0], 6, 6), np.nan)
-    Wf[:, idx] = (x @ A.T).reshape(-1, 6, 6)[:, idx]
-    return load_features(Wf)[:, idx]
+    """``load_features`` of the output faces ``idx`` (0-based) for offset-free counts ``x (n, 36)``: (n, F, 4)
+    (the faces without output count 0 in ``q_other``, as NaN faces there)."""
+    A = cal._apply.reshape(6, 6, 36)[idx].reshape(-1, 36)  # rows: the output faces' wrench components
+    u = (x @ A.T).reshape(-1, len(idx), 6)
+    u /= FULL_SCALE
+    return q_features(np.einsum("nfi,nfi->nf", u, u))
