@@ -204,7 +204,8 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     PtP, Pte2, EtE, kept, clusters = _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups,
                                                  block_size, ref_covs, floor, samples, stride, lev)
     _set_inflation(groups, clusters, stride)
-    coef = _nnls_coefficients(PtP, Pte2)
+    # the first weights (an exact reference: weights 1 whatever the coefficients, which the one step sets)
+    coef = _nnls_coefficients(PtP, Pte2) if noisy else np.zeros((6 * F, N_FEATURES))
     vref_full = [_reference_cov(m, rc, spec.output_frame, idx) for m, rc in zip(mounts, ref_covs)]
     if noisy:  # the reference's noise in the coefficients, face by face, over the rows where the face carries
         lev.finish(stride, vref_full)
