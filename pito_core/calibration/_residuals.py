@@ -221,12 +221,12 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
                np.einsum("kia,ab,kjb->kij", cal.matrix.reshape(F, 6, 36), gauge_cov, cal.matrix.reshape(F, 6, 36)))
     vdiag = [np.diagonal(V, axis1=-2, axis2=-1) for V in vref_full]  # (F, 6) per session
     rel_var = [0.0 if n is None else 2.0 / max(n - 1, 1) for n in (ref_n or [None] * len(sessions))]
-    b = _stacked(kept, vdiag, floor, F)
+    b = _stacked(kept, vdiag, F, noisy)
     for _ in range(_REWEIGHT - 1 if noisy else 1):  # exact reference: the weights do not change
-        _reweighted(b, coef, len(rel_var), rel_var, noisy)
-    corr = _correlation(b, coef, floor_m, vref_full, EtE)  # weighted by the last step's variances
+        _reweighted(b, coef, floor, rel_var, noisy)
+    corr = _correlation(b, coef, floor, floor_m, vref_full, EtE)  # weighted by the last step's variances
     if noisy:
-        _reweighted(b, coef, len(rel_var), rel_var, noisy)
+        _reweighted(b, coef, floor, rel_var, noisy)
     coef[:, 0] += floor
     coef *= _coverage_scale(b, coef)[:, None]
     if noisy:  # Σ_r → Σ_e: the reference's share is now in the groups' own term
@@ -341,22 +341,19 @@ def _row_reference_variance(carr, vdiag, vx) -> np.ndarray:
 
 #: The distinct products ``φ_i φ_j`` (i ≤ j) of the features; the first four are ``φ`` itself (``φ_0 = 1``).
 _PAIRS = np.triu_indices(N_FEATURES)
+#: The reweighting steps and pass 4 read the kept samples in chunks of at most this many (bounded memory).
+_CHUNK = 2048
 
 
-def _stacked(kept, vdiag, floor, F) -> dict:
-    """Every kept block at once as the reweighting steps and pass 4 read them, float64, face-major
-    (made once: none of it depends on the variance coefficients).
+def _stacked(kept, vdiag, F, noisy) -> dict:
+    """Every kept block at once, face-major, as the reweighting steps and pass 4 read them (made
+    once: none of it depends on the variance coefficients).
 
-    ``phT (F, 4, n)`` features, ``PPT (F, 10, n)`` their distinct products (:data:`_PAIRS`),
-    ``ET (F, 6, n)`` residuals, ``E2T`` their squares less the reference's variance and the floor,
-    ``vT (F, 6, n)`` the reference's variance, ``floor (6F,)``, ``carr (F, n)``, ``sessions``,
-    ``(j, slice)`` of each session's (consecutive) rows, and ``L (F, 18, n)``, the reweighting's
-    work space.
+    ``ET (F, 6, n)`` residuals and ``phT (F, 4, n)`` features (float32, as kept), ``carr (F, n)``,
+    ``vT (F, 6, n)`` the reference's variance in each residual (its own where the face carries, else
+    its share through the fitted coefficients; None without reference noise: 0), and ``sessions``,
+    ``(j, slice)`` of each session's (consecutive) samples.
     """
-    E = np.concatenate([k[0] for k in kept])
-    n = E.shape[0]
-    phT = np.array(np.concatenate([k[1] for k in kept]).transpose(1, 2, 0), dtype=float, order="C")  # (F, 4, n)
-    v = np.concatenate([_row_reference_variance(carr, vdiag[j], vx) for _, _, carr, j, vx in kept])
     sessions, start = [], 0
     for _, _, carr, j, _ in kept:
         if sessions and sessions[-1][0] == j:
@@ -364,53 +361,89 @@ def _stacked(kept, vdiag, floor, F) -> dict:
         else:
             sessions.append([j, start, start + carr.shape[0]])
         start += carr.shape[0]
-    ET = np.array(E.T, dtype=float, order="C").reshape(F, 6, n)
-    vT = np.ascontiguousarray(v.T).reshape(F, 6, n)
-    E2T = ET * ET
-    E2T -= vT
-    E2T -= floor.reshape(F, 6, 1)
-    PPT = np.empty((F, len(_PAIRS[0]), n))
-    PPT[:, :N_FEATURES] = phT  # φ_0 φ_j = φ_j
-    for p, (i, k) in enumerate(zip(*_PAIRS)):
-        if i > 0:
-            np.multiply(phT[:, i], phT[:, k], out=PPT[:, p])
-    return dict(phT=phT, PPT=PPT, ET=ET, E2T=E2T, vT=vT, floor=floor,
-                carr=np.concatenate([k[2] for k in kept]).astype(float).T, L=np.empty((F, 18, n)),
+    n = start
+    carr = np.concatenate([k[2] for k in kept]).T  # (F, n)
+    vT = None
+    if noisy:
+        vT = np.empty((F, 6, n))
+        for j, a, b in sessions:
+            np.multiply(carr[None, :, a:b], vdiag[j].T[:, :, None], out=vT.transpose(1, 0, 2)[:, :, a:b])
+        if kept[0][4] is not None:
+            np.copyto(vT, np.concatenate([k[4] for k in kept]).T.reshape(F, 6, n), where=~carr[:, None, :])
+    return dict(ET=np.ascontiguousarray(np.concatenate([k[0] for k in kept]).T).reshape(F, 6, n),
+                phT=np.ascontiguousarray(np.concatenate([k[1] for k in kept]).transpose(1, 2, 0)), carr=carr, vT=vT,
                 sessions=[(j, slice(a, b)) for j, a, b in sessions])
 
 
-def _variances(b, coef, out=None) -> np.ndarray:
-    """``(F, 6, n)`` each row's modelled variance (the floor added, not below 0) at each kept sample."""
-    F = b["phT"].shape[0]
-    C = coef.reshape(F, 6, N_FEATURES).copy()
-    C[..., 0] += b["floor"].reshape(F, 6)  # φ_0 = 1
-    var = np.matmul(C, b["phT"], out=out)
+def _chunks(b, floor=None):
+    """Per chunk of one session's consecutive samples: ``(j, c)``, ``c`` the chunk's float64 ``ET``,
+    ``phT``, ``vT`` (0 without reference noise), ``carr`` and, with ``floor (6F,)``, ``E2T``: the
+    residuals' squares less the reference's variance and the floor."""
+    F = b["ET"].shape[0]
+    for j, sl in b["sessions"]:
+        for a in range(sl.start, sl.stop, _CHUNK):
+            s = slice(a, min(a + _CHUNK, sl.stop))
+            c = dict(ET=b["ET"][:, :, s].astype(float), phT=b["phT"][:, :, s].astype(float), carr=b["carr"][:, s],
+                     vT=0.0 if b["vT"] is None else b["vT"][:, :, s])
+            if floor is not None:
+                E2 = c["ET"] * c["ET"]
+                E2 -= c["vT"]
+                E2 -= floor.reshape(F, 6, 1)
+                c["E2T"] = E2
+            yield j, c
+
+
+def _variances(phT, coef, floor=None, out=None) -> np.ndarray:
+    """``(F, 6, n)`` each row's modelled variance at samples of features ``phT (F, 4, n)``: with
+    ``floor (6F,)`` added and not below 0."""
+    F = phT.shape[0]
+    C = coef.reshape(F, 6, N_FEATURES)
+    if floor is None:
+        return np.matmul(C, phT, out=out)
+    C = C.copy()
+    C[..., 0] += floor.reshape(F, 6)  # φ_0 = 1
+    var = np.matmul(C, phT, out=out)
     return np.maximum(var, 0, out=var)
 
 
-def _reweighted(b, coef, n_s, rel_var, noisy=True) -> None:
+def _weighted_sums(b, coef, floor, n_s, noisy) -> np.ndarray:
+    """``(n_s, F, 18, 10)``: per session, the sums over the samples of ``w``, ``w (E² − v)`` and ``w v``
+    (rows, 6 each) times the features' distinct products (:data:`_PAIRS`), ``w = 1 / (var + v)²``
+    with a ``noisy`` reference, else 1."""
+    F = b["ET"].shape[0]
+    M = np.zeros((n_s, F, 18, len(_PAIRS[0])))
+    for j, c in _chunks(b, floor):
+        n = c["ET"].shape[2]
+        L = np.empty((F, 18, n))
+        w = L[:, :6]
+        if noisy:
+            tot = _variances(c["phT"], coef, floor, out=w)  # in place: w = 1 / tot², tot = max(var + v, 1e-300)
+            tot += c["vT"]
+            np.maximum(tot, 1e-300, out=tot)
+            np.multiply(tot, tot, out=w)
+            np.divide(1.0, w, out=w)
+        else:
+            w[...] = 1.0
+        np.multiply(w, c["E2T"], out=L[:, 6:12])
+        np.multiply(w, c["vT"], out=L[:, 12:])
+        PP = np.empty((F, len(_PAIRS[0]), n))
+        PP[:, :N_FEATURES] = c["phT"]  # φ_0 φ_j = φ_j
+        for p, (i, k) in enumerate(zip(*_PAIRS)):
+            if i > 0:
+                np.multiply(c["phT"][:, i], c["phT"][:, k], out=PP[:, p])
+        M[j] += np.matmul(L, PP.transpose(0, 2, 1))
+    return M
+
+
+def _reweighted(b, coef, floor, rel_var, noisy=True) -> None:
     """One reweighting step of the error model's variance (updates ``coef`` in place).
 
     With a ``noisy`` reference the variance fit weighs rows by ``1 / (var + v)²``, the inverse
     variance of ``E² − v`` (the rows the reference's noise swamps count little, the rows it does not
     touch fully); with an exact one, all alike (and one step is all: the weights do not change).
     """
-    F = b["phT"].shape[0]
-    L = b["L"]
-    w = L[:, :6]
-    if noisy:
-        tot = _variances(b, coef, out=w)  # in place: w = 1 / tot², tot = max(var + v, 1e-300)
-        tot += b["vT"]
-        np.maximum(tot, 1e-300, out=tot)
-        np.multiply(tot, tot, out=w)
-        np.divide(1.0, w, out=w)
-    else:
-        w[...] = 1.0
-    np.multiply(w, b["E2T"], out=L[:, 6:12])
-    np.multiply(w, b["vT"], out=L[:, 12:])
-    M = np.zeros((n_s, F, 18, len(_PAIRS[0])))
-    for j, sl in b["sessions"]:  # one product per session: (F, 18, n) @ (F, n, 10)
-        M[j] += np.matmul(L[:, :, sl], b["PPT"][:, :, sl].transpose(0, 2, 1))
+    F, n_s = b["ET"].shape[0], len(rel_var)
+    M = _weighted_sums(b, coef, floor, n_s, noisy)
     PtWP = np.empty((F, 6, N_FEATURES, N_FEATURES))
     PtWP[..., _PAIRS[0], _PAIRS[1]] = M[:, :, :6].sum(axis=0)
     PtWP[..., _PAIRS[1], _PAIRS[0]] = PtWP[..., _PAIRS[0], _PAIRS[1]]
@@ -421,21 +454,22 @@ def _reweighted(b, coef, n_s, rel_var, noisy=True) -> None:
     coef[fit] = _significant_rows(PtWP[fit], PtWe[fit], PtWv[:, fit], rel_var)
 
 
-def _correlation(b, coef, floor_m, vref_full, EtE) -> np.ndarray:
+def _correlation(b, coef, floor, floor_m, vref_full, EtE) -> np.ndarray:
     """``corr (F, 6, 6)``: the error's correlation between a face's axes, rows weighted by
     ``(var / (var + v))²``, each row's share of information on the error (1 where the reference
     adds nothing): the residuals' less the reference's (where that is not positive, the gauge noise
     through the matrix where it is), the true wrench's error's."""
-    F = b["phT"].shape[0]
-    var0 = _variances(b, coef)
-    tot = np.maximum(var0 + b["vT"], 1e-300)
-    share = np.divide(var0, tot, out=tot)
-    share *= share
-    wf = share.mean(axis=1)  # (F, n)
-    S = np.matmul(b["ET"] * wf[:, None, :], b["ET"].transpose(0, 2, 1))
-    w_sum = wf.sum(axis=1)
-    for j, sl in b["sessions"]:
-        S -= (wf[:, sl] * b["carr"][:, sl]).sum(axis=1)[:, None, None] * vref_full[j]
+    F = b["ET"].shape[0]
+    S, w_sum = np.zeros((F, 6, 6)), np.zeros(F)
+    for j, c in _chunks(b):
+        var0 = _variances(c["phT"], coef, floor)
+        tot = np.maximum(var0 + c["vT"], 1e-300)
+        share = np.divide(var0, tot, out=tot)
+        share *= share
+        wf = share.mean(axis=1)  # (F, n)
+        S += np.matmul(c["ET"] * wf[:, None, :], c["ET"].transpose(0, 2, 1))
+        S -= (wf * c["carr"]).sum(axis=1)[:, None, None] * vref_full[j]
+        w_sum += wf.sum(axis=1)
     corr = np.zeros((F, 6, 6))
     for k in range(F):
         Sk = S[k] / max(w_sum[k], 1e-300)
@@ -455,25 +489,29 @@ def _coverage_scale(b, coef) -> np.ndarray:
     Errors are not Gaussian (nonlinearity, drift): the interval, with the reference's noise
     (``b["vT"]``) added, is scaled to cover 95 % of the rows, weighted as in the reweighting.
     """
-    F = b["phT"].shape[0]
-    var = np.matmul(coef.reshape(F, 6, N_FEATURES), b["phT"]).reshape(6 * F, -1)  # (6F, n)
-    v_ref = b["vT"].reshape(6 * F, -1)
-    w = np.maximum(var + v_ref, 1e-300)
-    np.divide(var, w, out=w)
-    w *= w  # each row's share of information on the error
-    # the scale s with |E| ≤ 1.96·√(s·var + v_ref) on 95 % of rows (E holds the reference's
-    # noise, the interval is of the true wrench): each row needs s ≥ z²/1.96² with
-    E = b["ET"].reshape(6 * F, -1)
-    z = E * E
-    z -= 1.959964**2 * v_ref
-    np.maximum(z, 0, out=z)
-    z /= np.maximum(var, 1e-300, out=var)
-    np.sqrt(z, out=z)
-    z /= _Z_WIDTH
-    np.minimum(z, _Z_N, out=z)
-    bins = z.astype(np.int64)
-    bins += np.arange(6 * F)[:, None] * (_Z_N + 1)
-    hist = np.bincount(bins.ravel(), weights=w.ravel(), minlength=6 * F * (_Z_N + 1)).reshape(6 * F, _Z_N + 1)
+    R = 6 * b["ET"].shape[0]
+    hist = np.zeros(R * (_Z_N + 1))
+    offset = np.arange(R)[:, None] * (_Z_N + 1)
+    for _, c in _chunks(b):
+        var = _variances(c["phT"], coef).reshape(R, -1)  # (6F, n)
+        v_ref = c["vT"] if b["vT"] is None else c["vT"].reshape(R, -1)
+        w = np.maximum(var + v_ref, 1e-300)
+        np.divide(var, w, out=w)
+        w *= w  # each row's share of information on the error
+        # the scale s with |E| ≤ 1.96·√(s·var + v_ref) on 95 % of rows (E holds the reference's
+        # noise, the interval is of the true wrench): each row needs s ≥ z²/1.96² with
+        E = c["ET"].reshape(R, -1)
+        z = E * E
+        z -= 1.959964**2 * v_ref
+        np.maximum(z, 0, out=z)
+        z /= np.maximum(var, 1e-300, out=var)
+        np.sqrt(z, out=z)
+        z /= _Z_WIDTH
+        np.minimum(z, _Z_N, out=z)
+        bins = z.astype(np.int64)
+        bins += offset
+        hist += np.bincount(bins.ravel(), weights=w.ravel(), minlength=hist.size)
+    hist = hist.reshape(R, _Z_N + 1)
     cdf = np.cumsum(hist, axis=1) / np.clip(hist.sum(axis=1, keepdims=True), 1, None)
     q95 = (np.argmax(cdf >= 0.95, axis=1) + 1) * _Z_WIDTH
     return (q95 / 1.959964) ** 2
