@@ -262,13 +262,17 @@ def _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups, block_
             Y = _predict(cal, x).reshape(-1, F, 6)
             E = targets[usable][:, idx] - Y
             phi = _features(cal, x, idx)  # (n, F, 4)
-            v_ref = _reference_variance(mount, rc, spec.output_frame, carries[usable], idx)
-            E2 = E * E - v_ref - floor.reshape(F, 6)
             kept.append((E.reshape(-1, 6 * F).astype(np.float32), phi.astype(np.float32), carries[usable][:, idx], j))
-            phT = phi.transpose(1, 2, 0)  # (F, 4, n) @ (F, n, ·), batched over faces
-            PtP += np.matmul(phT, phi.transpose(1, 0, 2))
-            Pte2 += np.matmul(phT, E2.transpose(1, 0, 2))
-            EtE += np.matmul(E.transpose(1, 2, 0), E.transpose(1, 0, 2))
+            EF = np.ascontiguousarray(E.transpose(1, 0, 2))  # (F, n, 6): products batched over faces
+            EtE += np.matmul(EF.transpose(0, 2, 1), EF)
+            if lev is not None:  # the reweighting's first weights (with an exact reference, 1 whatever they are)
+                v_ref = _reference_variance(mount, rc, spec.output_frame, carries[usable], idx)
+                EF *= EF
+                EF -= v_ref.transpose(1, 0, 2)
+                EF -= floor.reshape(F, 1, 6)
+                phF = np.ascontiguousarray(phi.transpose(1, 0, 2))
+                PtP += np.matmul(phF.transpose(0, 2, 1), phF)
+                Pte2 += np.matmul(phF.transpose(0, 2, 1), EF)
             unloaded = ~b.loaded[usable].any(axis=1)
             if lev is not None:  # a noisy reference: its noise in the coefficients, face by face
                 lev.add(counts, carries[usable][:, idx], unloaded, j, tare_means[j])
