@@ -330,11 +330,9 @@ def _set_inflation(groups, clusters, stride) -> None:
 def _nnls_coefficients(PtP, Pte2) -> np.ndarray:
     """``(6F, 4)`` non-negative variance coefficients of each row from the first pass's sums, unweighted."""
     F = PtP.shape[0]
-    coef = np.zeros((6 * F, N_FEATURES))
-    for k in range(F):
-        for a in range(6):
-            coef[6 * k + a] = nnls_rows(PtP[k], Pte2[k, :, a])
-    return coef
+    # no reference-noise response (PtWv = 0): the plain fit of every row, batched
+    return _significant_rows(np.repeat(PtP, 6, axis=0), Pte2.transpose(0, 2, 1).reshape(6 * F, N_FEATURES),
+                             np.zeros((1, 6 * F, N_FEATURES)), [0.0])
 
 
 def _row_reference_variance(carr, vdiag, vx) -> np.ndarray:
