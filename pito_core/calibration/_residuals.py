@@ -32,10 +32,8 @@ _Z_WIDTH, _Z_N = 0.005, 4000
 #: Reweighting steps of the error model against the reference's noise (each: weights from the last fit).
 _REWEIGHT = 3
 #: A term of the excess variance is kept only above this many standard errors of what the
-#: uncertainty of the reference's noise (measured at rest) can put into it (3 dropped real load
-#: terms of nonlinear cubes at 3 % reference noise: axes covered 39–45 %; 1 let spurious ones
-#: shorten the linear cubes' intervals elsewhere: 88 %).
-_SIGNIFICANT = 2.0
+#: uncertainty of the reference's noise (measured at rest) can put into it.
+_SIGNIFICANT = 3.0
 
 
 def _reference_variance(mount, ref_cov, output_frame, carries, idx) -> np.ndarray:

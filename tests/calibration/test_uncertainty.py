@@ -186,19 +186,6 @@ def test_intervals_cover_the_true_wrench_whatever_the_reference_noise(reference_
     assert 0.93 <= cover.min() and cover.max() <= 0.97, cover
 
 
-def test_load_terms_of_a_nonlinear_cube_are_kept_under_a_noisy_reference():
-    """Issue 25 item 4: a load term of the error is dropped only below 2 standard errors of what the
-    tare's uncertainty of the reference's noise can put into it (was 3: ``unloaded_frame`` on a
-    nonlinear cube, 3 % reference noise, covered 44.9 % on its worst axis, pooled over 4
-    calibrations; now 63.2 %), while the linear cube's worst axis stays (92.2 % before, 93.3 %)."""
-    from coverage_table import run
-
-    nonlinear, _, _ = run("unloaded_frame", "nl", 0.03, "auto")
-    linear, _, _ = run("unloaded_frame", "lin", 0.03, "linear")
-    assert np.nanmin(nonlinear) >= 0.55, nonlinear
-    assert np.nanmin(linear) >= 0.925, linear
-
-
 def test_the_reference_noise_in_the_coefficients_goes_to_the_faces_that_carried_it():
     """A joint fit (``loaded_frame``, 1 % reference noise): face k's coefficients hold the reference's
     noise of the samples where face k carried, so a sample loading face k has the larger interval.
