@@ -333,14 +333,6 @@ def _nnls_coefficients(PtP, Pte2) -> np.ndarray:
                              np.zeros((1, 6 * F, N_FEATURES)), [0.0])
 
 
-def _row_reference_variance(carr, vdiag, vx) -> np.ndarray:
-    """``(n, 6F)`` the reference's noise in each training residual: its own where the face carries
-    (``vdiag (F, 6)``), else its share through the fitted coefficients (``vx``, None: none)."""
-    c = np.repeat(carr, 6, axis=1)
-    v = c * vdiag.reshape(1, -1)
-    return v if vx is None else np.where(c, v, vx)
-
-
 #: The distinct products ``φ_i φ_j`` (i ≤ j) of the features; the first four are ``φ`` itself (``φ_0 = 1``).
 _PAIRS = np.triu_indices(N_FEATURES)
 #: The reweighting steps and pass 4 read the kept samples in chunks of at most this many (bounded memory).
