@@ -109,15 +109,17 @@ class ReferenceLeverage:
         """
         out = []
         for counts, j, tare_mean, _, _ in self.rows:
-            v = np.zeros((counts.shape[0], 6 * F))
+            v = np.zeros((counts.shape[0], F, 6))
             x = counts.astype(float)
             for g, kk in zip(self.groups, self.kk):
-                B = self._design(g, x, j, tare_mean)[:, self.n_int :]  # slopes: the offsets' share is taken out apart
-                Q = g.reference_leverage[:, self.n_int :, self.n_int :]
-                for b, k in enumerate(kk):
-                    h = ((B @ Q[b]) * B).sum(axis=1)  # products, not einsum: BLAS
-                    v[:, 6 * k : 6 * k + 6] += h[:, None] * np.diag(g.reference_cov[b])[None]
-            out.append(v.astype(np.float32))
+                B = x[:, g.inputs] - tare_mean[g.inputs]  # slopes: the offsets' share is taken out apart
+                Q = g.reference_leverage[:, self.n_int :, self.n_int :]  # (nb, m, m)
+                nb, m = Q.shape[0], Q.shape[1]
+                BQ = (B @ Q.transpose(1, 0, 2).reshape(m, nb * m)).reshape(-1, nb, m)  # every face block in one product
+                BQ *= B[:, None, :]
+                h = BQ.sum(axis=2)  # (n, nb)
+                v[:, kk] += h[:, :, None] * np.diagonal(g.reference_cov, axis1=1, axis2=2)[None]
+            out.append(v.reshape(-1, 6 * F).astype(np.float32))
         return out
 
 

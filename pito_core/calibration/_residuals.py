@@ -17,7 +17,7 @@ import scipy.optimize
 from ..io import SessionBlock
 from ._reference_noise import ReferenceLeverage, center_free_rows
 from ._targets import block_targets
-from ._uncertainty import N_FEATURES, load_features
+from ._uncertainty import FULL_SCALE, N_FEATURES, q_features
 
 __all__ = ["fit_error_model", "N_CLUSTERS"]
 
@@ -107,6 +107,66 @@ def _significant_nnls(PtWP, PtWe, PtWv, rel_var) -> np.ndarray:
     return c
 
 
+#: Every support of the four features (rows of booleans), for the NNLS by enumeration.
+_SUPPORTS = ((np.arange(2**N_FEATURES)[:, None] >> np.arange(N_FEATURES)) & 1).astype(bool)
+#: Scaled normal matrices better conditioned than this are solved in a batch (the others one by one).
+_BATCH_COND = 1e8
+
+
+def _masked(G, m) -> np.ndarray:
+    """``G (..., 4, 4)`` on the features ``m (..., 4)``, identity elsewhere (the sub-problem, padded)."""
+    mm = m[..., :, None] & m[..., None, :]
+    return np.where(mm, G, np.eye(N_FEATURES))
+
+
+def _nnls_batch(Gs, bs, active) -> np.ndarray:
+    """Per row, the non-negative ``c`` on ``active (R, 4)`` minimising ``½ cᵀ Gs c − bsᵀ c`` (scaled,
+    positive definite ``Gs (R, 4, 4)``): the best of the sixteen supports' unconstrained solutions
+    that are not negative (the minimum of a strictly convex problem is one of them)."""
+    m = _SUPPORTS[None] & active[:, None]  # (R, 16, 4)
+    c = np.linalg.solve(_masked(Gs[:, None], m), np.where(m, bs[:, None], 0.0)[..., None])[..., 0]
+    obj = 0.5 * np.einsum("rsi,rsi->rs", c, np.einsum("rij,rsj->rsi", Gs, c)) - np.einsum("rsi,ri->rs", c, bs)
+    obj[~np.all(c >= 0, axis=-1)] = np.inf
+    return c[np.arange(c.shape[0]), np.argmin(obj, axis=1)]
+
+
+def _significant_rows(PtWP, PtWe, PtWv, rel_var) -> np.ndarray:
+    """:func:`_significant_nnls` of every row ``(R, 4)`` at once (rows of well-conditioned ``PtWP``;
+    the others one by one)."""
+    R = PtWe.shape[0]
+    coef = np.zeros((R, N_FEATURES))
+    finite = np.all(np.isfinite(PtWP), axis=(1, 2)) & np.all(np.isfinite(PtWe), axis=1)
+    scale = np.sqrt(np.clip(np.diagonal(PtWP, axis1=1, axis2=2), 1e-300, None))
+    Gs = PtWP / (scale[:, :, None] * scale[:, None, :])
+    w = np.linalg.eigvalsh(np.where(finite[:, None, None], Gs, np.eye(N_FEATURES)))
+    batch = finite & (w[:, 0] > w[:, -1] / _BATCH_COND)
+    for r in np.flatnonzero(finite & ~batch):
+        coef[r] = _significant_nnls(PtWP[r], PtWe[r], PtWv[:, r], rel_var)
+    rows = np.flatnonzero(batch)
+    Gs, bs, sc, P, Vs = Gs[rows], PtWe[rows] / scale[rows], scale[rows], PtWP[rows], PtWv[:, rows]
+    active = np.ones((rows.size, N_FEATURES), dtype=bool)
+    prune = np.any(Vs != 0, axis=(0, 2))  # no reference noise in these rows: nothing was subtracted, keep the fit
+    todo = np.ones(rows.size, dtype=bool)
+    c = np.zeros((rows.size, N_FEATURES))
+    while todo.any():
+        t = np.flatnonzero(todo)
+        c[t] = _nnls_batch(Gs[t], bs[t], active[t])
+        active[t] &= c[t] > 0  # the standard errors of the features in use
+        todo &= prune & active.any(axis=1)
+        t = np.flatnonzero(todo)
+        mm = active[t][:, :, None] & active[t][:, None, :]  # pinv of the unscaled sub-matrix, as one by one
+        Pinv = np.linalg.pinv(np.where(mm, P[t], 0.0), hermitian=True)
+        var = sum(rv * np.einsum("rij,rj->ri", Pinv, np.where(active[t], V[t], 0.0)) ** 2
+                  for rv, V in zip(rel_var, Vs))
+        weak = active[t] & (c[t] / sc[t] < _SIGNIFICANT * np.sqrt(var))
+        more = weak.any(axis=1)
+        active[t[more]] &= ~weak[more]
+        c[t[more]] = 0.0
+        todo[t[~more]] = False
+    coef[rows] = c / sc
+    return coef
+
+
 def _psd(M) -> np.ndarray:
     """The nearest positive semi-definite matrix (negative eigenvalues set to 0)."""
     w, V = np.linalg.eigh(0.5 * (M + M.T))
@@ -144,7 +204,8 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     PtP, Pte2, EtE, kept, clusters = _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups,
                                                  block_size, ref_covs, floor, samples, stride, lev)
     _set_inflation(groups, clusters, stride)
-    coef = _nnls_coefficients(PtP, Pte2)
+    # the first weights (an exact reference: weights 1 whatever the coefficients, which the one step sets)
+    coef = _nnls_coefficients(PtP, Pte2) if noisy else np.zeros((6 * F, N_FEATURES))
     vref_full = [_reference_cov(m, rc, spec.output_frame, idx) for m, rc in zip(mounts, ref_covs)]
     if noisy:  # the reference's noise in the coefficients, face by face, over the rows where the face carries
         lev.finish(stride, vref_full)
@@ -160,10 +221,14 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
                np.einsum("kia,ab,kjb->kij", cal.matrix.reshape(F, 6, 36), gauge_cov, cal.matrix.reshape(F, 6, 36)))
     vdiag = [np.diagonal(V, axis1=-2, axis2=-1) for V in vref_full]  # (F, 6) per session
     rel_var = [0.0 if n is None else 2.0 / max(n - 1, 1) for n in (ref_n or [None] * len(sessions))]
-    for _ in range(_REWEIGHT):
-        corr = _reweighted(kept, coef, floor, floor_m, vref_full, EtE, F, rel_var, noisy)
+    b = _stacked(kept, vdiag, F, noisy)
+    for _ in range(_REWEIGHT - 1 if noisy else 1):  # exact reference: the weights do not change
+        _reweighted(b, coef, floor, rel_var, noisy)
+    corr = _correlation(b, coef, floor, floor_m, vref_full, EtE)  # weighted by the last step's variances
+    if noisy:
+        _reweighted(b, coef, floor, rel_var, noisy)
     coef[:, 0] += floor
-    coef *= _coverage_scale(kept, coef, vdiag, F)[:, None]
+    coef *= _coverage_scale(b, coef)[:, None]
     if noisy:  # Σ_r → Σ_e: the reference's share is now in the groups' own term
         lev.set_error_cov(coef, corr, [k[1] for k in kept])
     return coef, corr
@@ -197,13 +262,17 @@ def _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups, block_
             Y = _predict(cal, x).reshape(-1, F, 6)
             E = targets[usable][:, idx] - Y
             phi = _features(cal, x, idx)  # (n, F, 4)
-            v_ref = _reference_variance(mount, rc, spec.output_frame, carries[usable], idx)
-            E2 = E * E - v_ref - floor.reshape(F, 6)
             kept.append((E.reshape(-1, 6 * F).astype(np.float32), phi.astype(np.float32), carries[usable][:, idx], j))
-            for k in range(F):
-                PtP[k] += phi[:, k].T @ phi[:, k]
-                Pte2[k] += phi[:, k].T @ E2[:, k]
-                EtE[k] += E[:, k].T @ E[:, k]
+            EF = np.ascontiguousarray(E.transpose(1, 0, 2))  # (F, n, 6): products batched over faces
+            EtE += np.matmul(EF.transpose(0, 2, 1), EF)
+            if lev is not None:  # the reweighting's first weights (with an exact reference, 1 whatever they are)
+                v_ref = _reference_variance(mount, rc, spec.output_frame, carries[usable], idx)
+                EF *= EF
+                EF -= v_ref.transpose(1, 0, 2)
+                EF -= floor.reshape(F, 1, 6)
+                phF = np.ascontiguousarray(phi.transpose(1, 0, 2))
+                PtP += np.matmul(phF.transpose(0, 2, 1), phF)
+                Pte2 += np.matmul(phF.transpose(0, 2, 1), EF)
             unloaded = ~b.loaded[usable].any(axis=1)
             if lev is not None:  # a noisy reference: its noise in the coefficients, face by face
                 lev.add(counts, carries[usable][:, idx], unloaded, j, tare_means[j])
@@ -259,103 +328,144 @@ def _set_inflation(groups, clusters, stride) -> None:
 def _nnls_coefficients(PtP, Pte2) -> np.ndarray:
     """``(6F, 4)`` non-negative variance coefficients of each row from the first pass's sums, unweighted."""
     F = PtP.shape[0]
-    coef = np.zeros((6 * F, N_FEATURES))
-    for k in range(F):
-        for a in range(6):
-            coef[6 * k + a] = nnls_rows(PtP[k], Pte2[k, :, a])
-    return coef
+    # no reference-noise response (PtWv = 0): the plain fit of every row, batched
+    return _significant_rows(np.repeat(PtP, 6, axis=0), Pte2.transpose(0, 2, 1).reshape(6 * F, N_FEATURES),
+                             np.zeros((1, 6 * F, N_FEATURES)), [0.0])
 
 
-def _coverage_scale(kept, coef, vdiag, F) -> np.ndarray:
-    """``(6F,)`` factor on each row's variance so that ±1.96 σ holds 95 % of its training residuals.
+#: The distinct products ``φ_i φ_j`` (i ≤ j) of the features; the first four are ``φ`` itself (``φ_0 = 1``).
+_PAIRS = np.triu_indices(N_FEATURES)
+#: The reweighting steps and pass 4 read the kept samples in chunks of at most this many (bounded memory).
+_CHUNK = 2048
 
-    Errors are not Gaussian (nonlinearity, drift): the interval, with the reference's noise
-    ``vdiag`` (per session, ``(F, 6)``) added, is scaled to cover 95 % of the rows, weighted as
-    in the reweighting.
+
+def _stacked(kept, vdiag, F, noisy) -> dict:
+    """Every kept block at once, face-major, as the reweighting steps and pass 4 read them (made
+    once: none of it depends on the variance coefficients).
+
+    ``ET (F, 6, n)`` residuals and ``phT (F, 4, n)`` features (float32, as kept), ``carr (F, n)``,
+    ``vT (F, 6, n)`` the reference's variance in each residual (its own where the face carries, else
+    its share through the fitted coefficients; None without reference noise: 0), and ``sessions``,
+    ``(j, slice)`` of each session's (consecutive) samples.
     """
-    hist = np.zeros((6 * F, _Z_N + 1))
-    rows = np.arange(6 * F)
-    for E, phi, carr, j, vx in kept:
-        var = np.concatenate([phi[:, k] @ coef[6 * k : 6 * k + 6].T for k in range(F)], axis=1)  # (n, 6F)
-        v_ref = _row_reference_variance(carr, vdiag[j], vx)
-        w = (var / np.clip(var + v_ref, 1e-300, None)) ** 2  # each row's share of information on the error
-        # the scale s with |E| ≤ 1.96·√(s·var + v_ref) on 95 % of rows (E holds the reference's
-        # noise, the interval is of the true wrench): each row needs s ≥ z²/1.96² with
-        E = E.astype(float)
-        z = np.sqrt(np.clip(E * E - 1.959964**2 * v_ref, 0, None) / np.clip(var, 1e-300, None))
-        bins = np.minimum(z / _Z_WIDTH, _Z_N).astype(np.int64) + rows * (_Z_N + 1)
-        hist += np.bincount(bins.ravel(), weights=w.ravel(), minlength=hist.size).reshape(hist.shape)
-    cdf = np.cumsum(hist, axis=1) / np.clip(hist.sum(axis=1, keepdims=True), 1, None)
-    q95 = (np.argmax(cdf >= 0.95, axis=1) + 1) * _Z_WIDTH
-    return (q95 / 1.959964) ** 2
+    sessions, start = [], 0
+    for _, _, carr, j, _ in kept:
+        if sessions and sessions[-1][0] == j:
+            sessions[-1][2] += carr.shape[0]
+        else:
+            sessions.append([j, start, start + carr.shape[0]])
+        start += carr.shape[0]
+    n = start
+    carr = np.concatenate([k[2] for k in kept]).T  # (F, n)
+    vT = None
+    if noisy:
+        vT = np.empty((F, 6, n))
+        for j, a, b in sessions:
+            np.multiply(carr[None, :, a:b], vdiag[j].T[:, :, None], out=vT.transpose(1, 0, 2)[:, :, a:b])
+        if kept[0][4] is not None:
+            np.copyto(vT, np.concatenate([k[4] for k in kept]).T.reshape(F, 6, n), where=~carr[:, None, :])
+    return dict(ET=np.ascontiguousarray(np.concatenate([k[0] for k in kept]).T).reshape(F, 6, n),
+                phT=np.ascontiguousarray(np.concatenate([k[1] for k in kept]).transpose(1, 2, 0)), carr=carr, vT=vT,
+                sessions=[(j, slice(a, b)) for j, a, b in sessions])
 
 
-def _row_reference_variance(carr, vdiag, vx) -> np.ndarray:
-    """``(n, 6F)`` the reference's noise in each training residual: its own where the face carries
-    (``vdiag (F, 6)``), else its share through the fitted coefficients (``vx``, None: none)."""
-    c = np.repeat(carr, 6, axis=1)
-    v = c * vdiag.reshape(1, -1)
-    return v if vx is None else np.where(c, v, vx)
+def _chunks(b, floor=None):
+    """Per chunk of one session's consecutive samples: ``(j, c)``, ``c`` the chunk's float64 ``ET``,
+    ``phT``, ``vT`` (0 without reference noise), ``carr`` and, with ``floor (6F,)``, ``E2T``: the
+    residuals' squares less the reference's variance and the floor."""
+    F = b["ET"].shape[0]
+    for j, sl in b["sessions"]:
+        for a in range(sl.start, sl.stop, _CHUNK):
+            s = slice(a, min(a + _CHUNK, sl.stop))
+            c = dict(ET=b["ET"][:, :, s].astype(float), phT=b["phT"][:, :, s].astype(float), carr=b["carr"][:, s],
+                     vT=0.0 if b["vT"] is None else b["vT"][:, :, s])
+            if floor is not None:
+                E2 = c["ET"] * c["ET"]
+                E2 -= c["vT"]
+                E2 -= floor.reshape(F, 6, 1)
+                c["E2T"] = E2
+            yield j, c
 
 
-def _prepared(kept, vref_full, floor, F):
-    """Each kept block as every reweighting step reads it: float64, face-major (made per step,
-    one block at a time: the working memory stays that of a block).
-
-    Yields a dict per block: ``phT (F, 4, n)`` features, ``ET (F, 6, n)`` residuals, ``E2T`` their
-    squares less the reference's variance and the floor, ``v (F, n, 6)`` the reference's
-    variance, ``floor (F, 1, 6)``, ``carrT (F, n)``, session ``j``.
-    """
-    for E, phi, carr, j, vx in kept:
-        n = E.shape[0]
-        ph = np.asarray(phi, dtype=float).transpose(1, 0, 2)  # (F, n, 4)
-        v = _row_reference_variance(carr, np.diagonal(vref_full[j], axis1=-2, axis2=-1), vx)
-        Ef = np.asarray(E, dtype=float)
-        E2 = Ef * Ef - v - floor
-        yield dict(phT=ph.transpose(0, 2, 1), ET=Ef.reshape(n, F, 6).transpose(1, 2, 0),
-                   E2T=E2.reshape(n, F, 6).transpose(1, 2, 0), v=v.reshape(n, F, 6).transpose(1, 0, 2),
-                   floor=floor.reshape(F, 1, 6), carrT=np.asarray(carr, dtype=float).T, j=j)
+def _variances(phT, coef, floor=None, out=None) -> np.ndarray:
+    """``(F, 6, n)`` each row's modelled variance at samples of features ``phT (F, 4, n)``: with
+    ``floor (6F,)`` added and not below 0."""
+    F = phT.shape[0]
+    C = coef.reshape(F, 6, N_FEATURES)
+    if floor is None:
+        return np.matmul(C, phT, out=out)
+    C = C.copy()
+    C[..., 0] += floor.reshape(F, 6)  # φ_0 = 1
+    var = np.matmul(C, phT, out=out)
+    return np.maximum(var, 0, out=var)
 
 
-def _reweighted(kept, coef, floor, floor_m, vref_full, EtE, F, rel_var, noisy=True):
-    """One reweighting step of the error model (updates ``coef`` in place); returns ``corr (F, 6, 6)``.
+def _weighted_sums(b, coef, floor, n_s, noisy) -> np.ndarray:
+    """``(n_s, F, 18, 10)``: per session, the sums over the samples of ``w``, ``w (E² − v)`` and ``w v``
+    (rows, 6 each) times the features' distinct products (:data:`_PAIRS`), ``w = 1 / (var + v)²``
+    with a ``noisy`` reference, else 1."""
+    F = b["ET"].shape[0]
+    M = np.zeros((n_s, F, 18, len(_PAIRS[0])))
+    for j, c in _chunks(b, floor):
+        n = c["ET"].shape[2]
+        L = np.empty((F, 18, n))
+        w = L[:, :6]
+        if noisy:
+            tot = _variances(c["phT"], coef, floor, out=w)  # in place: w = 1 / tot², tot = max(var + v, 1e-300)
+            tot += c["vT"]
+            np.maximum(tot, 1e-300, out=tot)
+            np.multiply(tot, tot, out=w)
+            np.divide(1.0, w, out=w)
+        else:
+            w[...] = 1.0
+        np.multiply(w, c["E2T"], out=L[:, 6:12])
+        np.multiply(w, c["vT"], out=L[:, 12:])
+        PP = np.empty((F, len(_PAIRS[0]), n))
+        PP[:, :N_FEATURES] = c["phT"]  # φ_0 φ_j = φ_j
+        for p, (i, k) in enumerate(zip(*_PAIRS)):
+            if i > 0:
+                np.multiply(c["phT"][:, i], c["phT"][:, k], out=PP[:, p])
+        M[j] += np.matmul(L, PP.transpose(0, 2, 1))
+    return M
+
+
+def _reweighted(b, coef, floor, rel_var, noisy=True) -> None:
+    """One reweighting step of the error model's variance (updates ``coef`` in place).
 
     With a ``noisy`` reference the variance fit weighs rows by ``1 / (var + v)²``, the inverse
     variance of ``E² − v`` (the rows the reference's noise swamps count little, the rows it does not
-    touch fully); with an exact one, all alike. The axes' correlation weighs rows by
-    ``(var / (var + v))²``, each row's share of information on the error (1 where the reference
-    adds nothing).
+    touch fully); with an exact one, all alike (and one step is all: the weights do not change).
     """
-    n_s = len(rel_var)
-    PtWP = np.zeros((F, 6, N_FEATURES**2))
-    PtWe = np.zeros((F, 6, N_FEATURES))
-    PtWv = np.zeros((n_s, F, 6, N_FEATURES))  # per session: response to a relative error of its v
-    S, w_sum = np.zeros((F, 6, 6)), np.zeros(F)
-    C = coef.reshape(F, 6, N_FEATURES)
-    for b in _prepared(kept, vref_full, floor, F):  # batched over faces: (F, 6, n) @ (F, n, ·)
-        var0 = np.clip(np.matmul(b["phT"].transpose(0, 2, 1), C.transpose(0, 2, 1)) + b["floor"], 0, None)  # (F, n, 6)
-        tot = np.clip(var0 + b["v"], 1e-300, None)
-        share = (var0 / tot) ** 2
-        wT = (1.0 / tot**2 if noisy else np.ones_like(tot)).transpose(0, 2, 1)  # (F, 6, n)
-        ph = b["phT"].transpose(0, 2, 1)  # (F, n, 4)
-        PtWP += np.matmul(wT, (ph[:, :, :, None] * ph[:, :, None, :]).reshape(F, ph.shape[1], -1))
-        PtWe += np.matmul(wT * b["E2T"], b["phT"].transpose(0, 2, 1))
-        PtWv[b["j"]] += np.matmul(wT * b["v"].transpose(0, 2, 1), b["phT"].transpose(0, 2, 1))
-        wf = share.mean(axis=2)  # (F, n)
-        S += np.matmul(b["ET"] * wf[:, None, :], b["ET"].transpose(0, 2, 1))
-        S -= (wf * b["carrT"]).sum(axis=1)[:, None, None] * vref_full[b["j"]]
-        w_sum += wf.sum(axis=1)
+    F, n_s = b["ET"].shape[0], len(rel_var)
+    M = _weighted_sums(b, coef, floor, n_s, noisy)
+    PtWP = np.empty((F, 6, N_FEATURES, N_FEATURES))
+    PtWP[..., _PAIRS[0], _PAIRS[1]] = M[:, :, :6].sum(axis=0)
+    PtWP[..., _PAIRS[1], _PAIRS[0]] = PtWP[..., _PAIRS[0], _PAIRS[1]]
     PtWP = PtWP.reshape(6 * F, N_FEATURES, N_FEATURES)
-    PtWe = PtWe.reshape(6 * F, N_FEATURES)
-    PtWv = PtWv.reshape(n_s, 6 * F, N_FEATURES)
+    PtWe = M[:, :, 6:12, :N_FEATURES].sum(axis=0).reshape(6 * F, N_FEATURES)
+    PtWv = M[:, :, 12:, :N_FEATURES].reshape(n_s, 6 * F, N_FEATURES)  # per session: response to a relative error of its v
+    fit = PtWP[:, 0, 0] > 0
+    coef[fit] = _significant_rows(PtWP[fit], PtWe[fit], PtWv[:, fit], rel_var)
+
+
+def _correlation(b, coef, floor, floor_m, vref_full, EtE) -> np.ndarray:
+    """``corr (F, 6, 6)``: the error's correlation between a face's axes, rows weighted by
+    ``(var / (var + v))²``, each row's share of information on the error (1 where the reference
+    adds nothing): the residuals' less the reference's (where that is not positive, the gauge noise
+    through the matrix where it is), the true wrench's error's."""
+    F = b["ET"].shape[0]
+    S, w_sum = np.zeros((F, 6, 6)), np.zeros(F)
+    for j, c in _chunks(b):
+        var0 = _variances(c["phT"], coef, floor)
+        tot = np.maximum(var0 + c["vT"], 1e-300)
+        share = np.divide(var0, tot, out=tot)
+        share *= share
+        wf = share.mean(axis=1)  # (F, n)
+        S += np.matmul(c["ET"] * wf[:, None, :], c["ET"].transpose(0, 2, 1))
+        S -= (wf * c["carr"]).sum(axis=1)[:, None, None] * vref_full[j]
+        w_sum += wf.sum(axis=1)
     corr = np.zeros((F, 6, 6))
     for k in range(F):
-        for a in range(6):
-            r = 6 * k + a
-            if PtWP[r, 0, 0] > 0:
-                coef[r] = _significant_nnls(PtWP[r], PtWe[r], PtWv[:, r], rel_var)
-        # the error's correlation between a face's axes: the residuals' less the reference's (where
-        # that is not positive, the gauge noise through the matrix where it is), the true wrench's error's
         Sk = S[k] / max(w_sum[k], 1e-300)
         if np.all(np.isfinite(Sk)) and np.linalg.eigvalsh(0.5 * (Sk + Sk.T))[0] < 0:
             Sk = _psd(Sk - floor_m[k]) + floor_m[k]
@@ -365,6 +475,40 @@ def _reweighted(kept, coef, floor, floor_m, vref_full, EtE, F, rel_var, noisy=Tr
             d = np.sqrt(np.clip(np.diag(EtE[k]), 1e-300, None))
             corr[k] = EtE[k] / np.outer(d, d)
     return corr
+
+
+def _coverage_scale(b, coef) -> np.ndarray:
+    """``(6F,)`` factor on each row's variance so that ±1.96 σ holds 95 % of its training residuals.
+
+    Errors are not Gaussian (nonlinearity, drift): the interval, with the reference's noise
+    (``b["vT"]``) added, is scaled to cover 95 % of the rows, weighted as in the reweighting.
+    """
+    R = 6 * b["ET"].shape[0]
+    hist = np.zeros(R * (_Z_N + 1))
+    offset = np.arange(R)[:, None] * (_Z_N + 1)
+    for _, c in _chunks(b):
+        var = _variances(c["phT"], coef).reshape(R, -1)  # (6F, n)
+        v_ref = c["vT"] if b["vT"] is None else c["vT"].reshape(R, -1)
+        w = np.maximum(var + v_ref, 1e-300)
+        np.divide(var, w, out=w)
+        w *= w  # each row's share of information on the error
+        # the scale s with |E| ≤ 1.96·√(s·var + v_ref) on 95 % of rows (E holds the reference's
+        # noise, the interval is of the true wrench): each row needs s ≥ z²/1.96² with
+        E = c["ET"].reshape(R, -1)
+        z = E * E
+        z -= 1.959964**2 * v_ref
+        np.maximum(z, 0, out=z)
+        z /= np.maximum(var, 1e-300, out=var)
+        np.sqrt(z, out=z)
+        z /= _Z_WIDTH
+        np.minimum(z, _Z_N, out=z)
+        bins = z.astype(np.int64)
+        bins += offset
+        hist += np.bincount(bins.ravel(), weights=w.ravel(), minlength=hist.size)
+    hist = hist.reshape(R, _Z_N + 1)
+    cdf = np.cumsum(hist, axis=1) / np.clip(hist.sum(axis=1, keepdims=True), 1, None)
+    q95 = (np.argmax(cdf >= 0.95, axis=1) + 1) * _Z_WIDTH
+    return (q95 / 1.959964) ** 2
 
 
 def _strided(blocks, stride):
@@ -382,8 +526,9 @@ def _predict(cal, x) -> np.ndarray:
 
 
 def _features(cal, x, idx) -> np.ndarray:
-    """``load_features`` of the output faces ``idx`` (0-based) for offset-free counts ``x (n, 36)``: (n, F, 4)."""
-    A = cal._apply.reshape(36, 36)  # rows: face-major wrench components
-    Wf = np.full((x.shape[0], 6, 6), np.nan)
-    Wf[:, idx] = (x @ A.T).reshape(-1, 6, 6)[:, idx]
-    return load_features(Wf)[:, idx]
+    """``load_features`` of the output faces ``idx`` (0-based) for offset-free counts ``x (n, 36)``: (n, F, 4)
+    (the faces without output count 0 in ``q_other``, as NaN faces there)."""
+    A = cal._apply.reshape(6, 6, 36)[idx].reshape(-1, 36)  # rows: the output faces' wrench components
+    u = (x @ A.T).reshape(-1, len(idx), 6)
+    u /= FULL_SCALE
+    return q_features(np.einsum("nfi,nfi->nf", u, u))

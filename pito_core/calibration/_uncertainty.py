@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["CovarianceGroup", "CalibrationCovariance", "load_features", "N_FEATURES", "FULL_SCALE"]
+__all__ = ["CovarianceGroup", "CalibrationCovariance", "load_features", "q_features", "N_FEATURES", "FULL_SCALE"]
 
 #: Full-scale loads that make a wrench dimensionless, ``[fx … tz]`` in N and N·m.
 FULL_SCALE = np.array([15.0, 15.0, 15.0, 0.1, 0.1, 0.1])
@@ -46,7 +46,11 @@ def load_features(face_wrenches: np.ndarray) -> np.ndarray:
     ``q_other`` the sum of the other faces' ``q``.
     """
     u = np.nan_to_num(face_wrenches / FULL_SCALE)
-    q = np.einsum("nfi,nfi->nf", u, u)
+    return q_features(np.einsum("nfi,nfi->nf", u, u))
+
+
+def q_features(q: np.ndarray) -> np.ndarray:
+    """``(N, F, 4)`` :func:`load_features` from each face's ``q (N, F)`` (the faces left out count 0)."""
     out = np.empty(q.shape + (N_FEATURES,))
     out[..., 0] = 1.0
     out[..., 1] = q
