@@ -51,7 +51,7 @@ def closed_outward(mesh: pv.PolyData) -> bool:
     """True when ``mesh`` is a closed surface whose triangles face out (positive signed volume).
 
     Its back faces are then never seen from outside when it is opaque: they can be culled
-    (``backface_culling``), which spares software GL their setup and rasterization.
+    (``SetBackfaceCulling``), which spares software GL their setup and rasterization.
     """
     tri = mesh if mesh.is_all_triangles else mesh.triangulate()
     if tri.n_cells == 0 or not tri.is_manifold:
@@ -133,12 +133,12 @@ class CubeScene(QWidget):
         # opaque closed boxes: their back faces are culled (never seen; less work for software GL)
         core = self.plotter.add_mesh(pv.Cube(x_length=0.9 * e, y_length=0.9 * e, z_length=0.9 * e), color=CORE_COLOR,
                                      name="core", reset_camera=False)
-        core.prop.backface_culling = True
+        core.GetProperty().SetBackfaceCulling(True)
         for i in FACES:
             T = self.core.face_pose(i)
             plate = pv.Box(bounds=(-0.42 * e, 0.42 * e, -0.42 * e, 0.42 * e, -0.04 * e, 0.0)).transform(T, inplace=False)
             self._plates[i] = self.plotter.add_mesh(plate, color=PLATE_COLOR, name=f"plate_{i}", smooth_shading=False, reset_camera=False)
-            self._plates[i].prop.backface_culling = True
+            self._plates[i].GetProperty().SetBackfaceCulling(True)
             self.face_labels[i] = _face_label(str(i), self.core.face_pose(i)[:3, 3] * 1.45)
             self.plotter.renderer.AddActor(self.face_labels[i])
 
@@ -288,7 +288,7 @@ class CubeScene(QWidget):
             )
             # an opaque closed patch (the library's are): its back faces never show; culled, they cost
             # software GL nothing (a third of the scene's frame with pito_mixed's patches)
-            self._patches[i].prop.backface_culling = opacity >= 1.0 and closed_outward(mesh)
+            self._patches[i].GetProperty().SetBackfaceCulling(opacity >= 1.0 and closed_outward(mesh))
         self._place_labels()
         if self.frame_glyphs:
             self.frame_contacts()
