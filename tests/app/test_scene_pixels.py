@@ -131,3 +131,26 @@ def test_face_numbers_stand_clear_of_the_patches(scene):
         pos = np.array(lab.GetPosition())
         assert pos @ n >= outer + scene.glyphs.radius * 2
         assert np.allclose(pos - (pos @ n) * n, 0, atol=1e-12)
+
+
+def test_culled_back_faces_change_no_pixel(scene):
+    """The library's patches are closed and face out: their back faces are culled, and the view is the same."""
+    from app.objects import display_meshes, load_assembly
+
+    scene.set_patches(display_meshes(load_assembly("pito_mixed")))
+    assert all(a.GetProperty().GetBackfaceCulling() for a in scene._patches.values())
+    culled = pixels(scene)
+    for a in scene._patches.values():
+        a.GetProperty().SetBackfaceCulling(False)
+    assert changed(culled, pixels(scene)).sum() == 0
+
+
+def test_open_inward_or_translucent_patches_keep_their_back_faces(scene):
+    import pyvista as pv
+
+    e = scene.core.edge
+    ball = pv.Sphere(radius=0.2 * e, center=(0.55 * e, 0, 0))
+    scene.set_patches({1: ball, 2: ball.flip_faces(), 3: pv.Disc(center=(-0.55 * e, 0, 0), outer=0.2 * e, normal=(-1, 0, 0))})
+    assert [scene._patches[i].GetProperty().GetBackfaceCulling() for i in (1, 2, 3)] == [1, 0, 0]
+    scene.set_patches({1: ball}, opacity=0.5)
+    assert not scene._patches[1].GetProperty().GetBackfaceCulling()
