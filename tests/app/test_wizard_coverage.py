@@ -82,14 +82,20 @@ def test_every_method_through_the_wizard_ends_complete_or_says_so(qapp, grasp, m
         assert cov.complete, cov.describe()
     rest = range(200, 900, 50)
     grasped = range(2000, 7900, 50)
+    beyond = []
     for rows in (rest, grasped):
         phantom, net, last = live_errors(cal, grasp, rows)
-        assert np.nanmax(phantom) <= 1.0, f"phantom force {np.nanmax(phantom):.2f} × the calibration's 99 % radius"
+        # A 99 % radius is passed by ~1 % of instants by design (the ball around the largest
+        # eigenvalue, fewer): at most 2 % of the ~500 face-instants, and none grossly.
+        beyond.append(phantom[np.isfinite(phantom)] > 1.0)
+        assert np.nanmax(phantom) <= 1.5, f"phantom force {np.nanmax(phantom):.2f} × the calibration's 99 % radius"
         if cov.net_load:
             assert np.nanmax(np.abs(net)) <= 1.0, f"‖ΣF‖ off by {np.nanmax(np.abs(net)):.2f} × its 99 % radius"
         else:
             assert np.isnan(last.sum_force).all() and np.isnan(last.wrenches[5]).all()
             assert not last.contacts.valid[5]
+    beyond = np.concatenate(beyond)
+    assert beyond.mean() <= 0.02, f"phantom force beyond the 99 % radius in {100 * beyond.mean():.1f} % of instants"
     # the headline is the validation pass, with its interval; the held-out split stays secondary
     assert figures is not None and figures.n_captures >= 6 * len(model.stages[1].faces) // 2
     assert figures.worst_force_ci[0] <= figures.worst_force <= figures.worst_force_ci[1]
