@@ -198,7 +198,7 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     idx = [f - 1 for f in cal.output_faces]
     stride = max(1, sum(len(s) for s in sessions) // ERROR_MODEL_SAMPLES)
     ref_covs = [None] * len(sessions) if ref_covs is None else ref_covs
-    floor = np.zeros(6 * F) if gauge_cov is None else np.einsum("ia,ab,ib->i", cal.matrix, gauge_cov, cal.matrix)
+    floor = np.zeros(6 * F) if gauge_cov is None else np.einsum("ia,ia->i", cal.matrix @ gauge_cov, cal.matrix)
     noisy = any(np.any(rc) for rc in ref_covs if rc is not None)
     lev = ReferenceLeverage(groups, cal.output_faces, len(sessions)) if noisy else None
     PtP, Pte2, EtE, kept, clusters = _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups,
@@ -218,7 +218,7 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     # subtraction (a weight (var / (var + v))² let rows that carry nothing but crosstalk set the
     # load term of the rows that carry: face_to_face at 3 % reference noise covered 18 %).
     floor_m = (np.zeros((F, 6, 6)) if gauge_cov is None else
-               np.einsum("kia,ab,kjb->kij", cal.matrix.reshape(F, 6, 36), gauge_cov, cal.matrix.reshape(F, 6, 36)))
+               cal.matrix.reshape(F, 6, 36) @ gauge_cov @ cal.matrix.reshape(F, 6, 36).transpose(0, 2, 1))
     vdiag = [np.diagonal(V, axis1=-2, axis2=-1) for V in vref_full]  # (F, 6) per session
     rel_var = [0.0 if n is None else 2.0 / max(n - 1, 1) for n in (ref_n or [None] * len(sessions))]
     b = _stacked(kept, vdiag, F, noisy)
@@ -257,10 +257,12 @@ def _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups, block_
     for j, (s, mount, o, rc) in enumerate(zip(sessions, mounts, offsets, ref_covs)):
         for b in (_strided(s.iter_blocks(block_size), stride) if samples is None else samples[j]):
             targets, carries, usable, _ = block_targets(b.reference, b.loaded, mount, spec.output_frame)
-            counts = b.counts if usable.all() else b.counts[usable]
+            if usable.all():  # the usual case: no copies
+                usable = slice(None)
+            counts = b.counts[usable]
             x = counts - o
             Y = _predict(cal, x).reshape(-1, F, 6)
-            E = targets[usable][:, idx] - Y
+            E = targets[usable][:, idx] - Y  # C-ordered (the indexed targets are face-major: EF below copies)
             phi = _features(cal, x, idx)  # (n, F, 4)
             kept.append((E.reshape(-1, 6 * F).astype(np.float32), phi.astype(np.float32), carries[usable][:, idx], j))
             EF = np.ascontiguousarray(E.transpose(1, 0, 2))  # (F, n, 6): products batched over faces
@@ -294,12 +296,12 @@ def _add_cluster_scores(groups, clusters, own_face, counts, Eflat, carries, unlo
         cl = clusters[id(g)]
         f = own_face[id(g)]
         rows = slice(None) if f is None else np.flatnonzero(carries[:, f - 1] | unloaded)
-        Xg = counts[rows][:, g.inputs] if f is not None else counts
-        A = np.zeros((Xg.shape[0], n_int + g.inputs.size))
+        Xg = counts if f is None and _is_range(g.inputs, 36) else counts[rows][:, g.inputs]  # views where all are taken
+        A = np.empty((Xg.shape[0], n_int + g.inputs.size))
+        A[:, :n_int] = 0.0
         A[:, j] = 1.0
-        A[:, n_int:] = Xg if f is not None else Xg[:, g.inputs]
-        A[:, n_int:] -= tare_mean[g.inputs]
-        Eg = Eflat[rows][:, g.rows]
+        np.subtract(Xg, tare_mean[g.inputs], out=A[:, n_int:])
+        Eg = Eflat if f is None and _is_range(g.rows, Eflat.shape[1]) else Eflat[rows][:, g.rows]
         a = 0
         while a < A.shape[0]:  # clusters of consecutive samples, across blocks
             take = min(A.shape[0] - a, cl["length"] - cl["n"])
@@ -308,9 +310,19 @@ def _add_cluster_scores(groups, clusters, own_face, counts, Eflat, carries, unlo
             a += take
             if cl["n"] >= cl["length"]:
                 sc = cl["score"]
-                cl["meat"] += np.einsum("pj,pq,qj->j", sc, g.design_pinv, sc)
+                cl["meat"] += _quadratic(sc, g.design_pinv)
                 cl["score"] = np.zeros_like(sc)
                 cl["n"] = 0
+
+
+def _quadratic(sc, P) -> np.ndarray:
+    """``(j,)`` the quadratic forms ``sc[:, j]ᵀ P sc[:, j]`` (one product, not a three-operand ``einsum``)."""
+    return np.einsum("pj,pj->j", P @ sc, sc)
+
+
+def _is_range(ix, n) -> bool:
+    """Whether the indices ``ix`` are ``0, 1, …, n − 1`` (then a view replaces the copy they would take)."""
+    return ix.size == n and bool(np.all(ix == np.arange(n)))
 
 
 def _set_inflation(groups, clusters, stride) -> None:
@@ -318,7 +330,7 @@ def _set_inflation(groups, clusters, stride) -> None:
     for g in groups:
         cl = clusters[id(g)]
         sc = cl["score"]
-        cl["meat"] += np.einsum("pj,pq,qj->j", sc, g.design_pinv, sc)
+        cl["meat"] += _quadratic(sc, g.design_pinv)
         rank = max(int(np.linalg.matrix_rank(g.design_pinv, hermitian=True)), 1)
         var = np.clip(np.diag(g.residual_cov), 1e-300, None)
         # the scores are sums over every stride-th sample: × stride for the full data's (independent errors)
@@ -377,7 +389,9 @@ def _chunks(b, floor=None):
     for j, sl in b["sessions"]:
         for a in range(sl.start, sl.stop, _CHUNK):
             s = slice(a, min(a + _CHUNK, sl.stop))
-            c = dict(ET=b["ET"][:, :, s].astype(float), phT=b["phT"][:, :, s].astype(float), carr=b["carr"][:, s],
+            if (j, a) not in b.setdefault("f64", {}):  # float64 of the chunk, made once for every pass
+                b["f64"][j, a] = (b["ET"][:, :, s].astype(float), b["phT"][:, :, s].astype(float))
+            c = dict(ET=b["f64"][j, a][0], phT=b["f64"][j, a][1], carr=b["carr"][:, s],
                      vT=0.0 if b["vT"] is None else b["vT"][:, :, s])
             if floor is not None:
                 E2 = c["ET"] * c["ET"]
