@@ -7,9 +7,10 @@ reference frame) and ``s_f ∈ {0, ±1}`` set by which face is loaded (the load 
 face, or none) the signs are constant, so the Gram matrix of the joint design
 ``Z = [1 | counts − c_k | targets of all six faces]`` (73 columns) is ``Eᵀ H E`` with
 ``H`` the Gram of the group's ``[1 | counts − c_k | r]`` (43 columns) and ``E`` the
-group's fixed (43, 73) map: the targets are never laid out per sample. Per block the
-samples are sorted by group (stable) and taken in cache-sized chunks into one reused
-buffer, each chunk adding its ``ZᵀZ`` (one ``syrk``) to its group's ``H``; ``c_k`` is a
+group's fixed (43, 73) map: the targets are never laid out per sample. Each cache-sized
+chunk of consecutive samples is sorted by group (stable) into one reused buffer, each
+group's run adding its ``ZᵀZ`` to its group's ``H`` (the rows are read in order, from
+memory once: taking a group's rows across a whole block missed the cache); ``c_k`` is a
 provisional centre of session ``k`` (its first sample), subtracted exactly (the counts are
 converted to float chunk by chunk, from their stored dtype). Samples loading two faces or
 more (``_targets.py``: not usable) add nothing. Each face's own-gauge design takes its rows
@@ -91,6 +92,7 @@ class GramPass:
         self.joint = bool(joint)
         self.own_faces = tuple(own_faces)
         self.H = np.zeros((n_int, 7, 43, 43))  # per session and load group: Gram of [1 | counts − c | r]
+        self._cols = [None] * n_int  # per session and load group: the columns it sums (None: all 43)
         self.maps = [None] * n_int  # per session: (signs (7, 6), A (6, 6, 6)) of its mount and output frame
         self.sizes = np.zeros((n_int, 7), dtype=np.int64)  # samples per session and load group
         self.n_used = 0
@@ -102,6 +104,7 @@ class GramPass:
         self.sub = [[] for _ in range(n_int)]
         self._buf = np.empty(CHUNK * 43)  # one chunk of a group's design, rows of up to 43 columns
         self._cbuf = None
+        self._rbuf = np.empty((CHUNK, 6))
         self._ones = np.ones(CHUNK)
         self._xc = [None if c is None else np.r_[0.0, c, np.zeros(6)] for c in self.centers]  # c_k in Z's columns
         self._G = None
@@ -119,6 +122,7 @@ class GramPass:
         if self.maps[k] is None:
             A = mount.X_face_ati if output_frame == "face" else np.broadcast_to(np.eye(6), (6, 6, 6))
             self.maps[k] = (group_signs(mount.flange, mount.connected_face), np.array(A))
+            self._cols[k] = [None if c.size == 43 else c for c in (self._group_columns(k, g)[1] for g in range(7))]
         self._G = None
         group = load_groups(b.loaded)
         if poly is not None:
@@ -128,43 +132,44 @@ class GramPass:
         # residual the error model reads), so it costs 200 B a sample
         self.sub[k].append(SessionBlock(b.start + first, (b.counts[first::self.stride] - self.centers[k]).astype(np.float32),
                                         b.reference[first::self.stride].copy(), b.loaded[first::self.stride].copy()))
-        order = np.argsort(group, kind="stable")
-        ends = np.cumsum(np.bincount(group, minlength=8))
-        for g in range(7):
-            self._add_group(k, g, b, order[(ends[g - 1] if g else 0) : ends[g]])
-        sizes = np.diff(ends[:7], prepend=0)
+        sizes = np.bincount(group, minlength=8)[:7]
+        for a in range(0, group.size, CHUNK):
+            self._add_chunk(k, b, group, slice(a, min(a + CHUNK, group.size)))
         self.sizes[k] += sizes
         self.n_used += int(sizes.sum())
         self.carried_any |= ((sizes[:, None] > 0) & (self.maps[k][0] != 0)).any(axis=0)
         return b.loaded[:, mount.connected_face - 1] if mount.flange == "frame" else np.zeros(b.loaded.shape[0], dtype=bool)
 
-    def _add_group(self, k, g, b, rows) -> None:
-        """Add the samples ``rows`` (of load group ``g``) of block ``b`` to ``H[k, g]``, a chunk at a time.
+    def _add_chunk(self, k, b, group, rows: slice) -> None:
+        """Add the consecutive samples ``rows`` of block ``b`` to ``H[k, ·]``: sorted by load group
+        (stable) into the reused buffer, each group's run adding its Gram to its ``H``.
 
-        Without the joint design only the gauges of the faces that carry load in the group enter
+        Without the joint design only the gauges of the faces that carry load in a group enter
         (every face's in the unloaded group): the own-gauge designs read nothing else.
         """
-        faces, cols = self._group_columns(k, g)
-        w = cols.size
-        H = self.H[k, g] if w == 43 else np.zeros((w, w))
-        xc = self._xc[k][cols]
-        for a in range(0, rows.size, CHUNK):
-            idx = rows[a : a + CHUNK]
-            Z = self._buf[: idx.size * w].reshape(idx.size, w)
-            Z[:, _ONE] = 1.0
-            counts = np.take(b.counts, idx, axis=0, out=self._counts_buf(b.counts)[: idx.size], mode="clip")
-            if w == 43:
-                np.copyto(Z[:, _X], counts, casting="unsafe")
-            for j, f in enumerate(faces if w < 43 else ()):
-                np.copyto(Z[:, 1 + 6 * j : 7 + 6 * j], counts[:, 6 * f : 6 * f + 6], casting="unsafe")
-            np.take(b.reference, idx, axis=0, out=Z[:, w - 6 :], mode="clip")
-            # counts − c_k in place, exactly as a subtraction (one rank-1 update: the rows are short for numpy)
-            Z = scipy.linalg.blas.dger(-1.0, xc, self._ones[: idx.size], a=Z.T, overwrite_a=1).T
-            H += Z.T @ Z
-            if g == 0:
-                self._tare(k, Z[:, _X], Z[:, _R])
-        if w < 43:
-            self.H[k, g][np.ix_(cols, cols)] += H
+        g = group[rows]
+        order = np.argsort(g, kind="stable")
+        ends = np.cumsum(np.bincount(g, minlength=8))
+        n = g.size
+        Z = self._buf[: n * 43].reshape(n, 43)
+        Z[:, _ONE] = 1.0
+        np.copyto(Z[:, _X], np.take(b.counts[rows], order, axis=0, out=self._counts_buf(b.counts)[:n], mode="clip"),
+                  casting="unsafe")
+        Z[:, _R] = np.take(b.reference[rows], order, axis=0, out=self._rbuf[:n], mode="clip")
+        # counts − c_k in place, exactly as a subtraction (one rank-1 update: the rows are short for numpy)
+        Z = scipy.linalg.blas.dger(-1.0, self._xc[k], self._ones[:n], a=Z.T, overwrite_a=1).T
+        for j in range(7):
+            Zg = Z[(ends[j - 1] if j else 0) : ends[j]]
+            if Zg.shape[0] == 0:
+                continue
+            cols = self._cols[k][j]
+            if cols is None:
+                self.H[k, j] += Zg.T @ Zg
+            else:
+                Zg = Zg[:, cols]
+                self.H[k, j][np.ix_(cols, cols)] += Zg.T @ Zg
+            if j == 0:
+                self._tare(k, Zg[:, _X], Zg[:, _R])
 
     def _group_columns(self, k, g):
         """``(faces, columns)``: the faces (0-based) whose gauges load group ``g`` of session ``k`` sums,
