@@ -25,11 +25,11 @@ from ..frames import FACES
 from ._calibration import Calibration
 from ._coverage import measured_directions
 from ._cv import MODELS, ModelChoice
-from ._gramfit import GramPass, check_connected
+from ._gramfit import GramPass, check_block, check_connected
 from ._lstsq import RANK_RTOL, StreamedQR
 from ._nlfit import PolyAccumulator, correction as poly_correction, mixed_offsets
 from ._methods import MethodSpec, get_method
-from ..io import CalibrationSession, few_indices as _few
+from ..io import CalibrationSession
 from ._targets import MountGeometry, block_targets
 from ._residuals import fit_error_model
 from ._uncertainty import CalibrationCovariance, CovarianceGroup
@@ -142,7 +142,7 @@ def _tare_moments(session: CalibrationSession, block_size: int = 65536, with_ref
     shift = None  # first unloaded sample: sums of squares about it do not cancel catastrophically
     lo, hi = session.counts_range
     for b in session.iter_blocks(block_size, counts_dtype=None):  # only the unloaded rows are converted
-        _check_block(b, lo, hi)
+        check_block(b, lo, hi)
         free = ~b.loaded.any(axis=1)
         if free.any():
             c = b.counts[free]
@@ -165,23 +165,6 @@ def _tare_moments(session: CalibrationSession, block_size: int = 65536, with_ref
         rc = r_sq / n - np.outer(rm, rm)
         out = out + (0.5 * (rc + rc.T),)
     return out
-
-
-def _check_block(b, lo, hi) -> None:
-    """Refuse NaN or inf counts or reference, and counts at or beyond the ADC range ``[lo, hi]``, naming the samples."""
-    if b.counts.min() > lo and b.counts.max() < hi and np.isfinite(b.reference.sum()):
-        return  # the usual case: three reductions of the block (NaN fails the comparisons)
-    bad = ~np.isfinite(b.counts).all(axis=1)
-    if bad.any():
-        raise ValueError(f"counts: NaN or inf at sample indices {_few(np.flatnonzero(bad) + b.start)}")
-    bad = ~np.isfinite(b.reference).all(axis=1)
-    if bad.any():
-        raise ValueError(f"reference: NaN or inf at sample indices {_few(np.flatnonzero(bad) + b.start)}")
-    sat = ((b.counts <= lo) | (b.counts >= hi)).any(axis=1)
-    raise ValueError(
-        f"counts: saturated (at or beyond the ADC range [{lo}, {hi}]) at sample indices "
-        f"{_few(np.flatnonzero(sat) + b.start)}"
-    )
 
 
 def _gauge_scale(sessions, tare_means, block_size) -> np.ndarray:
@@ -482,10 +465,9 @@ class Calibrator:
         done = 0
         for k, (s, mount) in enumerate(zip(sessions, mounts)):
             lo, hi = s.counts_range
-            for b in s.iter_blocks(self.block_size, counts_dtype=None):  # GramPass converts chunk by chunk
-                _check_block(b, lo, hi)
-                check_connected(gp.add(k, b, mount, spec.output_frame, poly, None if known is None else known[0][k]),
-                                k, b, s.connected_face)
+            for b in s.iter_blocks(self.block_size, counts_dtype=None):  # GramPass converts (and checks) chunk by chunk
+                check_connected(gp.add(k, b, mount, spec.output_frame, poly, None if known is None else known[0][k],
+                                       limits=(lo, hi)), k, b, s.connected_face)
                 done += b.counts.shape[0]
                 if self.progress is not None:
                     self.progress(done, total_samples)

@@ -34,7 +34,7 @@ from ._lstsq import GramQR
 from ._residuals import ERROR_MODEL_SAMPLES
 from ._targets import block_targets
 
-__all__ = ["GramPass", "check_connected"]
+__all__ = ["GramPass", "check_block", "check_connected"]
 
 #: Load groups: 0 unloaded, 1..6 the one loaded face, 7 two faces or more (not usable).
 _UNUSABLE = 7
@@ -109,13 +109,18 @@ class GramPass:
         self._xc = [None if c is None else np.r_[0.0, c, np.zeros(6)] for c in self.centers]  # c_k in Z's columns
         self._G = None
 
-    def add(self, k: int, b, mount, output_frame: str, poly=None, poly_center=None):
+    def add(self, k: int, b, mount, output_frame: str, poly=None, poly_center=None, limits=None):
         """Add block ``b`` of session ``k``; returns ``bad_connected`` (n,): samples loading the
         connected face under a ``frame`` flange (see :func:`check_connected`).
 
         ``b.counts`` may be in the stored dtype (integer counts are converted chunk by chunk).
         ``poly`` (a ``PolyAccumulator``) is fed the counts less ``poly_center`` (the tare mean).
+        With ``limits`` (the ADC range ``(lo, hi)``) the block is checked as :func:`check_block`
+        does, chunk by chunk as it is read (before anything else reads it when ``poly`` is given).
         """
+        if limits is not None and poly is not None:
+            check_block(b, *limits)
+            limits = None
         if self.centers[k] is None:
             self.centers[k] = b.counts[0].astype(float)
             self._xc[k] = np.r_[0.0, self.centers[k], np.zeros(6)]
@@ -134,15 +139,19 @@ class GramPass:
                                         b.reference[first::self.stride].copy(), b.loaded[first::self.stride].copy()))
         sizes = np.bincount(group, minlength=8)[:7]
         for a in range(0, group.size, CHUNK):
-            self._add_chunk(k, b, group, slice(a, min(a + CHUNK, group.size)))
+            rows = slice(a, min(a + CHUNK, group.size))
+            if not self._add_chunk(k, b, group, rows, limits):
+                check_block(b, *limits)  # raises, naming the samples (a chunk's sum may overflow where the block's did not)
+                self._add_chunk(k, b, group, rows)
         self.sizes[k] += sizes
         self.n_used += int(sizes.sum())
         self.carried_any |= ((sizes[:, None] > 0) & (self.maps[k][0] != 0)).any(axis=0)
         return b.loaded[:, mount.connected_face - 1] if mount.flange == "frame" else np.zeros(b.loaded.shape[0], dtype=bool)
 
-    def _add_chunk(self, k, b, group, rows: slice) -> None:
+    def _add_chunk(self, k, b, group, rows: slice, limits=None) -> bool:
         """Add the consecutive samples ``rows`` of block ``b`` to ``H[k, ·]``: sorted by load group
-        (stable) into the reused buffer, each group's run adding its Gram to its ``H``.
+        (stable) into the reused buffer, each group's run adding its Gram to its ``H``. Returns False
+        if the chunk fails :func:`check_block`'s quick test against ``limits`` (then nothing is added).
 
         Without the joint design only the gauges of the faces that carry load in a group enter
         (every face's in the unloaded group): the own-gauge designs read nothing else.
@@ -153,9 +162,12 @@ class GramPass:
         n = g.size
         Z = self._buf[: n * 43].reshape(n, 43)
         Z[:, _ONE] = 1.0
-        np.copyto(Z[:, _X], np.take(b.counts[rows], order, axis=0, out=self._counts_buf(b.counts)[:n], mode="clip"),
-                  casting="unsafe")
-        Z[:, _R] = np.take(b.reference[rows], order, axis=0, out=self._rbuf[:n], mode="clip")
+        counts = np.take(b.counts[rows], order, axis=0, out=self._counts_buf(b.counts)[:n], mode="clip")
+        r = np.take(b.reference[rows], order, axis=0, out=self._rbuf[:n], mode="clip")
+        if limits is not None and not (counts.min() > limits[0] and counts.max() < limits[1] and np.isfinite(r.sum())):
+            return False
+        np.copyto(Z[:, _X], counts, casting="unsafe")
+        Z[:, _R] = r
         # counts − c_k in place, exactly as a subtraction (one rank-1 update: the rows are short for numpy)
         Z = scipy.linalg.blas.dger(-1.0, self._xc[k], self._ones[:n], a=Z.T, overwrite_a=1).T
         for j in range(7):
@@ -170,6 +182,7 @@ class GramPass:
                 self.H[k, j][np.ix_(cols, cols)] += Zg.T @ Zg
             if j == 0:
                 self._tare(k, Zg[:, _X], Zg[:, _R])
+        return True
 
     def _group_columns(self, k, g):
         """``(faces, columns)``: the faces (0-based) whose gauges load group ``g`` of session ``k`` sums,
@@ -308,3 +321,20 @@ def check_connected(bad, k, b, connected_face) -> None:
             f"sessions[{k}].loaded: the connected face {connected_face} cannot be loaded with "
             f"flange 'frame', yet it is marked loaded at sample indices {_few(np.flatnonzero(bad) + b.start)}"
         )
+
+
+def check_block(b, lo, hi) -> None:
+    """Refuse NaN or inf counts or reference, and counts at or beyond the ADC range ``[lo, hi]``, naming the samples."""
+    if b.counts.min() > lo and b.counts.max() < hi and np.isfinite(b.reference.sum()):
+        return  # the usual case: three reductions of the block (NaN fails the comparisons)
+    bad = ~np.isfinite(b.counts).all(axis=1)
+    if bad.any():
+        raise ValueError(f"counts: NaN or inf at sample indices {_few(np.flatnonzero(bad) + b.start)}")
+    bad = ~np.isfinite(b.reference).all(axis=1)
+    if bad.any():
+        raise ValueError(f"reference: NaN or inf at sample indices {_few(np.flatnonzero(bad) + b.start)}")
+    sat = ((b.counts <= lo) | (b.counts >= hi)).any(axis=1)
+    raise ValueError(
+        f"counts: saturated (at or beyond the ADC range [{lo}, {hi}]) at sample indices "
+        f"{_few(np.flatnonzero(sat) + b.start)}"
+    )
