@@ -265,10 +265,11 @@ def _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups, block_
             E = np.take(targets[usable], idx, axis=1) - Y  # take, not [:, idx]: C-ordered, 8× faster here
             phi = _features(cal, x, idx)  # (n, F, 4)
             kept.append((E.reshape(-1, 6 * F).astype(np.float32), phi.astype(np.float32), carries[usable][:, idx], j))
-            EF = np.ascontiguousarray(E.transpose(1, 0, 2))  # (F, n, 6): products batched over faces
-            EtE += np.matmul(EF.transpose(0, 2, 1), EF)
+            Ef = E.reshape(-1, 6 * F)
+            EtE += (Ef.T @ Ef).reshape(F, 6, F, 6)[np.arange(F), :, np.arange(F)]  # one product; its diagonal blocks
             if lev is not None:  # the reweighting's first weights (with an exact reference, 1 whatever they are)
                 v_ref = _reference_variance(mount, rc, spec.output_frame, carries[usable], idx)
+                EF = np.ascontiguousarray(E.transpose(1, 0, 2))  # (F, n, 6): products batched over faces
                 EF *= EF
                 EF -= v_ref.transpose(1, 0, 2)
                 EF -= floor.reshape(F, 1, 6)
@@ -296,12 +297,13 @@ def _add_cluster_scores(groups, clusters, own_face, counts, Eflat, carries, unlo
         cl = clusters[id(g)]
         f = own_face[id(g)]
         rows = slice(None) if f is None else np.flatnonzero(carries[:, f - 1] | unloaded)
-        Xg = counts if f is None and _is_range(g.inputs, 36) else counts[rows][:, g.inputs]  # views where all are taken
+        # views where all are taken, else one C-ordered copy ([rows][:, inputs] gave a column-major one)
+        Xg = counts if f is None and _is_range(g.inputs, 36) else counts[np.ix_(np.arange(counts.shape[0])[rows], g.inputs)]
         A = np.empty((Xg.shape[0], n_int + g.inputs.size))
         A[:, :n_int] = 0.0
         A[:, j] = 1.0
         np.subtract(Xg, tare_mean[g.inputs], out=A[:, n_int:])
-        Eg = Eflat if f is None and _is_range(g.rows, Eflat.shape[1]) else Eflat[rows][:, g.rows]
+        Eg = Eflat if f is None and _is_range(g.rows, Eflat.shape[1]) else Eflat[np.ix_(np.arange(Eflat.shape[0])[rows], g.rows)]
         a = 0
         while a < A.shape[0]:  # clusters of consecutive samples, across blocks
             take = min(A.shape[0] - a, cl["length"] - cl["n"])

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from ..frames import invert_pose, wrench_adjoint
@@ -20,9 +22,13 @@ class MountGeometry:
         T_ati_core = invert_pose(session.T_core_ati)
         poses = session.core.face_poses()
         self.X_face_ati = np.stack([wrench_adjoint(T_ati_core @ T) for T in poses])  # (6,6,6)
-        self.X_ati_face = np.stack([np.linalg.inv(X) for X in self.X_face_ati])
         self.flange = session.flange
         self.connected_face = session.connected_face
+
+    @functools.cached_property
+    def X_ati_face(self) -> np.ndarray:
+        """``(6, 6, 6)`` inverses of ``X_face_ati`` (made when first read: the fit does not)."""
+        return np.stack([np.linalg.inv(X) for X in self.X_face_ati])
 
 
 def block_targets(reference: np.ndarray, loaded: np.ndarray, mount: MountGeometry, output_frame: str):
