@@ -98,8 +98,8 @@ class GramPass:
         self.n_used = 0
         self.carried_any = np.zeros(6, dtype=bool)
         self.centers = [None] * n_int if centers is None else [np.asarray(c, float) for c in centers]
-        self.tare = [dict(n=0, s=np.zeros(36), ss=np.zeros((36, 36)), r=np.zeros(6), rr=np.zeros((6, 6)), rshift=None, xshift=None)
-                     for _ in range(n_int)]
+        # per session: unloaded samples and the Gram of their [1 | counts − c − xshift | r − rshift]
+        self.tare = [dict(n=0, G=np.zeros((43, 43)), shift=None) for _ in range(n_int)]
         self.stride = max(1, int(total_samples) // ERROR_MODEL_SAMPLES)
         self.sub = [[] for _ in range(n_int)]
         self._buf = np.empty(CHUNK * 43)  # one chunk of a group's design, rows of up to 43 columns
@@ -181,7 +181,7 @@ class GramPass:
                 Zg = Zg[:, cols]
                 self.H[k, j][np.ix_(cols, cols)] += Zg.T @ Zg
             if j == 0:
-                self._tare(k, Zg[:, _X], Zg[:, _R])
+                self._tare(k, Zg)
         return True
 
     def _group_columns(self, k, g):
@@ -201,19 +201,16 @@ class GramPass:
         targets, carries, usable, _ = block_targets(b.reference, b.loaded, mount, output_frame)
         poly.add(k, b.counts - poly_center, targets, usable, carries, b.loaded)
 
-    def _tare(self, k, x, r) -> None:
+    def _tare(self, k, Z) -> None:
+        """Add the unloaded samples ``Z`` (rows of ``[1 | counts − c | r]``) to session ``k``'s tare sums."""
         t = self.tare[k]
-        if x.shape[0] == 0:
+        if Z.shape[0] == 0:
             return
-        if t["rshift"] is None:  # sums of squares about the first unloaded sample do not cancel catastrophically
-            t["rshift"], t["xshift"] = r[0].copy(), x[0].copy()
-        r = r - t["rshift"]
-        x = x - t["xshift"]
-        t["n"] += x.shape[0]
-        t["s"] += x.sum(axis=0)
-        t["ss"] += x.T @ x
-        t["r"] += r.sum(axis=0)
-        t["rr"] += r.T @ r
+        if t["shift"] is None:  # sums of squares about the first unloaded sample do not cancel catastrophically
+            t["shift"] = np.r_[0.0, Z[0, 1:]]
+        W = Z - t["shift"]
+        t["n"] += W.shape[0]
+        t["G"] += W.T @ W  # n, the sums and the sums of products at once
 
     def rest_noise(self):
         """``(tare_means, gauge_cov (36, 36), ref_covs, samples at rest)`` as :meth:`Calibrator._rest_noise` gives them."""
@@ -222,13 +219,14 @@ class GramPass:
             n = t["n"]
             if n == 0:
                 raise ValueError("loaded: the session has no unloaded samples (rows of all False) to take the offsets from")
-            mu = t["s"] / n
-            cov = t["ss"] / n - np.outer(mu, mu)
-            means.append(self.centers[k] + t["xshift"] + mu)
+            G = t["G"]
+            mu = G[0, _X] / n
+            cov = G[_X, _X] / n - np.outer(mu, mu)
+            means.append(self.centers[k] + t["shift"][_X] + mu)
             covs.append(0.5 * (cov + cov.T))
             ns.append(n)
-            rm = t["r"] / n
-            rc = t["rr"] / n - np.outer(rm, rm)
+            rm = G[0, _R] / n
+            rc = G[_R, _R] / n - np.outer(rm, rm)
             ref_covs.append(0.5 * (rc + rc.T) * n / max(n - 1, 1))
         gauge_cov = sum(c * n for c, n in zip(covs, ns)) / max(sum(ns) - self.n_int, 1)
         return means, gauge_cov, ref_covs, ns
