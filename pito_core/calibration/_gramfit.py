@@ -92,7 +92,7 @@ class GramPass:
         self.joint = bool(joint)
         self.own_faces = tuple(own_faces)
         self.H = np.zeros((n_int, 7, 43, 43))  # per session and load group: Gram of [1 | counts − c | r]
-        self._cols = [None] * n_int  # per session and load group: the columns it sums (None: all 43)
+        self._cols = [None] * n_int  # per session and load group: (faces, columns) it sums (None: all 43)
         self.maps = [None] * n_int  # per session: (signs (7, 6), A (6, 6, 6)) of its mount and output frame
         self.sizes = np.zeros((n_int, 7), dtype=np.int64)  # samples per session and load group
         self.n_used = 0
@@ -127,7 +127,8 @@ class GramPass:
         if self.maps[k] is None:
             A = mount.X_face_ati if output_frame == "face" else np.broadcast_to(np.eye(6), (6, 6, 6))
             self.maps[k] = (group_signs(mount.flange, mount.connected_face), np.array(A))
-            self._cols[k] = [None if c.size == 43 else c for c in (self._group_columns(k, g)[1] for g in range(7))]
+            self._cols[k] = [None if c.size == 43 else (f, c, self._xc[k][c])
+                             for f, c in (self._group_columns(k, g) for g in range(7))]
         self._G = None
         group = load_groups(b.loaded)
         if poly is not None:
@@ -150,7 +151,7 @@ class GramPass:
 
     def _add_chunk(self, k, b, group, rows: slice, limits=None) -> bool:
         """Add the consecutive samples ``rows`` of block ``b`` to ``H[k, ·]``: sorted by load group
-        (stable) into the reused buffer, each group's run adding its Gram to its ``H``. Returns False
+        (stable) into reused buffers, each group's run adding its Gram to its ``H``. Returns False
         if the chunk fails :func:`check_block`'s quick test against ``limits`` (then nothing is added).
 
         Without the joint design only the gauges of the faces that carry load in a group enter
@@ -158,31 +159,41 @@ class GramPass:
         """
         g = group[rows]
         order = np.argsort(g, kind="stable")
-        ends = np.cumsum(np.bincount(g, minlength=8))
-        n = g.size
-        Z = self._buf[: n * 43].reshape(n, 43)
-        Z[:, _ONE] = 1.0
-        counts = np.take(b.counts[rows], order, axis=0, out=self._counts_buf(b.counts)[:n], mode="clip")
-        r = np.take(b.reference[rows], order, axis=0, out=self._rbuf[:n], mode="clip")
+        ends = np.r_[0, np.cumsum(np.bincount(g, minlength=8))]
+        counts = np.take(b.counts[rows], order, axis=0, out=self._counts_buf(b.counts)[: g.size], mode="clip")
+        r = np.take(b.reference[rows], order, axis=0, out=self._rbuf[: g.size], mode="clip")
         if limits is not None and not (counts.min() > limits[0] and counts.max() < limits[1] and np.isfinite(r.sum())):
             return False
-        np.copyto(Z[:, _X], counts, casting="unsafe")
-        Z[:, _R] = r
-        # counts − c_k in place, exactly as a subtraction (one rank-1 update: the rows are short for numpy)
-        Z = scipy.linalg.blas.dger(-1.0, self._xc[k], self._ones[:n], a=Z.T, overwrite_a=1).T
+        Z = self._design(k, counts, r, None) if self.joint else None  # every group sums all 43 columns
         for j in range(7):
-            Zg = Z[(ends[j - 1] if j else 0) : ends[j]]
-            if Zg.shape[0] == 0:
+            sl = slice(ends[j], ends[j + 1])
+            if sl.start == sl.stop:
                 continue
-            cols = self._cols[k][j]
-            if cols is None:
+            part = self._cols[k][j]  # None, or (faces, columns, c_k in them) of a group summing fewer
+            Zg = Z[sl] if Z is not None else self._design(k, counts[sl], r[sl], part)
+            if part is None:
                 self.H[k, j] += Zg.T @ Zg
             else:
-                Zg = Zg[:, cols]
-                self.H[k, j][np.ix_(cols, cols)] += Zg.T @ Zg
+                self.H[k, j][np.ix_(part[1], part[1])] += Zg.T @ Zg
             if j == 0:
                 self._tare(k, Zg)
         return True
+
+    def _design(self, k, counts, r, part) -> np.ndarray:
+        """``[1 | counts − c_k | r]`` of the given rows in the reused buffer: all 43 columns (``part``
+        None), or only the gauges of ``part``'s faces. The counts less ``c_k`` exactly, in place (one
+        rank-1 update: the rows are short for numpy)."""
+        n = counts.shape[0]
+        w = 43 if part is None else part[1].size
+        Z = self._buf[: n * w].reshape(n, w)
+        Z[:, _ONE] = 1.0
+        if part is None:
+            np.copyto(Z[:, _X], counts, casting="unsafe")
+        for i, f in enumerate(() if part is None else part[0]):
+            np.copyto(Z[:, 1 + 6 * i : 7 + 6 * i], counts[:, 6 * f : 6 * f + 6], casting="unsafe")
+        Z[:, w - 6 :] = r
+        xc = self._xc[k] if part is None else part[2]
+        return scipy.linalg.blas.dger(-1.0, xc, self._ones[:n], a=Z.T, overwrite_a=1).T
 
     def _group_columns(self, k, g):
         """``(faces, columns)``: the faces (0-based) whose gauges load group ``g`` of session ``k`` sums,
