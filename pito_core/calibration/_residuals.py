@@ -296,14 +296,14 @@ def _add_cluster_scores(groups, clusters, own_face, counts, Eflat, carries, unlo
     for g in groups:
         cl = clusters[id(g)]
         f = own_face[id(g)]
-        rows = slice(None) if f is None else np.flatnonzero(carries[:, f - 1] | unloaded)
+        rows = np.arange(counts.shape[0]) if f is None else np.flatnonzero(carries[:, f - 1] | unloaded)
         # views where all are taken, else one C-ordered copy ([rows][:, inputs] gave a column-major one)
-        Xg = counts if f is None and _is_range(g.inputs, 36) else counts[np.ix_(np.arange(counts.shape[0])[rows], g.inputs)]
+        Xg = counts if f is None and _is_range(g.inputs, 36) else counts[np.ix_(rows, g.inputs)]
         A = np.empty((Xg.shape[0], n_int + g.inputs.size))
         A[:, :n_int] = 0.0
         A[:, j] = 1.0
         np.subtract(Xg, tare_mean[g.inputs], out=A[:, n_int:])
-        Eg = Eflat if f is None and _is_range(g.rows, Eflat.shape[1]) else Eflat[np.ix_(np.arange(Eflat.shape[0])[rows], g.rows)]
+        Eg = Eflat if f is None and _is_range(g.rows, Eflat.shape[1]) else Eflat[np.ix_(rows, g.rows)]
         a = 0
         while a < A.shape[0]:  # clusters of consecutive samples, across blocks
             take = min(A.shape[0] - a, cl["length"] - cl["n"])
