@@ -391,9 +391,7 @@ def _chunks(b, floor=None):
     for j, sl in b["sessions"]:
         for a in range(sl.start, sl.stop, _CHUNK):
             s = slice(a, min(a + _CHUNK, sl.stop))
-            if (j, a) not in b.setdefault("f64", {}):  # float64 of the chunk, made once for every pass
-                b["f64"][j, a] = (b["ET"][:, :, s].astype(float), b["phT"][:, :, s].astype(float))
-            c = dict(ET=b["f64"][j, a][0], phT=b["f64"][j, a][1], carr=b["carr"][:, s],
+            c = dict(ET=b["ET"][:, :, s].astype(float), phT=b["phT"][:, :, s].astype(float), carr=b["carr"][:, s],
                      vT=0.0 if b["vT"] is None else b["vT"][:, :, s])
             if floor is not None:
                 E2 = c["ET"] * c["ET"]
