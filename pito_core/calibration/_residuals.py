@@ -395,7 +395,8 @@ def _chunks(b, floor=None):
                      vT=0.0 if b["vT"] is None else b["vT"][:, :, s])
             if floor is not None:
                 E2 = c["ET"] * c["ET"]
-                E2 -= c["vT"]
+                if b["vT"] is not None:  # else 0: no pass
+                    E2 -= c["vT"]
                 E2 -= floor.reshape(F, 6, 1)
                 c["E2T"] = E2
             yield j, c
