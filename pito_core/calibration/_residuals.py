@@ -94,12 +94,13 @@ def _significant_nnls(PtWP, PtWe, PtWv, rel_var) -> np.ndarray:
         if not active.any():
             break
         ix = np.ix_(active, active)
-        Pinv = np.linalg.pinv(PtWP[ix], hermitian=True)
+        sc = np.sqrt(np.clip(np.diag(PtWP)[active], 1e-300, None))  # the pinv of the scaled matrix
+        Pinv = np.linalg.pinv(PtWP[ix] / np.outer(sc, sc), hermitian=True)
         var = np.zeros(int(active.sum()))
         for j, rv in enumerate(rel_var):
-            var = var + rv * (Pinv @ PtWv[j][active]) ** 2
+            var = var + rv * (Pinv @ (PtWv[j][active] / sc)) ** 2
         weak = np.zeros_like(active)
-        weak[active] = c[active] < _SIGNIFICANT * np.sqrt(var)
+        weak[active] = c[active] * sc < _SIGNIFICANT * np.sqrt(var)
         if not weak.any():
             break
         active &= ~weak
@@ -154,11 +155,11 @@ def _significant_rows(PtWP, PtWe, PtWv, rel_var) -> np.ndarray:
         active[t] &= c[t] > 0  # the standard errors of the features in use
         todo &= prune & active.any(axis=1)
         t = np.flatnonzero(todo)
-        mm = active[t][:, :, None] & active[t][:, None, :]  # pinv of the unscaled sub-matrix, as one by one
-        Pinv = np.linalg.pinv(np.where(mm, P[t], 0.0), hermitian=True)
-        var = sum(rv * np.einsum("rij,rj->ri", Pinv, np.where(active[t], V[t], 0.0)) ** 2
-                  for rv, V in zip(rel_var, Vs))
-        weak = active[t] & (c[t] / sc[t] < _SIGNIFICANT * np.sqrt(var))
+        mm = active[t][:, :, None] & active[t][:, None, :]  # pinv of the scaled sub-matrix (features of unlike sizes)
+        Pinv = np.linalg.pinv(np.where(mm, Gs[t], 0.0), hermitian=True)
+        var = sum(rv * np.einsum("rij,rj->ri", Pinv, np.where(active[t], V[t] / sc[t], 0.0)) ** 2
+                  for rv, V in zip(rel_var, Vs))  # of the scaled coefficients c · scale
+        weak = active[t] & (c[t] < _SIGNIFICANT * np.sqrt(var))
         more = weak.any(axis=1)
         active[t[more]] &= ~weak[more]
         c[t[more]] = 0.0
@@ -481,7 +482,11 @@ def _coverage_scale(b, coef) -> np.ndarray:
     """``(6F,)`` factor on each row's variance so that ±1.96 σ holds 95 % of its training residuals.
 
     Errors are not Gaussian (nonlinearity, drift): the interval, with the reference's noise
-    (``b["vT"]``) added, is scaled to cover 95 % of the rows, weighted as in the reweighting.
+    (``b["vT"]``) added, is scaled to cover 95 % of the rows, every row alike. (Weighted by each
+    row's share of information ``(var / (var + v))²``, rows where the reference's noise dominates
+    counted as ``var²``: the few of the largest modelled variance set the scale, 0.1–0.6 on the
+    torques of a nonlinear cube's connected face at 3 % reference noise, and the bulk of the
+    samples was left with intervals far too short.)
     """
     R = 6 * b["ET"].shape[0]
     hist = np.zeros(R * (_Z_N + 1))
@@ -489,9 +494,7 @@ def _coverage_scale(b, coef) -> np.ndarray:
     for _, c in _chunks(b):
         var = _variances(c["phT"], coef).reshape(R, -1)  # (6F, n)
         v_ref = c["vT"] if b["vT"] is None else c["vT"].reshape(R, -1)
-        w = np.maximum(var + v_ref, 1e-300)
-        np.divide(var, w, out=w)
-        w *= w  # each row's share of information on the error
+        w = (var > 0).astype(float)  # every row alike, as the held-out samples (not by its share of information)
         # the scale s with |E| ≤ 1.96·√(s·var + v_ref) on 95 % of rows (E holds the reference's
         # noise, the interval is of the true wrench): each row needs s ≥ z²/1.96² with
         E = c["ET"].reshape(R, -1)
