@@ -482,11 +482,7 @@ def _coverage_scale(b, coef) -> np.ndarray:
     """``(6F,)`` factor on each row's variance so that ±1.96 σ holds 95 % of its training residuals.
 
     Errors are not Gaussian (nonlinearity, drift): the interval, with the reference's noise
-    (``b["vT"]``) added, is scaled to cover 95 % of the rows, every row alike. (Weighted by each
-    row's share of information ``(var / (var + v))²``, rows where the reference's noise dominates
-    counted as ``var²``: the few of the largest modelled variance set the scale, 0.1–0.6 on the
-    torques of a nonlinear cube's connected face at 3 % reference noise, and the bulk of the
-    samples was left with intervals far too short.)
+    (``b["vT"]``) added, is scaled to cover 95 % of the rows, weighted as in the reweighting.
     """
     R = 6 * b["ET"].shape[0]
     hist = np.zeros(R * (_Z_N + 1))
@@ -494,7 +490,9 @@ def _coverage_scale(b, coef) -> np.ndarray:
     for _, c in _chunks(b):
         var = _variances(c["phT"], coef).reshape(R, -1)  # (6F, n)
         v_ref = c["vT"] if b["vT"] is None else c["vT"].reshape(R, -1)
-        w = (var > 0).astype(float)  # every row alike, as the held-out samples (not by its share of information)
+        w = np.maximum(var + v_ref, 1e-300)
+        np.divide(var, w, out=w)
+        w *= w  # each row's share of information on the error
         # the scale s with |E| ≤ 1.96·√(s·var + v_ref) on 95 % of rows (E holds the reference's
         # noise, the interval is of the true wrench): each row needs s ≥ z²/1.96² with
         E = c["ET"].reshape(R, -1)

@@ -247,23 +247,3 @@ def test_the_significance_of_a_load_term_does_not_depend_on_the_features_units()
         np.testing.assert_allclose(_significant_rows(Ps[None], es[None], Vs[:, None], rv)[0] * S, ref, rtol=1e-6, atol=0)
         np.testing.assert_allclose(_significant_nnls(Ps, es, Vs, rv) * S, ref, rtol=1e-6, atol=0)
 
-
-def test_the_coverage_scale_counts_every_training_row_alike():
-    """Issue 25 item 4: where the reference's noise ``v`` dominates the residuals, the scale that makes
-    ±1.96 σ hold 95 % of them weighted each row by ``(var / (var + v))²`` ∝ ``var²``: the few rows of the
-    largest modelled variance set it. A model of the right mean and the wrong shape (∝ q, the error
-    constant) was scaled by 0.49–0.54 (the torques of a nonlinear cube's connected face at 3 %
-    reference noise: 0.1–0.6); every row alike, about 1 (the mean it has right)."""
-    from pito_core.calibration._residuals import _coverage_scale
-
-    rng = np.random.default_rng(0)
-    n, v = 20000, 1.0
-    q = rng.uniform(0, 1, n) ** 2 * 6  # many light loads, a few heavy ones
-    err = np.sqrt(0.2 * v) * rng.standard_normal((6, n))  # the true wrench's error: 0.2 v whatever the load
-    E = err + np.sqrt(v) * rng.standard_normal((6, n))  # the training residual holds the reference's noise
-    coef = np.zeros((6, 4))
-    coef[:, 1] = 0.2 * v / q.mean()
-    b = dict(ET=E[None].astype(np.float32), phT=np.stack([np.ones(n), q, q * q, np.zeros(n)])[None].astype(np.float32),
-             carr=np.ones((1, n), bool), vT=np.full((1, 6, n), v), sessions=[(0, slice(0, n))])
-    s = _coverage_scale(b, coef)
-    assert 0.85 <= s.min() and s.max() <= 1.6, s
