@@ -94,12 +94,13 @@ def _significant_nnls(PtWP, PtWe, PtWv, rel_var) -> np.ndarray:
         if not active.any():
             break
         ix = np.ix_(active, active)
-        Pinv = np.linalg.pinv(PtWP[ix], hermitian=True)
+        sc = np.sqrt(np.clip(np.diag(PtWP)[active], 1e-300, None))  # the pinv of the scaled matrix
+        Pinv = np.linalg.pinv(PtWP[ix] / np.outer(sc, sc), hermitian=True)
         var = np.zeros(int(active.sum()))
         for j, rv in enumerate(rel_var):
-            var = var + rv * (Pinv @ PtWv[j][active]) ** 2
+            var = var + rv * (Pinv @ (PtWv[j][active] / sc)) ** 2
         weak = np.zeros_like(active)
-        weak[active] = c[active] < _SIGNIFICANT * np.sqrt(var)
+        weak[active] = c[active] * sc < _SIGNIFICANT * np.sqrt(var)
         if not weak.any():
             break
         active &= ~weak
@@ -154,11 +155,11 @@ def _significant_rows(PtWP, PtWe, PtWv, rel_var) -> np.ndarray:
         active[t] &= c[t] > 0  # the standard errors of the features in use
         todo &= prune & active.any(axis=1)
         t = np.flatnonzero(todo)
-        mm = active[t][:, :, None] & active[t][:, None, :]  # pinv of the unscaled sub-matrix, as one by one
-        Pinv = np.linalg.pinv(np.where(mm, P[t], 0.0), hermitian=True)
-        var = sum(rv * np.einsum("rij,rj->ri", Pinv, np.where(active[t], V[t], 0.0)) ** 2
-                  for rv, V in zip(rel_var, Vs))
-        weak = active[t] & (c[t] / sc[t] < _SIGNIFICANT * np.sqrt(var))
+        mm = active[t][:, :, None] & active[t][:, None, :]  # pinv of the scaled sub-matrix (features of unlike sizes)
+        Pinv = np.linalg.pinv(np.where(mm, Gs[t], 0.0), hermitian=True)
+        var = sum(rv * np.einsum("rij,rj->ri", Pinv, np.where(active[t], V[t] / sc[t], 0.0)) ** 2
+                  for rv, V in zip(rel_var, Vs))  # of the scaled coefficients c · scale
+        weak = active[t] & (c[t] < _SIGNIFICANT * np.sqrt(var))
         more = weak.any(axis=1)
         active[t[more]] &= ~weak[more]
         c[t[more]] = 0.0

@@ -2,9 +2,14 @@
 
 Nominal 95 % intervals against the TRUE face wrench of a later, re-tared session of a random
 ``gen.py`` cube (linear, or the nonlinear one of ``test_nonlinear.py``), per face and axis,
-pooled over 4 calibrations (training draws) and, beside it, the range of single calibrations.
+pooled over 16 calibrations (training draws) and, beside it, the range of single calibrations.
+With a noisy reference the coefficients' error (and the estimate of the reference's own noise,
+from a 300-sample tare) is one draw per calibration: a single calibration's coverage of one axis
+scatters even where the intervals are right (``face_to_face``, linear cube, 3 %: 92.6–96.7 %),
+so "nominal 95 %" is a statement over calibrations and samples, checked pooled over 16 of them
+(16 × 6000 held-out samples per face and axis: σ ≈ 0.3 % there).
 
-    PYTHONPATH=. python tests/calibration/coverage_table.py [methods] [lin,nl] [0,0.01,0.03] [linear,auto]
+    PYTHONPATH=. python tests/calibration/coverage_table.py [methods] [lin,nl] [0,0.01,0.03] [linear,auto] [draws]
 """
 
 import itertools
@@ -41,7 +46,7 @@ def sessions(method, K, kw, seed, k, noise):
                          reference_noise=noise, **kw)]
 
 
-def run(method, cube, noise, model, draws=4, seed=1, k=2000, kt=1000):
+def run(method, cube, noise, model, draws=16, seed=1, k=2000, kt=1000):
     K = true_sensitivity(seed, coupling=0.05)
     kw = dict(connected_face=FACE[method], noise=2.0, counts_dtype=float)
     if cube == "nl":
@@ -60,13 +65,13 @@ def run(method, cube, noise, model, draws=4, seed=1, k=2000, kt=1000):
 
 
 if __name__ == "__main__":
-    args = sys.argv[1:] + [None] * 4
+    args = sys.argv[1:] + [None] * 5
     methods = args[0].split(",") if args[0] else sorted(FACE)
     cubes = args[1].split(",") if args[1] else ["lin", "nl"]
     noises = [float(x) for x in args[2].split(",")] if args[2] else [0.0, 0.01, 0.03]
     models = args[3].split(",") if args[3] else ["linear", "auto"]
     for method, cube, noise, model in itertools.product(methods, cubes, noises, models):
-        c, s, N = run(method, cube, noise, model)
+        c, s, N = run(method, cube, noise, model, draws=int(args[4] or 16))
         v, sv = c[np.isfinite(c)], s[np.isfinite(s)]
         out = int(((v < 0.93) | (v > 0.97)).sum())
         print(f"{method:14s} {cube:3s} ref={noise:.2f} {model:6s} n={N:6d} pooled {v.min()*100:5.1f}-{v.max()*100:5.1f} "

@@ -226,3 +226,24 @@ def test_the_reference_noise_terms_round_trip(tmp_path):
     np.testing.assert_array_equal(back.wrenches(x, return_cov=True)[1], cal.wrenches(x, return_cov=True)[1])
     exact = calibrate(make_session(K, flange="face", connected_face=6, k=300, noise=2.0), "total")
     assert all(g.reference_leverage is None for g in exact.covariance.groups)
+
+
+def test_the_significance_of_a_load_term_does_not_depend_on_the_features_units():
+    """Issue 25 item 4: the standard errors behind the pruning of the error model's terms come from the
+    pinv of the scaled normal matrix. With the unscaled one, a feature 10⁹ times smaller (q² of a
+    small load) lost its direction below the pinv's cut-off and kept or dropped other terms."""
+    from pito_core.calibration._residuals import _significant_nnls, _significant_rows
+
+    S = np.array([1.0, 1.0, 1e-9, 1.0])
+    for seed in range(5):
+        rng = np.random.default_rng(seed)
+        q = rng.uniform(0, 6, 4000)
+        phi = np.stack([np.ones(q.size), q, q * q, rng.uniform(0, 3, q.size)], axis=1)
+        e2 = phi @ np.array([1e-4, 0.03, 0.004, 0.02]) + rng.normal(scale=0.2 * np.sqrt(2), size=q.size)  # E² − v
+        P, e, V, rv = phi.T @ phi, phi.T @ e2, (phi.T @ np.full(q.size, 0.2))[None], [2.0 / 299]
+        ref = _significant_rows(P[None], e[None], V[:, None], rv)[0]
+        np.testing.assert_allclose(_significant_nnls(P, e, V, rv), ref, rtol=1e-9, atol=0)
+        Ps, es, Vs = P * np.outer(S, S), e * S, V * S
+        np.testing.assert_allclose(_significant_rows(Ps[None], es[None], Vs[:, None], rv)[0] * S, ref, rtol=1e-6, atol=0)
+        np.testing.assert_allclose(_significant_nnls(Ps, es, Vs, rv) * S, ref, rtol=1e-6, atol=0)
+
