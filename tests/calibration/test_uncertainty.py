@@ -229,7 +229,7 @@ def test_the_reference_noise_terms_round_trip(tmp_path):
 
 
 def test_the_significance_of_a_load_term_does_not_depend_on_the_features_units():
-    """Issue 25 item 4: the standard errors behind the pruning of the error model's terms come from the
+    """The standard errors behind the pruning of the error model's terms come from the
     pinv of the scaled normal matrix. With the unscaled one, a feature 10⁹ times smaller (q² of a
     small load) lost its direction below the pinv's cut-off and kept or dropped other terms."""
     from pito_core.calibration._residuals import _significant_nnls, _significant_rows
