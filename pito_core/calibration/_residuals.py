@@ -386,14 +386,14 @@ def _stacked(kept, vdiag, F, noisy) -> dict:
 
 def _chunks(b, floor=None):
     """Per chunk of one session's consecutive samples: ``(j, c)``, ``c`` the chunk's float64 ``ET``,
-    ``phT``, ``vT`` (0 without reference noise), ``carr`` and, with ``floor (6F,)``, ``E2T``: the
-    residuals' squares less the reference's variance and the floor."""
+    ``phT``, ``vT`` (0 without reference noise), ``carr``, ``cols`` (its slice of the samples) and,
+    with ``floor (6F,)``, ``E2T``: the residuals' squares less the reference's variance and the floor."""
     F = b["ET"].shape[0]
     for j, sl in b["sessions"]:
         for a in range(sl.start, sl.stop, _CHUNK):
             s = slice(a, min(a + _CHUNK, sl.stop))
             c = dict(ET=b["ET"][:, :, s].astype(float), phT=b["phT"][:, :, s].astype(float), carr=b["carr"][:, s],
-                     vT=0.0 if b["vT"] is None else b["vT"][:, :, s])
+                     vT=0.0 if b["vT"] is None else b["vT"][:, :, s], cols=s)
             if floor is not None:
                 E2 = c["ET"] * c["ET"]
                 if b["vT"] is not None:  # else 0: no pass
@@ -497,34 +497,74 @@ def _coverage_scale(b, coef) -> np.ndarray:
     """``(6F,)`` factor on each row's variance so that ±1.96 σ holds 95 % of its training residuals.
 
     Errors are not Gaussian (nonlinearity, drift): the interval, with the reference's noise
-    (``b["vT"]``) added, is scaled to cover 95 % of the rows, weighted as in the reweighting.
+    (``b["vT"]``) added, is scaled to cover 95 % of the rows, weighted as in the reweighting:
+    the 95 % point of a histogram of ``|E| / σ`` (bins of ``_Z_WIDTH``). With an exact reference
+    every weight is 1 (where ``var ≥ 1e-300``): the bin is then that of an order statistic, found
+    by a partial sort (the same bin: it is monotone in ``E² / var``).
     """
-    R = 6 * b["ET"].shape[0]
+    R, n = 6 * b["ET"].shape[0], b["ET"].shape[2]
+    z2 = np.empty((R, n))  # E² less the reference's share, over var (≥ 0)
+    w = np.empty((R, n))  # each row's share of information on the error
+    ones, parts = True, []
+    for _, c in _chunks(b):
+        s = c["cols"]
+        parts.append(s)
+        var = _variances(c["phT"], coef).reshape(R, -1)  # (6F, n)
+        E = c["ET"].reshape(R, -1)
+        z = np.multiply(E, E, out=z2[:, s])
+        if b["vT"] is None and ones and np.all(var >= 1e-300):
+            w[:, s] = 1.0  # var / var: no need to fill it unless a later chunk needs the histogram
+        else:
+            ones = False
+            v_ref = 0.0 if b["vT"] is None else c["vT"].reshape(R, -1)
+            ws = np.add(var, v_ref, out=w[:, s])
+            np.maximum(ws, 1e-300, out=ws)
+            np.divide(var, ws, out=ws)
+            ws *= ws
+            if b["vT"] is not None:
+                # the scale s with |E| ≤ 1.96·√(s·var + v_ref) on 95 % of rows (E holds the reference's
+                # noise, the interval is of the true wrench): each row needs s ≥ z²/1.96² with
+                z -= 1.959964**2 * v_ref
+                np.maximum(z, 0, out=z)
+        z /= np.maximum(var, 1e-300, out=var)
+    q95 = (_order_bin(z2) if ones and n else _hist_bin(z2, w, parts)) * _Z_WIDTH
+    return (q95 / 1.959964) ** 2
+
+
+def _z_bins(z2) -> np.ndarray:
+    """The histogram bin (0.._Z_N) of each ``z² = E² / var``: ``⌊√z² / _Z_WIDTH⌋``, at most ``_Z_N``."""
+    z = np.sqrt(z2)
+    z /= _Z_WIDTH
+    np.minimum(z, _Z_N, out=z)
+    return z.astype(np.int64)
+
+
+def _hist_bin(z2, w, parts) -> np.ndarray:
+    """``(R,)`` per row of ``z2 (R, n)``, one more than the first bin where the ``w``-weighted
+    histogram's cumulative share reaches 95 % (summed over the column slices ``parts`` in turn)."""
+    R = z2.shape[0]
     hist = np.zeros(R * (_Z_N + 1))
     offset = np.arange(R)[:, None] * (_Z_N + 1)
-    for _, c in _chunks(b):
-        var = _variances(c["phT"], coef).reshape(R, -1)  # (6F, n)
-        v_ref = c["vT"] if b["vT"] is None else c["vT"].reshape(R, -1)
-        w = np.maximum(var + v_ref, 1e-300)
-        np.divide(var, w, out=w)
-        w *= w  # each row's share of information on the error
-        # the scale s with |E| ≤ 1.96·√(s·var + v_ref) on 95 % of rows (E holds the reference's
-        # noise, the interval is of the true wrench): each row needs s ≥ z²/1.96² with
-        E = c["ET"].reshape(R, -1)
-        z = E * E
-        z -= 1.959964**2 * v_ref
-        np.maximum(z, 0, out=z)
-        z /= np.maximum(var, 1e-300, out=var)
-        np.sqrt(z, out=z)
-        z /= _Z_WIDTH
-        np.minimum(z, _Z_N, out=z)
-        bins = z.astype(np.int64)
+    for s in parts:
+        bins = _z_bins(z2[:, s])
         bins += offset
-        hist += np.bincount(bins.ravel(), weights=w.ravel(), minlength=hist.size)
+        hist += np.bincount(bins.ravel(), weights=w[:, s].ravel(), minlength=hist.size)
     hist = hist.reshape(R, _Z_N + 1)
     cdf = np.cumsum(hist, axis=1) / np.clip(hist.sum(axis=1, keepdims=True), 1, None)
-    q95 = (np.argmax(cdf >= 0.95, axis=1) + 1) * _Z_WIDTH
-    return (q95 / 1.959964) ** 2
+    return np.argmax(cdf >= 0.95, axis=1) + 1
+
+
+def _order_bin(z2) -> np.ndarray:
+    """:func:`_hist_bin` with every weight 1: the bin of the ``m``-th smallest ``z²`` of each row,
+    ``m`` the least count whose share ``m / n`` (as the histogram computes it) reaches 95 %."""
+    n = z2.shape[1]
+    m = int(np.ceil(0.95 * n))
+    while m > 1 and (m - 1) / max(n, 1) >= 0.95:
+        m -= 1
+    while m / max(n, 1) < 0.95:
+        m += 1
+    kth = np.partition(z2, m - 1, axis=1)[:, m - 1]
+    return _z_bins(kth) + 1
 
 
 def _strided(blocks, stride):
