@@ -387,20 +387,28 @@ def _stacked(kept, vdiag, F, noisy) -> dict:
 def _chunks(b, floor=None):
     """Per chunk of one session's consecutive samples: ``(j, c)``, ``c`` the chunk's float64 ``ET``,
     ``phT``, ``vT`` (0 without reference noise), ``carr``, ``cols`` (its slice of the samples) and,
-    with ``floor (6F,)``, ``E2T``: the residuals' squares less the reference's variance and the floor."""
+    with ``floor (6F,)``, ``E2T``: the residuals' squares less the reference's variance and the floor.
+
+    The chunks are made once and kept in ``b`` (the passes over them read the same data); so is
+    ``E2T`` for the last ``floor``, and ``PP`` where :func:`_weighted_sums` sets it.
+    """
     F = b["ET"].shape[0]
-    for j, sl in b["sessions"]:
-        for a in range(sl.start, sl.stop, _CHUNK):
-            s = slice(a, min(a + _CHUNK, sl.stop))
-            c = dict(ET=b["ET"][:, :, s].astype(float), phT=b["phT"][:, :, s].astype(float), carr=b["carr"][:, s],
-                     vT=0.0 if b["vT"] is None else b["vT"][:, :, s], cols=s)
-            if floor is not None:
-                E2 = c["ET"] * c["ET"]
-                if b["vT"] is not None:  # else 0: no pass
-                    E2 -= c["vT"]
-                E2 -= floor.reshape(F, 6, 1)
-                c["E2T"] = E2
-            yield j, c
+    if "chunks" not in b:
+        b["chunks"] = [(j, dict(ET=b["ET"][:, :, s].astype(float), phT=b["phT"][:, :, s].astype(float),
+                                carr=b["carr"][:, s], vT=0.0 if b["vT"] is None else b["vT"][:, :, s], cols=s))
+                       for j, sl in b["sessions"]
+                       for s in (slice(a, min(a + _CHUNK, sl.stop)) for a in range(sl.start, sl.stop, _CHUNK))]
+    fresh = floor is not None and not (b.get("floor") is not None and np.array_equal(b["floor"], floor))
+    if fresh:
+        b["floor"] = np.array(floor)
+    for j, c in b["chunks"]:
+        if fresh:
+            E2 = c["ET"] * c["ET"]
+            if b["vT"] is not None:  # else 0: no pass
+                E2 -= c["vT"]
+            E2 -= floor.reshape(F, 6, 1)
+            c["E2T"] = E2
+        yield j, c
 
 
 def _variances(phT, coef, floor=None, out=None) -> np.ndarray:
@@ -419,30 +427,40 @@ def _variances(phT, coef, floor=None, out=None) -> np.ndarray:
 def _weighted_sums(b, coef, floor, n_s, noisy) -> np.ndarray:
     """``(n_s, F, 18, 10)``: per session, the sums over the samples of ``w``, ``w (E² − v)`` and ``w v``
     (rows, 6 each) times the features' distinct products (:data:`_PAIRS`), ``w = 1 / (var + v)²``
-    with a ``noisy`` reference, else 1."""
+    with a ``noisy`` reference, else 1 (then ``w v`` is 0 and not summed)."""
     F = b["ET"].shape[0]
     M = np.zeros((n_s, F, 18, len(_PAIRS[0])))
     for j, c in _chunks(b, floor):
         n = c["ET"].shape[2]
-        L = np.empty((F, 18, n))
-        w = L[:, :6]
         if noisy:
+            L = np.empty((F, 18, n))
+            w = L[:, :6]
             tot = _variances(c["phT"], coef, floor, out=w)  # in place: w = 1 / tot², tot = max(var + v, 1e-300)
             tot += c["vT"]
             np.maximum(tot, 1e-300, out=tot)
             np.multiply(tot, tot, out=w)
             np.divide(1.0, w, out=w)
-        else:
-            w[...] = 1.0
-        np.multiply(w, c["E2T"], out=L[:, 6:12])
-        np.multiply(w, c["vT"], out=L[:, 12:])
-        PP = np.empty((F, len(_PAIRS[0]), n))
-        PP[:, :N_FEATURES] = c["phT"]  # φ_0 φ_j = φ_j
-        for p, (i, k) in enumerate(zip(*_PAIRS)):
-            if i > 0:
-                np.multiply(c["phT"][:, i], c["phT"][:, k], out=PP[:, p])
-        M[j] += np.matmul(L, PP.transpose(0, 2, 1))
+            np.multiply(w, c["E2T"], out=L[:, 6:12])
+            np.multiply(w, c["vT"], out=L[:, 12:])
+        else:  # w = 1: the sums of 1 and of E² − v
+            L = np.empty((F, 12, n))
+            L[:, :6] = 1.0
+            L[:, 6:] = c["E2T"]
+        if "PP" not in c:
+            c["PP"] = _feature_products(c["phT"])
+        M[j, :, : L.shape[1]] += np.matmul(L, c["PP"].transpose(0, 2, 1))
     return M
+
+
+def _feature_products(phT) -> np.ndarray:
+    """``(F, 10, n)`` the features' distinct products :data:`_PAIRS` at samples ``phT (F, 4, n)``."""
+    F, _, n = phT.shape
+    PP = np.empty((F, len(_PAIRS[0]), n))
+    PP[:, :N_FEATURES] = phT  # φ_0 φ_j = φ_j
+    for p, (i, k) in enumerate(zip(*_PAIRS)):
+        if i > 0:
+            np.multiply(phT[:, i], phT[:, k], out=PP[:, p])
+    return PP
 
 
 def _reweighted(b, coef, floor, rel_var, noisy=True) -> None:
@@ -473,6 +491,12 @@ def _correlation(b, coef, floor, floor_m, vref_full, EtE) -> np.ndarray:
     S, w_sum = np.zeros((F, 6, 6)), np.zeros(F)
     for j, c in _chunks(b):
         var0 = _variances(c["phT"], coef, floor)
+        if b["vT"] is None and np.all(var0 >= 1e-300):  # an exact reference: every weight is 1 (var0 / var0)
+            S += np.matmul(c["ET"].copy(), c["ET"].transpose(0, 2, 1))  # a copy: not syrk, the same sums as E · 1
+            if np.any(vref_full[j]):
+                S -= c["carr"].sum(axis=1)[:, None, None] * vref_full[j]
+            w_sum += c["ET"].shape[2]
+            continue
         tot = np.maximum(var0 + c["vT"], 1e-300)
         share = np.divide(var0, tot, out=tot)
         share *= share
