@@ -262,15 +262,15 @@ def _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups, block_
                 usable = slice(None)
             counts = b.counts[usable]
             x = counts - o
-            Y = _predict(cal, x).reshape(-1, F, 6)
-            E = np.take(targets[usable], idx, axis=1) - Y  # take, not [:, idx]: C-ordered, 8× faster here
-            phi = _features(cal, x, idx)  # (n, F, 4)
+            xC, Y = _predict(cal, x)
+            E = np.take(targets[usable], idx, axis=1) - Y.reshape(-1, F, 6)  # take, not [:, idx]: C-ordered, 8× faster
+            # in the face frame, the faces' wrenches are the matrix's rows: the product is reused (and consumed)
+            phi = _features(cal, x, idx, xC if cal.output_frame == "face" else None)  # (n, F, 4)
             kept.append((E.reshape(-1, 6 * F).astype(np.float32), phi.astype(np.float32), carries[usable][:, idx], j))
-            Ef = E.reshape(-1, 6 * F)
-            EtE += (Ef.T @ Ef).reshape(F, 6, F, 6)[np.arange(F), :, np.arange(F)]  # one product; its diagonal blocks
+            EF = np.ascontiguousarray(E.transpose(1, 0, 2))  # (F, n, 6): products batched over faces
+            EtE += np.matmul(EF.transpose(0, 2, 1), EF)  # the diagonal blocks of Eᵀ E only
             if lev is not None:  # the reweighting's first weights (with an exact reference, 1 whatever they are)
                 v_ref = _reference_variance(mount, rc, spec.output_frame, carries[usable], idx)
-                EF = np.ascontiguousarray(E.transpose(1, 0, 2))  # (F, n, 6): products batched over faces
                 EF *= EF
                 EF -= v_ref.transpose(1, 0, 2)
                 EF -= floor.reshape(F, 1, 6)
@@ -597,18 +597,20 @@ def _strided(blocks, stride):
         yield b if stride == 1 else SessionBlock(b.start, b.counts[::stride], b.reference[::stride], b.loaded[::stride])
 
 
-def _predict(cal, x) -> np.ndarray:
-    """``(n, 6F)`` the calibration's rows (output frame) for offset-free counts ``x (n, 36)``."""
-    Y = x @ cal.matrix.T
-    if cal.correction is not None:
-        Y += cal.correction(x)
-    return Y
+def _predict(cal, x):
+    """``(x Cᵀ, rows)``, both ``(n, 6F)``: the linear part and the calibration's rows (output frame) for
+    offset-free counts ``x (n, 36)`` (the same array without a correction)."""
+    xC = x @ cal.matrix.T
+    return xC, (xC if cal.correction is None else xC + cal.correction(x))
 
 
-def _features(cal, x, idx) -> np.ndarray:
+def _features(cal, x, idx, xA=None) -> np.ndarray:
     """``load_features`` of the output faces ``idx`` (0-based) for offset-free counts ``x (n, 36)``: (n, F, 4)
-    (the faces without output count 0 in ``q_other``, as NaN faces there)."""
-    A = cal._apply.reshape(6, 6, 36)[idx].reshape(-1, 36)  # rows: the output faces' wrench components
-    u = (x @ A.T).reshape(-1, len(idx), 6)
+    (the faces without output count 0 in ``q_other``, as NaN faces there). ``xA`` (overwritten), if
+    given, is the product ``x Aᵀ`` of the output faces' maps ``A`` (the matrix itself in the face frame)."""
+    if xA is None:
+        A = cal._apply.reshape(6, 6, 36)[idx].reshape(-1, 36)  # rows: the output faces' wrench components
+        xA = x @ A.T
+    u = xA.reshape(-1, len(idx), 6)
     u /= FULL_SCALE
     return q_features(np.einsum("nfi,nfi->nf", u, u))
