@@ -442,13 +442,18 @@ def _weighted_sums(b, coef, floor, n_s, noisy) -> np.ndarray:
             np.divide(1.0, w, out=w)
             np.multiply(w, c["E2T"], out=L[:, 6:12])
             np.multiply(w, c["vT"], out=L[:, 12:])
-        else:  # w = 1: the sums of 1 and of E² − v
-            L = np.empty((F, 12, n))
-            L[:, :6] = 1.0
-            L[:, 6:] = c["E2T"]
+        else:  # w = 1: the sums of 1 (one row for the six) and of E² − v
+            L = np.empty((F, 7, n))
+            L[:, 0] = 1.0
+            L[:, 1:] = c["E2T"]
         if "PP" not in c:
             c["PP"] = _feature_products(c["phT"])
-        M[j, :, : L.shape[1]] += np.matmul(L, c["PP"].transpose(0, 2, 1))
+        S = np.matmul(L, c["PP"].transpose(0, 2, 1))
+        if noisy:
+            M[j] += S
+        else:
+            M[j, :, :6] += S[:, :1]
+            M[j, :, 6:12] += S[:, 1:]
     return M
 
 
@@ -528,18 +533,18 @@ def _coverage_scale(b, coef) -> np.ndarray:
     """
     R, n = 6 * b["ET"].shape[0], b["ET"].shape[2]
     z2 = np.empty((R, n))  # E² less the reference's share, over var (≥ 0)
-    w = np.empty((R, n))  # each row's share of information on the error
-    ones, parts = True, []
+    w = None  # each row's share of information on the error (None while all are 1)
+    parts = []
     for _, c in _chunks(b):
         s = c["cols"]
         parts.append(s)
         var = _variances(c["phT"], coef).reshape(R, -1)  # (6F, n)
         E = c["ET"].reshape(R, -1)
         z = np.multiply(E, E, out=z2[:, s])
-        if b["vT"] is None and ones and np.all(var >= 1e-300):
-            w[:, s] = 1.0  # var / var: no need to fill it unless a later chunk needs the histogram
-        else:
-            ones = False
+        if w is not None or b["vT"] is not None or not np.all(var >= 1e-300):  # else var / var = 1
+            if w is None:
+                w = np.empty((R, n))
+                w[:, : s.start] = 1.0  # the chunks before (in order from sample 0)
             v_ref = 0.0 if b["vT"] is None else c["vT"].reshape(R, -1)
             ws = np.add(var, v_ref, out=w[:, s])
             np.maximum(ws, 1e-300, out=ws)
@@ -551,7 +556,7 @@ def _coverage_scale(b, coef) -> np.ndarray:
                 z -= 1.959964**2 * v_ref
                 np.maximum(z, 0, out=z)
         z /= np.maximum(var, 1e-300, out=var)
-    q95 = (_order_bin(z2) if ones and n else _hist_bin(z2, w, parts)) * _Z_WIDTH
+    q95 = (_order_bin(z2) if w is None and n else _hist_bin(z2, np.ones((R, n)) if w is None else w, parts)) * _Z_WIDTH
     return (q95 / 1.959964) ** 2
 
 
