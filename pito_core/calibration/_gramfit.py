@@ -43,7 +43,7 @@ CHUNK = 4096
 _ONE, _X, _R = 0, slice(1, 37), slice(37, 43)  # columns of a group's design [1 | counts − c | r]
 
 
-_BITS = (1 << np.arange(6)).astype(np.uint8)
+_BITS = (1 << np.arange(6)).astype(np.float32)  # a float product (BLAS, exact on 0..63): 2× an integer one
 #: Load group of each pattern of loaded faces (bit i-1: face i loaded).
 _GROUP_OF_PATTERN = np.array([0 if p == 0 else (p.bit_length() if p & (p - 1) == 0 else _UNUSABLE) for p in range(64)],
                              dtype=np.int8)
@@ -51,7 +51,7 @@ _GROUP_OF_PATTERN = np.array([0 if p == 0 else (p.bit_length() if p & (p - 1) ==
 
 def load_groups(loaded: np.ndarray) -> np.ndarray:
     """``(n,) int8``: each sample's load group (see ``_UNUSABLE``) from ``loaded (n, 6) bool``."""
-    return np.take(_GROUP_OF_PATTERN, np.asarray(loaded, dtype=bool).view(np.uint8) @ _BITS)
+    return np.take(_GROUP_OF_PATTERN, (np.asarray(loaded, dtype=bool).view(np.uint8).astype(np.float32) @ _BITS).astype(np.intp))
 
 
 def group_signs(flange: str, connected_face: int) -> np.ndarray:
