@@ -57,7 +57,10 @@ class ReferenceLeverage:
         """The group's design rows ``[session indicator | counts − tare mean]`` (as in the fit)."""
         A = np.zeros((counts.shape[0], self.n_int + g.inputs.size))
         A[:, j] = 1.0
-        A[:, self.n_int :] = counts[:, g.inputs] - tare_mean[g.inputs]
+        if _is_range(g.inputs, counts.shape[1]):  # all gauges: no copies
+            np.subtract(counts, tare_mean, out=A[:, self.n_int :])
+        else:
+            A[:, self.n_int :] = counts[:, g.inputs] - tare_mean[g.inputs]
         return A
 
     def pooled(self, vref_full) -> list:
@@ -112,13 +115,16 @@ class ReferenceLeverage:
             v = np.zeros((counts.shape[0], F, 6))
             x = counts.astype(float)
             for g, kk in zip(self.groups, self.kk):
-                B = x[:, g.inputs] - tare_mean[g.inputs]  # slopes: the offsets' share is taken out apart
+                # slopes: the offsets' share is taken out apart
+                B = x - tare_mean if _is_range(g.inputs, x.shape[1]) else x[:, g.inputs] - tare_mean[g.inputs]
                 Q = g.reference_leverage[:, self.n_int :, self.n_int :]  # (nb, m, m)
                 nb, m = Q.shape[0], Q.shape[1]
                 BQ = (B @ Q.transpose(1, 0, 2).reshape(m, nb * m)).reshape(-1, nb, m)  # every face block in one product
                 BQ *= B[:, None, :]
                 h = BQ.sum(axis=2)  # (n, nb)
-                v[:, kk] += h[:, :, None] * np.diagonal(g.reference_cov, axis1=1, axis2=2)[None]
+                # a run of faces: a view (no copy in, none out)
+                at = slice(kk[0], kk[0] + len(kk)) if kk == list(range(kk[0], kk[0] + len(kk))) else kk
+                v[:, at] += h[:, :, None] * np.diagonal(g.reference_cov, axis1=1, axis2=2)[None]
             out.append(v.reshape(-1, 6 * F).astype(np.float32))
         return out
 
@@ -140,3 +146,8 @@ def center_free_rows(kept) -> list:
         mean = (sums[j] / np.clip(counts[j], 1, None)).astype(E.dtype)
         out.append((np.where(free, E - mean, E), phi, carr, j, *rest))
     return out
+
+
+def _is_range(ix, n) -> bool:
+    """Whether the indices ``ix`` are ``0, 1, …, n − 1``."""
+    return ix.size == n and bool(np.all(ix == np.arange(n)))
