@@ -154,6 +154,8 @@ def _significant_rows(PtWP, PtWe, PtWv, rel_var) -> np.ndarray:
         c[t] = _nnls_batch(Gs[t], bs[t], active[t])
         active[t] &= c[t] > 0  # the standard errors of the features in use
         todo &= prune & active.any(axis=1)
+        if not todo.any():  # the usual case without reference noise: nothing to prune
+            break
         t = np.flatnonzero(todo)
         mm = active[t][:, :, None] & active[t][:, None, :]  # pinv of the scaled sub-matrix (features of unlike sizes)
         Pinv = np.linalg.pinv(np.where(mm, Gs[t], 0.0), hermitian=True)
@@ -616,6 +618,6 @@ def _features(cal, x, idx, xA=None) -> np.ndarray:
     if xA is None:
         A = cal._apply.reshape(6, 6, 36)[idx].reshape(-1, 36)  # rows: the output faces' wrench components
         xA = x @ A.T
+    xA /= np.tile(FULL_SCALE, len(idx))  # rows of 6F: faster than broadcasting over (n, F, 6)
     u = xA.reshape(-1, len(idx), 6)
-    u /= FULL_SCALE
     return q_features(np.einsum("nfi,nfi->nf", u, u))
