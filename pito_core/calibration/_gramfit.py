@@ -105,7 +105,8 @@ class GramPass:
         self._buf = np.empty(CHUNK * 43)  # one chunk of a group's design, rows of up to 43 columns
         self._cbuf = None
         self._rbuf = np.empty((CHUNK, 6))
-        self._ones = np.ones(CHUNK)
+        self._ones = (0, 0)  # rows and width of the designs whose column of ones _buf holds
+        self._one = np.ones(CHUNK)
         self._xc = [None if c is None else np.r_[0.0, c, np.zeros(6)] for c in self.centers]  # c_k in Z's columns
         self._G = None
 
@@ -186,14 +187,16 @@ class GramPass:
         n = counts.shape[0]
         w = 43 if part is None else part[1].size
         Z = self._buf[: n * w].reshape(n, w)
-        Z[:, _ONE] = 1.0
+        if self._ones[1] != w or self._ones[0] < n:  # the column of ones stays from the last design of this width
+            Z[:, _ONE] = 1.0
+            self._ones = (n, w)
         if part is None:
             np.copyto(Z[:, _X], counts, casting="unsafe")
         for i, f in enumerate(() if part is None else part[0]):
             np.copyto(Z[:, 1 + 6 * i : 7 + 6 * i], counts[:, 6 * f : 6 * f + 6], casting="unsafe")
         Z[:, w - 6 :] = r
         xc = self._xc[k] if part is None else part[2]
-        return scipy.linalg.blas.dger(-1.0, xc, self._ones[:n], a=Z.T, overwrite_a=1).T
+        return scipy.linalg.blas.dger(-1.0, xc, self._one[:n], a=Z.T, overwrite_a=1).T
 
     def _group_columns(self, k, g):
         """``(faces, columns)``: the faces (0-based) whose gauges load group ``g`` of session ``k`` sums,

@@ -389,28 +389,24 @@ def _stacked(kept, vdiag, F, noisy) -> dict:
 def _chunks(b, floor=None):
     """Per chunk of one session's consecutive samples: ``(j, c)``, ``c`` the chunk's float64 ``ET``,
     ``phT``, ``vT`` (0 without reference noise), ``carr``, ``cols`` (its slice of the samples) and,
-    with ``floor (6F,)``, ``E2T``: the residuals' squares less the reference's variance and the floor.
-
-    The chunks are made once and kept in ``b`` (the passes over them read the same data); so is
-    ``E2T`` for the last ``floor``, and ``PP`` where :func:`_weighted_sums` sets it.
-    """
+    with ``floor (6F,)``, ``E2T``: the residuals' squares less the reference's variance and the floor."""
     F = b["ET"].shape[0]
-    if "chunks" not in b:
-        b["chunks"] = [(j, dict(ET=b["ET"][:, :, s].astype(float), phT=b["phT"][:, :, s].astype(float),
-                                carr=b["carr"][:, s], vT=0.0 if b["vT"] is None else b["vT"][:, :, s], cols=s))
-                       for j, sl in b["sessions"]
-                       for s in (slice(a, min(a + _CHUNK, sl.stop)) for a in range(sl.start, sl.stop, _CHUNK))]
-    fresh = floor is not None and not (b.get("floor") is not None and np.array_equal(b["floor"], floor))
-    if fresh:
-        b["floor"] = np.array(floor)
-    for j, c in b["chunks"]:
-        if fresh:
-            E2 = c["ET"] * c["ET"]
-            if b["vT"] is not None:  # else 0: no pass
-                E2 -= c["vT"]
-            E2 -= floor.reshape(F, 6, 1)
-            c["E2T"] = E2
-        yield j, c
+    for j, sl in b["sessions"]:
+        for s in _slices(sl):
+            c = dict(ET=b["ET"][:, :, s].astype(float), phT=b["phT"][:, :, s].astype(float), carr=b["carr"][:, s],
+                     vT=0.0 if b["vT"] is None else b["vT"][:, :, s], cols=s)
+            if floor is not None:
+                E2 = c["ET"] * c["ET"]
+                if b["vT"] is not None:  # else 0: no pass
+                    E2 -= c["vT"]
+                E2 -= floor.reshape(F, 6, 1)
+                c["E2T"] = E2
+            yield j, c
+
+
+def _slices(sl):
+    """The chunks (slices of at most ``_CHUNK`` samples) of the samples ``sl``."""
+    return [slice(a, min(a + _CHUNK, sl.stop)) for a in range(sl.start, sl.stop, _CHUNK)]
 
 
 def _variances(phT, coef, floor=None, out=None) -> np.ndarray:
@@ -448,9 +444,7 @@ def _weighted_sums(b, coef, floor, n_s, noisy) -> np.ndarray:
             L = np.empty((F, 7, n))
             L[:, 0] = 1.0
             L[:, 1:] = c["E2T"]
-        if "PP" not in c:
-            c["PP"] = _feature_products(c["phT"])
-        S = np.matmul(L, c["PP"].transpose(0, 2, 1))
+        S = np.matmul(L, _feature_products(c["phT"]).transpose(0, 2, 1))
         if noisy:
             M[j] += S
         else:
@@ -531,35 +525,36 @@ def _coverage_scale(b, coef) -> np.ndarray:
     (``b["vT"]``) added, is scaled to cover 95 % of the rows, weighted as in the reweighting:
     the 95 % point of a histogram of ``|E| / σ`` (bins of ``_Z_WIDTH``). With an exact reference
     every weight is 1 (where ``var ≥ 1e-300``): the bin is then that of an order statistic, found
-    by a partial sort (the same bin: it is monotone in ``E² / var``).
+    by a partial sort (the same bin: it is monotone in ``E² / var``). Face by face (bounded memory).
     """
-    R, n = 6 * b["ET"].shape[0], b["ET"].shape[2]
-    z2 = np.empty((R, n))  # E² less the reference's share, over var (≥ 0)
-    w = None  # each row's share of information on the error (None while all are 1)
-    parts = []
-    for _, c in _chunks(b):
-        s = c["cols"]
-        parts.append(s)
-        var = _variances(c["phT"], coef).reshape(R, -1)  # (6F, n)
-        E = c["ET"].reshape(R, -1)
-        z = np.multiply(E, E, out=z2[:, s])
-        if w is not None or b["vT"] is not None or not np.all(var >= 1e-300):  # else var / var = 1
-            if w is None:
-                w = np.empty((R, n))
-                w[:, : s.start] = 1.0  # the chunks before (in order from sample 0)
-            v_ref = 0.0 if b["vT"] is None else c["vT"].reshape(R, -1)
-            ws = np.add(var, v_ref, out=w[:, s])
-            np.maximum(ws, 1e-300, out=ws)
-            np.divide(var, ws, out=ws)
-            ws *= ws
-            if b["vT"] is not None:
-                # the scale s with |E| ≤ 1.96·√(s·var + v_ref) on 95 % of rows (E holds the reference's
-                # noise, the interval is of the true wrench): each row needs s ≥ z²/1.96² with
-                z -= 1.959964**2 * v_ref
-                np.maximum(z, 0, out=z)
-        z /= np.maximum(var, 1e-300, out=var)
-    q95 = (_order_bin(z2) if w is None and n else _hist_bin(z2, np.ones((R, n)) if w is None else w, parts)) * _Z_WIDTH
-    return (q95 / 1.959964) ** 2
+    F, n = b["ET"].shape[0], b["ET"].shape[2]
+    parts = [s for _, sl in b["sessions"] for s in _slices(sl)]
+    C = coef.reshape(F, 6, N_FEATURES)
+    q95 = np.empty((F, 6))
+    for f in range(F):
+        z2 = np.empty((6, n))  # E² less the reference's share, over var (≥ 0)
+        w = None  # each row's share of information on the error (None while all are 1)
+        for s in parts:
+            var = C[f] @ b["phT"][f, :, s].astype(float)  # (6, n)
+            E = b["ET"][f, :, s].astype(float)
+            z = np.multiply(E, E, out=z2[:, s])
+            if w is not None or b["vT"] is not None or not np.all(var >= 1e-300):  # else var / var = 1
+                if w is None:
+                    w = np.empty((6, n))
+                    w[:, : s.start] = 1.0  # the chunks before (in order from sample 0)
+                v_ref = 0.0 if b["vT"] is None else b["vT"][f, :, s]
+                ws = np.add(var, v_ref, out=w[:, s])
+                np.maximum(ws, 1e-300, out=ws)
+                np.divide(var, ws, out=ws)
+                ws *= ws
+                if b["vT"] is not None:
+                    # the scale s with |E| ≤ 1.96·√(s·var + v_ref) on 95 % of rows (E holds the reference's
+                    # noise, the interval is of the true wrench): each row needs s ≥ z²/1.96² with
+                    z -= 1.959964**2 * v_ref
+                    np.maximum(z, 0, out=z)
+            z /= np.maximum(var, 1e-300, out=var)
+        q95[f] = _order_bin(z2) if w is None and n else _hist_bin(z2, np.ones((6, n)) if w is None else w, parts)
+    return (q95.ravel() * _Z_WIDTH / 1.959964) ** 2
 
 
 def _z_bins(z2) -> np.ndarray:
