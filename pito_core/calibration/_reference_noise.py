@@ -135,16 +135,16 @@ def center_free_rows(kept) -> list:
     number per session and output that a re-tared sample does not have and the groups' own term
     covers for the fitted offset. ``kept`` as in the error model: ``(E (n, 6F), phi, carries (n, F), j, …)``.
     """
-    sums, counts = {}, {}
+    sums, counts, frees = {}, {}, []
     for E, _, carr, j, *_ in kept:
         free = ~np.repeat(carr, 6, axis=1)
+        frees.append(free)
         sums[j] = sums.get(j, 0) + np.where(free, E, 0).sum(axis=0)
         counts[j] = counts.get(j, 0) + free.sum(axis=0)
+    means = {j: (sums[j] / np.clip(counts[j], 1, None)) for j in sums}
     out = []
-    for E, phi, carr, j, *rest in kept:
-        free = ~np.repeat(carr, 6, axis=1)
-        mean = (sums[j] / np.clip(counts[j], 1, None)).astype(E.dtype)
-        out.append((np.where(free, E - mean, E), phi, carr, j, *rest))
+    for (E, phi, carr, j, *rest), free in zip(kept, frees):
+        out.append((np.where(free, E - means[j].astype(E.dtype), E), phi, carr, j, *rest))
     return out
 
 
