@@ -525,36 +525,39 @@ def _coverage_scale(b, coef) -> np.ndarray:
     (``b["vT"]``) added, is scaled to cover 95 % of the rows, weighted as in the reweighting:
     the 95 % point of a histogram of ``|E| / σ`` (bins of ``_Z_WIDTH``). With an exact reference
     every weight is 1 (where ``var ≥ 1e-300``): the bin is then that of an order statistic, found
-    by a partial sort (the same bin: it is monotone in ``E² / var``). Face by face (bounded memory).
+    face by face by a partial sort (:func:`_order_bins`: the same bin, monotone in ``E² / var``).
     """
-    F, n = b["ET"].shape[0], b["ET"].shape[2]
-    parts = [s for _, sl in b["sessions"] for s in _slices(sl)]
-    C = coef.reshape(F, 6, N_FEATURES)
-    q95 = np.empty((F, 6))
-    for f in range(F):
-        z2 = np.empty((6, n))  # E² less the reference's share, over var (≥ 0)
-        w = None  # each row's share of information on the error (None while all are 1)
-        for s in parts:
-            var = C[f] @ b["phT"][f, :, s].astype(float)  # (6, n)
-            E = b["ET"][f, :, s].astype(float)
-            z = np.multiply(E, E, out=z2[:, s])
-            if w is not None or b["vT"] is not None or not np.all(var >= 1e-300):  # else var / var = 1
-                if w is None:
-                    w = np.empty((6, n))
-                    w[:, : s.start] = 1.0  # the chunks before (in order from sample 0)
-                v_ref = 0.0 if b["vT"] is None else b["vT"][f, :, s]
-                ws = np.add(var, v_ref, out=w[:, s])
-                np.maximum(ws, 1e-300, out=ws)
-                np.divide(var, ws, out=ws)
-                ws *= ws
-                if b["vT"] is not None:
-                    # the scale s with |E| ≤ 1.96·√(s·var + v_ref) on 95 % of rows (E holds the reference's
-                    # noise, the interval is of the true wrench): each row needs s ≥ z²/1.96² with
-                    z -= 1.959964**2 * v_ref
-                    np.maximum(z, 0, out=z)
-            z /= np.maximum(var, 1e-300, out=var)
-        q95[f] = _order_bin(z2) if w is None and n else _hist_bin(z2, np.ones((6, n)) if w is None else w, parts)
-    return (q95.ravel() * _Z_WIDTH / 1.959964) ** 2
+    q = _order_bins(b, coef) if b["vT"] is None else None
+    if q is None:
+        q = _hist_bins(b, coef)
+    return (q * _Z_WIDTH / 1.959964) ** 2
+
+
+def _hist_bins(b, coef) -> np.ndarray:
+    """``(6F,)`` per row, one more than the first bin of ``|E| / σ`` where the weighted histogram's
+    cumulative share reaches 95 % (see :func:`_coverage_scale`)."""
+    R = 6 * b["ET"].shape[0]
+    hist = np.zeros(R * (_Z_N + 1))
+    offset = np.arange(R)[:, None] * (_Z_N + 1)
+    for _, c in _chunks(b):
+        var = _variances(c["phT"], coef).reshape(R, -1)  # (6F, n)
+        v_ref = c["vT"] if b["vT"] is None else c["vT"].reshape(R, -1)
+        w = np.maximum(var + v_ref, 1e-300)
+        np.divide(var, w, out=w)
+        w *= w  # each row's share of information on the error
+        # the scale s with |E| ≤ 1.96·√(s·var + v_ref) on 95 % of rows (E holds the reference's
+        # noise, the interval is of the true wrench): each row needs s ≥ z²/1.96² with
+        E = c["ET"].reshape(R, -1)
+        z = E * E
+        z -= 1.959964**2 * v_ref
+        np.maximum(z, 0, out=z)
+        z /= np.maximum(var, 1e-300, out=var)
+        bins = _z_bins(z)
+        bins += offset
+        hist += np.bincount(bins.ravel(), weights=w.ravel(), minlength=hist.size)
+    hist = hist.reshape(R, _Z_N + 1)
+    cdf = np.cumsum(hist, axis=1) / np.clip(hist.sum(axis=1, keepdims=True), 1, None)
+    return np.argmax(cdf >= 0.95, axis=1) + 1
 
 
 def _z_bins(z2) -> np.ndarray:
@@ -565,32 +568,32 @@ def _z_bins(z2) -> np.ndarray:
     return z.astype(np.int64)
 
 
-def _hist_bin(z2, w, parts) -> np.ndarray:
-    """``(R,)`` per row of ``z2 (R, n)``, one more than the first bin where the ``w``-weighted
-    histogram's cumulative share reaches 95 % (summed over the column slices ``parts`` in turn)."""
-    R = z2.shape[0]
-    hist = np.zeros(R * (_Z_N + 1))
-    offset = np.arange(R)[:, None] * (_Z_N + 1)
-    for s in parts:
-        bins = _z_bins(z2[:, s])
-        bins += offset
-        hist += np.bincount(bins.ravel(), weights=w[:, s].ravel(), minlength=hist.size)
-    hist = hist.reshape(R, _Z_N + 1)
-    cdf = np.cumsum(hist, axis=1) / np.clip(hist.sum(axis=1, keepdims=True), 1, None)
-    return np.argmax(cdf >= 0.95, axis=1) + 1
-
-
-def _order_bin(z2) -> np.ndarray:
-    """:func:`_hist_bin` with every weight 1: the bin of the ``m``-th smallest ``z²`` of each row,
-    ``m`` the least count whose share ``m / n`` (as the histogram computes it) reaches 95 %."""
-    n = z2.shape[1]
+def _order_bins(b, coef):
+    """:func:`_hist_bins` with every weight 1 (an exact reference; None where some ``var < 1e-300``
+    gives a weight below 1): per row, the bin of the ``m``-th smallest ``z² = E² / var``, ``m`` the
+    least count whose share ``m / n`` (as the histogram computes it) reaches 95 %. Face by face."""
+    F, n = b["ET"].shape[0], b["ET"].shape[2]
+    if n == 0:
+        return None
     m = int(np.ceil(0.95 * n))
-    while m > 1 and (m - 1) / max(n, 1) >= 0.95:
+    while m > 1 and (m - 1) / n >= 0.95:
         m -= 1
-    while m / max(n, 1) < 0.95:
+    while m / n < 0.95:
         m += 1
-    kth = np.partition(z2, m - 1, axis=1)[:, m - 1]
-    return _z_bins(kth) + 1
+    C = coef.reshape(F, 6, N_FEATURES)
+    out = np.empty((F, 6), dtype=np.int64)
+    for f in range(F):
+        z2 = np.empty((6, n))
+        for _, sl in b["sessions"]:
+            for s in _slices(sl):  # the chunks of _chunks: the same products
+                var = C[f] @ b["phT"][f, :, s].astype(float)  # (6, n)
+                if not np.all(var >= 1e-300):
+                    return None
+                E = b["ET"][f, :, s].astype(float)
+                z = np.multiply(E, E, out=z2[:, s])
+                z /= var
+        out[f] = _z_bins(np.partition(z2, m - 1, axis=1)[:, m - 1]) + 1
+    return out.ravel()
 
 
 def _strided(blocks, stride):
