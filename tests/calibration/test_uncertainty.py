@@ -247,3 +247,21 @@ def test_the_significance_of_a_load_term_does_not_depend_on_the_features_units()
         np.testing.assert_allclose(_significant_rows(Ps[None], es[None], Vs[:, None], rv)[0] * S, ref, rtol=1e-6, atol=0)
         np.testing.assert_allclose(_significant_nnls(Ps, es, Vs, rv) * S, ref, rtol=1e-6, atol=0)
 
+
+
+@pytest.mark.parametrize("n", [1, 20, 100, 2000, 5001])
+def test_the_coverage_bin_by_partial_sort_is_the_histograms(n):
+    """An exact reference (every weight 1): the order statistic gives the histogram's 95 % bin."""
+    from pito_core.calibration._residuals import _hist_bins, _order_bins
+
+    rng = np.random.default_rng(n)
+    F = 2
+    phT = np.ones((F, 4, n), dtype=np.float32)
+    phT[:, 1:] = rng.uniform(0, 2, size=(F, 3, n))
+    ET = (rng.standard_t(3, size=(F, 6, n)) * rng.uniform(0.5, 2, size=(F, 6, 1))).astype(np.float32)
+    ET[0, 0, : n // 2] = 0.0  # ties
+    b = dict(ET=ET, phT=phT, carr=np.ones((F, n), dtype=bool), vT=None, sessions=[(0, slice(0, n))])
+    coef = rng.uniform(0.1, 1.0, size=(6 * F, 4))
+    np.testing.assert_array_equal(_order_bins(b, coef), _hist_bins(b, coef))
+    coef[0] = 0.0  # a row of zero variance: weights below 1, the histogram's
+    assert _order_bins(b, coef) is None
