@@ -51,7 +51,8 @@ _GROUP_OF_PATTERN = np.array([0 if p == 0 else (p.bit_length() if p & (p - 1) ==
 
 def load_groups(loaded: np.ndarray) -> np.ndarray:
     """``(n,) int8``: each sample's load group (see ``_UNUSABLE``) from ``loaded (n, 6) bool``."""
-    return np.take(_GROUP_OF_PATTERN, (np.asarray(loaded, dtype=bool).view(np.uint8).astype(np.float32) @ _BITS).astype(np.intp))
+    pattern = np.asarray(loaded, dtype=bool).view(np.uint8).astype(np.float32) @ _BITS
+    return np.take(_GROUP_OF_PATTERN, pattern.astype(np.intp))
 
 
 def group_signs(flange: str, connected_face: int) -> np.ndarray:
