@@ -124,9 +124,12 @@ def minmax_decimate(t, y, t0: float, t1: float, n_bins: int):
     col = np.clip(np.floor((t - t0) / max(t1 - t0, 1e-12) * n_bins), 0, n_bins - 1).astype(np.int64)
     starts = np.flatnonzero(np.r_[True, col[1:] != col[:-1]])
     ends = np.r_[starts[1:], t.size] - 1
-    with np.errstate(invalid="ignore"):
-        lo = np.fmin.reduceat(y, starts, axis=0)
-        hi = np.fmax.reduceat(y, starts, axis=0)
+    # without NaN, minimum/maximum give what fmin/fmax give, in ~40 % of their time (a sum is
+    # NaN if any value is, or on inf - inf: then the NaN-aware pair, as always)
+    with np.errstate(invalid="ignore", over="ignore"):
+        lo_of, hi_of = (np.fmin, np.fmax) if not np.isfinite(y.sum()) else (np.minimum, np.maximum)
+        lo = lo_of.reduceat(y, starts, axis=0)
+        hi = hi_of.reduceat(y, starts, axis=0)
     m = starts.size
     t_out = np.empty(2 * m)
     t_out[0::2], t_out[1::2] = t[starts], t[ends]
