@@ -1,6 +1,8 @@
 """What the operator sees: one palette, white contacts, clamped arrows marked, lifted torsion
 rings, plots decimated from rings, the loading page's gates, the wizard's default method."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -80,6 +82,32 @@ def test_ring_buffer_view_and_minmax_decimation_keep_peaks():
     y[7000, 1] = -4.0
     td, yd = minmax_decimate(t, y, 0.0, 10.0, 100)
     assert td.size <= 200 and yd[:, 0].max() == 9.0 and yd[:, 1].min() == -4.0
+
+
+@pytest.mark.parametrize("holes", ["none", "nan", "nan column", "inf"])
+def test_minmax_decimation_is_each_columns_nan_ignoring_min_and_max(holes):
+    from app.widgets.plots import minmax_decimate
+
+    rng = np.random.default_rng(5)
+    t = np.sort(rng.uniform(0.0, 10.0, 5000))
+    y = rng.normal(size=(t.size, 3))
+    if holes == "nan":
+        y[rng.random(y.shape) < 0.2] = np.nan
+    elif holes == "nan column":
+        y[:, 1] = np.nan
+    elif holes == "inf":
+        y[17, 0], y[4000, 0] = np.inf, -np.inf
+    td, yd = minmax_decimate(t, y, 0.0, 10.0, 300)
+    col = np.clip(np.floor(t / 10.0 * 300), 0, 299).astype(int)
+    expect_t, expect_y = [], []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN columns
+        for c in np.unique(col):
+            sel = col == c
+            expect_t += [t[sel][0], t[sel][-1]]
+            expect_y += [np.nanmin(y[sel], axis=0), np.nanmax(y[sel], axis=0)]
+    assert np.array_equal(td, expect_t)
+    assert np.array_equal(yd, np.array(expect_y), equal_nan=True)
 
 
 def test_plot_curves_carry_the_bounds_pyqtgraph_would_find(qtbot):
