@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 import pyqtgraph as pg
+from PySide6.QtCore import Qt
 from PySide6.QtWidgets import QVBoxLayout, QWidget
 
 from pito_core.devices import Ring
@@ -37,7 +38,18 @@ FOREGROUND = "#c9d1d9"
 def _plot_widget(parent=None) -> pg.PlotWidget:
     w = pg.PlotWidget(parent, background=BACKGROUND)
     w.setAntialiasing(False)
+    _opaque(w)
     return w
+
+
+def _opaque(view: pg.GraphicsView) -> None:
+    """Tell Qt that ``view`` paints every pixel of its viewport (its background brush covers it).
+
+    Otherwise, under the app's style sheet (``QWidget { background: … }``), every repaint of
+    a curve first paints the styled background beneath it: ~5 of the ~6 ms of CPU a frame of
+    the live view's plots took (docs/performance.md); the pixels are the same.
+    """
+    view.viewport().setAttribute(Qt.WidgetAttribute.WA_OpaquePaintEvent, True)
 
 
 class TimeRing:
@@ -287,6 +299,7 @@ class FaceForcePlot(_TimelinePlot, pg.PlotWidget):
     def __init__(self, window: float = 10.0, rate: float = 1000.0, parent=None):
         super().__init__(parent, background=BACKGROUND)
         self.setAntialiasing(False)
+        _opaque(self)
         self.window = float(window)
         self.buffer = TimeRing(int(window * rate * 1.25), 7)  # t, |F1|..|F6|
         _style_plot(self.getPlotItem(), "force norm ‖F‖ (N)")

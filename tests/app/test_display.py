@@ -153,3 +153,55 @@ def test_wizard_defaults_to_the_recommended_method():
     m = WizardModel()
     assert m.method == RECOMMENDED_METHOD == "unloaded_frame" and m.flange == "face"
     assert "PITO" in RECOMMENDED_WHY and "face_to_face" in RECOMMENDED_WHY
+
+
+def test_plot_views_paint_every_pixel_of_their_viewport(qtbot):
+    """The plots' viewports are opaque (Qt paints no styled background beneath them), so they must cover it
+    themselves: on the screen, the same pixels as with the style sheet's background painted first."""
+    from PySide6.QtCore import QPoint, Qt
+    from PySide6.QtGui import QImage
+    from PySide6.QtWidgets import QApplication
+
+    from app.theme import STYLE
+    from app.widgets.plots import EquilibriumPlot, FaceForcePlot
+
+    app = QApplication.instance()
+    app.setStyleSheet(STYLE)
+    try:
+        fp, eq = FaceForcePlot(), EquilibriumPlot(weight=2.0)
+        t = 100 + np.arange(3000) * 1e-3
+        fp.append(t, np.abs(np.sin(t[:, None] * np.arange(1, 7))) * 4)
+        for k in range(0, t.size, 10):
+            eq.append(t[k], 2.0 + np.sin(t[k]), 0.003)
+        views = [fp, eq.force_plot, eq.torque_plot]
+        assert all(v.viewport().testAttribute(Qt.WidgetAttribute.WA_OpaquePaintEvent) for v in views)
+
+        def screen_pixels():
+            """The three viewports as the X server shows them, after a fresh paint."""
+            for w in (fp, eq):
+                w.repaint()
+            qtbot.wait(100)
+            out = []
+            for v in views:
+                vp = v.viewport()
+                p = vp.mapToGlobal(QPoint(0, 0))
+                img = app.primaryScreen().grabWindow(0, p.x(), p.y(), vp.width(), vp.height()).toImage()
+                img = img.convertToFormat(QImage.Format.Format_RGB32)
+                out.append(np.array(img.constBits()).reshape(img.height(), img.bytesPerLine()).copy())
+            return out
+
+        for w, y in ((fp, 0), (eq, 300)):
+            qtbot.addWidget(w)
+            w.setWindowFlag(Qt.WindowType.FramelessWindowHint)
+            w.setGeometry(0, y, 500, 280)
+            w.show()
+            qtbot.waitExposed(w)
+        assert fp.refresh() and eq.refresh()
+        opaque = screen_pixels()
+        for v in views:
+            v.viewport().setAttribute(Qt.WidgetAttribute.WA_OpaquePaintEvent, False)
+        styled = screen_pixels()
+        for a, b in zip(opaque, styled):
+            assert a.shape == b.shape and np.array_equal(a, b)
+    finally:
+        app.setStyleSheet("")
