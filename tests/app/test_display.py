@@ -205,3 +205,38 @@ def test_plot_views_paint_every_pixel_of_their_viewport(qtbot):
             assert a.shape == b.shape and np.array_equal(a, b)
     finally:
         app.setStyleSheet("")
+
+
+def test_a_new_readout_text_lays_out_the_window_only_when_it_needs_more_room(qtbot):
+    from PySide6.QtCore import QEvent, QObject, Qt
+
+    from app.live.view import LiveView
+
+    view = LiveView()
+    qtbot.addWidget(view)
+    view.resize(1200, 700)
+    view.show()
+    qtbot.waitExposed(view)
+    qtbot.wait(300)  # the view settles (its first layouts)
+    r = view.readout
+    requests = []
+
+    class Count(QObject):
+        def eventFilter(self, obj, ev):  # noqa: N802
+            if ev.type() == QEvent.Type.LayoutRequest:
+                requests.append(obj)
+            return False
+
+    counter = Count()
+    r.parentWidget().installEventFilter(counter)
+    view._set_readout("2 contacts   ‖ΣF‖  2.85 N   ‖ΣT‖  11.4 mN·m")
+    qtbot.wait(200)
+    wide = r.width()
+    assert wide >= r.sizeHint().width() and r.alignment() & Qt.AlignmentFlag.AlignRight
+    requests.clear()
+    view._set_readout("1 contact")  # shorter: the same room
+    qtbot.wait(50)
+    assert requests == [] and r.width() == wide and r.fontMetrics().horizontalAdvance(r.text()) < wide
+    view._set_readout("0 contacts   ‖ΣF‖  0.05 N   ‖ΣT‖   0.4 mN·m   face 6: not measured by this calibration")
+    qtbot.wait(50)
+    assert r.width() >= r.sizeHint().width() > wide  # more room: laid out again
