@@ -116,6 +116,7 @@ class LiveView(QWidget):
         bar.addStretch(1)
         self.readout = QLabel("")
         self.readout.setObjectName("value")
+        self.readout.setAlignment(Qt.AlignmentFlag.AlignRight | Qt.AlignmentFlag.AlignVCenter)
         bar.addWidget(self.readout)
         # the tare in force (or why one was refused): a line of its own, wrapped, never widening the window
         status = QHBoxLayout()
@@ -395,7 +396,7 @@ class LiveView(QWidget):
         if now - self._last_readout >= 1.0 / self.readout_rate:
             self._last_readout = now
             if self._readout_text != self.readout.text():
-                self.readout.setText(self._readout_text)
+                self._set_readout(self._readout_text)
             rt = getattr(self, "_replay_text", None)
             if rt and self.timeline.isEnabled():
                 self.time_label.setText(rt)
@@ -403,6 +404,20 @@ class LiveView(QWidget):
             if rec and self.record.isChecked():
                 self.record.setText(rec)
         self.frames += 1
+
+    def _set_readout(self, text: str) -> None:
+        """The readout's new text, without laying out the window again unless it needs more room.
+
+        A label whose size may change asks its parent for a new layout on every text, and Qt
+        then repaints the whole window (~13 ms of the GUI thread, 5 times a second). Held at a
+        fixed size that only grows, right-aligned after the toolbar's stretch, it shows the
+        same pixels.
+        """
+        r = self.readout
+        r.setText(text)
+        need = r.sizeHint()
+        if need.width() > r.minimumWidth() or need.height() != r.minimumHeight() or r.maximumWidth() != r.minimumWidth():
+            r.setFixedSize(max(need.width(), r.minimumWidth()), need.height())
 
     def showEvent(self, event):  # noqa: N802
         super().showEvent(event)

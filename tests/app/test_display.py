@@ -1,6 +1,8 @@
 """What the operator sees: one palette, white contacts, clamped arrows marked, lifted torsion
 rings, plots decimated from rings, the loading page's gates, the wizard's default method."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -82,6 +84,32 @@ def test_ring_buffer_view_and_minmax_decimation_keep_peaks():
     assert td.size <= 200 and yd[:, 0].max() == 9.0 and yd[:, 1].min() == -4.0
 
 
+@pytest.mark.parametrize("holes", ["none", "nan", "nan column", "inf"])
+def test_minmax_decimation_is_each_columns_nan_ignoring_min_and_max(holes):
+    from app.widgets.plots import minmax_decimate
+
+    rng = np.random.default_rng(5)
+    t = np.sort(rng.uniform(0.0, 10.0, 5000))
+    y = rng.normal(size=(t.size, 3))
+    if holes == "nan":
+        y[rng.random(y.shape) < 0.2] = np.nan
+    elif holes == "nan column":
+        y[:, 1] = np.nan
+    elif holes == "inf":
+        y[17, 0], y[4000, 0] = np.inf, -np.inf
+    td, yd = minmax_decimate(t, y, 0.0, 10.0, 300)
+    col = np.clip(np.floor(t / 10.0 * 300), 0, 299).astype(int)
+    expect_t, expect_y = [], []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # all-NaN columns
+        for c in np.unique(col):
+            sel = col == c
+            expect_t += [t[sel][0], t[sel][-1]]
+            expect_y += [np.nanmin(y[sel], axis=0), np.nanmax(y[sel], axis=0)]
+    assert np.array_equal(td, expect_t)
+    assert np.array_equal(yd, np.array(expect_y), equal_nan=True)
+
+
 def test_plot_curves_carry_the_bounds_pyqtgraph_would_find(qtbot):
     import pyqtgraph as pg
 
@@ -125,3 +153,90 @@ def test_wizard_defaults_to_the_recommended_method():
     m = WizardModel()
     assert m.method == RECOMMENDED_METHOD == "unloaded_frame" and m.flange == "face"
     assert "PITO" in RECOMMENDED_WHY and "face_to_face" in RECOMMENDED_WHY
+
+
+def test_plot_views_paint_every_pixel_of_their_viewport(qtbot):
+    """The plots' viewports are opaque (Qt paints no styled background beneath them), so they must cover it
+    themselves: on the screen, the same pixels as with the style sheet's background painted first."""
+    from PySide6.QtCore import QPoint, Qt
+    from PySide6.QtGui import QImage
+    from PySide6.QtWidgets import QApplication
+
+    from app.theme import STYLE
+    from app.widgets.plots import EquilibriumPlot, FaceForcePlot
+
+    app = QApplication.instance()
+    app.setStyleSheet(STYLE)
+    try:
+        fp, eq = FaceForcePlot(), EquilibriumPlot(weight=2.0)
+        t = 100 + np.arange(3000) * 1e-3
+        fp.append(t, np.abs(np.sin(t[:, None] * np.arange(1, 7))) * 4)
+        for k in range(0, t.size, 10):
+            eq.append(t[k], 2.0 + np.sin(t[k]), 0.003)
+        views = [fp, eq.force_plot, eq.torque_plot]
+        assert all(v.viewport().testAttribute(Qt.WidgetAttribute.WA_OpaquePaintEvent) for v in views)
+
+        def screen_pixels():
+            """The three viewports as the X server shows them, after a fresh paint."""
+            for w in (fp, eq):
+                w.repaint()
+            qtbot.wait(100)
+            out = []
+            for v in views:
+                vp = v.viewport()
+                p = vp.mapToGlobal(QPoint(0, 0))
+                img = app.primaryScreen().grabWindow(0, p.x(), p.y(), vp.width(), vp.height()).toImage()
+                img = img.convertToFormat(QImage.Format.Format_RGB32)
+                out.append(np.array(img.constBits()).reshape(img.height(), img.bytesPerLine()).copy())
+            return out
+
+        for w, y in ((fp, 0), (eq, 300)):
+            qtbot.addWidget(w)
+            w.setWindowFlag(Qt.WindowType.FramelessWindowHint)
+            w.setGeometry(0, y, 500, 280)
+            w.show()
+            qtbot.waitExposed(w)
+        assert fp.refresh() and eq.refresh()
+        opaque = screen_pixels()
+        for v in views:
+            v.viewport().setAttribute(Qt.WidgetAttribute.WA_OpaquePaintEvent, False)
+        styled = screen_pixels()
+        for a, b in zip(opaque, styled):
+            assert a.shape == b.shape and np.array_equal(a, b)
+    finally:
+        app.setStyleSheet("")
+
+
+def test_a_new_readout_text_lays_out_the_window_only_when_it_needs_more_room(qtbot):
+    from PySide6.QtCore import QEvent, QObject, Qt
+
+    from app.live.view import LiveView
+
+    view = LiveView()
+    qtbot.addWidget(view)
+    view.resize(1200, 700)
+    view.show()
+    qtbot.waitExposed(view)
+    qtbot.wait(300)  # the view settles (its first layouts)
+    r = view.readout
+    requests = []
+
+    class Count(QObject):
+        def eventFilter(self, obj, ev):  # noqa: N802
+            if ev.type() == QEvent.Type.LayoutRequest:
+                requests.append(obj)
+            return False
+
+    counter = Count()
+    r.parentWidget().installEventFilter(counter)
+    view._set_readout("2 contacts   ‖ΣF‖  2.85 N   ‖ΣT‖  11.4 mN·m")
+    qtbot.wait(200)
+    wide = r.width()
+    assert wide >= r.sizeHint().width() and r.alignment() & Qt.AlignmentFlag.AlignRight
+    requests.clear()
+    view._set_readout("1 contact")  # shorter: the same room
+    qtbot.wait(50)
+    assert requests == [] and r.width() == wide and r.fontMetrics().horizontalAdvance(r.text()) < wide
+    view._set_readout("0 contacts   ‖ΣF‖  0.05 N   ‖ΣT‖   0.4 mN·m   face 6: not measured by this calibration")
+    qtbot.wait(50)
+    assert r.width() >= r.sizeHint().width() > wide  # more room: laid out again
