@@ -83,7 +83,7 @@ def rmse_figure(evaluation, fig: Figure | None = None, dark: bool = True, *, rea
             okU = np.isfinite(u)
             if okU.any():
                 ax.scatter(faces[okU], u[okU], marker="_", s=250, linewidths=2,
-                           color=DARK["fg"] if dark else "black", label="± 95 % of the true wrench (the reference's noise out)")
+                           color=DARK["fg"] if dark else "black", label="± 95 % of the true wrench")
                 leg = ax.legend(fontsize=SMALL, loc="upper left", framealpha=0.6)
                 if dark:
                     leg.get_frame().set_facecolor(DARK["bg"])
