@@ -106,7 +106,7 @@ class GramPass:
         self._buf = np.empty(CHUNK * 43)  # one chunk of a group's design, rows of up to 43 columns
         self._cbuf = None
         self._rbuf = np.empty((CHUNK, 6))
-        self._ones = (0, 0)  # rows and width of the designs whose column of ones _buf holds
+        self._ones_held = (0, 0)  # rows and width of the designs whose column of ones _buf holds
         self._one = np.ones(CHUNK)
         self._xc = [None if c is None else np.r_[0.0, c, np.zeros(6)] for c in self.centers]  # c_k in Z's columns
         self._G = None
@@ -188,9 +188,9 @@ class GramPass:
         n = counts.shape[0]
         w = 43 if part is None else part[1].size
         Z = self._buf[: n * w].reshape(n, w)
-        if self._ones[1] != w or self._ones[0] < n:  # the column of ones stays from the last design of this width
+        if self._ones_held[1] != w or self._ones_held[0] < n:  # the column of ones stays from the last design of this width
             Z[:, _ONE] = 1.0
-            self._ones = (n, w)
+            self._ones_held = (n, w)
         if part is None:
             np.copyto(Z[:, _X], counts, casting="unsafe")
         for i, f in enumerate(() if part is None else part[0]):

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["ReferenceLeverage", "center_free_rows"]
+__all__ = ["ReferenceLeverage", "center_free_rows", "is_range"]
 
 
 class ReferenceLeverage:
@@ -57,7 +57,7 @@ class ReferenceLeverage:
         """The group's design rows ``[session indicator | counts − tare mean]`` (as in the fit)."""
         A = np.zeros((counts.shape[0], self.n_int + g.inputs.size))
         A[:, j] = 1.0
-        if _is_range(g.inputs, counts.shape[1]):  # all gauges: no copies
+        if is_range(g.inputs, counts.shape[1]):  # all gauges: no copies
             np.subtract(counts, tare_mean, out=A[:, self.n_int :])
         else:
             A[:, self.n_int :] = counts[:, g.inputs] - tare_mean[g.inputs]
@@ -116,7 +116,7 @@ class ReferenceLeverage:
             x = counts.astype(float)
             for g, kk in zip(self.groups, self.kk):
                 # slopes: the offsets' share is taken out apart
-                B = x - tare_mean if _is_range(g.inputs, x.shape[1]) else x[:, g.inputs] - tare_mean[g.inputs]
+                B = x - tare_mean if is_range(g.inputs, x.shape[1]) else x[:, g.inputs] - tare_mean[g.inputs]
                 Q = g.reference_leverage[:, self.n_int :, self.n_int :]  # (nb, m, m)
                 nb, m = Q.shape[0], Q.shape[1]
                 BQ = (B @ Q.transpose(1, 0, 2).reshape(m, nb * m)).reshape(-1, nb, m)  # every face block in one product
@@ -148,6 +148,6 @@ def center_free_rows(kept) -> list:
     return out
 
 
-def _is_range(ix, n) -> bool:
-    """Whether the indices ``ix`` are ``0, 1, …, n − 1``."""
+def is_range(ix, n) -> bool:
+    """Whether the indices ``ix`` are ``0, 1, …, n − 1`` (then a view replaces the copy they would take)."""
     return ix.size == n and bool(np.all(ix == np.arange(n)))

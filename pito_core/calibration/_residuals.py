@@ -15,7 +15,7 @@ import numpy as np
 import scipy.optimize
 
 from ..io import SessionBlock
-from ._reference_noise import ReferenceLeverage, center_free_rows
+from ._reference_noise import ReferenceLeverage, center_free_rows, is_range
 from ._targets import block_targets
 from ._uncertainty import FULL_SCALE, N_FEATURES, q_features
 
@@ -301,12 +301,12 @@ def _add_cluster_scores(groups, clusters, own_face, counts, Eflat, carries, unlo
         f = own_face[id(g)]
         rows = np.arange(counts.shape[0]) if f is None else np.flatnonzero(carries[:, f - 1] | unloaded)
         # views where all are taken, else one C-ordered copy ([rows][:, inputs] gave a column-major one)
-        Xg = counts if f is None and _is_range(g.inputs, 36) else counts[np.ix_(rows, g.inputs)]
+        Xg = counts if f is None and is_range(g.inputs, 36) else counts[np.ix_(rows, g.inputs)]
         A = np.empty((Xg.shape[0], n_int + g.inputs.size))
         A[:, :n_int] = 0.0
         A[:, j] = 1.0
         np.subtract(Xg, tare_mean[g.inputs], out=A[:, n_int:])
-        Eg = Eflat if f is None and _is_range(g.rows, Eflat.shape[1]) else Eflat[np.ix_(rows, g.rows)]
+        Eg = Eflat if f is None and is_range(g.rows, Eflat.shape[1]) else Eflat[np.ix_(rows, g.rows)]
         a = 0
         while a < A.shape[0]:  # clusters of consecutive samples, across blocks
             take = min(A.shape[0] - a, cl["length"] - cl["n"])
@@ -323,11 +323,6 @@ def _add_cluster_scores(groups, clusters, own_face, counts, Eflat, carries, unlo
 def _quadratic(sc, P) -> np.ndarray:
     """``(j,)`` the quadratic forms ``sc[:, j]ᵀ P sc[:, j]`` (one product, not a three-operand ``einsum``)."""
     return np.einsum("pj,pj->j", P @ sc, sc)
-
-
-def _is_range(ix, n) -> bool:
-    """Whether the indices ``ix`` are ``0, 1, …, n − 1`` (then a view replaces the copy they would take)."""
-    return ix.size == n and bool(np.all(ix == np.arange(n)))
 
 
 def _set_inflation(groups, clusters, stride) -> None:
