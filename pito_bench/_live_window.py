@@ -13,13 +13,14 @@ How it is measured, from outside the app's process:
   view shows (host ``CLOCK_MONOTONIC``; sample times are the device clocks mapped onto it)
   as the colour of a 10×10 px square in the 3D scene and in the force plot, in the same
   paint as the data;
-- a grabber in this process reads the scene's and the plots' rectangles ~100 times a second
-  through shared memory (``XShmGetImage``; :mod:`pito_bench._xgrab`);
+- a grabber in this process reads the scene's and the plots' rectangles 100 times a second
+  and the two stamps' pixels 1000 times a second, through shared memory (``XShmGetImage``;
+  :mod:`pito_bench._xgrab`);
 - frame rate of a view = new stamps seen per second (frames that showed new data); also the
-  grabs whose pixels changed at all. Both are capped by the grab rate (reported);
-- latency = (time of the first grab showing a stamp) − (the stamped sample's time): from the
+  whole-view grabs whose pixels changed at all (capped by their rate, reported);
+- latency = (time of the first read showing a stamp) − (the stamped sample's time): from the
   sample's time on the device clock to the pixels on the X server; it overestimates by up to
-  one grab period (~10 ms, half of it on average).
+  one read period (1 ms; with one read of whole views per 10 ms it was up to 10 ms, 5 on average).
 
 Figures depend on the machine and on its load: the load average before and after is in the
 result. The app and the grabber share the machine with the simulated devices.
@@ -43,6 +44,8 @@ from ._stamp import WindowProbe, decode
 __all__ = ["run", "main", "start_xvfb", "display_env"]
 
 SIZE = (1440, 900)
+#: Reads of the stamp pixels per second, Hz (default): the latency is resolved to 1/STAMP_RATE.
+STAMP_RATE = 1000.0
 
 
 def _run_app(regions: str, seconds: float, warmup: float) -> int:
@@ -95,7 +98,7 @@ def _percentiles(values) -> dict:
             "n": int(v.size)}
 
 
-def _grab(display: str, regions_path: Path, seconds: float, rate: float, app_proc) -> dict:
+def _grab(display: str, regions_path: Path, seconds: float, rate: float, stamp_rate: float, app_proc) -> dict:
     from ._xgrab import Grabber  # deferred: loads libX11 (ctypes) at import; only the grabbing process needs it
 
     t_wait = time.monotonic() + 180
@@ -112,11 +115,11 @@ def _grab(display: str, regions_path: Path, seconds: float, rate: float, app_pro
     stamp_xy = {"scene": reg["scene_stamp"], "plots": reg["plot_stamp"]}
     prev = dict.fromkeys(keys)
     changed = dict.fromkeys(keys, 0)
-    last_stamp = dict.fromkeys(keys)
-    lat = {k: [] for k in keys}
-    bad = dict.fromkeys(keys, 0)
-    n = 0
-    period = 1.0 / rate
+    fine = {k: _StampLog() for k in keys}  # the stamp pixel, read at every poll
+    whole = {k: _StampLog() for k in keys}  # the stamp as the whole-view grabs show it (resolution 1/rate)
+    n = polls = 0
+    period = 1.0 / max(stamp_rate, rate)
+    every = max(1, round(max(stamp_rate, rate) / rate))  # polls per whole-view grab
     t0 = time.monotonic()
     t_next, t_end = t0, t0 + seconds
     while time.monotonic() < t_end:
@@ -125,37 +128,56 @@ def _grab(display: str, regions_path: Path, seconds: float, rate: float, app_pro
             time.sleep(t_next - now)
         t_next += period
         for key in keys:
-            x, y, w, h = reg[key]
-            ta = time.monotonic()
-            img = g.grab(x, y, w, h)
-            t_mid = 0.5 * (ta + time.monotonic())
-            if prev[key] is None:
-                prev[key] = img.copy()
-            elif not np.array_equal(img.view(np.uint32), prev[key].view(np.uint32)):  # a pixel a word: half the time
-                changed[key] += 1
-                np.copyto(prev[key], img)  # a shared-memory grab is overwritten by the next one
             sx, sy = stamp_xy[key]
-            b, gg, r = (int(v) for v in img[sy - y, sx - x, :3])  # BGRA
-            if (r, gg, b) == (0, 0, 0):
-                continue  # no data shown yet
-            ts = decode((r, gg, b), t_mid)
-            if ts != last_stamp[key]:
-                if last_stamp[key] is not None:  # the first one may have been on screen for a while
-                    d = t_mid - ts
-                    if 0.0 <= d < 5.0:
-                        lat[key].append(1000.0 * d)
-                    else:
-                        bad[key] += 1
-                last_stamp[key] = ts
-        n += 1
+            if polls % every == 0:  # the whole view: did any pixel change
+                x, y, w, h = reg[key]
+                ta = time.monotonic()
+                img = g.grab(x, y, w, h)
+                whole[key].see(img[sy - y, sx - x], 0.5 * (ta + time.monotonic()))
+                if prev[key] is None:
+                    prev[key] = img.copy()
+                elif not np.array_equal(img.view(np.uint32), prev[key].view(np.uint32)):  # a pixel a word: half the time
+                    changed[key] += 1
+                    np.copyto(prev[key], img)  # a shared-memory grab is overwritten by the next one
+            ta = time.monotonic()
+            px = g.grab(sx, sy, 1, 1)
+            fine[key].see(px[0, 0], 0.5 * (ta + time.monotonic()))
+        n += polls % every == 0
+        polls += 1
     dt = time.monotonic() - t0
     g.close()
-    out = {"grabs_per_s": n / dt, "grab": "XShmGetImage (MIT-SHM)" if g.uses_shm else "XGetImage", "seconds": dt, "renderer": reg.get("renderer"), "size": list(SIZE),
-           "regions": {k: reg[k] for k in keys}}
+    out = {"grabs_per_s": n / dt, "stamp_reads_per_s": polls / dt,
+           "grab": "XShmGetImage (MIT-SHM)" if g.uses_shm else "XGetImage", "seconds": dt, "renderer": reg.get("renderer"),
+           "size": list(SIZE), "regions": {k: reg[k] for k in keys}}
     for key in keys:
-        out[key] = {"frames_per_s": len(lat[key]) / dt, "changed_grabs_per_s": changed[key] / dt,
-                    "latency_ms": _percentiles(lat[key]), "bad_stamps": bad[key]}
+        out[key] = {"frames_per_s": len(fine[key].lat) / dt, "changed_grabs_per_s": changed[key] / dt,
+                    "latency_ms": _percentiles(fine[key].lat), "bad_stamps": fine[key].bad,
+                    "latency_whole_grabs_ms": _percentiles(whole[key].lat)}
     return out
+
+
+class _StampLog:
+    """The latencies (ms) of one view's stamps as one sequence of reads sees them: each new stamp's
+    first read time − its sample time."""
+
+    def __init__(self):
+        self.last, self.lat, self.bad = None, [], 0
+
+    def see(self, bgra, t: float) -> None:
+        """A read at time ``t`` (s, monotonic) of a stamp pixel ``bgra``."""
+        b, g, r = (int(v) for v in bgra[:3])
+        if (r, g, b) == (0, 0, 0):
+            return  # no data shown yet
+        ts = decode((r, g, b), t)
+        if ts == self.last:
+            return
+        if self.last is not None:  # the first one may have been on screen for a while
+            d = t - ts
+            if 0.0 <= d < 5.0:
+                self.lat.append(1000.0 * d)
+            else:
+                self.bad += 1
+        self.last = ts
 
 
 def start_xvfb(screen: str = "1600x1000x24") -> tuple[str, subprocess.Popen]:
@@ -175,7 +197,8 @@ def display_env(display: str) -> dict:
     return env
 
 
-def run(quick: bool = False, seconds: float | None = None, rate: float = 100.0, warmup: float = 12.0) -> dict:
+def run(quick: bool = False, seconds: float | None = None, rate: float = 100.0, warmup: float = 12.0,
+        stamp_rate: float = STAMP_RATE) -> dict:
     """Measure the demo window; returns a JSON-able dict (``status`` "ok" or why not)."""
     if shutil.which("Xvfb") is None:
         return {"status": "skipped: Xvfb not installed (the window is measured on a private X display)"}
@@ -190,7 +213,7 @@ def run(quick: bool = False, seconds: float | None = None, rate: float = 100.0, 
                                 "--seconds", str(seconds + 3), "--warmup", str(warmup)], env=env,
                                stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
         try:
-            res = _grab(display, regions, seconds, rate, app)
+            res = _grab(display, regions, seconds, rate, stamp_rate, app)
         except RuntimeError as exc:
             app.kill()
             err = " | ".join((app.stderr.read() or "").strip().splitlines()[-3:])
@@ -207,8 +230,9 @@ def run(quick: bool = False, seconds: float | None = None, rate: float = 100.0, 
         regions.unlink(missing_ok=True)
     res["status"] = "ok"
     res["loadavg_before"], res["loadavg_after"], res["cpus"] = list(load0), list(os.getloadavg()), os.cpu_count()
-    res["method"] = ("pito-app --demo window (devices in a child process) on Xvfb, grabbed from outside at "
-                     f"{rate:g} Hz; frames = new data stamps seen per s; latency = sample time → first grab showing it")
+    res["method"] = ("pito-app --demo window (devices in a child process) on Xvfb, grabbed from outside (whole views "
+                     f"at {rate:g} Hz, the stamp pixels at {stamp_rate:g} Hz); frames = new data stamps seen per s; "
+                     "latency = sample time → first read showing it")
     return res
 
 
@@ -218,13 +242,15 @@ def main(argv=None) -> int:
     p.add_argument("--json", action="store_true", help="print one JSON object (frames/s, latencies in ms)")
     p.add_argument("--quick", action="store_true", help="8 s of grabbing instead of 20 s")
     p.add_argument("--seconds", type=float, help="seconds of grabbing (s)")
-    p.add_argument("--rate", type=float, default=100.0, help="grabs per second (Hz, default 100)")
+    p.add_argument("--rate", type=float, default=100.0, help="whole-view grabs per second (Hz, default 100)")
+    p.add_argument("--stamp-rate", type=float, default=STAMP_RATE,
+                   help=f"reads of the two stamp pixels per second (Hz, default {STAMP_RATE:g}): the latency's resolution")
     p.add_argument("--run-app", metavar="REGIONS", help=argparse.SUPPRESS)
     p.add_argument("--warmup", type=float, default=12.0, help="seconds from start to measuring (s, default 12)")
     args = p.parse_args(argv)
     if args.run_app:
         return _run_app(args.run_app, args.seconds or 20.0, args.warmup)
-    out = run(args.quick, args.seconds, args.rate, args.warmup)
+    out = run(args.quick, args.seconds, args.rate, args.warmup, args.stamp_rate)
     if args.json:
         print(json.dumps(out))
     elif out["status"] != "ok":

@@ -111,6 +111,11 @@ class CubeScene(QWidget):
         # one headlight, not pyvista's five-light kit: software GL shades every pixel once per light
         self.plotter.remove_all_lights()
         self.plotter.add_light(pv.Light(light_type="headlight"))  # flat: a gradient costs a full-screen pass in software GL
+        # the translucent uncertainty ellipsoids by plain alpha blending, not VTK's order-independent
+        # pass: that pass's full-window float buffers took a frame from 21 to 37 ms of CPU in software
+        # GL whenever an ellipsoid showed; six separate convex ellipsoids need no ordering (the two
+        # images differ by at most 4 of 255 levels; docs/performance.md, "Live window")
+        self.plotter.renderer.SetUseOIT(False)
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.addWidget(self.plotter.interactor)

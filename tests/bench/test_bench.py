@@ -204,6 +204,25 @@ def test_cli_help_and_bad_sizes(capsys):
     assert "--sizes" in capsys.readouterr().err
 
 
+def test_stamp_latency_counts_each_new_stamp_once_from_its_first_read():
+    """Latency = first read showing a stamp − its sample time; the stamp on screen at the start is not
+    counted (it may have been there a while), black is no data, a stamp from the future is bad."""
+    from pito_bench._live_window import _StampLog
+    from pito_bench._stamp import encode
+
+    def bgra(t):
+        r, g, b = encode(t)
+        return np.array([b, g, r, 255])
+
+    log = _StampLog()
+    log.see(np.zeros(4), 99.0)  # nothing shown yet
+    for t_read, t_sample in ((100.000, 99.990), (100.001, 99.990), (100.012, 100.000), (100.013, 100.000),
+                             (100.030, 100.020), (100.031, 100.045)):
+        log.see(bgra(t_sample), t_read)
+    assert np.allclose(log.lat, [12.0, 10.0], atol=1e-6)  # ms: the first stamp is not counted, repeats once
+    assert log.bad == 1  # 100.045 read at 100.031: after the read (decoded as 4.7 h old)
+
+
 @pytest.mark.skipif(not os.environ.get("DISPLAY"), reason="needs an X server (the suite runs under xvfb-run)")
 def test_shared_memory_grabs_equal_xgetimage_grabs():
     """The live-window benchmark's MIT-SHM grabs show the same pixels as plain XGetImage."""
@@ -215,7 +234,7 @@ def test_shared_memory_grabs_equal_xgetimage_grabs():
         if not shm.uses_shm:
             pytest.skip("this X server has no MIT-SHM")
         assert len(np.unique(shm.grab(0, 0, 320, 240).reshape(-1, 4), axis=0)) >= 3
-        for rect in ((0, 0, 64, 48), (10, 20, 300, 200), (5, 5, 300, 200)):  # two of one size share a segment
+        for rect in ((0, 0, 64, 48), (10, 20, 300, 200), (5, 5, 300, 200), (12, 22, 1, 1), (200, 100, 1, 1)):  # two of one size share a segment; a stamp pixel
             a = shm.grab(*rect).copy()
             b = plain.grab(*rect)
             assert a.shape == b.shape == (rect[3], rect[2], 4)
