@@ -74,6 +74,7 @@ def _run_app(regions: str, seconds: float, warmup: float) -> int:
     QTimer.singleShot(int(warmup * 1000), write_regions)
     QTimer.singleShot(int((warmup + seconds) * 1000), app.quit)
     app.exec()
+    Path(regions + ".frames").write_text(json.dumps(probe.frames))  # for the scene's breakdown (run)
     w.shutdown()
     w.release_views()
     return 0
@@ -153,7 +154,24 @@ def _grab(display: str, regions_path: Path, seconds: float, rate: float, stamp_r
         out[key] = {"frames_per_s": len(fine[key].lat) / dt, "changed_grabs_per_s": changed[key] / dt,
                     "latency_ms": _percentiles(fine[key].lat), "bad_stamps": fine[key].bad,
                     "latency_whole_grabs_ms": _percentiles(whole[key].lat)}
+    out["scene"]["_seen"] = fine["scene"].seen
     return out
+
+
+def _breakdown(frames, seen) -> dict:
+    """Where the scene's latency goes, per frame whose stamp was seen: sample → frame start → frame
+    end (the app's render thread, :class:`~pito_bench._stamp.WindowProbe`) → first read showing it (ms)."""
+    first = {}
+    for ts, t in seen:
+        first.setdefault(int(round(ts * 1000)), t)
+    rows = []
+    for ts, t0, t1 in frames:
+        t = first.get(int(round(ts * 1000))) if np.isfinite(ts) else None
+        if t is not None and t >= t1 - 0.002:  # the frame that drew it (not an earlier one with the same data)
+            rows.append((t0 - ts, t1 - t0, max(t - t1, 0.0)))
+    r = 1000.0 * np.array(rows).reshape(-1, 3)
+    return {"sample_to_frame_start": _percentiles(r[:, 0]), "frame": _percentiles(r[:, 1]),
+            "frame_end_to_screen": _percentiles(r[:, 2])}
 
 
 class _StampLog:
@@ -162,6 +180,7 @@ class _StampLog:
 
     def __init__(self):
         self.last, self.lat, self.bad = None, [], 0
+        self.seen = []  # (stamp, first read showing it), s
 
     def see(self, bgra, t: float) -> None:
         """A read at time ``t`` (s, monotonic) of a stamp pixel ``bgra``."""
@@ -175,6 +194,7 @@ class _StampLog:
             d = t - ts
             if 0.0 <= d < 5.0:
                 self.lat.append(1000.0 * d)
+                self.seen.append((ts, t))
             else:
                 self.bad += 1
         self.last = ts
@@ -224,10 +244,15 @@ def run(quick: bool = False, seconds: float | None = None, rate: float = 100.0, 
             except subprocess.TimeoutExpired:
                 app.kill()
                 app.wait()
+        frames = Path(str(regions) + ".frames")
+        seen = res["scene"].pop("_seen")
+        if frames.exists():
+            res["scene"]["breakdown_ms"] = _breakdown(json.loads(frames.read_text()), seen)
     finally:
         xvfb.terminate()
         xvfb.wait()
         regions.unlink(missing_ok=True)
+        Path(str(regions) + ".frames").unlink(missing_ok=True)
     res["status"] = "ok"
     res["loadavg_before"], res["loadavg_after"], res["cpus"] = list(load0), list(os.getloadavg()), os.cpu_count()
     res["method"] = ("pito-app --demo window (devices in a child process) on Xvfb, grabbed from outside (whole views "
@@ -262,7 +287,13 @@ def main(argv=None) -> int:
             r = out[key]
             L = r["latency_ms"]
             print(f"{key}: {r['frames_per_s']:.1f} frames/s with new data ({r['changed_grabs_per_s']:.1f} changed grabs/s); "
-                  f"latency p50 {L['p50']} ms, p95 {L['p95']} ms, max {L['max']} ms (n = {L['n']})")
+                  f"latency p50 {L['p50']:.1f} ms, p95 {L['p95']:.1f} ms, max {L['max']:.1f} ms (n = {L['n']})")
+        bd = out["scene"].get("breakdown_ms")
+        if bd:
+            print("scene, per frame (p50 / p95 ms): sample → frame start "
+                  f"{bd['sample_to_frame_start']['p50']:.1f} / {bd['sample_to_frame_start']['p95']:.1f}, frame "
+                  f"{bd['frame']['p50']:.1f} / {bd['frame']['p95']:.1f}, frame end → screen "
+                  f"{bd['frame_end_to_screen']['p50']:.1f} / {bd['frame_end_to_screen']['p95']:.1f}")
     return 0 if out["status"] == "ok" or out["status"].startswith("skipped") else 1
 
 

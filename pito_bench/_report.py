@@ -294,6 +294,14 @@ def _live_window_tables(live: dict) -> list[str]:
             f"{live['loadavg_after'][0]:.1f} on {live['cpus']} CPUs)",
             ["view", "frames/s (new data)", "changed grabs/s", "latency p50 (ms)", "p95 (ms)", "max (ms)", "n",
              "p50 / p95 seen by the whole-view grabs (ms)"], rows))
+        bd = live["scene"].get("breakdown_ms")
+        if bd:
+            parts.append(text_table(
+                "3D scene: where the latency goes, per frame (the app's drawing thread's clock, the same run)",
+                ["stage", "p50 (ms)", "p95 (ms)", "max (ms)", "n"],
+                [[name, _f(bd[k]["p50"]), _f(bd[k]["p95"]), _f(bd[k]["max"]), str(bd[k]["n"])]
+                 for name, k in (("sample → frame start", "sample_to_frame_start"), ("frame (render window StartEvent → EndEvent)", "frame"),
+                                 ("frame end → first read showing it", "frame_end_to_screen"))]))
     return parts
 
 

@@ -10,6 +10,8 @@ on the screen − when the sample was taken (device clock mapped to the host clo
 """
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
 STAMP_PX = 10
@@ -46,6 +48,9 @@ class WindowProbe:
         live = self.live = window.live
         self.scene_time = float("nan")
         self.renders = 0
+        #: per scene frame: (the stamped sample time, frame start, frame end), s, monotonic clock
+        self.frames: list[tuple[float, float, float]] = []
+        self._frame = (float("nan"), 0.0)
         # --- the scene: an Actor2D square in display pixels (lower-left corner)
         pts = vtk.vtkPoints()
         for x, y in ((0, 0), (STAMP_PX, 0), (STAMP_PX, STAMP_PX), (0, STAMP_PX)):
@@ -66,6 +71,7 @@ class WindowProbe:
         def attach():  # where the scene's VTK objects may be changed (its drawing thread, if any)
             live.scene.plotter.renderer.AddViewProp(self.actor)
             live.scene.plotter.ren_win.AddObserver("StartEvent", self._before_render)
+            live.scene.plotter.ren_win.AddObserver("EndEvent", self._after_render)
 
         call = getattr(live.scene, "call", None)
         call(attach) if call is not None else attach()
@@ -104,9 +110,14 @@ class WindowProbe:
     def _before_render(self, *_):
         self.renders += 1
         t = self.scene_time if self._own_scene_time else getattr(self.live, "scene_time", float("nan"))
+        self._frame = (t, time.monotonic())
         if np.isfinite(t):
             r, g, b = encode(t)
             self.actor.GetProperty().SetColor(r / 255.0, g / 255.0, b / 255.0)
+
+    def _after_render(self, *_):
+        if len(self.frames) < 100_000:  # ~40 min of frames
+            self.frames.append((*self._frame, time.monotonic()))
 
     def regions(self) -> dict:
         """Screen rectangles (x, y, w, h) px of the scene and the plots, and the stamps' pixels."""
