@@ -89,13 +89,8 @@ class PatchBoundary:
     def project(self, points) -> np.ndarray:
         """Face-plane coordinates ``(N, 2)`` of surface points ``(N, 3)`` (NaN if behind apex)."""
         p = np.asarray(points, dtype=float).reshape(-1, 3)
-        if self.projection == "parallel":
-            return p[:, :2].copy()
-        a = self.apex
-        dz = p[:, 2] - a[2]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = np.where(dz > 0, -a[2] / dz, np.nan)
-        return a[:2] + t[:, None] * (p[:, :2] - a[:2])
+        xy = self._project(p)
+        return xy.copy() if self.projection == "parallel" else xy
 
     def contains(self, points) -> np.ndarray:
         """Whether surface points ``(N, 3)`` (m, face frame) belong to the patch, ``(N,)``."""
@@ -108,16 +103,28 @@ class PatchBoundary:
             inside &= p[:, 2] >= self.z_min - tol
         if self.shape is None:
             return inside
-        xy = self.project(p)
-        inside &= np.isfinite(xy).all(axis=1)
-        xy = np.nan_to_num(xy)
+        xy = self._project(p)
+        if self.projection == "central":  # NaN behind the apex
+            inside &= np.isfinite(xy).all(axis=1)
+        # rows already outside (non-finite) stay outside whatever their xy gives below
         if self.shape == "rectangle":
             d = np.abs(xy - self.center) - 0.5 * self.size
-            return inside & np.all(d <= tol, axis=1)
+            return inside & (d <= tol).all(axis=1)
         if self.shape == "ellipse":
             u = (xy - self.center) / (self.radii + tol)
             return inside & ((u * u).sum(1) <= 1.0)
+        xy = np.nan_to_num(xy)
         return inside & (_in_polygon(xy, self.vertices) | (_polygon_distance(xy, self.vertices) <= tol))
+
+    def _project(self, p: np.ndarray) -> np.ndarray:
+        """``project`` of checked points ``(N, 3)``; ``parallel`` gives a view of ``p``."""
+        if self.projection == "parallel":
+            return p[:, :2]
+        a = self.apex
+        dz = p[:, 2] - a[2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.where(dz > 0, -a[2] / dz, np.nan)
+        return a[:2] + t[:, None] * (p[:, :2] - a[:2])
 
     def margin(self, points) -> np.ndarray:
         """Signed distance ``(N,)`` (m) of surface points ``(N, 3)`` to the patch edge, > 0 inside.
@@ -127,26 +134,29 @@ class PatchBoundary:
         without any limit. Used by the single-contact test (``docs/contact.md``).
         """
         p = np.asarray(points, dtype=float).reshape(-1, 3)
-        out = np.full(len(p), np.inf)
-        if self.z_min is not None:
-            out = p[:, 2] - self.z_min
         if self.shape is None:
+            out = np.full(len(p), np.inf) if self.z_min is None else p[:, 2] - self.z_min
             return np.where(np.isfinite(p).all(axis=1), out, np.nan)
-        xy = self.project(p)
+        xy = self._project(p)
         if self.shape == "rectangle":
             d = np.abs(xy - self.center) - 0.5 * self.size
-            outside = np.linalg.norm(np.maximum(d, 0.0), axis=1)
-            lateral = np.where(outside > 0, -outside, -d.max(axis=1))
+            out2 = np.maximum(d, 0.0)
+            outside = np.sqrt((out2 * out2).sum(axis=1))  # |max(d, 0)|
+            lateral = np.where(outside > 0, -outside, -np.maximum(d[:, 0], d[:, 1]))
         elif self.shape == "ellipse":
-            r = np.linalg.norm(xy - self.center, axis=1)
-            rho = np.linalg.norm((xy - self.center) / self.radii, axis=1)
+            v = xy - self.center
+            r = np.sqrt((v * v).sum(axis=1))
+            v /= self.radii
+            rho = np.sqrt((v * v).sum(axis=1))
             with np.errstate(invalid="ignore", divide="ignore"):
                 lateral = np.where(rho > 0, r * (1.0 / rho - 1.0), self.radii.min())
         else:
             dist = _polygon_distance(np.nan_to_num(xy), self.vertices)
             lateral = np.where(_in_polygon(np.nan_to_num(xy), self.vertices), dist, -dist)
             lateral = np.where(np.isfinite(xy).all(axis=1), lateral, np.nan)
-        return np.minimum(out, lateral)
+        if self.z_min is None:
+            return lateral
+        return np.minimum(p[:, 2] - self.z_min, lateral)
 
     def outline(self, segments: int = 96) -> np.ndarray:
         """Counter-clockwise points ``(M, 2)`` on the boundary (corners included), m."""

@@ -60,7 +60,8 @@ def check_wrench_cov(wrench_cov, n: int) -> np.ndarray:
         raise ValueError(f"wrench_cov: expected shape (6, 6) or ({n}, 6, 6), got {S.shape}")
     if not np.all(np.isfinite(S)):
         raise ValueError("wrench_cov: expected finite values, got NaN or inf")
-    if not np.allclose(S, np.swapaxes(S, -1, -2), rtol=1e-9, atol=0.0):
+    St = np.swapaxes(S, -1, -2)
+    if not (np.abs(S - St) <= 1e-9 * np.abs(St)).all():  # np.allclose(S, Sᵀ, rtol=1e-9, atol=0) of finite S
         raise ValueError("wrench_cov: expected a symmetric matrix")
     if np.any(np.linalg.eigvalsh(S) <= 0):
         raise ValueError("wrench_cov: expected a positive definite matrix (N², (N·m)²)")
@@ -123,8 +124,9 @@ def covariance_from_jacobian(J, T, wrench_cov) -> ContactCovariance:
     Rows with non-finite ``J`` get NaN.
     """
     N, _, k = J.shape
-    finite = np.all(np.isfinite(J), axis=(1, 2))
-    Jf = np.where(finite[:, None, None], J, np.eye(6, k))
+    finite = np.isfinite(J).all(axis=(1, 2))
+    all_finite = finite.all()
+    Jf = J if all_finite else np.where(finite[:, None, None], J, _EYE6[:, :k])
     S = np.broadcast_to(wrench_cov, (N, 6, 6))
     if k == 6:
         Ji = _safe_inv(Jf)
@@ -134,8 +136,13 @@ def covariance_from_jacobian(J, T, wrench_cov) -> ContactCovariance:
         Fi = np.swapaxes(Jf, 1, 2) @ W @ Jf
         C = _safe_inv(Fi)
     C = 0.5 * (C + np.swapaxes(C, 1, 2))
-    C[~finite] = np.nan
-    Tq = np.where(finite[:, None, None], T, np.nan)
+    if not all_finite:
+        C[~finite] = np.nan
+    Tq = T if all_finite else np.where(finite[:, None, None], T, np.nan)
     point_cov = Tq @ C[:, :2, :2] @ np.swapaxes(Tq, 1, 2)
     torsion_var = C[:, 5, 5] if k == 6 else np.where(finite, 0.0, np.nan)
     return ContactCovariance(point_cov, C[:, 2:5, 2:5].copy(), torsion_var, C, Tq)
+
+
+#: the 6 × 6 identity (stands in for a non-finite Jacobian)
+_EYE6 = np.eye(6)

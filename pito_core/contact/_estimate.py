@@ -92,7 +92,7 @@ class ContactEstimate:
 
     def _arrays(self):
         """``(name, array or None)`` of every array field."""
-        return ((f.name, getattr(self, f.name)) for f in fields(self) if f.name != "frame")
+        return ((name, getattr(self, name)) for name in _ARRAY_FIELDS)
 
     def flagged(self) -> np.ndarray:
         """Bool, shape B: valid contacts that one fingertip cannot explain (False without the test)."""
@@ -130,3 +130,7 @@ class ContactEstimate:
         """The estimate of a flat batch ``(N,)`` with batch shape ``lead`` instead."""
         return ContactEstimate(**{k: None if v is None else v.reshape(lead + v.shape[1:]) for k, v in self._arrays()},
                                frame=self.frame)
+
+
+#: the array fields of :class:`ContactEstimate`, in order (all but ``frame``)
+_ARRAY_FIELDS = tuple(f.name for f in fields(ContactEstimate) if f.name != "frame")

@@ -8,9 +8,10 @@ from functools import lru_cache
 import numpy as np
 
 from ..frames import FACES, check_vectors
+from ._crb import check_wrench_cov
 from ._estimate import ContactEstimate
 from ._patches import Assembly, load_assembly
-from ._solve import DEFAULT_FORCE_THRESHOLD, solve
+from ._solve import DEFAULT_FORCE_THRESHOLD, _check_threshold, _solve_patches
 
 __all__ = ["solve_object"]
 
@@ -58,41 +59,40 @@ def solve_object(assembly, face_wrenches, force_threshold=DEFAULT_FORCE_THRESHOL
     if w.ndim < 2 or w.shape[-2] != 6:
         raise ValueError(f"face_wrenches: expected shape (..., 6, 6), got {w.shape}")
     lead = w.shape[:-2]
-    covs = None
-    if wrench_cov is not None:
-        covs = np.asarray(wrench_cov, dtype=float)
-        if covs.shape == (6, 6):
-            covs = np.broadcast_to(covs, (6, 6, 6))
-        elif covs.shape == lead + (6, 6, 6) and lead:  # per sample and face (Calibration.wrenches)
-            covs = np.moveaxis(covs.reshape((-1, 6, 6, 6)), 1, 0)  # (6, M, 6, 6)
-        elif covs.shape != (6, 6, 6):
-            raise ValueError(f"wrench_cov: expected shape (6, 6), (6, 6, 6) or {lead + (6, 6, 6)}, got {covs.shape}")
+    covs = None if wrench_cov is None else _face_covs(wrench_cov, lead)
+    thr = _check_threshold(force_threshold)
     flat = w.reshape((-1, 6, 6))
     M = len(flat)
     poses, groups = _layout(assembly)
-    out: dict = {}
-    for patch, faces in groups:
-        at = faces[0] if len(faces) == 1 else faces  # one face: plain indexing (cheaper)
-        rows = flat[:, at, :].reshape(-1, 6)  # (M·k, 6), sample-major: rows are solved independently
-        est = solve(patch, rows, force_threshold, point_contact=point_contact,
-                    wrench_cov=_group_cov(covs, faces, M))
-        _place(out, est, faces, M)
-    return _to_core(out, poses, lead)
+    blocks = [flat.reshape(-1, 6) if len(faces) == 6  # one patch on every face (the bare cube): the rows as they lie
+              else flat[:, faces[0] if len(faces) == 1 else faces, :].reshape(-1, 6)  # (M·k, 6), sample-major
+              for _, faces in groups]
+    covs = None if covs is None else [_group_cov(covs, faces, M) for _, faces in groups]
+    est = _solve_patches([patch for patch, _ in groups], blocks, thr, covs, point_contact)
+    return _to_core(_by_face(est, [faces for _, faces in groups], M), poses, lead)
 
 
-def _place(out: dict, est: ContactEstimate, faces: list, M: int) -> None:
-    """Put a group's face-frame fields ``(M·k, …)`` at their faces of ``out[name] (M, 6, …)``."""
+def _by_face(est: ContactEstimate, faces: list, M: int) -> dict:
+    """The face-frame fields of the groups' rows one after the other, ``(Σ M·k, …)``, as ``{name: (M, 6, …)}``.
+
+    Facets are −1 on the faces whose patch is not a mesh (None if no patch is one).
+    """
+    order = [i for f in faces for i in f]  # the face of each column, groups side by side
+    inv = None if order == sorted(order) else np.argsort(order)
+    spans, start = [], 0  # each group's rows
+    for f in faces:
+        spans.append((start, start + M * len(f), len(f)))
+        start += M * len(f)
+    out = {}
     for name, v in est._arrays():
         if v is None:
             continue
-        a = out.get(name)
-        if a is None:  # facets: −1 on the faces whose patch is not a mesh; the other fields cover every face
-            shape = (M, 6) + v.shape[1:]
-            a = out[name] = np.full(shape, -1, v.dtype) if name == "facet" else np.empty(shape, v.dtype)
         if len(faces) == 1:
-            a[:, faces[0]] = v
+            a = v.reshape((M, 6) + v.shape[1:])
         else:
-            a[:, faces] = v.reshape((M, len(faces)) + v.shape[1:])
+            a = np.concatenate([v[i:j].reshape((M, k) + v.shape[1:]) for i, j, k in spans], axis=1)
+        out[name] = a if inv is None else a[:, inv]
+    return out
 
 
 def _to_core(out: dict, poses: tuple, lead: tuple) -> ContactEstimate:
@@ -108,24 +108,37 @@ def _to_core(out: dict, poses: tuple, lead: tuple) -> ContactEstimate:
     return ContactEstimate(**{k: v.reshape(lead + v.shape[1:]) for k, v in out.items()}, frame="core")
 
 
-def _face_cov(covs, i: int):
-    """Face index ``i``'s wrench covariance ``(6, 6)`` or ``(M, 6, 6)`` (None without one)."""
-    if covs is None:
-        return None
-    cov_i = covs[i]
-    if np.isnan(cov_i).all():
-        cov_i = np.broadcast_to(np.eye(6), (6, 6))  # a face without output: NaN wrenches, no contact
-    return cov_i
+def _face_covs(wrench_cov, lead: tuple) -> np.ndarray:
+    """Every face's wrench covariance, checked once: ``(6, 6, 6)``, or ``(6, M, 6, 6)`` per sample.
+
+    A face whose covariance is NaN throughout (no output: its wrenches are NaN, no contact)
+    gets the identity.
+    """
+    covs = np.asarray(wrench_cov, dtype=float)
+    if covs.shape == (6, 6):
+        covs = np.broadcast_to(covs, (6, 6, 6))
+    elif covs.shape == lead + (6, 6, 6) and lead:  # per sample and face (Calibration.wrenches)
+        covs = np.moveaxis(covs.reshape((-1, 6, 6, 6)), 1, 0)  # (6, M, 6, 6)
+    elif covs.shape != (6, 6, 6):
+        raise ValueError(f"wrench_cov: expected shape (6, 6), (6, 6, 6) or {lead + (6, 6, 6)}, got {covs.shape}")
+    absent = np.isnan(covs).reshape(6, -1).all(axis=1)
+    if absent.any():
+        covs = covs.copy()
+        covs[absent] = np.eye(6)
+    flat = covs.reshape(-1, 6, 6)
+    check_wrench_cov(flat, len(flat))
+    return covs
 
 
 def _group_cov(covs, faces: list, M: int):
     """The covariance of a group's rows ``(M·k, 6)``: shared ``(6, 6)`` if the faces share one, else per row."""
-    per = [_face_cov(covs, i) for i in faces]
-    if per[0] is None:
+    if covs is None:
         return None
-    if all(c.ndim == 2 and np.array_equal(c, per[0]) for c in per):
+    per = covs[faces]  # (k, 6, 6) or (k, M, 6, 6)
+    if per.ndim == 3 and (per == per[0]).all():
         return per[0]
-    return np.stack([np.broadcast_to(c, (M, 6, 6)) for c in per], axis=1).reshape(-1, 6, 6)
+    per = np.broadcast_to(per, (M,) + per.shape) if per.ndim == 3 else np.swapaxes(per, 0, 1)  # (M, k, 6, 6)
+    return per.reshape(-1, 6, 6)
 
 
 def _params(obj) -> tuple:

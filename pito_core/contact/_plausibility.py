@@ -36,6 +36,9 @@ from scipy.special import chdtrc, ndtr
 
 from ._quadric import _cross
 
+#: row indices (1, 2, 0) and (2, 0, 1): the adjugate's rows are cyclic cross products
+_NEXT3, _PREV3 = np.array([1, 2, 0]), np.array([2, 0, 1])
+
 __all__ = [
     "DEFAULT_FRICTION",
     "DEFAULT_TORSION_RADIUS",
@@ -114,107 +117,144 @@ class SingleContactTest:
 
 
 def _friction_margin(f, n, D, tau, mu, e, point_contact):
-    """Friction margin ``g = μ f_n − √(|f_t|² + (τ/e)²)`` (N), its gradient over θ, and shear share.
+    """Pushing and friction margins, their gradients over θ, and the shear share.
 
-    ``D (N, 3, 2)``: ``∂n/∂θ``. Gradient columns ``[θ1, θ2, fx, fy, fz(, τ)]``.
+    Margins ``(2, N)``: ``[f_n, g]`` with ``f_n = −f · n`` and ``g = μ f_n − √(|f_t|² + (τ/e)²)``
+    (N); gradients ``(2, N, k)``, columns ``[θ1, θ2, fx, fy, fz(, τ)]``; shear ``(N,)``: the
+    tangential force's share ``|f_t| ≥ |τ/e|``. ``D (N, 3, 2)``: ``∂n/∂θ``; ``mu``, ``e``: numbers
+    or ``(N,)``. One array each, so that a single variance call serves both limits.
     """
     N = len(f)
     k = 5 if point_contact else 6
     fn = -np.einsum("ij,ij->i", f, n)
     ft_vec = f + fn[:, None] * n
-    ft = np.linalg.norm(ft_vec, axis=1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        u = np.where(ft[:, None] > 0, ft_vec / ft[:, None], 0.0)
+    ft = np.sqrt((ft_vec * ft_vec).sum(axis=1))  # |f_t|
     tq = np.zeros(N) if point_contact else tau / e
     s = np.hypot(ft, tq)
-    g_fn = np.zeros((N, k))
-    g_fn[:, :2] = -np.einsum("na,naj->nj", f, D)
-    g_fn[:, 2:5] = -n
-    g_ft = np.zeros((N, k))
-    g_ft[:, :2] = fn[:, None] * np.einsum("na,naj->nj", u, D)
-    g_ft[:, 2:5] = u
+    fu = np.zeros((N, 2, 3))  # rows f and u = f_t / |f_t| (0 without shear)
+    fu[:, 0] = f
+    np.divide(ft_vec, ft[:, None], out=fu[:, 1], where=ft[:, None] > 0)
+    grad = np.zeros((2, N, k))  # [∇f_n, ∇g]
     with np.errstate(invalid="ignore", divide="ignore"):
-        g_s = (ft[:, None] * g_ft) / s[:, None]
+        fD = np.einsum("nka,naj->nkj", fu, D)  # (N, 2, 2): f ∂n/∂θ and u ∂n/∂θ
+        np.negative(fD[:, 0], out=grad[0, :, :2])
+        np.negative(n, out=grad[0, :, 2:5])
+        g_s = grad[1]  # ∇√(|f_t|² + (τ/e)²), built in place: ft ∇|f_t| / s (+ τ/(e s) on the τ column)
+        np.multiply(fn[:, None], fD[:, 1], out=g_s[:, :2])
+        g_s[:, 2:5] = fu[:, 1]
+        g_s *= ft[:, None]
+        g_s /= s[:, None]
         if not point_contact:
             g_s[:, 5] += tq / (e * s)
-    g_s = np.where(s[:, None] > 0, g_s, 0.0)
-    grad = mu * g_fn - g_s
-    return fn, g_fn, mu * fn - s, grad, ft >= np.abs(tq)
+    g_s[~(s > 0)] = 0.0
+    np.subtract((mu if np.ndim(mu) == 0 else mu[:, None]) * grad[0], g_s, out=grad[1])
+    g = np.empty((2, N))
+    g[0] = fn
+    np.subtract(mu * fn, s, out=g[1])
+    return g, grad, ft >= np.abs(tq)
 
 
 def _boundary_margin(boundary, c, T):
-    """Signed distance (m, > 0 inside) of ``c`` to the patch edge and its gradient over θ ``(N, 2)``."""
+    """Signed distance (m, > 0 inside) of ``c`` to the patch edge and its gradient over θ ``(N, 2)``.
+
+    The gradient is a central difference along the two tangents, all five points in one
+    ``margin`` call.
+    """
     h = _BOUNDARY_STEP
     N = len(c)
-    steps = h * np.stack([T[:, :, 0], -T[:, :, 0], T[:, :, 1], -T[:, :, 1]])  # (4, N, 3)
-    m = boundary.margin(np.concatenate([c[None], c[None] + steps]).reshape(-1, 3)).reshape(5, N)
-    grad = np.stack([m[1] - m[2], m[3] - m[4]], axis=1) / (2 * h)
-    return m[0], grad
+    steps = (h * T).transpose(2, 0, 1)  # (2, N, 3): h t1, h t2
+    m = boundary.margin(np.concatenate([c[None], c + steps, c - steps]).reshape(-1, 3)).reshape(5, N)
+    return m[0], ((m[1:3] - m[3:5]) / (2 * h)).T
 
 
 def param_variance(C):
-    """``grad (n, k) -> (n,)``: ``gradᵀ C grad`` for parameter covariances ``C (n, k, k)``."""
+    """``grad (..., n, k) -> (..., n)``: ``gradᵀ C grad`` for parameter covariances ``C (n, k, k)``."""
     def var(grad, rows):
-        k = grad.shape[1]
-        return np.einsum("ni,nij,nj->n", grad, C[rows][:, :k, :k], grad)
+        k = grad.shape[-1]
+        return np.einsum("...ni,nij,...nj->...n", grad, C[rows][:, :k, :k], grad)
     return var
 
 
 def soft_finger_variance(J, c, S):
-    """``grad (n, 6) -> (n,)``: variance of a function of the soft-finger estimate, without inverses.
+    """``grad (..., n, 6) -> (..., n)``: variance of a function of the soft-finger estimate, without inverses.
 
     The estimate solves ``w = model(θ)`` exactly, so a function ``g(θ̂)`` has the wrench
     gradient ``u = J⁻ᵀ ∇g`` and variance ``uᵀ Σ u``. With ``J = [[0, I, 0], [A, [c]×, n]]``
     (columns ``θ1, θ2, f, τ``), ``Jᵀ u = ∇g`` splits into ``M u_m = (∇g_θ1, ∇g_θ2, ∇g_τ)``,
     ``M`` the 3 × 3 matrix of rows ``A1, A2, n``, and ``u_f = ∇g_f + c × u_m``; ``M`` is
-    inverted by its adjugate (vectorised, no per-sample LAPACK call).
+    inverted by its adjugate (vectorised, no per-sample LAPACK call). Leading axes of
+    ``grad`` (several functions of the same ``n`` estimates) broadcast.
     """
-    r1, r2, r3 = J[:, 3:, 0], J[:, 3:, 1], J[:, 3:, 5]
-    adj = np.stack([_cross(r2, r3), _cross(r3, r1), _cross(r1, r2)], axis=1)  # rows: columns of M⁻¹·det
-    det = np.einsum("ij,ij->i", r1, adj[:, 0])
+    R = np.empty((len(J), 3, 3))  # rows r1, r2, r3 = A1, A2, n
+    R[:, :2] = np.swapaxes(J[:, 3:, :2], 1, 2)
+    R[:, 2] = J[:, 3:, 5]
+    adj = _cross(R.take(_NEXT3, axis=1), R.take(_PREV3, axis=1))  # rows r2 × r3, r3 × r1, r1 × r2: columns of M⁻¹·det
+    det = np.einsum("ij,ij->i", J[:, 3:, 0], adj[:, 0])  # r1 · (r2 × r3)
+    c_next, c_prev = c.take(_NEXT3, axis=1), c.take(_PREV3, axis=1)  # c × x = c_next x_prev − c_prev x_next
 
     def var(grad, rows):
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-            b = np.empty((len(grad), 3))
-            b[:, :2] = grad[:, :2]
-            b[:, 2] = grad[:, 5] if grad.shape[1] == 6 else 0.0
-            um = np.einsum("nk,nkj->nj", b, adj[rows]) / det[rows][:, None]
-            u = np.empty((len(grad), 6))
-            u[:, 3:] = um
-            u[:, :3] = (grad[:, 2:5] if grad.shape[1] >= 5 else 0.0) + _cross(c[rows], um)
+            k = grad.shape[-1]
+            b = np.empty(grad.shape[:-1] + (3,))
+            b[..., :2] = grad[..., :2]
+            b[..., 2] = grad[..., 5] if k == 6 else 0.0
+            um = np.einsum("...nk,nkj->...nj", b, adj[rows])
+            um /= det[rows][:, None]
+            u = np.empty(grad.shape[:-1] + (6,))
+            u[..., 3:] = um
+            c_um = c_next[rows] * um.take(_PREV3, axis=-1)
+            c_um -= c_prev[rows] * um.take(_NEXT3, axis=-1)
+            u[..., :3] = (grad[..., 2:5] if k >= 5 else 0.0) + c_um
             if S.ndim == 2:
-                return ((u @ S) * u).sum(axis=1)
-            return np.einsum("ni,nij,nj->n", u, S[rows], u)
+                return ((u.reshape(-1, 6) @ S) * u.reshape(-1, 6)).sum(axis=1).reshape(u.shape[:-1])
+            return np.einsum("...ni,nij,...nj->...n", u, S[rows], u)
     return var
 
 
 def _z(g, var):
-    """``g / σ_g``; ±inf for a zero σ, 0 for an unbounded one (a degenerate estimate)."""
+    """``g / σ_g``; ±inf for a zero σ, 0 for an unbounded one (a degenerate estimate), −inf where NaN."""
     with np.errstate(invalid="ignore", divide="ignore"):
         z = g / np.sqrt(np.maximum(var, 0.0))
-    z = np.where(np.isnan(z) & np.isfinite(g), np.where(g >= 0, np.inf, -np.inf), z)
-    return np.where(np.isnan(z) & ~np.isnan(var), 0.0, z)
+    nan = np.isnan(z)
+    if nan.any():  # degenerate rows only (rare): sort them out
+        z = np.where(nan & np.isfinite(g), np.where(g >= 0, np.inf, -np.inf), z)
+        z = np.where(np.isnan(z) & ~np.isnan(var), 0.0, z)
+        z[np.isnan(z)] = -np.inf  # e.g. behind a central projection's apex
+    return z
+
+
+#: reason codes of the four limits, columns of ``p_all``
+_LIMIT_CODES = np.array([SingleContactReason.PULLING, SingleContactReason.FRICTION,
+                         SingleContactReason.OUTSIDE, SingleContactReason.RESIDUAL], dtype=np.int8)
 
 
 def _decide(p_all, z, finite, shear, alpha, point_contact):
-    """``single, p, reason`` from the per-limit p-values ``p_all (N, 4)`` (see the module docstring)."""
-    N = len(p_all)
+    """``single, p, reason`` from the per-limit p-values ``p_all (N, 4)`` (see the module docstring).
+
+    ``shear``: the friction limit's shear share on the ``finite`` rows (None if none).
+    """
     worst = np.argmin(p_all, axis=1)
-    p = p_all[np.arange(N), worst]
+    p = p_all.min(axis=1)  # = p_all[row, worst]
     if point_contact:  # two families (the limits, the residual): Bonferroni keeps false alarms ≤ alpha
         p = np.minimum(1.0, 2.0 * p)
     single = p >= alpha
-    codes = np.array([SingleContactReason.PULLING, SingleContactReason.FRICTION,
-                      SingleContactReason.OUTSIDE, SingleContactReason.RESIDUAL], dtype=np.int8)
-    reason = codes[worst]
+    if single.all():  # every estimate plausible (the usual case): nothing to name
+        return single, p, np.zeros(len(p), np.int8)
+    reason = _LIMIT_CODES[worst]
+    all_finite = finite.all()
     if shear is not None:  # the friction limit fails mostly by twist: name it torsion
-        torsion_worst = finite.copy()
-        torsion_worst[finite] = ~shear
+        if all_finite:
+            torsion_worst = ~shear
+        else:
+            torsion_worst = finite.copy()
+            torsion_worst[finite] = ~shear
         reason[(worst == 1) & torsion_worst] = SingleContactReason.TORSION
     # pushing is the first thing a friction limit needs: a pulling force is named as such
+    # (p_all[:, 0] is Φ(z[:, 0]) on the finite rows)
     pulling = finite & (z[:, 0] < 0) & ~single
-    reason[pulling & (ndtr(z[:, 0]) < alpha)] = SingleContactReason.PULLING
-    reason[~finite] = SingleContactReason.NO_SOLUTION
+    reason[pulling & (p_all[:, 0] < alpha)] = SingleContactReason.PULLING
+    if not all_finite:
+        reason[~finite] = SingleContactReason.NO_SOLUTION
     reason[single] = SingleContactReason.NONE
     return single, p, reason
 
@@ -233,18 +273,21 @@ def single_contact_test(c, n, f, tau, w, variance, T, shape_op, W=None, *,
     w : ndarray, shape (N, 6)
         Measured wrenches ``[fx, fy, fz, tx, ty, tz]``, N and N·m.
     variance : callable
-        ``(grad (n, k), rows) -> (n,)``: the variance of a function of the estimate with
-        gradient ``grad`` over ``[θ1, θ2, fx, fy, fz(, τ)]`` at ``rows``
-        (:func:`soft_finger_variance`, :func:`param_variance`).
+        ``(grad (..., n, k), rows) -> (..., n)``: the variance of a function of the estimate
+        with gradient ``grad`` over ``[θ1, θ2, fx, fy, fz(, τ)]`` at ``rows``, leading axes
+        broadcast (:func:`soft_finger_variance`, :func:`param_variance`).
     T : ndarray, shape (N, 3, 2)
         Tangent basis of the coordinates ``θ``.
     shape_op : ndarray, shape (N, 3, 3)
         Shape operator at ``c`` (1/m).
     W : ndarray, shape (6, 6) or (N, 6, 6), optional
         Inverse wrench covariance (point contact's χ² residual).
-    boundary : PatchBoundary, optional
-    mu, torsion_radius, alpha : float
-        Friction coefficient, effective torsional radius (m), significance level.
+    boundary : PatchBoundary, or list of (PatchBoundary or None, slice), optional
+        The patch's boundary, or (rows of several patches side by side) each block's.
+    mu, torsion_radius : float or ndarray, shape (N,)
+        Friction coefficient, effective torsional radius (m): one, or per estimate.
+    alpha : float
+        Significance level.
     point_contact : bool
 
     Returns
@@ -253,24 +296,31 @@ def single_contact_test(c, n, f, tau, w, variance, T, shape_op, W=None, *,
     """
     N = len(c)
     finite = np.isfinite(c).all(axis=1) & np.isfinite(T).all(axis=(1, 2))
+    nf = np.count_nonzero(finite)
     z = np.full((N, 4), np.inf)
     z[:, 3] = 0.0
     p_all = np.ones((N, 4))
-    if finite.any():
-        i = slice(None) if finite.all() else np.flatnonzero(finite)  # a slice: views, no copies
+    shear = None
+    if nf:
+        i = slice(None) if nf == N else np.flatnonzero(finite)  # a slice: views, no copies
         Ti = T[i]
         D = shape_op[i] @ Ti
-        fn, g_fn, gf, grad_f, shear = _friction_margin(f[i], n[i], D, tau[i], mu, torsion_radius, point_contact)
-        # pushing and friction margins in one variance call (same gradient width): half the per-call cost
-        rows = np.arange(N)[i]
-        nf = len(rows)
-        z01 = _z(np.concatenate([fn, gf]), variance(np.concatenate([g_fn, grad_f]), np.concatenate([rows, rows])))
-        z[i, 0], z[i, 1] = z01[:nf], z01[nf:]
-        if boundary is not None:
-            gb, grad_b = _boundary_margin(boundary, c[i], Ti)
-            z[i, 2] = _z(gb, variance(grad_b, i))
-        z[i, :3] = np.where(np.isnan(z[i, :3]), -np.inf, z[i, :3])  # e.g. behind a central projection's apex
-        p_all[i, :3] = ndtr(z[i, :3])
+        mu_i, e_i = (x if np.ndim(x) == 0 else x[i] for x in (mu, torsion_radius))
+        g, grad, shear = _friction_margin(f[i], n[i], D, tau[i], mu_i, e_i, point_contact)
+        zi = np.empty((nf, 3))
+        zi[:, :2] = _z(g, variance(grad, i)).T  # pushing and friction: one variance call
+        zi[:, 2] = np.inf
+        for b, rows in boundary if isinstance(boundary, list) else [(boundary, slice(0, N))]:
+            if b is None:
+                continue
+            at = rows if nf == N else np.flatnonzero((i >= rows.start) & (i < rows.stop))  # rows among the finite
+            rows = rows if nf == N else i[at]
+            if len(c[rows]) == 0:
+                continue
+            gb, grad_b = _boundary_margin(b, c[rows], T[rows])
+            zi[at, 2] = _z(gb, variance(grad_b, rows))
+        z[i, :3] = zi
+        p_all[i, :3] = ndtr(zi)
         if point_contact and W is not None:
             e = w[i].copy()
             e[:, :3] -= f[i]
@@ -278,6 +328,7 @@ def single_contact_test(c, n, f, tau, w, variance, T, shape_op, W=None, *,
             r2 = ((e @ W) * e).sum(axis=1) if W.ndim == 2 else np.einsum("ni,nij,nj->n", e, W[i], e)
             z[i, 3] = np.sqrt(np.maximum(r2, 0.0))
             p_all[i, 3] = chdtrc(1, r2)
-    p_all[~finite] = 0.0
-    single, p, reason = _decide(p_all, z, finite, shear if finite.any() else None, alpha, point_contact)
+    if nf < N:
+        p_all[~finite] = 0.0
+    single, p, reason = _decide(p_all, z, finite, shear, alpha, point_contact)
     return SingleContactTest(single, p, reason, z)

@@ -132,57 +132,115 @@ def solve(
     w = check_vectors(wrench, 6, "wrench")
     lead = w.shape[:-1]
     w = w.reshape(-1, 6)
-    N = len(w)
-    S = None if wrench_cov is None else check_wrench_cov(wrench_cov, N)
+    S = None if wrench_cov is None else check_wrench_cov(wrench_cov, len(w))
+    out = _solve_checked([(surface, boundary, mu, e, len(w))], w, thr, S, point_contact=point_contact,
+                         single_contact=single_contact, alpha=alpha)
+    if len(lead) == 1:
+        return out
+    return out._reshape(lead)
 
+
+def _solve_patches(patches, blocks, force_threshold, covs, point_contact) -> ContactEstimate:
+    """``solve(patch, w, force_threshold, point_contact=…, wrench_cov=S)`` of several patches in one pass.
+
+    For ``solve_object``: ``blocks`` are each patch's rows ``w (N_k, 6)`` and ``covs`` their
+    covariances (checked: ``(6, 6)`` or ``(N_k, 6, 6)``), or None. Returns the flat estimate of
+    the blocks' rows one after the other.
+    """
+    parts = []
+    for patch, w in zip(patches, blocks):
+        surface, boundary, (mu, e) = _check_surface(patch, with_friction=True)
+        parts.append((surface, boundary, check_positive(mu, "mu", "a positive number"),
+                      check_positive(e, "torsion_radius"), len(w)))
+    w = blocks[0] if len(blocks) == 1 else np.concatenate(blocks)
+    S = None
+    if covs is not None:
+        if all(c.ndim == 2 and np.array_equal(c, covs[0]) for c in covs):
+            S = covs[0]
+        else:
+            S = np.concatenate([np.broadcast_to(c, (len(b), 6, 6)) for c, b in zip(covs, blocks)])
+    return _solve_checked(parts, w, _check_threshold(force_threshold), S, point_contact=point_contact,
+                          single_contact=True, alpha=SINGLE_CONTACT_ALPHA)
+
+
+def _solve_checked(parts, w, thr, S, *, point_contact, single_contact, alpha):
+    """The body of ``solve`` on checked arguments: wrenches ``w (N, 6)``, covariance ``S`` or None.
+
+    ``parts``: ``(surface, boundary, mu, torsion_radius, rows)`` of consecutive blocks of ``w``,
+    one per patch (``solve``: one). Each block's closed form, shape operator and boundary are
+    its own; the Jacobian, the single-contact test and the covariances run over all rows at
+    once (``solve_object``: one sample's faces in one pass). Returns the flat estimate ``(N, …)``.
+    """
+    N = len(w)
     f_all = w[:, :3]
     m_all = w[:, 3:]
     f2 = np.einsum("ij,ij->i", f_all, f_all)
     strong = f2 >= max(thr * thr, 1e-300)  # NaN rows are False
-    all_strong = bool(strong.all())
-    if N and not strong.any():  # nobody pushes on this patch (most faces, most of the time): nothing to solve
-        out = _assemble(N, strong, False, *_NO_ROWS, np.empty(0, bool),
-                        np.empty(0, np.intp) if isinstance(surface, MeshSurface) else None,
-                        None if S is None else ContactCovariance(*_NO_COV), _NO_TEST if single_contact else None)
-        return out if len(lead) == 1 else out._reshape(lead)
+    n_strong = np.count_nonzero(strong)
+    all_strong = n_strong == N
+    mesh = any(isinstance(part[0], MeshSurface) for part in parts)
+    if N and not n_strong:  # nobody pushes on this patch (most faces, most of the time): nothing to solve
+        return _assemble(N, strong, False, *_NO_ROWS, np.empty(0, bool), np.empty(0, np.intp) if mesh else None,
+                         None if S is None else ContactCovariance(*_NO_COV), _NO_TEST if single_contact else None)
     f = f_all if all_strong else f_all[strong]
     m = m_all if all_strong else m_all[strong]
     ws = w if all_strong else w[strong]
     Sn = S if S is not None else DEFAULT_WRENCH_COV  # the noise the test and the weights assume
     if Sn.ndim == 3 and not all_strong:
         Sn = Sn[strong]
+    # each block's pushing rows stay consecutive: (surface, boundary, slice of the pushing rows)
+    surfaces, start, stop = [], 0, 0
+    for surface, boundary, _, _, rows in parts:
+        k = rows if all_strong else np.count_nonzero(strong[start:start + rows])
+        surfaces.append((surface, boundary, slice(stop, stop + k)))
+        start, stop = start + rows, stop + k
+    mu, e = (parts[0][j] if len({part[j] for part in parts}) == 1 else  # one number, or one per row
+             np.concatenate([np.full(sl.stop - sl.start, part[j]) for part, (_, _, sl) in zip(parts, surfaces)])
+             for j in (2, 3))
 
     c, n, force, tau, ok, facet, cov, test = _solve_rows(
-        surface, f, m, ws, Sn, with_cov=S is not None, point_contact=point_contact, single_contact=single_contact,
-        boundary=boundary, mu=mu, torsion_radius=e, alpha=alpha)
-    out = _assemble(N, strong, all_strong, c, n, force, tau, ok, facet, cov, test)
-    if len(lead) == 1:
-        return out
-    return out._reshape(lead)
+        surfaces, f, m, ws, Sn, with_cov=S is not None, point_contact=point_contact, single_contact=single_contact,
+        mesh=mesh, mu=mu, torsion_radius=e, alpha=alpha)
+    return _assemble(N, strong, all_strong, c, n, force, tau, ok, facet, cov, test)
 
 
-def _solve_rows(surface, f, m, ws, Sn, *, with_cov, point_contact, single_contact, boundary, mu, torsion_radius,
+def _solve_rows(surfaces, f, m, ws, Sn, *, with_cov, point_contact, single_contact, mesh, mu, torsion_radius,
                 alpha):
     """Solve the rows that push hard enough: ``c, n, force, tau, ok, facet, cov, test``.
 
+    ``surfaces``: ``(surface, boundary, rows)`` of consecutive blocks (a slice each);
     ``f``, ``m``, ``ws``: their force ``(n, 3)`` N, moment ``(n, 3)`` N·m and wrench ``(n, 6)``;
     ``Sn``: the wrench noise covariance ``(6, 6)`` or ``(n, 6, 6)`` the weights and the test
-    assume; ``cov`` only ``with_cov`` (a covariance given by the caller), ``test`` only with
-    ``single_contact``.
+    assume; ``mu``, ``torsion_radius``: numbers, or per row ``(n,)``; ``facet`` only with a
+    ``mesh`` among the surfaces (−1 on the other blocks); ``cov`` only ``with_cov`` (a
+    covariance given by the caller), ``test`` only with ``single_contact``.
     """
     e = torsion_radius
-    c, n, tau, ok, facet = _solve_surface(surface, np.ascontiguousarray(f), np.ascontiguousarray(m))
+    blocks = [b for b in surfaces if b[2].stop > b[2].start]  # the blocks with rows to solve
+    if len(surfaces) == 1:
+        c, n, tau, ok, facet = _solve_surface(surfaces[0][0], np.ascontiguousarray(f), np.ascontiguousarray(m))
+    else:
+        solved = [_solve_surface(s, np.ascontiguousarray(f[sl]), np.ascontiguousarray(m[sl])) for s, _, sl in blocks]
+        c, n, tau, ok = (np.concatenate([r[k] for r in solved]) for k in range(4))
+        facet = np.full(len(c), -1, np.intp) if mesh else None
+        for r, (_, _, sl) in zip(solved, blocks):
+            if r[4] is not None:
+                facet[sl] = r[4]
     force = f.copy()
     W = np.linalg.inv(Sn) if point_contact else None
     if point_contact and len(c):
-        sel = np.flatnonzero(ok)
-        if len(sel):
-            _refine(surface, c, n, force, ok, sel, ws[sel], W if W.ndim == 2 else W[sel])
+        for surface, _, sl in blocks:
+            sel = sl.start + np.flatnonzero(ok[sl])
+            if len(sel):
+                _refine(surface, c, n, force, ok, sel, ws[sel], W if W.ndim == 2 else W[sel])
         tau = np.zeros(len(c))
     ok &= np.isfinite(c).all(axis=1)
 
     with np.errstate(invalid="ignore", divide="ignore"):  # NaN rows stay NaN
-        shape = surface._shape_operator(c, n)
+        if len(surfaces) == 1:
+            shape = surfaces[0][0]._shape_operator(c, n)
+        else:
+            shape = np.concatenate([s._shape_operator(c[sl], n[sl]) for s, _, sl in blocks])
         J, T = wrench_jacobian(c, n, shape, force, tau, point_contact=point_contact)
         test = None
         if single_contact:
@@ -190,10 +248,12 @@ def _solve_rows(surface, f, m, ws, Sn, *, with_cov, point_contact, single_contac
                 variance = param_variance(covariance_from_jacobian(J, T, Sn).param_cov)
             else:
                 variance = soft_finger_variance(J, c, Sn)
+            boundary = surfaces[0][1] if len(surfaces) == 1 else [(b, sl) for _, b, sl in blocks]
             test = single_contact_test(c, n, force, tau, ws, variance, T, shape, W, boundary=boundary, mu=mu,
                                        torsion_radius=e, alpha=alpha, point_contact=point_contact)
-    if boundary is not None and len(c):
-        ok &= boundary._contains(c)
+    for _, boundary, sl in blocks:
+        if boundary is not None:
+            ok[sl] &= boundary._contains(c[sl])
     cov = None
     if with_cov:
         J[~ok] = np.nan

@@ -11,6 +11,7 @@ import numpy as np
 
 from ..frames import ROTATION_TOL, cross_rows
 from ._mesh import MeshIndex
+from ._quadric import _norm
 from ._tol import BARYCENTRIC_TOL
 
 __all__ = ["Plane", "Sphere", "Ellipsoid", "MeshSurface", "Surface", "BARYCENTRIC_TOL", "check_positive"]
@@ -48,6 +49,10 @@ def tangent_basis(n: np.ndarray) -> np.ndarray:
     T[:, :, 0] = t1
     T[:, :, 1] = cross_rows(n, t1)
     return T
+
+
+#: the 3 × 3 identity
+_EYE3 = np.eye(3)
 
 
 class Surface:
@@ -141,16 +146,16 @@ class Ellipsoid(Surface):
 
     def _normal(self, c):
         g = np.einsum("ij,jk->ik", c - self.center, self._A)  # A symmetric
-        return g / np.linalg.norm(g, axis=1, keepdims=True)
+        return g / _norm(g)
 
     def _shape_operator(self, c, n):
-        g = np.linalg.norm(np.einsum("ij,jk->ik", c - self.center, self._A), axis=1)
-        P = np.eye(3) - n[:, :, None] * n[:, None, :]
+        g = _norm(np.einsum("ij,jk->ik", c - self.center, self._A))[:, 0]
+        P = _EYE3 - n[:, :, None] * n[:, None, :]
         return P @ self._A / g[:, None, None]
 
     def _retract(self, c):
         q = np.einsum("ij,jk->ik", c - self.center, self.rotation) / self.semi_axes
-        q /= np.linalg.norm(q, axis=1, keepdims=True)
+        q /= _norm(q)
         return self.center + np.einsum("ij,kj->ik", q * self.semi_axes, self.rotation)
 
     def __repr__(self):
@@ -172,15 +177,15 @@ class Sphere(Ellipsoid):
 
     def _normal(self, c):
         d = c - self.center
-        return d / np.linalg.norm(d, axis=1, keepdims=True)
+        return d / _norm(d)
 
     def _shape_operator(self, c, n):
-        P = np.eye(3) - n[:, :, None] * n[:, None, :]
+        P = _EYE3 - n[:, :, None] * n[:, None, :]
         return P / self.radius
 
     def _retract(self, c):
         d = c - self.center
-        return self.center + d * (self.radius / np.linalg.norm(d, axis=1, keepdims=True))
+        return self.center + d * (self.radius / _norm(d))
 
     def __repr__(self):
         return f"Sphere(center={self.center.tolist()}, radius={self.radius!r})"

@@ -111,3 +111,32 @@ def test_fast_variance_equals_the_cramer_rao_propagation_and_the_test_can_be_ski
                                param_variance(covariance_from_jacobian(J, T, S).param_cov)(grad, rows), rtol=1e-8)
     est = solve(surf, np.c_[f, np.cross(c, f) + tau[:, None] * n], single_contact=False)
     assert est.single_contact is None and est.single_contact_p is None and est.valid.all()
+
+
+def test_variances_take_several_gradients_at_once():
+    # the single-contact test asks for the pushing and friction limits' variances in one call:
+    # grad (2, n, k) gives each slice's variance, with a shared or a per-row covariance, any rows
+    from pito_core.contact import Sphere
+    from pito_core.contact._crb import covariance_from_jacobian, wrench_jacobian
+    from pito_core.contact._plausibility import param_variance, soft_finger_variance
+
+    rng = np.random.default_rng(5)
+    surf = Sphere([0.0, 0.0, -0.02], 0.04)
+    q = rng.normal(size=(20, 3))
+    q[:, 2] = np.abs(q[:, 2]) + 0.5
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    c = surf.center + q * surf.radius
+    n = surf.normal_at(c)
+    f = -3.0 * n + rng.normal(size=(20, 3))
+    tau = rng.uniform(-0.005, 0.005, 20)
+    A = rng.normal(size=(20, 6, 6))
+    S_rows = A @ np.swapaxes(A, 1, 2) * 1e-4 + np.diag([1e-3] * 3 + [1e-7] * 3)
+    J, T = wrench_jacobian(c, n, surf._shape_operator(c, n), f, tau)
+    for S in (S_rows[0], S_rows):
+        for rows in (slice(None), np.array([3, 0, 7, 19])):
+            for k in (6, 5, 2):
+                grad = rng.normal(size=(2, 20, k))[:, rows]
+                for var in (soft_finger_variance(J, c, S), param_variance(covariance_from_jacobian(J, T, S).param_cov)):
+                    both = var(grad, rows)
+                    assert both.shape == grad.shape[:2]
+                    np.testing.assert_allclose(both, [var(grad[0], rows), var(grad[1], rows)], rtol=1e-12)
