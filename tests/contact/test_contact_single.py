@@ -88,6 +88,17 @@ def test_patch_file_sets_friction_and_rejects_bad_values(tmp_path):
         load_patch(tmp_path / "q.json")
 
 
+def _pushes(surf, axes, k, rng):
+    """``k`` contacts on the upper part of a sphere or ellipsoid ``surf`` (semi-axes ``axes``, m):
+    points, normals, forces pushing in (N) with a random shear, torsions (N·m)."""
+    q = rng.normal(size=(k, 3))
+    q[:, 2] = np.abs(q[:, 2]) + 0.5
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    c = surf.center + q * axes
+    n = surf.normal_at(c)
+    return c, n, -3.0 * n + rng.normal(size=(k, 3)), rng.uniform(-0.005, 0.005, k)
+
+
 def test_fast_variance_equals_the_cramer_rao_propagation_and_the_test_can_be_skipped():
     from pito_core.contact import Ellipsoid
     from pito_core.contact._crb import covariance_from_jacobian, wrench_jacobian
@@ -95,13 +106,7 @@ def test_fast_variance_equals_the_cramer_rao_propagation_and_the_test_can_be_ski
 
     rng = np.random.default_rng(3)
     surf = Ellipsoid([0.0, 0.0, -0.01], [0.03, 0.02, 0.015])
-    q = rng.normal(size=(50, 3))
-    q[:, 2] = np.abs(q[:, 2]) + 0.5
-    q /= np.linalg.norm(q, axis=1, keepdims=True)
-    c = surf.center + q * surf.semi_axes
-    n = surf.normal_at(c)
-    f = -3.0 * n + rng.normal(size=(50, 3))
-    tau = rng.uniform(-0.005, 0.005, 50)
+    c, n, f, tau = _pushes(surf, surf.semi_axes, 50, rng)
     A = rng.normal(size=(6, 6))
     S = A @ A.T * 1e-4 + np.diag([1e-3] * 3 + [1e-7] * 3)
     J, T = wrench_jacobian(c, n, surf._shape_operator(c, n), f, tau)
@@ -122,13 +127,7 @@ def test_variances_take_several_gradients_at_once():
 
     rng = np.random.default_rng(5)
     surf = Sphere([0.0, 0.0, -0.02], 0.04)
-    q = rng.normal(size=(20, 3))
-    q[:, 2] = np.abs(q[:, 2]) + 0.5
-    q /= np.linalg.norm(q, axis=1, keepdims=True)
-    c = surf.center + q * surf.radius
-    n = surf.normal_at(c)
-    f = -3.0 * n + rng.normal(size=(20, 3))
-    tau = rng.uniform(-0.005, 0.005, 20)
+    c, n, f, tau = _pushes(surf, surf.radius, 20, rng)
     A = rng.normal(size=(20, 6, 6))
     S_rows = A @ np.swapaxes(A, 1, 2) * 1e-4 + np.diag([1e-3] * 3 + [1e-7] * 3)
     J, T = wrench_jacobian(c, n, surf._shape_operator(c, n), f, tau)
