@@ -21,6 +21,9 @@ How it is measured, from outside the app's process:
 - latency = (time of the first read showing a stamp) − (the stamped sample's time): from the
   sample's time on the device clock to the pixels on the X server; it overestimates by up to
   one read period (1 ms; with one read of whole views per 10 ms it was up to 10 ms, 5 on average).
+- where the scene's latency goes: the app's drawing thread notes each frame's start and end
+  (:class:`~pito_bench._stamp.WindowProbe`), joined with the reads by stamp: sample → frame
+  start → frame end → first read showing it.
 
 Figures depend on the machine and on its load: the load average before and after is in the
 result. The app and the grabber share the machine with the simulated devices.
