@@ -190,7 +190,6 @@ def soft_finger_variance(J, c, S):
     R[:, 2] = J[:, 3:, 5]
     adj = _cross(R.take(_NEXT3, axis=1), R.take(_PREV3, axis=1))  # rows r2 × r3, r3 × r1, r1 × r2: columns of M⁻¹·det
     det = np.einsum("ij,ij->i", J[:, 3:, 0], adj[:, 0])  # r1 · (r2 × r3)
-    c_next, c_prev = c.take(_NEXT3, axis=1), c.take(_PREV3, axis=1)  # c × x = c_next x_prev − c_prev x_next
 
     def var(grad, rows):
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
@@ -202,9 +201,7 @@ def soft_finger_variance(J, c, S):
             um /= det[rows][:, None]
             u = np.empty(grad.shape[:-1] + (6,))
             u[..., 3:] = um
-            c_um = c_next[rows] * um.take(_PREV3, axis=-1)
-            c_um -= c_prev[rows] * um.take(_NEXT3, axis=-1)
-            u[..., :3] = (grad[..., 2:5] if k >= 5 else 0.0) + c_um
+            u[..., :3] = (grad[..., 2:5] if k >= 5 else 0.0) + _cross(c[rows], um)
             if S.ndim == 2:
                 return ((u.reshape(-1, 6) @ S) * u.reshape(-1, 6)).sum(axis=1).reshape(u.shape[:-1])
             return np.einsum("...ni,nij,...nj->...n", u, S[rows], u)
