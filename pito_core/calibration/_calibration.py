@@ -9,7 +9,7 @@ from ..io import FileFormatError, read_calibration_fields, write_calibration
 from ._coverage import Coverage
 from ._cv import ModelChoice
 from ._poly import PolyCorrection
-from ._uncertainty import CalibrationCovariance, CovarianceGroup
+from ._uncertainty import CalibrationCovariance, CovarianceGroup, PolyReferenceBlock
 
 __all__ = ["Calibration", "load_calibration"]
 
@@ -86,6 +86,13 @@ class Calibration:
                 raise ValueError(f"correction: expected {matrix.shape[0]} rows over 36 gauges, got "
                                  f"{correction.coef.shape[0]} rows over {correction.scale.size}")
         self.correction = correction
+        if covariance is not None and covariance.poly_reference:
+            if correction is None:
+                raise ValueError("covariance: a term of the correction's coefficients without a correction")
+            n_z = correction.scale.size + correction.n_features
+            if any(b.block >= len(output_faces) or b.cols.size and b.cols.max() >= n_z for b in covariance.poly_reference):
+                raise ValueError(f"covariance: poly_reference: expected blocks of the {len(output_faces)} output faces "
+                                 f"over the correction's {n_z} inputs and features")
         if model is None:
             model = ModelChoice(name="linear" if correction is None else "poly", requested="linear",
                                 reason="no model choice recorded (a calibration from before pito chose models)")
@@ -189,14 +196,18 @@ class Calibration:
         if self.covariance is None:
             raise ValueError("return_cov: this calibration has no covariance (written by an older pito, "
                              "format version 1); fit it again to get one")
+        z = None
+        if self.covariance.poly_reference:  # the correction's coefficients' share of the reference's noise
+            z = np.concatenate([x / self.correction.scale, self.correction.features(x)], axis=1)
         cov = self.covariance.face_covariances(c2, off, self._apply, self._face_from_output, self.output_faces,
-                                               explicit_offset=offset is not None)
+                                               explicit_offset=offset is not None, poly_z=z)
         return (W[0], cov[0]) if single else (W, cov)
 
     def linear_alternative(self) -> "Calibration":
         """The papers' linear fit of the same data (``self`` if that is the model in use).
 
-        Its covariance is this calibration's (its residual part is that of the chosen model).
+        Its covariance is this calibration's (its residual part is that of the chosen model), without
+        the correction's coefficients' term.
         Raises ``ValueError`` for a ``poly`` calibration saved without it.
         """
         if self.correction is None:
@@ -207,8 +218,8 @@ class Calibration:
                         folds_won=self.model.folds_won, n_folds=self.model.n_folds, n_segments=self.model.n_segments,
                         reason="the papers' linear fit of the same data (switched from the polynomial model)")
         return Calibration(self.method, self.linear_fit[0], self.output_faces, self.output_frame, self.linear_fit[1],
-                           self.core, self.T_core_ati, dict(self.meta, model="linear"), covariance=self.covariance,
-                           model=m)
+                           self.core, self.T_core_ati, dict(self.meta, model="linear"),
+                           covariance=None if self.covariance is None else self.covariance.linear(), model=m)
 
     def tare(self, counts_unloaded) -> "Calibration":
         """A copy whose offset is the mean of ``counts_unloaded (N, 36)`` (N ≥ 1).
@@ -279,7 +290,9 @@ def load_calibration(path) -> Calibration:
     try:
         if cov is not None:
             groups = [CovarianceGroup(**g) for g in cov["groups"]]
-            cov = CalibrationCovariance(groups, cov["gauge_cov"], cov["n_tare"], cov["variance_coef"], cov["residual_corr"])
+            poly = [PolyReferenceBlock(**b) for b in cov.get("poly_reference", [])]
+            cov = CalibrationCovariance(groups, cov["gauge_cov"], cov["n_tare"], cov["variance_coef"], cov["residual_corr"],
+                                        poly)
     except ValueError as exc:
         raise FileFormatError(f"{path}: covariance: {exc}") from None
     try:

@@ -417,19 +417,21 @@ class Calibrator:
             fit.offsets = _own_offsets(tare_means, out_faces, own_C, own_b)
         else:
             self._solve_joint(st, out_faces, load_rank, own_C, gauge_cov, tare_means, center, weights, fit)
-        choice, corr, linear_fit = self._poly_step(st.poly, out_faces, tare_means, fit)
+        choice, corr_fit, linear_fit = self._poly_step(st.poly, out_faces, tare_means, fit)
         self.offsets_ = fit.offsets
         self.tare_means_ = tare_means
         self.n_samples_ = st.n_used
         s0 = next(s for s in sessions if s.flange in spec.flanges)
-        meta = self._meta(spec, sessions, st, out_faces, load_rank, fit, choice, corr)
+        meta = self._meta(spec, sessions, st, out_faces, load_rank, fit, choice, corr_fit)
         cal = Calibration(spec.name, fit.matrix, out_faces, spec.output_frame, np.mean(fit.offsets, axis=0), s0.core,
-                          s0.T_core_ati, meta, correction=corr, model=choice,
+                          s0.T_core_ati, meta, correction=corr_fit, model=choice,
                           linear_fit=linear_fit)
         # pass 3: the error a sample brings itself (noise, what the linear model misses), against its load
-        coef, corr = fit_error_model(cal, sessions, mounts, fit.offsets, tare_means, spec, fit.groups, self.block_size,
-                                     ref_covs, gauge_cov, samples=subsample, ref_n=ref_n)
-        cal.covariance = CalibrationCovariance(fit.groups, gauge_cov, None, coef, corr)
+        poly_parts = getattr(st.poly, "reference_parts", []) if corr_fit is not None else []
+        coef, corr, poly_ref = fit_error_model(cal, sessions, mounts, fit.offsets, tare_means, spec, fit.groups,
+                                               self.block_size, ref_covs, gauge_cov, samples=subsample, ref_n=ref_n,
+                                               poly_parts=poly_parts)
+        cal.covariance = CalibrationCovariance(fit.groups, gauge_cov, None, coef, corr, poly_ref)
         self.calibration_ = cal
         return self
 
@@ -457,7 +459,8 @@ class Calibrator:
         poly = None
         if known is not None:
             poly = PolyAccumulator(spec.inputs == "own", joint_faces, n_int, _gauge_scale(sessions, known[0], self.block_size),
-                                   {s.connected_face for s in sessions if s.flange == "face"}, [len(s) for s in sessions])
+                                   {s.connected_face for s in sessions if s.flange == "face"}, [len(s) for s in sessions],
+                                   noisy_reference=any(np.any(rc) for rc in known[2]))
         total_samples = sum(len(s) for s in sessions)
         # the same provisional centres whatever the model, so model="auto" that keeps the linear
         # fit gives it bit for bit

@@ -18,6 +18,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._uncertainty import PolyReferenceBlock
+
 __all__ = ["ReferenceLeverage", "center_free_rows", "is_range"]
 
 
@@ -40,6 +42,22 @@ class ReferenceLeverage:
         self.M = [np.zeros((len(kk), n_int + g.inputs.size, n_int + g.inputs.size)) for g, kk in zip(groups, self.kk)]
         self.n = [np.zeros((len(kk), n_int)) for kk in self.kk]
         self.rows = []  # per block: counts (n, 36) float32, session, its tare mean, carries (n, F), unloaded (n,)
+        self.poly, self.correction = [], None
+
+    def set_poly(self, parts, correction) -> None:
+        """The polynomial correction's parts (``PolyAccumulator.reference_parts``): its rows take
+        their coefficients' share from it, not from the affine design."""
+        self.poly, self.correction = list(parts), correction
+
+    def poly_blocks(self, vref_full) -> list:
+        """The correction's :class:`PolyReferenceBlock` of each corrected face, ``Σ_ref`` pooled over
+        the sessions by its carrying rows (after :meth:`finish`)."""
+        out = []
+        for p in self.poly:
+            w = p["carry_n"] / max(p["carry_n"].sum(), 1)
+            S = sum(w[j] * vref_full[j][p["block"]] for j in range(self.n_int))
+            out.append(PolyReferenceBlock(p["block"], p["rows"], p["cols"], p["leverage"], S))
+        return out
 
     def add(self, counts, carries, unloaded, j, tare_mean) -> None:
         """One block's usable samples: ``counts (n, 36)``, ``carries (n, F)`` of the output faces, ``unloaded (n,)``."""
@@ -101,14 +119,20 @@ class ReferenceLeverage:
             g.reference_leverage = stride * (P @ M @ P)
             g.reference_cov = S
 
-    def in_sample(self, F) -> list:
-        """Per block of :meth:`add`, ``(n, 6F)`` float32: the reference's share of the coefficients'
-        variance at each training sample, ``(x̃ᵀ P M_k P x̃) diag Σ_ref,k`` (after :meth:`finish`).
+    def in_sample(self, F, vref_full) -> list:
+        """Per block of :meth:`add`, ``(share, own)``, both ``(n, 6F)`` float32 (after :meth:`finish`).
 
-        A sample where face k carries nothing has it in its residual all the same (the fitted
-        slopes hold the noise of the other rows): the error model takes it out there as it takes
-        the reference's own noise out where the face carries. (The offsets' share is one number
-        per session and output, taken out of those residuals as their mean: :func:`center_free_rows`.)
+        ``share``: the reference's share of the coefficients' variance at each training sample,
+        ``(x̃ᵀ P M_k P x̃) diag Σ_ref,k``. A sample where face k carries nothing has it in its
+        residual all the same (the fitted slopes hold the noise of the other rows): the error
+        model takes it out there as it takes the reference's own noise out where the face carries.
+        (The offsets' share is one number per session and output, taken out of those residuals as
+        their mean: :func:`center_free_rows`.)
+
+        ``own``: where face k carries, the factor on the reference's own variance ``v`` in the
+        residual: ``1`` for the affine rows; ``1 − 2h + q`` for the correction's (``h`` the fit's
+        hat, ``q`` the share's leverage): a fit with many features absorbs its rows' own noise,
+        ``E[E²] = e² + v (1 − 2h) + q v``.
         """
         out = []
         for counts, j, tare_mean, _, _ in self.rows:
@@ -125,8 +149,29 @@ class ReferenceLeverage:
                 # a run of faces: a view (no copy in, none out)
                 at = slice(kk[0], kk[0] + len(kk)) if kk == list(range(kk[0], kk[0] + len(kk))) else kk
                 v[:, at] += h[:, :, None] * np.diagonal(g.reference_cov, axis1=1, axis2=2)[None]
-            out.append(v.reshape(-1, 6 * F).astype(np.float32))
+            own = np.ones_like(v)
+            if self.poly:
+                x = counts.astype(float) - tare_mean
+                z = np.concatenate([x / self.correction.scale, self.correction.features(x)], axis=1)
+                for p in self.poly:
+                    self._poly_rows(p, z, vref_full[j][p["block"]], v, own)
+            out.append((v.reshape(-1, 6 * F).astype(np.float32), own.reshape(-1, 6 * F).astype(np.float32)))
         return out
+
+    @staticmethod
+    def _poly_rows(p, z, V, v, own) -> None:
+        """The correction's rows of block ``p["block"]``: share ``q diag Σ_ref`` into ``v (n, F, 6)``,
+        ``1 − 2h + q`` into ``own`` (see :meth:`in_sample`); ``z (n, 198)`` the samples' design."""
+        zc = z[:, p["cols"]]
+        d = np.diag(V)
+        k = p["block"]
+        for g, rows in ((0, slice(0, 3)), (1, slice(3, 6))):
+            if not p["rows"][3 * g]:
+                continue
+            q = np.einsum("ni,ni->n", zc @ p["leverage"][g], zc)
+            h = np.einsum("ni,ni->n", zc @ p["hat"][g], zc)
+            v[:, k, rows] = q[:, None] * d[rows]
+            own[:, k, rows] = np.maximum(1.0 - 2.0 * h + q, 0.0)[:, None]
 
 
 def center_free_rows(kept) -> list:

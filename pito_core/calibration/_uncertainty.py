@@ -31,7 +31,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["CovarianceGroup", "CalibrationCovariance", "load_features", "q_features", "N_FEATURES", "FULL_SCALE"]
+__all__ = ["CovarianceGroup", "PolyReferenceBlock", "CalibrationCovariance", "load_features", "q_features", "N_FEATURES",
+           "FULL_SCALE"]
 
 #: Full-scale loads that make a wrench dimensionless, ``[fx … tz]`` in N and N·m.
 FULL_SCALE = np.array([15.0, 15.0, 15.0, 0.1, 0.1, 0.1])
@@ -160,6 +161,67 @@ class CovarianceGroup:
         return np.einsum("ni,bij,nj->nb", xt, self.reference_leverage[:, s, s], xt)
 
 
+#: The three products of a face block's row groups (forces 0–2, torques 3–5) in ``PolyReferenceBlock.leverage``.
+_GROUP_PAIRS = ((0, 0), (1, 1), (0, 1))
+
+
+@dataclass
+class PolyReferenceBlock:
+    """The reference's noise through a polynomial correction's coefficients, for one output face.
+
+    The correction's coefficients absorb part of the reference's noise (in every target where
+    the face carries): with a ridge fit's solution operator ``M_g`` of a row group and ``M_k``
+    the Gram of its design over the carrying rows, their covariance is ``M_g M_k M_g' ⊗ Σ_ref``,
+    and a sample of design ``z = [u; φ(u)]`` (slopes: counts less the offset in use, over the
+    correction's scale, and its features) has ``(zᵀ Q z) Σ_ref`` of it. It replaces the affine
+    design's reference term on the rows with the correction (docs/calibration.md, "Uncertainty").
+
+    Attributes
+    ----------
+    block : int
+        Output row block (the face's index in ``output_faces``).
+    rows : ndarray of bool, shape (6,)
+        The block's rows with the correction (the others keep the affine term).
+    cols : ndarray of int, shape (c,)
+        Entries of ``z`` used, indices into ``[u (36) | φ (162)]``.
+    leverage : ndarray, shape (3, c, c)
+        ``Q`` for forces–forces, torques–torques and forces–torques (dimensionless).
+    reference_cov : ndarray, shape (6, 6)
+        ``Σ_ref``: the reference's noise in the block's output frame (N², N²·m, N²·m²).
+    """
+
+    block: int
+    rows: np.ndarray
+    cols: np.ndarray
+    leverage: np.ndarray
+    reference_cov: np.ndarray
+
+    def __post_init__(self):
+        self.block = int(self.block)
+        self.rows = np.asarray(self.rows, dtype=bool).reshape(-1)
+        self.cols = np.asarray(self.cols, dtype=np.int64).reshape(-1)
+        self.leverage = np.asarray(self.leverage, dtype=float)
+        self.reference_cov = np.asarray(self.reference_cov, dtype=float)
+        c = self.cols.size
+        if self.rows.shape != (6,):
+            raise ValueError(f"rows: expected 6 booleans, got {self.rows.shape}")
+        for name, shape in (("leverage", (3, c, c)), ("reference_cov", (6, 6))):
+            a = getattr(self, name)
+            if a.shape != shape or not np.all(np.isfinite(a)):
+                raise ValueError(f"{name}: expected finite values of shape {shape}, got {a.shape}")
+
+    def variances(self, z: np.ndarray) -> np.ndarray:
+        """``(N, 6, 6)`` the term at samples of design ``z (N, 198)`` (zero on the rows without the correction)."""
+        zc = z[:, self.cols]
+        q = np.stack([np.einsum("ni,ni->n", zc @ Q, zc) for Q in self.leverage], axis=1)  # (N, 3)
+        g = np.repeat([0, 1], 3)
+        pair = np.array([[0, 2], [2, 1]])[g[:, None], g[None, :]]  # (6, 6) index into the three products
+        out = q[:, pair] * self.reference_cov
+        out[:, ~self.rows] = 0.0
+        out[:, :, ~self.rows] = 0.0
+        return out
+
+
 @dataclass
 class CalibrationCovariance:
     """Everything needed to give each sample's face wrenches a covariance.
@@ -176,6 +238,9 @@ class CalibrationCovariance:
         ``load_features`` (output frame units², N² or N²·m²).
     residual_corr : ndarray, shape (F, 6, 6)
         Correlation of the residuals between the six outputs of each output face.
+    poly_reference : list of PolyReferenceBlock
+        With a noisy reference and a polynomial correction: its coefficients' share of the
+        reference's noise, per corrected output face (empty otherwise, and for older files).
     """
 
     groups: list = field(default_factory=list)
@@ -183,6 +248,7 @@ class CalibrationCovariance:
     n_tare: int | None = None
     variance_coef: np.ndarray | None = None
     residual_corr: np.ndarray | None = None
+    poly_reference: list = field(default_factory=list)
 
     def __post_init__(self):
         self.gauge_cov = np.asarray(self.gauge_cov, dtype=float)
@@ -210,9 +276,15 @@ class CalibrationCovariance:
 
     def retared(self, n: int) -> "CalibrationCovariance":
         """The same, for an offset taken as the mean of ``n`` unloaded samples."""
-        return CalibrationCovariance(self.groups, self.gauge_cov, int(n), self.variance_coef, self.residual_corr)
+        return CalibrationCovariance(self.groups, self.gauge_cov, int(n), self.variance_coef, self.residual_corr,
+                                     self.poly_reference)
 
-    def face_covariances(self, counts, offset, apply, face_from_output, output_faces, explicit_offset: bool):
+    def linear(self) -> "CalibrationCovariance":
+        """The same for the affine rows alone (the papers' linear alternative: no correction's term)."""
+        return CalibrationCovariance(self.groups, self.gauge_cov, self.n_tare, self.variance_coef, self.residual_corr)
+
+    def face_covariances(self, counts, offset, apply, face_from_output, output_faces, explicit_offset: bool,
+                         poly_z=None):
         """``(N, 6, 6, 6)`` covariance of each face's wrench in its frame (NaN where no output).
 
         Parameters
@@ -228,21 +300,33 @@ class CalibrationCovariance:
             Faces (1..6) of the matrix's row blocks, in row order.
         explicit_offset : bool
             The caller gave the offset: its uncertainty is not known (slopes only, no tare term).
+        poly_z : ndarray, shape (N, 198), optional
+            ``[u; φ(u)]`` of the samples (``Calibration.wrenches``): needed with ``poly_reference``.
         """
         N = counts.shape[0]
         out = np.full((N, 6, 6, 6), np.nan)
         fitted = self.n_tare is None and not explicit_offset
+        poly = {b.block: b for b in self.poly_reference}
+        if poly and poly_z is None:
+            raise ValueError("poly_z: expected the samples' design [u; φ(u)] with a polynomial reference term")
         for g in self.groups:
             h = g.leverage(counts, None if fitted else offset)
             h_ref = g.reference_leverages(counts, None if fitted else offset)
             for k in range(g.rows.size // 6):
-                face = output_faces[int(g.rows[6 * k]) // 6] - 1
+                block = int(g.rows[6 * k]) // 6
+                face = output_faces[block] - 1
                 r = np.sqrt(g.inflation[6 * k : 6 * k + 6])
                 Sr = g.residual_cov[6 * k : 6 * k + 6, 6 * k : 6 * k + 6] * np.outer(r, r)
                 X = face_from_output[face]
                 out[:, face] = h[:, None, None] * (X @ Sr @ X.T)
                 if g.reference_cov is not None:  # the reference's noise in the coefficients, where this face carries
-                    out[:, face] += h_ref[:, k, None, None] * (X @ g.reference_cov[k] @ X.T)
+                    T = h_ref[:, k, None, None] * g.reference_cov[k]
+                    pb = poly.get(block)
+                    if pb is not None:  # the correction's rows: its own coefficients' term
+                        T[:, pb.rows] = 0.0
+                        T[:, :, pb.rows] = 0.0
+                        T += pb.variances(poly_z)
+                    out[:, face] += X @ T @ X.T
         W = np.einsum("fij,nj->nfi", apply, counts - offset)
         feats = load_features(np.where(np.isin(np.arange(6), np.asarray(output_faces) - 1)[None, :, None], W, np.nan))
         for k, f in enumerate(output_faces):

@@ -21,6 +21,9 @@ Layout (docs/file-formats.md)::
                           (optional: a noisy reference) P M_k P and Σ_ref,k per face block
         variance_coef     (6F, 4) float64: each row's error variance on [1, q, q², q_other]
         residual_corr     (F, 6, 6) float64: residual correlation between a face's six outputs
+        p{k}_rows (6,) bool, p{k}_cols (c,) int64, p{k}_leverage (3, c, c), p{k}_reference_cov (6, 6) float64,
+                          attrs of p{k}_rows: block (optional, attrs n_poly_reference: a noisy reference
+                          and a correction) the reference's noise through the correction's coefficients
     /correction   group (version 3, model "poly" only): the polynomial correction
         scale             (36,) float64 counts per unit of u = (counts − offset) / scale
         pairs             (P, 2) int64 gauge pairs of the products u_i u_j
@@ -53,6 +56,8 @@ _CORRECTION_RANGE = ("lower", "upper")
 _GROUP_FIELDS = ("inputs", "rows", "design_pinv", "residual_cov", "center", "weights", "inflation")
 #: Group fields written only when set (the reference's noise per face block; absent: None).
 _GROUP_OPTIONAL = ("reference_leverage", "reference_cov")
+#: Fields of each block of the correction's reference term (optional; absent: none).
+_POLY_REFERENCE_FIELDS = ("rows", "cols", "leverage", "reference_cov")
 
 
 def write_calibration(path, cal) -> None:
@@ -91,6 +96,13 @@ def write_calibration(path, cal) -> None:
                 g[f"g{k}_residual_cov"].attrs["dof"] = int(grp.dof)
             checked_dataset(g, "variance_coef", data=cov.variance_coef)
             checked_dataset(g, "residual_corr", data=cov.residual_corr)
+            blocks = getattr(cov, "poly_reference", None) or []
+            if blocks:
+                g.attrs["n_poly_reference"] = len(blocks)
+            for k, b in enumerate(blocks):
+                for name in _POLY_REFERENCE_FIELDS:
+                    checked_dataset(g, f"p{k}_{name}", data=getattr(b, name))
+                g[f"p{k}_rows"].attrs["block"] = int(b.block)
         seal(f)  # SHA-256 manifest of every dataset and attribute (last: covers everything above)
     os.replace(tmp, path)
 
@@ -102,7 +114,8 @@ def read_calibration_fields(path) -> dict:
     ``matrix`` (M, 36), ``output_faces``, ``output_frame``, ``offset`` (36,) counts,
     ``core_edge`` m, ``T_core_ati`` (4, 4), ``meta``), ``model`` (dict or None), ``correction``
     (dict of ``scale``, ``pairs``, ``cubes``, ``coef``, or None) and ``covariance``: ``None`` or a dict
-    (``groups``: list of dicts, ``gauge_cov``, ``n_tare``, ``variance_coef``, ``residual_corr``).
+    (``groups``: list of dicts, ``gauge_cov``, ``n_tare``, ``variance_coef``, ``residual_corr``,
+    ``poly_reference``: list of dicts).
     The objects are built by ``pito_core.calibration.load_calibration`` (io never imports calibration).
     """
     with open_checked(path, CALIBRATION_FORMAT, CALIBRATION_READ_VERSIONS) as f:
@@ -145,8 +158,17 @@ def _read_covariance(f, path) -> dict:
         fields.update({name: np.asarray(g[f"g{k}_{name}"][()]) for name in _GROUP_OPTIONAL if f"g{k}_{name}" in g})
         dof = int(g[f"g{k}_residual_cov"].attrs.get("dof", 0))
         groups.append({**fields, "dof": dof})
+    poly = []
+    for k in range(int(g.attrs.get("n_poly_reference", 0))):
+        fields = {name: np.asarray(require(g, f"p{k}_{name}", path)[()]) for name in _POLY_REFERENCE_FIELDS}
+        try:
+            fields["block"] = int(g[f"p{k}_rows"].attrs["block"])
+        except KeyError:
+            raise FileFormatError(f"{path}: covariance: p{k}_rows: missing attribute 'block'") from None
+        poly.append(fields)
     return {
         "groups": groups,
+        "poly_reference": poly,
         "gauge_cov": np.asarray(require(g, "gauge_cov", path)[()]),
         "n_tare": None if n_tare < 0 else n_tare,
         "variance_coef": np.asarray(require(g, "variance_coef", path)[()]),
