@@ -77,9 +77,11 @@ class Backdrop:
         g.SetLayer(1)
         g.SetPreserveDepthBuffer(True)  # depth-tested against the object's frame (kept colour too: layer > 0)
         g.SetInteractive(False)  # the interactor's renderer stays the object's
-        g.SetActiveCamera(ren.GetActiveCamera())
+        self._camera = ren.GetActiveCamera()
+        g.SetActiveCamera(self._camera)
         g.SetAutomaticLightCreation(False)
-        for light in _items(ren.GetLights()):
+        self._lights = _items(ren.GetLights())
+        for light in self._lights:
             g.AddLight(light)  # the same headlight
         g.SetTwoSidedLighting(ren.GetTwoSidedLighting())
         g.SetLightFollowCamera(ren.GetLightFollowCamera())
@@ -151,11 +153,23 @@ class Backdrop:
             ren.GetActiveCamera().GetMTime(),
             ren.GetMTime(),
             props.GetMTime(),
+            ren.GetLights().GetMTime(),
             *(p.GetRedrawMTime() for p in _items(props)),
             *(light.GetMTime() for light in _items(ren.GetLights())),
         )
 
     def _frame_start(self, *_) -> None:
+        ren, g = self.renderer, self.glyph_renderer
+        cam = ren.GetActiveCamera()
+        if g.GetActiveCamera() is self._camera and cam is not self._camera:  # the object's camera was replaced: follow
+            g.SetActiveCamera(cam)  # (not when both were: vtkWindowToImageFilter renders with copies, then deletes them)
+            self._camera = cam
+        lights = _items(ren.GetLights())
+        if len(lights) != len(self._lights) or any(a is not b for a, b in zip(lights, self._lights)):
+            g.RemoveAllLights()
+            for light in lights:
+                g.AddLight(light)
+            self._lights = lights
         key = self._state()
         if key != self._key or not self.enabled:
             self._layer_glyphs(self._layerable())
