@@ -2,12 +2,13 @@
 
 The object (core, plates, patches, face numbers, mount) changes only when the camera, the
 window's size or one of its actors changes, but a frame drew it again every time: in software
-GL (llvmpipe) that was ~10 of a live frame's ~15 ms. :class:`Backdrop` puts the contact
+GL (llvmpipe) that was ~8.5 of a live frame's ~12 ms. :class:`Backdrop` puts the contact
 glyphs in a renderer of their own, a layer above the object's that keeps its depth buffer, and
 copies the object's frame (colour and depth, one ``glBlitFramebuffer``) into a framebuffer of
 its own after drawing it. While nothing the object's frame depends on has changed, the next
 frame copies it back instead of drawing the object, then draws the glyphs, depth-tested
-against it as before. The image is the same (docs/performance.md, "Live window").
+against it as before. The image is the same but for single pixels where a glyph meets the
+object at equal depth (the glyphs now win the tie; docs/performance.md, "Live window").
 
 What the object's frame depends on, checked before every frame (a cheap tuple of VTK
 modification times): the window's size, the camera (any interaction moves it), the object
