@@ -69,7 +69,10 @@ class WindowProbe:
         self.actor.GetProperty().SetColor(0, 0, 0)
 
         def attach():  # where the scene's VTK objects may be changed (its drawing thread, if any)
-            live.scene.plotter.renderer.AddViewProp(self.actor)
+            # with the glyphs, drawn every frame (the object's renderer is redrawn only when it changes)
+            backdrop = getattr(live.scene, "backdrop", None)
+            renderer = backdrop.glyph_renderer if backdrop is not None else live.scene.plotter.renderer
+            renderer.AddViewProp(self.actor)
             live.scene.plotter.ren_win.AddObserver("StartEvent", self._before_render)
             live.scene.plotter.ren_win.AddObserver("EndEvent", self._after_render)
 

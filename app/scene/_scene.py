@@ -25,6 +25,7 @@ from pito_core.frames import FACES, CubeCore
 
 from ..palette import FACE_COLORS
 from ..render_thread import RenderThread
+from ._backdrop import Backdrop
 from ._colors import ACTIVE_COLOR, BACKGROUND, CONNECTED_COLOR, CORE_COLOR, PLATE_COLOR
 from ._glyphs import ContactGlyphs
 from ._mount import mount_meshes
@@ -130,6 +131,8 @@ class CubeScene(QWidget):
         #: frame the camera for full-scale arrows (:meth:`frame_contacts`) when the object changes
         self.frame_glyphs = False
         self.plotter.add_axes(line_width=2, labels_off=False)
+        #: the object's frame kept and restored while unchanged; the glyphs drawn over it (:mod:`._backdrop`)
+        self.backdrop = Backdrop(self.plotter, self.glyphs.actors)
         self.reset_camera()
 
     def _add_cube(self) -> None:
@@ -333,6 +336,7 @@ class CubeScene(QWidget):
                 rt.stop()  # the GL context is this thread's again
                 self.plotter.interactor.render_lock = None
             try:
+                self.backdrop.release()
                 self.plotter.interactor.Finalize()
             finally:
                 self.plotter.close()

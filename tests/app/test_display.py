@@ -37,7 +37,9 @@ def test_contact_is_white_on_top_and_the_arrow_ends_on_it(scene):
     g = scene.glyphs
     g.update(one_contact((-6.0, 1.0, 0.5)))
     assert g.spheres[1].GetVisibility() and np.allclose(g.spheres[1].GetProperty().GetColor(), hex_rgb(CONTACT_COLOR))
-    assert g.spheres[1] in scene.plotter.renderer.actors.values()  # depth-tested with the object (no overlay)
+    # depth-tested with the object (no overlay): in the glyph layer, which keeps the object's depth buffer
+    glyph_layer = scene.backdrop.glyph_renderer
+    assert glyph_layer.GetViewProps().IsItemPresent(g.spheres[1]) and glyph_layer.GetPreserveDepthBuffer()
     assert np.allclose(g.arrows[1].prop.color.float_rgb, hex_rgb(FACE_COLORS[1]), atol=1e-3)
     M = np.array(g.arrows[1].user_matrix)
     tip = (M @ np.array([1.0, 0, 0, 1]))[:3]

@@ -154,3 +154,95 @@ def test_open_inward_or_translucent_patches_keep_their_back_faces(scene):
     assert [scene._patches[i].GetProperty().GetBackfaceCulling() for i in (1, 2, 3)] == [1, 0, 0]
     scene.set_patches({1: ball}, opacity=0.5)
     assert not scene._patches[1].GetProperty().GetBackfaceCulling()
+
+
+# --- the kept object frame (app/scene/_backdrop.py): a frame that restores it looks as a full draw
+
+
+def frame(scene) -> np.ndarray:
+    """Render a frame as the live view does and read it (no grab filter: it renders with copies of the cameras)."""
+    from vtkmodules.util.numpy_support import vtk_to_numpy
+    from vtkmodules.vtkCommonCore import vtkUnsignedCharArray
+
+    rw = scene.plotter.ren_win
+    rw.Render()
+    w, h = rw.GetSize()
+    arr = vtkUnsignedCharArray()
+    rw.GetPixelData(0, 0, w - 1, h - 1, 0, arr, 0)
+    return vtk_to_numpy(arr).reshape(h, w, 3)[::-1].astype(int)
+
+
+def full_frame(scene) -> np.ndarray:
+    """A frame that draws the object (nothing kept, nothing restored)."""
+    scene.backdrop.enabled = False
+    try:
+        return frame(scene)
+    finally:
+        scene.backdrop.enabled = True
+
+
+def test_moving_glyphs_restore_the_object_and_look_as_a_full_draw(scene):
+    g, bd = scene.glyphs, scene.backdrop
+    g.update(contact_on(1))
+    frame(scene)  # draws the object and keeps it
+    for k, face in enumerate((4, 5, 1, 2)):  # (face 2's contact: hidden by the object)
+        g.update(contact_on(face, 1.0 + k))
+        restored = bd.restored
+        img = frame(scene)
+        assert bd.restored == restored + 1  # the object restored, not drawn
+        assert np.array_equal(img, full_frame(scene))  # pixel for pixel
+        frame(scene)  # (the full draw kept nothing: keep again)
+
+
+@pytest.mark.parametrize("change", ["rotate", "zoom", "face colour", "mount", "resize"])
+def test_a_new_view_or_object_draws_the_object_again(scene, qtbot, change):
+    g, bd = scene.glyphs, scene.backdrop
+    g.update(contact_on(1, 2.0))
+    frame(scene)
+    before = frame(scene)
+    assert bd.restored > 0
+    drawn = bd.drawn
+    iren = scene.plotter.iren.interactor
+    if change == "rotate":  # a left-button drag through the interactor, as the mouse does it
+        iren.SetEventInformation(320, 240, 0, 0)
+        iren.InvokeEvent("LeftButtonPressEvent")
+        for x in range(330, 400, 10):
+            iren.SetEventInformation(x, 240 - (x - 320) // 3, 0, 0)
+            iren.InvokeEvent("MouseMoveEvent")
+        iren.InvokeEvent("LeftButtonReleaseEvent")
+    elif change == "zoom":
+        iren.SetEventInformation(320, 240, 0, 0)
+        iren.InvokeEvent("MouseWheelForwardEvent")
+    elif change == "face colour":
+        scene.set_face_colors({1: "#ff0000", 5: "#00ff00"})
+    elif change == "mount":
+        scene.set_mount("face", 6)
+    else:
+        scene.resize(560, 420)
+        qtbot.wait(50)
+    g.update(contact_on(1, 2.5))
+    img = frame(scene)
+    assert bd.drawn > drawn  # drawn again (by this frame, or by the interactor's own frames)
+    assert img.shape != before.shape or changed(img, before).sum() > 100  # (the change shows)
+    assert np.array_equal(img, full_frame(scene))
+    frame(scene)
+    g.update(contact_on(1, 3.0))
+    restored = bd.restored
+    img = frame(scene)
+    assert bd.restored == restored + 1  # kept again
+    assert np.array_equal(img, full_frame(scene))
+
+
+def test_a_translucent_object_draws_the_glyphs_with_it(scene):
+    """The mount page's see-through flange: glyphs behind it blend under it, as in one renderer."""
+    g, bd = scene.glyphs, scene.backdrop
+    scene.set_mount("face", 6, flange_opacity=0.45)
+    g.update(contact_on(1))
+    frame(scene)
+    assert bd.renderer.GetViewProps().IsItemPresent(g.spheres[1])  # back in the object's renderer
+    restored = bd.restored
+    frame(scene)
+    assert bd.restored == restored
+    scene.set_mount("face", 6)
+    frame(scene)
+    assert bd.glyph_renderer.GetViewProps().IsItemPresent(g.spheres[1])
