@@ -292,7 +292,7 @@ def load_calibration(path) -> Calibration:
             groups = [CovarianceGroup(**g) for g in cov["groups"]]
             poly = [PolyReferenceBlock(**b) for b in cov.get("poly_reference", [])]
             cov = CalibrationCovariance(groups, cov["gauge_cov"], cov["n_tare"], cov["variance_coef"], cov["residual_corr"],
-                                        poly)
+                                        poly, cov.get("error_frame", "output"))
     except ValueError as exc:
         raise FileFormatError(f"{path}: covariance: {exc}") from None
     try:

@@ -89,10 +89,11 @@ class ReferenceLeverage:
             out.append(np.stack([sum(w[b, j] * vref_full[j][k] for j in range(self.n_int)) for b, k in enumerate(kk)]))
         return out
 
-    def set_error_cov(self, coef, corr, feats) -> None:
+    def set_error_cov(self, coef, corr, feats, X=None) -> None:
         """``Σ_r → Σ_e``: each group's residual covariance (its face blocks) becomes the mean, over the
         group's design rows, of the error model's covariance (``coef (6F, 4)``, ``corr (F, 6, 6)``,
-        ``feats`` per block of :meth:`add`): the error that is not the reference's."""
+        ``feats`` per block of :meth:`add`): the error that is not the reference's. ``X (F, 6, 6)``:
+        the error model is in the faces' frames, mapped back to the output frame by ``X⁻¹``."""
         for g, own, kk in zip(self.groups, self.own, self.kk):
             R = g.residual_cov.copy()
             for b, k in enumerate(kk):
@@ -103,7 +104,11 @@ class ReferenceLeverage:
                     sd = np.sqrt(np.clip(var, 0, None))
                     acc += sd.T @ sd
                     n += sd.shape[0]
-                R[6 * b : 6 * b + 6, 6 * b : 6 * b + 6] = corr[k] * acc / max(n, 1)
+                S = corr[k] * acc / max(n, 1)
+                if X is not None:
+                    Xi = np.linalg.inv(X[k])
+                    S = Xi @ S @ Xi.T
+                R[6 * b : 6 * b + 6, 6 * b : 6 * b + 6] = S
             g.residual_cov = R
 
     def finish(self, stride, vref_full) -> None:
@@ -119,7 +124,7 @@ class ReferenceLeverage:
             g.reference_leverage = stride * (P @ M @ P)
             g.reference_cov = S
 
-    def in_sample(self, F, vref_full) -> list:
+    def in_sample(self, F, vref_full, X=None) -> list:
         """Per block of :meth:`add`, ``(share, own)``, both ``(n, 6F)`` float32 (after :meth:`finish`).
 
         ``share``: the reference's share of the coefficients' variance at each training sample,
@@ -133,10 +138,19 @@ class ReferenceLeverage:
         residual: ``1`` for the affine rows; ``1 − 2h + q`` for the correction's (``h`` the fit's
         hat, ``q`` the share's leverage): a fit with many features absorbs its rows' own noise,
         ``E[E²] = e² + v (1 − 2h) + q v``.
+
+        ``X (F, 6, 6)``: both in the faces' frames (the error model's for a fit in S_A): the share's
+        covariance and the carrying rows' ``(1 − 2h + q)``-scaled one mapped by ``X``, ``own`` as the
+        ratio of the latter's diagonal to ``v``'s.
         """
         out = []
+        cov = np.zeros((F, 6, 6))  # each face block's (pooled) covariance of the reference's noise
+        for g, kk in zip(self.groups, self.kk):
+            cov[kk] = g.reference_cov
+        poly = {p["block"]: p for p in self.poly}
         for counts, j, tare_mean, _, _ in self.rows:
-            v = np.zeros((counts.shape[0], F, 6))
+            n = counts.shape[0]
+            h = np.zeros((n, F))  # the affine design's leverage x̃ᵀ P M_k P x̃ of each face block
             x = counts.astype(float)
             for g, kk in zip(self.groups, self.kk):
                 # slopes: the offsets' share is taken out apart
@@ -145,33 +159,42 @@ class ReferenceLeverage:
                 nb, m = Q.shape[0], Q.shape[1]
                 BQ = (B @ Q.transpose(1, 0, 2).reshape(m, nb * m)).reshape(-1, nb, m)  # every face block in one product
                 BQ *= B[:, None, :]
-                h = BQ.sum(axis=2)  # (n, nb)
-                # a run of faces: a view (no copy in, none out)
-                at = slice(kk[0], kk[0] + len(kk)) if kk == list(range(kk[0], kk[0] + len(kk))) else kk
-                v[:, at] += h[:, :, None] * np.diagonal(g.reference_cov, axis1=1, axis2=2)[None]
-            own = np.ones_like(v)
-            if self.poly:
-                x = counts.astype(float) - tare_mean
-                z = np.concatenate([x / self.correction.scale, self.correction.features(x)], axis=1)
-                for p in self.poly:
-                    self._poly_rows(p, z, vref_full[j][p["block"]], v, own)
+                h[:, kk] = BQ.sum(axis=2)
+            z = None
+            if poly:
+                xt = x - tare_mean
+                z = np.concatenate([xt / self.correction.scale, self.correction.features(xt)], axis=1)
+            v, own = np.zeros((n, F, 6)), np.ones((n, F, 6))
+            for k in range(F):
+                p = poly.get(k)
+                r = np.zeros(6, dtype=bool) if p is None else p["rows"]
+                S = np.where(np.outer(~r, ~r), cov[k], 0.0)  # the affine rows' share (the correction's: below)
+                Xk = np.eye(6) if X is None else X[k]
+                v[:, k] = h[:, k, None] * np.diagonal(Xk @ S @ Xk.T)[None]
+                if p is not None:
+                    self._poly_rows(p, z, vref_full[j][k], Xk, v[:, k], own[:, k])
             out.append((v.reshape(-1, 6 * F).astype(np.float32), own.reshape(-1, 6 * F).astype(np.float32)))
         return out
 
     @staticmethod
-    def _poly_rows(p, z, V, v, own) -> None:
-        """The correction's rows of block ``p["block"]``: share ``q diag Σ_ref`` into ``v (n, F, 6)``,
-        ``1 − 2h + q`` into ``own`` (see :meth:`in_sample`); ``z (n, 198)`` the samples' design."""
+    def _poly_rows(p, z, V, Xk, v, own) -> None:
+        """The correction's rows of a face block, in the frame ``Xk (6, 6)`` maps to: its share
+        into ``v (n, 6)`` and ``own (n, 6)`` (see :meth:`in_sample`); ``z (n, 198)`` the samples'
+        design, ``V (6, 6)`` the reference's noise. A row group's ``q`` and ``1 − 2h + q`` scale its
+        rows of ``V`` (forces–torques by the geometric mean)."""
         zc = z[:, p["cols"]]
-        d = np.diag(V)
-        k = p["block"]
+        q, keep = np.zeros((zc.shape[0], 6)), np.ones((zc.shape[0], 6))
         for g, rows in ((0, slice(0, 3)), (1, slice(3, 6))):
-            if not p["rows"][3 * g]:
-                continue
-            q = np.einsum("ni,ni->n", zc @ p["leverage"][g], zc)
-            h = np.einsum("ni,ni->n", zc @ p["hat"][g], zc)
-            v[:, k, rows] = q[:, None] * d[rows]
-            own[:, k, rows] = np.maximum(1.0 - 2.0 * h + q, 0.0)[:, None]
+            if p["rows"][3 * g]:
+                q[:, rows] = np.einsum("ni,ni->n", zc @ p["leverage"][g], zc)[:, None]
+                h = np.einsum("ni,ni->n", zc @ p["hat"][g], zc)
+                keep[:, rows] = np.maximum(1.0 - 2.0 * h + q[:, 3 * g], 0.0)[:, None]
+        r = p["rows"]
+        a, b = np.sqrt(q), np.sqrt(keep)
+        T = np.where(np.outer(r, r), V, 0.0)[None] * (a[:, :, None] * a[:, None, :])
+        v += np.einsum("ij,njk,ik->ni", Xk, T, Xk)
+        d = np.clip(np.diagonal(Xk @ V @ Xk.T), 1e-300, None)
+        own[:] = np.einsum("ij,njk,ik->ni", Xk, V[None] * (b[:, :, None] * b[:, None, :]), Xk) / d
 
 
 def center_free_rows(kept) -> list:

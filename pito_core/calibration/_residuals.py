@@ -206,22 +206,32 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     idx = [f - 1 for f in cal.output_faces]
     stride = max(1, sum(len(s) for s in sessions) // ERROR_MODEL_SAMPLES)
     ref_covs = [None] * len(sessions) if ref_covs is None else ref_covs
-    floor = np.zeros(6 * F) if gauge_cov is None else np.einsum("ia,ia->i", cal.matrix @ gauge_cov, cal.matrix)
+    # the error model's frame: each face's own (a fit in S_A is mapped there, see _error_frame)
+    X = _error_frame(cal)
+    C = cal.matrix.reshape(F, 6, 36)
+    if X is not None:
+        C = X @ C
+    floor_m = np.zeros((F, 6, 6)) if gauge_cov is None else C @ gauge_cov @ C.transpose(0, 2, 1)
+    if X is None:
+        floor = np.zeros(6 * F) if gauge_cov is None else np.einsum("ia,ia->i", cal.matrix @ gauge_cov, cal.matrix)
+    else:
+        floor = np.diagonal(floor_m, axis1=1, axis2=2).reshape(-1).copy()
     noisy = any(np.any(rc) for rc in ref_covs if rc is not None)
     lev = ReferenceLeverage(groups, cal.output_faces, len(sessions)) if noisy else None
     PtP, Pte2, EtE, kept, clusters = _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups,
-                                                 block_size, ref_covs, floor, samples, stride, lev)
+                                                 block_size, ref_covs, floor, samples, stride, lev, X)
     _set_inflation(groups, clusters, stride)
     # the first weights (an exact reference: weights 1 whatever the coefficients, which the one step sets)
     coef = _nnls_coefficients(PtP, Pte2) if noisy else np.zeros((6 * F, N_FEATURES))
     vref_full = [_reference_cov(m, rc, spec.output_frame, idx) for m, rc in zip(mounts, ref_covs)]
+    vref_em = vref_full if X is None else [_reference_cov(m, rc, "face", idx) for m, rc in zip(mounts, ref_covs)]
     poly_ref = []
     if noisy:  # the reference's noise in the coefficients, face by face, over the rows where the face carries
         lev.finish(stride, vref_full)
         if poly_parts:
             lev.set_poly(poly_parts, cal.correction)
             poly_ref = lev.poly_blocks(vref_full)
-        kept = center_free_rows([(*k, *v) for k, v in zip(kept, lev.in_sample(F, vref_full))])
+        kept = center_free_rows([(*k, *v) for k, v in zip(kept, lev.in_sample(F, vref_full, X))])
     else:
         kept = [(*k, None, None) for k in kept]
     # Where the reference's noise v is large against the error itself, E² − v says little about
@@ -229,25 +239,36 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     # so the model is that of the true wrench's error and not of noise left over from the
     # subtraction (a weight (var / (var + v))² let rows that carry nothing but crosstalk set the
     # load term of the rows that carry: face_to_face at 3 % reference noise covered 18 %).
-    floor_m = (np.zeros((F, 6, 6)) if gauge_cov is None else
-               cal.matrix.reshape(F, 6, 36) @ gauge_cov @ cal.matrix.reshape(F, 6, 36).transpose(0, 2, 1))
-    vdiag = [np.diagonal(V, axis1=-2, axis2=-1) for V in vref_full]  # (F, 6) per session
+    vdiag = [np.diagonal(V, axis1=-2, axis2=-1) for V in vref_em]  # (F, 6) per session
     rel_var = [0.0 if n is None else 2.0 / max(n - 1, 1) for n in (ref_n or [None] * len(sessions))]
     b = _stacked(kept, vdiag, F, noisy)
     for _ in range(_REWEIGHT - 1 if noisy else 1):  # exact reference: the weights do not change
         _reweighted(b, coef, floor, rel_var, noisy)
-    corr = _correlation(b, coef, floor, floor_m, vref_full, EtE)  # weighted by the last step's variances
+    corr = _correlation(b, coef, floor, floor_m, vref_em, EtE)  # weighted by the last step's variances
     if noisy:
         _reweighted(b, coef, floor, rel_var, noisy)
     coef[:, 0] += floor
     coef *= _coverage_scale(b, coef)[:, None]
     if noisy:  # Σ_r → Σ_e: the reference's share is now in the groups' own term
-        lev.set_error_cov(coef, corr, [k[1] for k in kept])
-    return coef, corr, poly_ref
+        lev.set_error_cov(coef, corr, [k[1] for k in kept], X)
+    return coef, corr, poly_ref, "output" if X is None else "face"
+
+
+def _error_frame(cal):
+    """``(F, 6, 6)`` output frame → face frame of each output face for a fit in S_A (the reference's
+    frame), else None: the error model is fitted where the errors are read.
+
+    In S_A a face's force and torque errors are correlated at ±0.99 and cancel in its frame to
+    1/50 of the variance; a variance per S_A axis, each scaled to its own coverage, and a
+    correlation estimated beside them do not cancel so (``loaded_frame``, linear cube, 0.1 %
+    reference noise: face-frame torque intervals covering 98–99 %)."""
+    if cal.output_frame != "reference":
+        return None
+    return cal._face_from_output[[f - 1 for f in cal.output_faces]]
 
 
 def _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups, block_size, ref_covs, floor, samples,
-                stride, lev):
+                stride, lev, X=None):
     """One pass over every ``stride``-th usable sample: the sums the error model is fitted from.
 
     Returns ``PtP (F, 4, 4)``, ``Pte2 (F, 4, 6)``: per output face, the normal equations of the
@@ -277,7 +298,8 @@ def _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups, block_
             counts = b.counts[usable]
             x = counts - o
             xC, Y = _predict(cal, x)
-            E = np.take(targets[usable], idx, axis=1) - Y.reshape(-1, F, 6)  # take, not [:, idx]: C-ordered, 8× faster
+            E_out = np.take(targets[usable], idx, axis=1) - Y.reshape(-1, F, 6)  # take, not [:, idx]: C-ordered, 8× faster
+            E = E_out if X is None else np.einsum("fij,nfj->nfi", X, E_out)  # the error model's frame
             # in the face frame, the faces' wrenches are the matrix's rows: the product is reused (and consumed)
             # with a noisy reference, a face of a joint fit has no load where it carries nothing (see _features)
             phi = _features(cal, x, idx, xC if cal.output_frame == "face" else None,
@@ -286,7 +308,7 @@ def _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups, block_
             EF = np.ascontiguousarray(E.transpose(1, 0, 2))  # (F, n, 6): products batched over faces
             EtE += np.matmul(EF.transpose(0, 2, 1), EF)  # the diagonal blocks of Eᵀ E only
             if lev is not None:  # the reweighting's first weights (with an exact reference, 1 whatever they are)
-                v_ref = _reference_variance(mount, rc, spec.output_frame, carries[usable], idx)
+                v_ref = _reference_variance(mount, rc, spec.output_frame if X is None else "face", carries[usable], idx)
                 EF *= EF
                 EF -= v_ref.transpose(1, 0, 2)
                 EF -= floor.reshape(F, 1, 6)
@@ -296,7 +318,7 @@ def _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups, block_
             unloaded = (b.loaded[usable].view(np.uint8) @ np.ones(6, np.uint8)) == 0  # ~any(axis=1), 4× faster
             if lev is not None:  # a noisy reference: its noise in the coefficients, face by face
                 lev.add(counts, carries[usable][:, idx], unloaded, j, tare_means[j])
-            _add_cluster_scores(groups, clusters, own_face, counts, E.reshape(-1, 6 * F), carries[usable], unloaded,
+            _add_cluster_scores(groups, clusters, own_face, counts, E_out.reshape(-1, 6 * F), carries[usable], unloaded,
                                 tare_means[j], j, n_int)
     return PtP, Pte2, EtE, kept, clusters
 

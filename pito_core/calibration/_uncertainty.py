@@ -241,6 +241,9 @@ class CalibrationCovariance:
     poly_reference : list of PolyReferenceBlock
         With a noisy reference and a polynomial correction: its coefficients' share of the
         reference's noise, per corrected output face (empty otherwise, and for older files).
+    error_frame : {"output", "face"}
+        Frame of ``variance_coef`` and ``residual_corr``: the matrix's output frame, or each
+        face's own (fits in S_A since the error model is fitted where the errors are read).
     """
 
     groups: list = field(default_factory=list)
@@ -249,11 +252,14 @@ class CalibrationCovariance:
     variance_coef: np.ndarray | None = None
     residual_corr: np.ndarray | None = None
     poly_reference: list = field(default_factory=list)
+    error_frame: str = "output"
 
     def __post_init__(self):
         self.gauge_cov = np.asarray(self.gauge_cov, dtype=float)
         if self.gauge_cov.shape != (36, 36) or not np.all(np.isfinite(self.gauge_cov)):
             raise ValueError(f"gauge_cov: expected finite values of shape (36, 36), got {self.gauge_cov.shape}")
+        if self.error_frame not in ("output", "face"):
+            raise ValueError(f"error_frame: expected 'output' or 'face', got {self.error_frame!r}")
         if self.n_tare is not None and int(self.n_tare) < 1:
             raise ValueError(f"n_tare: expected a number of samples ≥ 1, got {self.n_tare!r}")
         q = sum(g.rows.size for g in self.groups)
@@ -277,11 +283,12 @@ class CalibrationCovariance:
     def retared(self, n: int) -> "CalibrationCovariance":
         """The same, for an offset taken as the mean of ``n`` unloaded samples."""
         return CalibrationCovariance(self.groups, self.gauge_cov, int(n), self.variance_coef, self.residual_corr,
-                                     self.poly_reference)
+                                     self.poly_reference, self.error_frame)
 
     def linear(self) -> "CalibrationCovariance":
         """The same for the affine rows alone (the papers' linear alternative: no correction's term)."""
-        return CalibrationCovariance(self.groups, self.gauge_cov, self.n_tare, self.variance_coef, self.residual_corr)
+        return CalibrationCovariance(self.groups, self.gauge_cov, self.n_tare, self.variance_coef, self.residual_corr,
+                                     error_frame=self.error_frame)
 
     def face_covariances(self, counts, offset, apply, face_from_output, output_faces, explicit_offset: bool,
                          poly_z=None):
@@ -333,6 +340,9 @@ class CalibrationCovariance:
             var = feats[:, f - 1] @ self.variance_coef[6 * k : 6 * k + 6].T  # (N, 6) output frame
             sd = np.sqrt(np.clip(var, 0, None))
             E = sd[:, :, None] * self.residual_corr[k] * sd[:, None, :]
+            if self.error_frame == "face":  # fitted in the face's frame already
+                out[:, f - 1] += E
+                continue
             X = face_from_output[f - 1]
             out[:, f - 1] += np.einsum("ij,njk,lk->nil", X, E, X)
         if self.n_tare is not None and not explicit_offset:

@@ -8,7 +8,8 @@ Layout (docs/file-formats.md)::
     /matrix       (6·F, 36) float64: counts → N, N·m
     /offset       (36,) float64 counts
     /T_core_ati   (4, 4) float64
-    /covariance   group (version 2; absent in version 1 files), attrs: n_groups, n_tare (-1: fitted offset)
+    /covariance   group (version 2; absent in version 1 files), attrs: n_groups, n_tare (-1: fitted offset),
+                  error_frame (optional, "face": variance_coef and residual_corr in each face's frame; absent: output)
         gauge_cov         (36, 36) float64 counts²: gauge noise at rest
         g{k}_inputs       (m,) int64 gauge columns of least-squares problem k
         g{k}_rows         (q,) int64 rows of /matrix it fitted
@@ -96,6 +97,8 @@ def write_calibration(path, cal) -> None:
                 g[f"g{k}_residual_cov"].attrs["dof"] = int(grp.dof)
             checked_dataset(g, "variance_coef", data=cov.variance_coef)
             checked_dataset(g, "residual_corr", data=cov.residual_corr)
+            if getattr(cov, "error_frame", "output") != "output":
+                g.attrs["error_frame"] = cov.error_frame
             blocks = getattr(cov, "poly_reference", None) or []
             if blocks:
                 g.attrs["n_poly_reference"] = len(blocks)
@@ -169,8 +172,14 @@ def _read_covariance(f, path) -> dict:
     return {
         "groups": groups,
         "poly_reference": poly,
+        "error_frame": _text(g.attrs.get("error_frame", "output")),
         "gauge_cov": np.asarray(require(g, "gauge_cov", path)[()]),
         "n_tare": None if n_tare < 0 else n_tare,
         "variance_coef": np.asarray(require(g, "variance_coef", path)[()]),
         "residual_corr": np.asarray(require(g, "residual_corr", path)[()]),
     }
+
+
+def _text(v) -> str:
+    """An HDF5 string attribute as ``str`` (h5py gives ``bytes`` for fixed-length ones)."""
+    return v.decode() if isinstance(v, bytes) else str(v)

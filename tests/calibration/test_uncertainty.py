@@ -129,7 +129,8 @@ def test_the_contact_solver_takes_the_covariance_directly():
         solve_object(load_assembly("pito_mixed"), W, wrench_cov=cov[:3])
 
 
-@pytest.mark.parametrize("method, flange", [("total", "face"), ("unloaded_frame", "face"), ("face_to_face", "frame_hole")])
+@pytest.mark.parametrize("method, flange", [("total", "face"), ("unloaded_frame", "face"), ("face_to_face", "frame_hole"),
+                                           ("loaded_frame", "frame_hole")])
 @pytest.mark.parametrize("reference_noise", [0.003, 0.01])
 def test_coverage_of_the_true_wrench_with_a_noisy_reference(method, flange, reference_noise):
     """The interval is of the true wrench: the reference's own noise (in every training target,
@@ -327,3 +328,22 @@ def test_the_correction_s_reference_term_round_trips_and_stays_with_the_correcti
     assert lin.covariance.poly_reference == [] and np.all(np.isfinite(lin.wrenches(x, return_cov=True)[1]))
     with h5py.File(tmp_path / "c.pitocal", "r") as f:
         assert f["covariance"].attrs["n_poly_reference"] == len(cal.covariance.poly_reference)
+
+
+def test_a_fit_in_the_reference_frame_models_its_errors_in_each_face_s_frame(tmp_path):
+    """``loaded_frame`` fits in S_A, where a face's force and torque errors cancel in its own frame:
+    its error model is fitted there (``error_frame == "face"``), saved and loaded with it; the
+    face-frame fits keep theirs in the output frame (the same)."""
+    from gen import CASES
+
+    K = true_sensitivity(3, coupling=0.05)
+    kw = dict(CASES["loaded_frame"], connected_face=5, noise=2.0, counts_dtype=float)
+    cal = calibrate(make_session(K, k=300, seed=4, reference_noise=0.003, **kw), "loaded_frame", model="linear")
+    assert cal.output_frame == "reference" and cal.covariance.error_frame == "face"
+    cal.save(tmp_path / "c.pitocal")
+    back = load_calibration(tmp_path / "c.pitocal")
+    assert back.covariance.error_frame == "face"
+    x = np.random.default_rng(1).normal(size=(5, 36)) * 1e3 + cal.offset
+    np.testing.assert_array_equal(back.wrenches(x, return_cov=True)[1], cal.wrenches(x, return_cov=True)[1])
+    face = calibrate(make_session(K, flange="face", connected_face=6, k=300, noise=2.0), "total")
+    assert face.covariance.error_frame == "output"
