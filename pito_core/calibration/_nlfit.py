@@ -87,6 +87,7 @@ class PolyAccumulator:
         # with a noisy reference: per output face, the design's Gram over the rows where it carries
         # (its targets hold the reference's noise there only) and those rows per session
         self.carry = None
+        self.reference_parts = []  # per corrected output face, after fit (_reference_part)
         if noisy_reference:
             faces = FACES if own else self.out_faces
             p = (lambda f: self.acc[f].p) if own else (lambda f: self.acc.p)

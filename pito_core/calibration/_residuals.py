@@ -199,8 +199,9 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     correction's ``PolyAccumulator.reference_parts``) give the correction's rows their own
     coefficients' share instead.
 
-    Returns ``(variance_coef (6F, 4), residual_corr (F, 6, 6), poly_reference)``, the last a list
-    of ``PolyReferenceBlock`` (empty without reference noise or correction).
+    Returns ``(variance_coef (6F, 4), residual_corr (F, 6, 6), poly_reference, error_frame)``:
+    ``poly_reference`` a list of ``PolyReferenceBlock`` (empty without reference noise or
+    correction), ``error_frame`` the frame of the first two ("output", or "face" for a fit in S_A).
     """
     F = len(cal.output_faces)
     idx = [f - 1 for f in cal.output_faces]
