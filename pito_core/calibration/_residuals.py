@@ -232,7 +232,8 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
         if poly_parts:
             lev.set_poly(poly_parts, cal.correction)
             poly_ref = lev.poly_blocks(vref_full)
-        kept = center_free_rows([(*k, *v) for k, v in zip(kept, lev.in_sample(F, vref_full, X))])
+        kept = center_free_rows([(*k, *v) for k, v in zip(kept, lev.in_sample(F, vref_full, X))],
+                                lev.offset_var(F, X))
     else:
         kept = [(*k, None, None) for k in kept]
     # Where the reference's noise v is large against the error itself, E² − v says little about

@@ -347,3 +347,49 @@ def test_a_fit_in_the_reference_frame_models_its_errors_in_each_face_s_frame(tmp
     np.testing.assert_array_equal(back.wrenches(x, return_cov=True)[1], cal.wrenches(x, return_cov=True)[1])
     face = calibrate(make_session(K, flange="face", connected_face=6, k=300, noise=2.0), "total")
     assert face.covariance.error_frame == "output"
+
+
+def test_a_sessions_mean_residual_where_a_face_carries_nothing_is_kept_when_beyond_the_offsets_noise():
+    from pito_core.calibration._reference_noise import center_free_rows
+
+    rng = np.random.default_rng(3)
+    E = rng.normal(size=(400, 6)) * 0.01 + np.array([0.02, 5.0, 0.0, 0.0, 0.0, -5.0])
+    carries = np.zeros((400, 1), dtype=bool)
+    carries[:100] = True  # the face carries on these rows: never shifted
+    kept = [(E.copy(), None, carries, 0)]
+    means = E[100:].mean(axis=0)
+    out = center_free_rows(kept)[0][0]  # without the offset's variance: every mean is taken out
+    np.testing.assert_allclose(out[100:].mean(axis=0), 0, atol=1e-12)
+    out = center_free_rows(kept, [np.full(6, 1.0)])[0][0]  # σ = 1: ±5 is a bias, 0.02 noise
+    np.testing.assert_allclose(out[100:].mean(axis=0), [0, means[1], 0, 0, 0, means[5]], atol=1e-12)
+    np.testing.assert_array_equal(out[:100], E[:100])
+
+
+def test_the_offsets_noise_variance_is_that_of_the_session_means_on_linear_cubes(monkeypatch):
+    """``ReferenceLeverage.offset_var`` predicts the spread of the mean residual where a face
+    carries nothing (on a linear cube that mean is the offset's noise alone): mean² / var is χ²₁."""
+    from pito_core.calibration import _residuals
+
+    seen = []
+    original = _residuals.center_free_rows
+
+    def record(kept, offset_var=None):
+        sums, counts = 0, 0
+        for E, _, carr, j, *_ in kept:
+            free = ~np.repeat(carr, 6, axis=1)
+            sums, counts = sums + np.where(free, E, 0).sum(axis=0), counts + free.sum(axis=0)
+        seen.append((sums / np.clip(counts, 1, None)) ** 2 / offset_var[0])
+        return original(kept, offset_var)
+
+    monkeypatch.setattr(_residuals, "center_free_rows", record)
+    K = true_sensitivity(11, coupling=0.05)
+    for method, kw in (("total", dict(flange="face", connected_face=6)),
+                       ("loaded_frame", dict(flange="frame_hole", connected_face=5))):
+        for d in range(3):
+            calibrate(make_session(K, k=1500, seed=5 + 7 * d, noise=2.0, counts_dtype=float, reference_noise=0.01,
+                                   **kw), method, model="linear")
+    r = np.concatenate(seen)
+    r = r[np.isfinite(r)]
+    assert r.size >= 150
+    assert 0.7 < r.mean() < 1.4, r.mean()  # χ²₁: mean 1 (± 0.12 over ~200 outputs)
+    assert (r > 9).mean() < 0.02
