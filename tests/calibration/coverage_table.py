@@ -9,7 +9,10 @@ scatters even where the intervals are right (``face_to_face``, linear cube, 3 %:
 so "nominal 95 %" is a statement over calibrations and samples, checked pooled over 16 of them
 (16 × 6000 held-out samples per face and axis: σ ≈ 0.3 % there).
 
-    PYTHONPATH=. python tests/calibration/coverage_table.py [methods] [lin,nl] [0,0.01,0.03] [linear,auto] [draws]
+    PYTHONPATH=. python tests/calibration/coverage_table.py [methods] [lin,nl] [0,0.01,0.03] [linear,auto] [draws] [tare]
+
+``tare``: samples at rest in each training session (default 300; the wizard's default tare is
+2 s, 2000 samples at 1 kHz), from which the reference's noise is known.
 """
 
 import itertools
@@ -46,9 +49,9 @@ def sessions(method, K, kw, seed, k, noise):
                          reference_noise=noise, **kw)]
 
 
-def run(method, cube, noise, model, draws=16, seed=1, k=2000, kt=1000):
+def run(method, cube, noise, model, draws=16, seed=1, k=2000, kt=1000, tare=300):
     K = true_sensitivity(seed, coupling=0.05)
-    kw = dict(connected_face=FACE[method], noise=2.0, counts_dtype=float)
+    kw = dict(connected_face=FACE[method], noise=2.0, counts_dtype=float, n_unloaded=tare)
     if cube == "nl":
         kw["response"] = nonlinear_response(seed, K, FACE[method], 0.08)
     tests = sessions(method, K, kw, seed + 1000, kt, 0.0)
@@ -65,13 +68,13 @@ def run(method, cube, noise, model, draws=16, seed=1, k=2000, kt=1000):
 
 
 if __name__ == "__main__":
-    args = sys.argv[1:] + [None] * 5
+    args = sys.argv[1:] + [None] * 6
     methods = args[0].split(",") if args[0] else sorted(FACE)
     cubes = args[1].split(",") if args[1] else ["lin", "nl"]
     noises = [float(x) for x in args[2].split(",")] if args[2] else [0.0, 0.01, 0.03]
     models = args[3].split(",") if args[3] else ["linear", "auto"]
     for method, cube, noise, model in itertools.product(methods, cubes, noises, models):
-        c, s, N = run(method, cube, noise, model, draws=int(args[4] or 16))
+        c, s, N = run(method, cube, noise, model, draws=int(args[4] or 16), tare=int(args[5] or 300))
         v, sv = c[np.isfinite(c)], s[np.isfinite(s)]
         out = int(((v < 0.93) | (v > 0.97)).sum())
         print(f"{method:14s} {cube:3s} ref={noise:.2f} {model:6s} n={N:6d} pooled {v.min()*100:5.1f}-{v.max()*100:5.1f} "
