@@ -39,46 +39,17 @@ class WindowProbe:
     """
 
     def __init__(self, window):
-        # deferred: VTK and Qt load only in the app's process (`pito --help` imports this module)
-        import vtk
-        from PySide6.QtGui import QBrush, QColor, QPen
-        from PySide6.QtWidgets import QGraphicsRectItem
-
-        self._QColor, self._QBrush = QColor, QBrush
         live = self.live = window.live
         self.scene_time = float("nan")
         self.renders = 0
         #: per scene frame: (the stamped sample time, frame start, frame end), s, monotonic clock
         self.frames: list[tuple[float, float, float]] = []
         self._frame = (float("nan"), 0.0)
-        # --- the scene: an Actor2D square in display pixels (lower-left corner)
-        pts = vtk.vtkPoints()
-        for x, y in ((0, 0), (STAMP_PX, 0), (STAMP_PX, STAMP_PX), (0, STAMP_PX)):
-            pts.InsertNextPoint(x, y, 0)
-        poly = vtk.vtkPolyData()
-        poly.SetPoints(pts)
-        cells = vtk.vtkCellArray()
-        cells.InsertNextCell(4)
-        for k in range(4):
-            cells.InsertCellPoint(k)
-        poly.SetPolys(cells)
-        mapper = vtk.vtkPolyDataMapper2D()
-        mapper.SetInputData(poly)
-        self.actor = vtk.vtkActor2D()
-        self.actor.SetMapper(mapper)
-        self.actor.GetProperty().SetColor(0, 0, 0)
-
-        def attach():  # where the scene's VTK objects may be changed (its drawing thread, if any)
-            # with the glyphs, drawn every frame (the object's renderer is redrawn only when it changes)
-            backdrop = getattr(live.scene, "backdrop", None)
-            renderer = backdrop.glyph_renderer if backdrop is not None else live.scene.plotter.renderer
-            renderer.AddViewProp(self.actor)
-            live.scene.plotter.ren_win.AddObserver("StartEvent", self._before_render)
-            live.scene.plotter.ren_win.AddObserver("EndEvent", self._after_render)
-
+        self.actor = _square_actor()
         call = getattr(live.scene, "call", None)
-        call(attach) if call is not None else attach()
-        if not hasattr(live, "scene_time"):
+        call(self._attach) if call is not None else self._attach()
+        self._own_scene_time = not hasattr(live, "scene_time")
+        if self._own_scene_time:  # an older app: keep the newest sample's time here
             orig = live.on_bundle
 
             def on_bundle(b, _orig=orig):
@@ -86,11 +57,26 @@ class WindowProbe:
                 if not live.paused and b.time.size:
                     self.scene_time = float(b.time[-1])
             live.on_bundle = on_bundle
-            self._own_scene_time = True
-        else:
-            self._own_scene_time = False
-        # --- the force plot: a rect item in the view's scene (view pixels), upper-left corner
-        fp = live.force_plot
+        self._stamp_plot(live.force_plot)
+
+    def _attach(self) -> None:
+        """The scene's stamp with the glyphs, drawn every frame (the object's renderer is redrawn
+        only when it changes); the frame's start and end noted. Run where the scene's VTK objects
+        may be changed (its drawing thread, if any)."""
+        scene = self.live.scene
+        backdrop = getattr(scene, "backdrop", None)
+        renderer = backdrop.glyph_renderer if backdrop is not None else scene.plotter.renderer
+        renderer.AddViewProp(self.actor)
+        scene.plotter.ren_win.AddObserver("StartEvent", self._before_render)
+        scene.plotter.ren_win.AddObserver("EndEvent", self._after_render)
+
+    def _stamp_plot(self, fp) -> None:
+        """The force plot's stamp: a rect item in the view's scene (view pixels, upper-left corner),
+        coloured after each refresh with the newest time the plot shows."""
+        # deferred: Qt loads only in the app's process (`pito --help` imports this module)
+        from PySide6.QtGui import QBrush, QColor, QPen
+        from PySide6.QtWidgets import QGraphicsRectItem
+
         self.rect = QGraphicsRectItem(0, 0, STAMP_PX, STAMP_PX)
         self.rect.setPen(QPen(QColor(0, 0, 0, 0)))
         self.rect.setBrush(QBrush(QColor(0, 0, 0)))
@@ -141,3 +127,25 @@ class WindowProbe:
         return {"scene": scene, "plots": [x0, y0, x1 - x0, y1 - y0],
                 "scene_stamp": [scene[0] + STAMP_PX // 2, scene[1] + scene[3] - int(STAMP_PX / dpr) // 2 - 1],
                 "plot_stamp": [fp[0] + STAMP_PX // 2, fp[1] + STAMP_PX // 2]}
+
+
+def _square_actor():
+    """A black ``STAMP_PX`` square as a VTK 2D actor in display pixels (lower-left corner)."""
+    import vtk  # deferred: VTK loads only in the app's process (`pito --help` imports this module)
+
+    pts = vtk.vtkPoints()
+    for x, y in ((0, 0), (STAMP_PX, 0), (STAMP_PX, STAMP_PX), (0, STAMP_PX)):
+        pts.InsertNextPoint(x, y, 0)
+    poly = vtk.vtkPolyData()
+    poly.SetPoints(pts)
+    cells = vtk.vtkCellArray()
+    cells.InsertNextCell(4)
+    for k in range(4):
+        cells.InsertCellPoint(k)
+    poly.SetPolys(cells)
+    mapper = vtk.vtkPolyDataMapper2D()
+    mapper.SetInputData(poly)
+    actor = vtk.vtkActor2D()
+    actor.SetMapper(mapper)
+    actor.GetProperty().SetColor(0, 0, 0)
+    return actor
