@@ -213,10 +213,7 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     if X is not None:
         C = X @ C
     floor_m = np.zeros((F, 6, 6)) if gauge_cov is None else C @ gauge_cov @ C.transpose(0, 2, 1)
-    if X is None:
-        floor = np.zeros(6 * F) if gauge_cov is None else np.einsum("ia,ia->i", cal.matrix @ gauge_cov, cal.matrix)
-    else:
-        floor = np.diagonal(floor_m, axis1=1, axis2=2).reshape(-1).copy()
+    floor = np.diagonal(floor_m, axis1=1, axis2=2).reshape(-1).copy()
     noisy = any(np.any(rc) for rc in ref_covs if rc is not None)
     lev = ReferenceLeverage(groups, cal.output_faces, len(sessions)) if noisy else None
     PtP, Pte2, EtE, kept, clusters = _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups,
