@@ -76,7 +76,9 @@ def _significant_nnls(PtWP, PtWe, PtWv, rel_var) -> np.ndarray:
     ``E² − v`` subtracts the reference's variance ``v``, known only to ``rel_var`` (relative
     variance, ``2/(n − 1)`` from ``n`` samples at rest): an error of ``v`` shifts every row it
     enters and fits as a load-dependent term. A coefficient is kept only above ``_SIGNIFICANT``
-    standard errors of that (``PtWP⁻¹ PtWv`` per session). Without reference noise: the plain fit.
+    standard errors of that (``PtWP⁻¹ PtWv`` per session), dropped one at a time, the weakest
+    first (``q`` and ``q²`` are collinear: they share an excess neither shows alone, and dropping
+    every weak term at once dropped both). Without reference noise: the plain fit.
     (The rows' own scatter is not counted: pruning real terms on it left intervals too short
     on nonlinear cubes.)
     """
@@ -99,11 +101,11 @@ def _significant_nnls(PtWP, PtWe, PtWv, rel_var) -> np.ndarray:
         var = np.zeros(int(active.sum()))
         for j, rv in enumerate(rel_var):
             var = var + rv * (Pinv @ (PtWv[j][active] / sc)) ** 2
-        weak = np.zeros_like(active)
-        weak[active] = c[active] * sc < _SIGNIFICANT * np.sqrt(var)
-        if not weak.any():
+        z = np.full(active.size, np.inf)
+        z[active] = c[active] * sc / np.maximum(np.sqrt(var), 1e-300)
+        if z.min() >= _SIGNIFICANT:
             break
-        active &= ~weak
+        active[np.argmin(z)] = False  # the weakest alone: collinear features share what one would show
         c = np.zeros(PtWe.size)
     return c
 
@@ -161,9 +163,10 @@ def _significant_rows(PtWP, PtWe, PtWv, rel_var) -> np.ndarray:
         Pinv = np.linalg.pinv(np.where(mm, Gs[t], 0.0), hermitian=True)
         var = sum(rv * np.einsum("rij,rj->ri", Pinv, np.where(active[t], V[t] / sc[t], 0.0)) ** 2
                   for rv, V in zip(rel_var, Vs))  # of the scaled coefficients c · scale
-        weak = active[t] & (c[t] < _SIGNIFICANT * np.sqrt(var))
-        more = weak.any(axis=1)
-        active[t[more]] &= ~weak[more]
+        z = np.where(active[t], c[t] / np.maximum(np.sqrt(var), 1e-300), np.inf)
+        weakest = np.argmin(z, axis=1)
+        more = z[np.arange(t.size), weakest] < _SIGNIFICANT
+        active[t[more], weakest[more]] = False  # the weakest alone: collinear features share what one would show
         c[t[more]] = 0.0
         todo[t[~more]] = False
     coef[rows] = c / sc
