@@ -284,8 +284,41 @@ def test_the_coverage_bin_by_partial_sort_is_the_histograms(n):
     b = dict(ET=ET, phT=phT, carr=np.ones((F, n), dtype=bool), vT=None, sessions=[(0, slice(0, n))])
     coef = rng.uniform(0.1, 1.0, size=(6 * F, 4))
     np.testing.assert_array_equal(_order_bins(b, coef), _hist_bins(b, coef))
+    b["carr"] = np.zeros((F, n), dtype=bool)
+    b["carr"][1, ::3] = True  # a third loaded: those alone where they are 400 or more, else all
+    np.testing.assert_array_equal(_order_bins(b, coef), _hist_bins(b, coef))
     coef[0] = 0.0  # a row of zero variance: weights below 1, the histogram's
     assert _order_bins(b, coef) is None
+
+
+@pytest.mark.parametrize("noisy", [False, True])
+def test_the_coverage_scale_is_the_loaded_samples_where_they_inform_it(noisy):
+    """Pass 4 scales the variance to cover 95 % of the loaded samples' errors, not of a long rest's:
+    5000 samples at rest with errors well inside their interval against 2000 loaded with errors
+    at the modelled variance gave a scale of 0.45–0.50 (the loaded samples' intervals 0.7× too short).
+    A face whose loaded samples the reference's noise swamps (weights ≈ 0) keeps every sample's."""
+    from pito_core.calibration._residuals import _coverage_scale
+
+    rng = np.random.default_rng(3)
+    n_rest, n_load, F = 5000, 2000, 2
+    n = n_rest + n_load
+    carr = np.zeros((F, n), dtype=bool)
+    carr[:, n_rest:] = True
+    phT = np.ones((F, 4, n), dtype=np.float32)
+    ET = rng.normal(size=(F, 6, n)).astype(np.float32)
+    ET[:, :, :n_rest] *= 0.1  # at rest: far inside
+    coef = np.zeros((6 * F, 4))
+    coef[:, 0] = 1.0
+    vT = None
+    if noisy:  # face 2's loaded samples under a reference noise 100× their error's variance
+        vT = np.zeros((F, 6, n), dtype=np.float32)
+        vT[1, :, n_rest:] = 100.0
+        ET[1, :, n_rest:] = rng.normal(scale=np.sqrt(101.0), size=(6, n_load))
+    b = dict(ET=ET, phT=phT, carr=carr, vT=vT, sessions=[(0, slice(0, n))])
+    s = _coverage_scale(b, coef)
+    np.testing.assert_allclose(s[:6], 1.0, atol=0.12)  # the loaded samples' N(0, 1)
+    if noisy:  # every sample's: mostly the rest's 0.1² (the loaded ones weigh 1e-4 each)
+        assert np.all(s[6:] < 0.1)
 
 
 def test_the_reference_noise_through_the_correction_is_its_coefficients_term():
