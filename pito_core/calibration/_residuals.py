@@ -5,7 +5,7 @@ accumulates (a) each output's squared residual against ``load_features`` (the va
 new sample brings itself), (b) the residuals' correlation between a face's six axes, and
 (c) the scores ``Aᵀ E`` of clusters of consecutive samples (the cluster-robust inflation of
 the coefficients' variance). Pass 4 scales each output's variance so that ±1.96 σ holds
-95 % of its training residuals (the errors are not Gaussian). See docs/calibration.md,
+95 % of its loaded training samples' residuals (the errors are not Gaussian). See docs/calibration.md,
 "Uncertainty".
 """
 
