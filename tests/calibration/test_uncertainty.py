@@ -296,11 +296,13 @@ def test_the_coverage_scale_is_the_loaded_samples_where_they_inform_it(noisy):
     """Pass 4 scales the variance to cover 95 % of the loaded samples' errors, not of a long rest's:
     5000 samples at rest with errors well inside their interval against 2000 loaded with errors
     at the modelled variance gave a scale of 0.45–0.50 (the loaded samples' intervals 0.7× too short).
-    A face whose loaded samples the reference's noise swamps (weights ≈ 0) keeps every sample's."""
+    A face whose loaded samples the reference's noise swamps keeps every sample's: here a noise 3×
+    the error's variance, weights 1/16 (500 of 8000 rows). There an error of 10 % in the
+    reference's noise (a 200-sample tare) moves each row's need by 0.3 of the variance."""
     from pito_core.calibration._residuals import _coverage_scale
 
     rng = np.random.default_rng(3)
-    n_rest, n_load, F = 5000, 2000, 2
+    n_rest, n_load, F = 5000, 8000 if noisy else 2000, 2
     n = n_rest + n_load
     carr = np.zeros((F, n), dtype=bool)
     carr[:, n_rest:] = True
@@ -310,14 +312,14 @@ def test_the_coverage_scale_is_the_loaded_samples_where_they_inform_it(noisy):
     coef = np.zeros((6 * F, 4))
     coef[:, 0] = 1.0
     vT = None
-    if noisy:  # face 2's loaded samples under a reference noise 100× their error's variance
+    if noisy:  # face 2's loaded samples under a reference noise 3× their error's variance
         vT = np.zeros((F, 6, n), dtype=np.float32)
-        vT[1, :, n_rest:] = 100.0
-        ET[1, :, n_rest:] = rng.normal(scale=np.sqrt(101.0), size=(6, n_load))
+        vT[1, :, n_rest:] = 3.0
+        ET[1, :, n_rest:] = rng.normal(scale=2.0, size=(6, n_load))
     b = dict(ET=ET, phT=phT, carr=carr, vT=vT, sessions=[(0, slice(0, n))])
     s = _coverage_scale(b, coef)
     np.testing.assert_allclose(s[:6], 1.0, atol=0.12)  # the loaded samples' N(0, 1)
-    if noisy:  # every sample's: mostly the rest's 0.1² (the loaded ones weigh 1e-4 each)
+    if noisy:  # every sample's: mostly the rest's 0.1² (the loaded ones weigh 500 of 5500)
         assert np.all(s[6:] < 0.1)
 
 
