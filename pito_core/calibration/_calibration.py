@@ -260,7 +260,7 @@ class Calibration:
 
     # ------------------------------------------------------------------ files
     def save(self, path) -> None:
-        """Write exactly ``path`` (HDF5, format ``pito-calibration`` v3; docs/file-formats.md)."""
+        """Write exactly ``path`` (HDF5, format ``pito-calibration`` v4; docs/file-formats.md)."""
         write_calibration(path, self)
 
     @classmethod
@@ -292,7 +292,7 @@ def load_calibration(path) -> Calibration:
             groups = [CovarianceGroup(**g) for g in cov["groups"]]
             poly = [PolyReferenceBlock(**b) for b in cov.get("poly_reference", [])]
             cov = CalibrationCovariance(groups, cov["gauge_cov"], cov["n_tare"], cov["variance_coef"], cov["residual_corr"],
-                                        poly, cov.get("error_frame", "output"))
+                                        poly, cov.get("error_frame", "output"), cov.get("rest_bias"))
     except ValueError as exc:
         raise FileFormatError(f"{path}: covariance: {exc}") from None
     try:

@@ -10,8 +10,8 @@ each group (large where face k carries, small elsewhere: the load features could
 the two apart), and the groups' own term keeps ``Σ_e``, the error model's (``Σ_r`` less the
 reference's share is no estimate of it: the difference is far below the share's uncertainty).
 The error model takes the share out of the training residuals where the face carries nothing
-(:meth:`ReferenceLeverage.in_sample`, :func:`center_free_rows`). See docs/calibration.md,
-"Uncertainty".
+(:meth:`ReferenceLeverage.in_sample`; the offsets' share goes with each session's mean residual
+at rest, ``_residuals._retared``). See docs/calibration.md, "Uncertainty".
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ import numpy as np
 
 from ._uncertainty import PolyReferenceBlock
 
-__all__ = ["ReferenceLeverage", "center_free_rows", "is_range", "OFFSET_Z"]
+__all__ = ["ReferenceLeverage", "is_range"]
 
 
 class ReferenceLeverage:
@@ -145,8 +145,8 @@ class ReferenceLeverage:
         ``(x̃ᵀ P M_k P x̃) diag Σ_ref,k``. A sample where face k carries nothing has it in its
         residual all the same (the fitted slopes hold the noise of the other rows): the error
         model takes it out there as it takes the reference's own noise out where the face carries.
-        (The offsets' share is one number per session and output, taken out of those residuals as
-        their mean: :func:`center_free_rows`.)
+        (The offsets' share is one number per session and output, taken out of every residual with
+        the session's mean residual at rest: ``_residuals._retared``.)
 
         ``own``: where face k carries, the factor on the reference's own variance ``v`` in the
         residual: ``1`` for the affine rows; ``1 − 2h + q`` for the correction's (``h`` the fit's
@@ -209,38 +209,6 @@ class ReferenceLeverage:
         v += np.einsum("ij,njk,ik->ni", Xk, T, Xk)
         d = np.clip(np.diagonal(Xk @ V @ Xk.T), 1e-300, None)
         own[:] = np.einsum("ij,njk,ik->ni", Xk, V[None] * (b[:, :, None] * b[:, None, :]), Xk) / d
-
-
-#: A session's mean residual where a face carries nothing is the offset's noise if within this
-#: many of its standard deviations (:func:`center_free_rows`).
-OFFSET_Z = 3.0
-
-
-def center_free_rows(kept, offset_var=None) -> list:
-    """``kept`` with each session's residuals on the rows where the output's face carries nothing
-    less their mean: the fitted offset's error (the reference's noise through it), one realised
-    number per session and output that a re-tared sample does not have and the groups' own term
-    covers for the fitted offset. ``kept`` as in the error model: ``(E (n, 6F), phi, carries (n, F), j, …)``.
-
-    ``offset_var`` (per session, ``(6F,)``: :meth:`ReferenceLeverage.offset_var`) keeps a mean
-    beyond :data:`OFFSET_Z` of its standard deviations: that is the error's own bias where other
-    faces are loaded (a nonlinear cube's misfit), which a re-tared sample has too. (On linear
-    cubes ``mean² / offset_var`` averages 0.8–1.2; on the nonlinear cube of ``test_nonlinear.py``
-    its median is 100–270, and taking those means out left the intervals there 0–24 % short.)
-    """
-    sums, counts, frees = {}, {}, []
-    for E, _, carr, j, *_ in kept:
-        free = ~np.repeat(carr, 6, axis=1)
-        frees.append(free)
-        sums[j] = sums.get(j, 0) + np.where(free, E, 0).sum(axis=0)
-        counts[j] = counts.get(j, 0) + free.sum(axis=0)
-    means = {j: (sums[j] / np.clip(counts[j], 1, None)) for j in sums}
-    if offset_var is not None:
-        means = {j: np.where(m * m <= OFFSET_Z**2 * offset_var[j], m, 0.0) for j, m in means.items()}
-    out = []
-    for (E, phi, carr, j, *rest), free in zip(kept, frees):
-        out.append((np.where(free, E - means[j].astype(E.dtype), E), phi, carr, j, *rest))
-    return out
 
 
 def is_range(ix, n) -> bool:

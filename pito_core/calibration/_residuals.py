@@ -5,7 +5,8 @@ accumulates (a) each output's squared residual against ``load_features`` (the va
 new sample brings itself), (b) the residuals' correlation between a face's six axes, and
 (c) the scores ``Aᵀ E`` of clusters of consecutive samples (the cluster-robust inflation of
 the coefficients' variance). Pass 4 scales each output's variance so that ±1.96 σ holds
-95 % of its loaded training samples' residuals (the errors are not Gaussian). See docs/calibration.md,
+95 % of its loaded training samples' residuals, and at rest 95 % of the residuals at rest (the
+errors are not Gaussian). See docs/calibration.md,
 "Uncertainty".
 """
 
@@ -15,7 +16,7 @@ import numpy as np
 import scipy.optimize
 
 from ..io import SessionBlock
-from ._reference_noise import ReferenceLeverage, center_free_rows, is_range
+from ._reference_noise import ReferenceLeverage, is_range
 from ._targets import block_targets
 from ._uncertainty import FULL_SCALE, N_FEATURES, q_features
 
@@ -35,6 +36,9 @@ _Z_WIDTH, _Z_N = 0.005, 4000
 #: each one's need moves by ``v``'s own error (±8 % from 300 samples) times ``v / var``.
 _MIN_INFORMED = 400
 _MIN_SHARE = 0.5
+#: Pass 4 scales the variance at rest by the samples at rest alone where they weigh this many
+#: (10 beyond the 95 % point); else by the loaded samples' scale.
+_MIN_REST = 200
 #: Reweighting steps of the error model against the reference's noise (each: weights from the last fit).
 _REWEIGHT = 3
 #: A term of the excess variance is kept only above this many standard errors of what the
@@ -208,9 +212,12 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     correction's ``PolyAccumulator.reference_parts``) give the correction's rows their own
     coefficients' share instead.
 
-    Returns ``(variance_coef (6F, 4), residual_corr (F, 6, 6), poly_reference, error_frame)``:
-    ``poly_reference`` a list of ``PolyReferenceBlock`` (empty without reference noise or
-    correction), ``error_frame`` the frame of the first two ("output", or "face" for a fit in S_A).
+    The residuals are taken as a tare leaves them (:func:`_retared`).
+
+    Returns ``(variance_coef (6F, 5), residual_corr (F, 6, 6), poly_reference, error_frame,
+    rest_bias (6F,))``: ``poly_reference`` a list of ``PolyReferenceBlock`` (empty without reference
+    noise or correction), ``error_frame`` the frame of the first two and of ``rest_bias`` ("output",
+    or "face" for a fit in S_A), ``rest_bias`` the fitted offset's error at rest (:func:`_retared`).
     """
     F = len(cal.output_faces)
     idx = [f - 1 for f in cal.output_faces]
@@ -228,6 +235,7 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     PtP, Pte2, EtE, kept, clusters = _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups,
                                                  block_size, ref_covs, floor, samples, stride, lev, X)
     _set_inflation(groups, clusters, stride)
+    kept, rest_means = _retared(kept, len(sessions))
     # the first weights (an exact reference: weights 1 whatever the coefficients, which the one step sets)
     coef = _nnls_coefficients(PtP, Pte2) if noisy else np.zeros((6 * F, N_FEATURES))
     vref_full = [_reference_cov(m, rc, spec.output_frame, idx) for m, rc in zip(mounts, ref_covs)]
@@ -238,8 +246,7 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
         if poly_parts:
             lev.set_poly(poly_parts, cal.correction)
             poly_ref = lev.poly_blocks(vref_full)
-        kept = center_free_rows([(*k, *v) for k, v in zip(kept, lev.in_sample(F, vref_full, X))],
-                                lev.offset_var(F, X))
+        kept = [(*k, *v) for k, v in zip(kept, lev.in_sample(F, vref_full, X))]
     else:
         kept = [(*k, None, None) for k in kept]
     # Where the reference's noise v is large against the error itself, E² − v says little about
@@ -256,10 +263,39 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     if noisy:
         _reweighted(b, coef, floor, rel_var, noisy)
     coef[:, 0] += floor
-    coef *= _coverage_scale(b, coef)[:, None]
+    s_load, s_rest = _coverage_scales(b, coef)
+    c0 = coef[:, 0].copy()  # at rest (L = 0) the constant alone: its own scale there, the loaded one at L = 1
+    coef *= s_load[:, None]
+    coef[:, 0] = s_rest * c0
+    coef[:, 1] += (s_load - s_rest) * c0
     if noisy:  # Σ_r → Σ_e: the reference's share is now in the groups' own term
         lev.set_error_cov(coef, corr, [k[1] for k in kept], X)
-    return coef, corr, poly_ref, "output" if X is None else "face"
+    # the fitted offset's own error at rest beyond the reference's noise through it (the groups' term)
+    off_var = lev.offset_var(F, X) if noisy else [0.0] * len(sessions)
+    rest_bias = np.mean([np.maximum(m * m - v, 0.0) for m, v in zip(rest_means, off_var)], axis=0)
+    return coef, corr, poly_ref, "output" if X is None else "face", rest_bias
+
+
+def _retared(kept, n_int):
+    """``(kept, means)``: the residuals as a tare leaves them, and each session's mean residual at rest
+    ``(6F,)`` that it took out.
+
+    A tare sets the offset so that the wrench at rest is 0: a sample's error after it is its residual
+    at the fitted offset less the session's mean residual at rest (exactly, for the affine rows). The
+    error model is of that error, as the calibration is used (the wizard, the live view, the recorder
+    and every evaluation tare). Where the fitted offset is in use, the mean's square beyond the
+    reference's noise through the offset (``CalibrationCovariance.rest_bias``) is added. (A linear
+    fit of a nonlinear cube reads a bias at rest: ``face_to_face``'s connected face on a cube with
+    15 % saturation, 0.2 N on fx; in the error model's constant it made the intervals at rest 500×
+    too wide after a tare.) The samples at rest are those with ``L`` 0 (the session's flags: :func:`_features`).
+    """
+    sums, counts = np.zeros((n_int, kept[0][0].shape[1])), np.zeros(n_int)
+    for E, phi, _, j in kept:
+        rest = phi[:, 0, 1] == 0
+        sums[j] += E[rest].sum(axis=0, dtype=float)
+        counts[j] += np.count_nonzero(rest)
+    means = sums / np.maximum(counts, 1)[:, None]
+    return [(E - means[j].astype(E.dtype), phi, carr, j) for E, phi, carr, j in kept], list(means)
 
 
 def _error_frame(cal):
@@ -310,8 +346,9 @@ def _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups, block_
             E = E_out if X is None else np.einsum("fij,nfj->nfi", X, E_out)  # the error model's frame
             # in the face frame, the faces' wrenches are the matrix's rows: the product is reused (and consumed)
             # with a noisy reference, a face of a joint fit has no load where it carries nothing (see _features)
+            unloaded = (b.loaded[usable].view(np.uint8) @ np.ones(6, np.uint8)) == 0  # ~any(axis=1), 4× faster
             phi = _features(cal, x, idx, xC if cal.output_frame == "face" else None,
-                            None if lev is None else carries[usable][:, idx] | keep_q)  # (n, F, 4)
+                            None if lev is None else carries[usable][:, idx] | keep_q, unloaded)  # (n, F, 5)
             kept.append((E.reshape(-1, 6 * F).astype(np.float32), phi.astype(np.float32), carries[usable][:, idx], j))
             EF = np.ascontiguousarray(E.transpose(1, 0, 2))  # (F, n, 6): products batched over faces
             EtE += np.matmul(EF.transpose(0, 2, 1), EF)  # the diagonal blocks of Eᵀ E only
@@ -323,7 +360,6 @@ def _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups, block_
                 phF = np.ascontiguousarray(phi.transpose(1, 0, 2))
                 PtP += np.matmul(phF.transpose(0, 2, 1), phF)
                 Pte2 += np.matmul(phF.transpose(0, 2, 1), EF)
-            unloaded = (b.loaded[usable].view(np.uint8) @ np.ones(6, np.uint8)) == 0  # ~any(axis=1), 4× faster
             if lev is not None:  # a noisy reference: its noise in the coefficients, face by face
                 lev.add(counts, carries[usable][:, idx], unloaded, j, tare_means[j])
             _add_cluster_scores(groups, clusters, own_face, counts, E_out.reshape(-1, 6 * F), carries[usable], unloaded,
@@ -573,8 +609,9 @@ def _correlation(b, coef, floor, floor_m, vref_full, EtE) -> np.ndarray:
     return corr
 
 
-def _coverage_scale(b, coef) -> np.ndarray:
-    """``(6F,)`` factor on each row's variance so that ±1.96 σ holds 95 % of its training residuals.
+def _coverage_scales(b, coef):
+    """``(s_load, s_rest)``, each ``(6F,)``: factors on each row's variance so that ±1.96 σ holds 95 %
+    of its training residuals under load and at rest.
 
     Errors are not Gaussian (nonlinearity, drift): the interval, with the reference's noise
     (``b["vT"]``) added, is scaled to cover 95 % of the rows, weighted as in the reweighting:
@@ -582,20 +619,19 @@ def _coverage_scale(b, coef) -> np.ndarray:
     every weight is 1 (where ``var ≥ 1e-300``): the bin is then that of an order statistic, found
     face by face by a partial sort (:func:`_order_bins`: the same bin, monotone in ``E² / var``).
 
-    The rows are the loaded samples' (some output face carries a load), where an interval is read,
-    if their weights add up to :data:`_MIN_INFORMED` rows and :data:`_MIN_SHARE` of their number;
-    else every sample's (a face that carries on every loaded sample, under a reference noise that
-    swamps its error, learns its scale at rest: ``total``'s connected face on a random linear
-    sensor, 0.3 %, 200-sample tare, weights 9–804 of about 10,000 rows, covered 87.8 % on one
-    axis from its loaded rows, 93.0 % from every row).
-    The errors at rest are the gauge noise's, closer to Gaussian: with a 5-s tare (5000 samples at
-    rest against 2000 per face) they set the scale and the loaded samples' intervals, exact
-    reference, covered 92.6–94.0 % (``total``, nonlinear cube).
+    ``s_load`` is the loaded samples' (some output face carries a load) if their weights add up to
+    :data:`_MIN_INFORMED` rows and :data:`_MIN_SHARE` of their number; else every sample's (a face
+    that carries on every loaded sample, under a reference noise that swamps its error, learns its
+    scale at rest: ``total``'s connected face on a random linear sensor, 0.3 %, 200-sample tare,
+    weights 9–804 of about 10,000 rows, covered 87.8 % on one axis from its loaded rows, 93.0 % from
+    every row). ``s_rest`` is the samples at rest's, where their weights add up to :data:`_MIN_REST`
+    rows (else ``s_load``): the errors at rest are the gauge noise's, and one scale for both set the
+    intervals at rest by the loaded samples' errors (nonlinear cube, exact reference, ``total``: at
+    rest 100 % on every axis).
     """
     q = _order_bins(b, coef) if b["vT"] is None else None
-    if q is None:
-        q = _hist_bins(b, coef)
-    return (q * _Z_WIDTH / 1.959964) ** 2
+    q_load, q_rest = _hist_bins(b, coef) if q is None else q
+    return tuple((q * _Z_WIDTH / 1.959964) ** 2 for q in (q_load, q_rest))
 
 
 def _loaded(b) -> np.ndarray:
@@ -603,12 +639,13 @@ def _loaded(b) -> np.ndarray:
     return b["carr"].any(axis=0)
 
 
-def _hist_bins(b, coef) -> np.ndarray:
-    """``(6F,)`` per row, one more than the first bin of ``|E| / σ`` where the weighted histogram's
-    cumulative share reaches 95 % (see :func:`_coverage_scale`: the loaded samples' where they weigh
-    :data:`_MIN_INFORMED` rows and :data:`_MIN_SHARE` of their number, else every sample's)."""
+def _hist_bins(b, coef):
+    """``(q_load, q_rest)``, each ``(6F,)``: per row, one more than the first bin of ``|E| / σ`` where
+    the weighted histogram's cumulative share reaches 95 % (see :func:`_coverage_scales`: the loaded
+    samples' where they weigh :data:`_MIN_INFORMED` rows and :data:`_MIN_SHARE` of their number, else
+    every sample's; the samples at rest's where they weigh :data:`_MIN_REST`, else ``q_load``)."""
     R = 6 * b["ET"].shape[0]
-    hist = np.zeros((2, R * (_Z_N + 1)))  # every sample's, the loaded samples'
+    hist = np.zeros((3, R * (_Z_N + 1)))  # every sample's, the loaded samples', the samples at rest's
     offset = np.arange(R)[:, None] * (_Z_N + 1)
     loaded = _loaded(b)
     for _, c in _chunks(b):
@@ -627,12 +664,18 @@ def _hist_bins(b, coef) -> np.ndarray:
         bins = _z_bins(z)
         bins += offset
         hist[0] += np.bincount(bins.ravel(), weights=w.ravel(), minlength=hist.shape[1])
-        w *= loaded[c["cols"]]
-        hist[1] += np.bincount(bins.ravel(), weights=w.ravel(), minlength=hist.shape[1])
-    hist = hist.reshape(2, R, _Z_N + 1)
-    w_loaded = hist[1].sum(axis=1, keepdims=True)
-    informed = (w_loaded >= _MIN_INFORMED) & (w_loaded >= _MIN_SHARE * np.count_nonzero(loaded))
-    hist = np.where(informed, hist[1], hist[0])
+        ld = loaded[c["cols"]]
+        hist[1] += np.bincount(bins.ravel(), weights=(w * ld).ravel(), minlength=hist.shape[1])
+        hist[2] += np.bincount(bins.ravel(), weights=(w * ~ld).ravel(), minlength=hist.shape[1])
+    hist = hist.reshape(3, R, _Z_N + 1)
+    w_sum = hist.sum(axis=2, keepdims=True)
+    informed = (w_sum[1] >= _MIN_INFORMED) & (w_sum[1] >= _MIN_SHARE * np.count_nonzero(loaded))
+    q_load = _first_bin(np.where(informed, hist[1], hist[0]))
+    return q_load, np.where(w_sum[2, :, 0] >= _MIN_REST, _first_bin(hist[2]), q_load)
+
+
+def _first_bin(hist) -> np.ndarray:
+    """Per row of ``hist (R, _Z_N + 1)``, one more than the first bin where the cumulative share reaches 95 %."""
     cdf = np.cumsum(hist, axis=1) / np.clip(hist.sum(axis=1, keepdims=True), 1, None)
     return np.argmax(cdf >= 0.95, axis=1) + 1
 
@@ -647,25 +690,21 @@ def _z_bins(z2) -> np.ndarray:
 
 def _order_bins(b, coef):
     """:func:`_hist_bins` with every weight 1 (an exact reference; None where some ``var < 1e-300``
-    gives a weight below 1): per row, the bin of the ``m``-th smallest ``z² = E² / var``, ``m`` the
-    least count whose share ``m / n`` (as the histogram computes it) reaches 95 %, ``n`` the loaded
-    samples if :data:`_MIN_INFORMED` or more, else every sample. Face by face."""
+    gives a weight below 1): ``(q_load, q_rest)``, per row the bin of the ``m``-th smallest
+    ``z² = E² / var`` of the loaded samples (every sample's with fewer than :data:`_MIN_INFORMED`)
+    and of the samples at rest (``q_load`` with fewer than :data:`_MIN_REST`), ``m`` the least count
+    whose share ``m / n`` (as the histogram computes it) reaches 95 %. Face by face."""
     F = b["ET"].shape[0]
-    use = _loaded(b)
-    if use.sum() < _MIN_INFORMED:
-        use = np.ones_like(use)
-    n = int(use.sum())
-    if n == 0:
+    loaded = _loaded(b)
+    uses = [loaded if loaded.sum() >= _MIN_INFORMED else np.ones_like(loaded)]
+    if (~loaded).sum() >= _MIN_REST:
+        uses.append(~loaded)
+    if uses[0].sum() == 0:
         return None
-    m = int(np.ceil(0.95 * n))
-    while m > 1 and (m - 1) / n >= 0.95:
-        m -= 1
-    while m / n < 0.95:
-        m += 1
     C = coef.reshape(F, 6, N_FEATURES)
-    out = np.empty((F, 6), dtype=np.int64)
+    out = np.empty((len(uses), F, 6), dtype=np.int64)
     for f in range(F):
-        z2 = np.empty((6, use.size))
+        z2 = np.empty((6, loaded.size))
         for _, sl in b["sessions"]:
             for s in _slices(sl):  # the chunks of _chunks: the same products
                 var = C[f] @ b["phT"][f, :, s].astype(float)  # (6, n)
@@ -674,8 +713,22 @@ def _order_bins(b, coef):
                 E = b["ET"][f, :, s].astype(float)
                 z = np.multiply(E, E, out=z2[:, s])
                 z /= var
-        out[f] = _z_bins(np.partition(z2[:, use] if n < use.size else z2, m - 1, axis=1)[:, m - 1]) + 1
-    return out.ravel()
+        for i, use in enumerate(uses):
+            n = int(use.sum())
+            m = _order_count(n)
+            out[i, f] = _z_bins(np.partition(z2[:, use] if n < use.size else z2, m - 1, axis=1)[:, m - 1]) + 1
+    q = out.reshape(len(uses), -1)
+    return q[0], q[-1]
+
+
+def _order_count(n) -> int:
+    """The least ``m`` with ``m / n`` ≥ 95 % as the histogram's cumulative share computes it."""
+    m = int(np.ceil(0.95 * n))
+    while m > 1 and (m - 1) / n >= 0.95:
+        m -= 1
+    while m / n < 0.95:
+        m += 1
+    return m
 
 
 def _strided(blocks, stride):
@@ -691,8 +744,8 @@ def _predict(cal, x):
     return xC, (xC if cal.correction is None else xC + cal.correction(x))
 
 
-def _features(cal, x, idx, xA=None, carries=None) -> np.ndarray:
-    """``load_features`` of the output faces ``idx`` (0-based) for offset-free counts ``x (n, 36)``: (n, F, 4)
+def _features(cal, x, idx, xA=None, carries=None, unloaded=None) -> np.ndarray:
+    """``load_features`` of the output faces ``idx`` (0-based) for offset-free counts ``x (n, 36)``: (n, F, 5)
     (the faces without output count 0 in ``q_other``, as NaN faces there). ``xA`` (overwritten), if
     given, is the product ``x Aᵀ`` of the output faces' maps ``A`` (the matrix itself in the face frame).
 
@@ -704,7 +757,13 @@ def _features(cal, x, idx, xA=None, carries=None) -> np.ndarray:
     linear cube, 3 %: face 6's fz interval 18× the error). Faces fitted on their own rows only
     (``face_to_face``) keep it: there the predicted wrench is the crosstalk the fit never saw. So do
     faces with a polynomial correction (``quasi_total``, nonlinear cube, 3 %: 25 of 30 axes outside
-    93–97 % with it, 28 without, all too short)."""
+    93–97 % with it, 28 without, all too short).
+
+    ``unloaded (n,)``, if given: the samples no face was loaded in (the session's flags), where
+    every load feature is 0 (``L`` 1 elsewhere), as after a tare. From the predicted load they are
+    not: at the fitted offset of a nonlinear cube's fit the wrench at rest is not 0
+    (``face_to_face``, a cube with 15 % saturation: ``L`` up to 0.07 at rest, and ``q`` ~10⁻³, whose
+    terms then set the scale at rest, read after a tare without them: intervals 0.2× the error)."""
     if xA is None:
         A = cal._apply.reshape(6, 6, 36)[idx].reshape(-1, 36)  # rows: the output faces' wrench components
         xA = x @ A.T
@@ -713,7 +772,12 @@ def _features(cal, x, idx, xA=None, carries=None) -> np.ndarray:
     q = np.einsum("nfi,nfi->nf", u, u)
     if carries is not None:
         q *= carries
-    return q_features(q)
+    if unloaded is not None:
+        q[unloaded] = 0.0
+    phi = q_features(q)
+    if unloaded is not None:
+        phi[..., 1] = ~unloaded[:, None]
+    return phi
 
 
 def _corrected(cal) -> np.ndarray:

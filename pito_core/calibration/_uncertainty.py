@@ -15,10 +15,10 @@ a cluster-robust estimate). The
 second is the error a new sample brings itself — its gauge noise, and whatever the
 linear model misses (nonlinearity, drift), which grows with the load: a sample's
 residual holds exactly these, so ``Σ_e`` is fitted to the residuals of the training
-samples (a second pass over the data): each output's variance as a non-negative
-combination of ``[1, q, q², q_other]`` — ``q = ‖ŵ_face / full scale‖²`` the face's own
-predicted load, ``q_other`` that of the other faces (crosstalk a method does not model)
-— with the residuals' correlation between the six axes of a face. After
+samples (a second pass over the data): each output's variance as a combination of
+``[1, L, q, q², q_other]`` — ``q = ‖ŵ_face / full scale‖²`` the face's own predicted load,
+``q_other`` that of the other faces (crosstalk a method does not model), ``L`` 0 at rest and 1
+under any load (:data:`LOAD_Q`) — with the residuals' correlation between the six axes of a face. After
 :meth:`Calibration.tare` with n samples the offset is no longer the fitted one: ``x̃``
 is the counts less the new offset (slopes only) and the tare's own noise
 ``G / n = C Σ_g Cᵀ / n`` is added (``Σ_g`` the gauge noise at rest). Outputs fitted in
@@ -32,32 +32,50 @@ from dataclasses import dataclass, field
 import numpy as np
 
 __all__ = ["CovarianceGroup", "PolyReferenceBlock", "CalibrationCovariance", "load_features", "q_features", "N_FEATURES",
+           "LOAD_Q", "upgraded_variance_coef",
            "FULL_SCALE"]
 
 #: Full-scale loads that make a wrench dimensionless, ``[fx … tz]`` in N and N·m.
 FULL_SCALE = np.array([15.0, 15.0, 15.0, 0.1, 0.1, 0.1])
-#: Features of the error-variance model: ``[1, q, q², q_other]``.
-N_FEATURES = 4
+#: Features of the error-variance model: ``[1, L, q, q², q_other]``.
+N_FEATURES = 5
+#: The load ``Q`` (sum of every face's ``q``) at which ``L = 1 − exp(−(Q / LOAD_Q)³)`` is 63 %: 5 % of
+#: full scale on one axis (0.75 N, 5 mN·m). The gauge noise's ``Q`` at rest is ~10⁻⁶ of it, so ``L``
+#: there is ~10⁻¹⁸: with ``Q`` itself (``L`` ~10⁻³ at rest), an error of 0.2 N² under load still made
+#: the intervals at rest 100× too wide (nonlinear cube, ``total``).
+LOAD_Q = 0.05**2
 
 
 def load_features(face_wrenches: np.ndarray) -> np.ndarray:
-    """``(N, 6, 4)`` features ``[1, q, q², q_other]`` of each face from ``face_wrenches (N, 6, 6)``.
+    """``(N, 6, 5)`` features ``[1, L, q, q², q_other]`` of each face from ``face_wrenches (N, 6, 6)``.
 
     ``q = Σ (w / FULL_SCALE)²`` of the face's own predicted wrench (NaN faces count 0),
-    ``q_other`` the sum of the other faces' ``q``.
+    ``q_other`` the sum of the other faces' ``q``, ``L = 1 − exp(−((q + q_other) / LOAD_Q)³)``: 0 at
+    rest, 1 under load (the error a load brings whatever its size is not the error at rest).
     """
     u = np.nan_to_num(face_wrenches / FULL_SCALE)
     return q_features(np.einsum("nfi,nfi->nf", u, u))
 
 
 def q_features(q: np.ndarray) -> np.ndarray:
-    """``(N, F, 4)`` :func:`load_features` from each face's ``q (N, F)`` (the faces left out count 0)."""
+    """``(N, F, 5)`` :func:`load_features` from each face's ``q (N, F)`` (the faces left out count 0)."""
     out = np.empty(q.shape + (N_FEATURES,))
+    total = q.sum(axis=1, keepdims=True)
     out[..., 0] = 1.0
-    out[..., 1] = q
-    out[..., 2] = q * q
-    out[..., 3] = q.sum(axis=1, keepdims=True) - q
+    out[..., 1] = -np.expm1(-((total / LOAD_Q) ** 3))
+    out[..., 2] = q
+    out[..., 3] = q * q
+    out[..., 4] = total - q
     return out
+
+
+def upgraded_variance_coef(coef: np.ndarray) -> np.ndarray:
+    """Coefficients on ``[1, q, q², q_other]`` (files before version 4) on :func:`load_features`'
+    ``[1, L, q, q², q_other]``: ``L``'s 0, the same variance everywhere."""
+    coef = np.asarray(coef, dtype=float)
+    if coef.ndim == 2 and coef.shape[1] == N_FEATURES - 1:
+        return np.insert(coef, 1, 0.0, axis=1)
+    return coef
 
 
 @dataclass
@@ -233,17 +251,24 @@ class CalibrationCovariance:
         Gauge noise at rest ``Σ_g``, counts² (pooled over the sessions' unloaded samples).
     n_tare : int or None
         None: the calibration's offset is the fitted one. n: it was re-tared on n samples.
-    variance_coef : ndarray, shape (6F, 4)
-        Per matrix row, the non-negative coefficients of its error variance on
-        ``load_features`` (output frame units², N² or N²·m²).
+    variance_coef : ndarray, shape (6F, 5)
+        Per matrix row, the coefficients of its error variance on ``load_features``
+        ``[1, L, q, q², q_other]`` (output frame units², N² or N²·m²): non-negative, but for
+        ``L``'s, not below minus the constant's. Coefficients on ``[1, q, q², q_other]`` (6F, 4),
+        of files before version 4, are read with ``L``'s 0.
     residual_corr : ndarray, shape (F, 6, 6)
         Correlation of the residuals between the six outputs of each output face.
     poly_reference : list of PolyReferenceBlock
         With a noisy reference and a polynomial correction: its coefficients' share of the
         reference's noise, per corrected output face (empty otherwise, and for older files).
     error_frame : {"output", "face"}
-        Frame of ``variance_coef`` and ``residual_corr``: the matrix's output frame, or each
-        face's own (fits in S_A since the error model is fitted where the errors are read).
+        Frame of ``variance_coef``, ``residual_corr`` and ``rest_bias``: the matrix's output frame,
+        or each face's own (fits in S_A since the error model is fitted where the errors are read).
+    rest_bias : ndarray, shape (6F,)
+        Per row, the square of the fitted offset's error at rest (the training sessions' mean
+        residual at rest, less the reference's noise through the offset), output units². The error
+        model is of a tared calibration; this is added where the fitted offset is in use (zeros for
+        older files, whose ``variance_coef`` holds it).
     """
 
     groups: list = field(default_factory=list)
@@ -253,6 +278,7 @@ class CalibrationCovariance:
     residual_corr: np.ndarray | None = None
     poly_reference: list = field(default_factory=list)
     error_frame: str = "output"
+    rest_bias: np.ndarray | None = None
 
     def __post_init__(self):
         self.gauge_cov = np.asarray(self.gauge_cov, dtype=float)
@@ -273,22 +299,29 @@ class CalibrationCovariance:
                     blk = slice(6 * k, 6 * k + 6)
                     dk = np.where(d[blk] > 0, d[blk], 1.0)
                     self.residual_corr[int(g.rows[6 * k]) // 6] = g.residual_cov[blk, blk] / np.outer(dk, dk)
-        self.variance_coef = np.asarray(self.variance_coef, dtype=float)
+        self.variance_coef = upgraded_variance_coef(self.variance_coef)
         self.residual_corr = np.asarray(self.residual_corr, dtype=float)
-        if self.variance_coef.shape != (q, N_FEATURES) or np.any(self.variance_coef < 0) or not np.all(np.isfinite(self.variance_coef)):
-            raise ValueError(f"variance_coef: expected finite non-negative values of shape ({q}, {N_FEATURES})")
+        c = self.variance_coef
+        # L's coefficient may be negative (an error at rest larger than under load), not the variance
+        if (c.shape != (q, N_FEATURES) or not np.all(np.isfinite(c)) or np.any(np.delete(c, 1, axis=1) < 0)
+                or np.any(c[:, 0] + c[:, 1] < 0)):
+            raise ValueError(f"variance_coef: expected finite values of shape ({q}, {N_FEATURES}), non-negative "
+                             "(L's column: not below minus the constant's)")
         if self.residual_corr.shape != (q // 6, 6, 6) or not np.all(np.isfinite(self.residual_corr)):
             raise ValueError(f"residual_corr: expected finite values of shape ({q // 6}, 6, 6)")
+        self.rest_bias = np.zeros(q) if self.rest_bias is None else np.asarray(self.rest_bias, dtype=float)
+        if self.rest_bias.shape != (q,) or not np.all(np.isfinite(self.rest_bias)) or np.any(self.rest_bias < 0):
+            raise ValueError(f"rest_bias: expected {q} finite non-negative values, got shape {self.rest_bias.shape}")
 
     def retared(self, n: int) -> "CalibrationCovariance":
         """The same, for an offset taken as the mean of ``n`` unloaded samples."""
         return CalibrationCovariance(self.groups, self.gauge_cov, int(n), self.variance_coef, self.residual_corr,
-                                     self.poly_reference, self.error_frame)
+                                     self.poly_reference, self.error_frame, self.rest_bias)
 
     def linear(self) -> "CalibrationCovariance":
         """The same for the affine rows alone (the papers' linear alternative: no correction's term)."""
         return CalibrationCovariance(self.groups, self.gauge_cov, self.n_tare, self.variance_coef, self.residual_corr,
-                                     error_frame=self.error_frame)
+                                     error_frame=self.error_frame, rest_bias=self.rest_bias)
 
     def face_covariances(self, counts, offset, apply, face_from_output, output_faces, explicit_offset: bool,
                          poly_z=None):
@@ -338,6 +371,8 @@ class CalibrationCovariance:
         feats = load_features(np.where(np.isin(np.arange(6), np.asarray(output_faces) - 1)[None, :, None], W, np.nan))
         for k, f in enumerate(output_faces):
             var = feats[:, f - 1] @ self.variance_coef[6 * k : 6 * k + 6].T  # (N, 6) output frame
+            if fitted:  # the fitted offset's own error at rest (the error model is of a tared calibration)
+                var += self.rest_bias[6 * k : 6 * k + 6]
             sd = np.sqrt(np.clip(var, 0, None))
             E = sd[:, :, None] * self.residual_corr[k] * sd[:, None, :]
             if self.error_frame == "face":  # fitted in the face's frame already

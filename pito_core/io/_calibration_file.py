@@ -1,8 +1,8 @@
-"""The calibration file: HDF5, format ``pito-calibration``, version 3 (reads 1, 2 and 3).
+"""The calibration file: HDF5, format ``pito-calibration``, version 4 (reads 1 to 4).
 
 Layout (docs/file-formats.md)::
 
-    /             attrs: format="pito-calibration", version=3, writer, method, output_frame,
+    /             attrs: format="pito-calibration", version=4, writer, method, output_frame,
                          output_faces [..], core_edge (m), meta (JSON text),
                          model (JSON text, version 3: which model and its cross-validated figures)
     /matrix       (6·F, 36) float64: counts → N, N·m
@@ -20,8 +20,10 @@ Layout (docs/file-formats.md)::
         g{k}_inflation    (q,) float64 ≥ 1: cluster-robust inflation of the coefficients' variance
         g{k}_reference_leverage (q/6, n_int+m, n_int+m), g{k}_reference_cov (q/6, 6, 6) float64
                           (optional: a noisy reference) P M_k P and Σ_ref,k per face block
-        variance_coef     (6F, 4) float64: each row's error variance on [1, q, q², q_other]
+        variance_coef     (6F, 5) float64: each row's error variance on [1, L, q, q², q_other]
+                          (versions 2 and 3: (6F, 4) on [1, q, q², q_other], read with L's 0)
         residual_corr     (F, 6, 6) float64: residual correlation between a face's six outputs
+        rest_bias         (6F,) float64 (version 4; absent: zeros): the fitted offset's error² at rest
         p{k}_rows (6,) bool, p{k}_cols (c,) int64, p{k}_leverage (3, c, c), p{k}_reference_cov (6, 6) float64,
                           attrs of p{k}_rows: block (optional, attrs n_poly_reference: a noisy reference
                           and a correction) the reference's noise through the correction's coefficients
@@ -48,9 +50,10 @@ from ._hdf5 import FileFormatError, checked_dataset, json_attr, open_checked, re
 __all__ = ["write_calibration", "read_calibration_fields", "CALIBRATION_FORMAT", "CALIBRATION_VERSION"]
 
 CALIBRATION_FORMAT = "pito-calibration"
-CALIBRATION_VERSION = 3
-#: Versions this pito reads (version 1: no covariance; 1 and 2: no model choice).
-CALIBRATION_READ_VERSIONS = {1, 2, 3}
+CALIBRATION_VERSION = 4
+#: Versions this pito reads (version 1: no covariance; 1 and 2: no model choice; 2 and 3: no
+#: load indicator L in the error model).
+CALIBRATION_READ_VERSIONS = {1, 2, 3, 4}
 _CORRECTION_FIELDS = ("scale", "pairs", "cubes", "coef")
 #: The range the correction was fitted on (optional: older files load without, the plain polynomial).
 _CORRECTION_RANGE = ("lower", "upper")
@@ -97,6 +100,8 @@ def write_calibration(path, cal) -> None:
                 g[f"g{k}_residual_cov"].attrs["dof"] = int(grp.dof)
             checked_dataset(g, "variance_coef", data=cov.variance_coef)
             checked_dataset(g, "residual_corr", data=cov.residual_corr)
+            if getattr(cov, "rest_bias", None) is not None:
+                checked_dataset(g, "rest_bias", data=cov.rest_bias)
             if getattr(cov, "error_frame", "output") != "output":
                 g.attrs["error_frame"] = cov.error_frame
             blocks = getattr(cov, "poly_reference", None) or []
@@ -117,7 +122,7 @@ def read_calibration_fields(path) -> dict:
     ``matrix`` (M, 36), ``output_faces``, ``output_frame``, ``offset`` (36,) counts,
     ``core_edge`` m, ``T_core_ati`` (4, 4), ``meta``), ``model`` (dict or None), ``correction``
     (dict of ``scale``, ``pairs``, ``cubes``, ``coef``, or None) and ``covariance``: ``None`` or a dict
-    (``groups``: list of dicts, ``gauge_cov``, ``n_tare``, ``variance_coef``, ``residual_corr``,
+    (``groups``: list of dicts, ``gauge_cov``, ``n_tare``, ``variance_coef``, ``residual_corr``, ``rest_bias`` (or None),
     ``poly_reference``: list of dicts).
     The objects are built by ``pito_core.calibration.load_calibration`` (io never imports calibration).
     """
@@ -177,6 +182,7 @@ def _read_covariance(f, path) -> dict:
         "n_tare": None if n_tare < 0 else n_tare,
         "variance_coef": np.asarray(require(g, "variance_coef", path)[()]),
         "residual_corr": np.asarray(require(g, "residual_corr", path)[()]),
+        "rest_bias": np.asarray(g["rest_bias"][()]) if "rest_bias" in g else None,
     }
 
 

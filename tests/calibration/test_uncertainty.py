@@ -6,6 +6,8 @@ import pytest
 from gen import make_session, true_sensitivity
 
 from pito_core.calibration import calibrate, load_calibration
+from pito_core.calibration._uncertainty import N_FEATURES, q_features
+from pito_core.io._hdf5 import seal
 from pito_core.sim import VirtualCube, random_sensor, random_sensor_session, simulate_calibration
 
 
@@ -59,11 +61,23 @@ def test_covariance_round_trips_and_version_1_files_still_load(tmp_path):
     path = tmp_path / "c.pitocal"
     cal.save(path)
     with h5py.File(path) as f:
-        assert int(f.attrs["version"]) == 3 and "covariance" in f
+        assert int(f.attrs["version"]) == 4 and "covariance" in f
     back = load_calibration(path)
     x = np.random.default_rng(0).normal(size=(5, 36)) * 1e3 + cal.offset
     for a, b in zip(back.wrenches(x, return_cov=True), cal.wrenches(x, return_cov=True)):
         np.testing.assert_array_equal(a, b)
+    # a version-3 file: the error model on [1, q, q², q_other], read with the load indicator L's 0
+    v3 = tmp_path / "v3.pitocal"
+    cal.save(v3)
+    with h5py.File(v3, "a") as f:
+        coef4 = np.delete(f["covariance/variance_coef"][()], 1, axis=1)
+        del f["covariance/variance_coef"]
+        f["covariance"].create_dataset("variance_coef", data=coef4)
+        f.attrs["version"] = 3
+        seal(f)
+    old3 = load_calibration(v3)
+    np.testing.assert_array_equal(old3.covariance.variance_coef, np.insert(coef4, 1, 0.0, axis=1))
+    assert np.isfinite(old3.wrenches(x, return_cov=True)[1][:, [f - 1 for f in cal.output_faces]]).all()
     # a version-1 file (no covariance) written as pito did before
     with h5py.File(path, "a") as f:
         del f["covariance"]
@@ -235,12 +249,13 @@ def test_the_significance_of_a_load_term_does_not_depend_on_the_features_units()
     small load) lost its direction below the pinv's cut-off and kept or dropped other terms."""
     from pito_core.calibration._residuals import _significant_nnls, _significant_rows
 
-    S = np.array([1.0, 1.0, 1e-9, 1.0])
+    S = np.array([1.0, 1.0, 1.0, 1e-9, 1.0])
     for seed in range(5):
         rng = np.random.default_rng(seed)
-        q = rng.uniform(0, 6, 4000)
-        phi = np.stack([np.ones(q.size), q, q * q, rng.uniform(0, 3, q.size)], axis=1)
-        e2 = phi @ np.array([1e-4, 0.03, 0.004, 0.02]) + rng.normal(scale=0.2 * np.sqrt(2), size=q.size)  # E² − v
+        q, qo = rng.uniform(0, 6, 4000), rng.uniform(0, 3, 4000)
+        q[:1000] = qo[:1000] = 0.0  # at rest
+        phi = q_features(np.stack([q, qo], axis=1))[:, 0]  # [1, L, q, q², q_other]
+        e2 = phi @ np.array([1e-4, 0.01, 0.03, 0.004, 0.02]) + rng.normal(scale=0.2 * np.sqrt(2), size=q.size)  # E² − v
         P, e, V, rv = phi.T @ phi, phi.T @ e2, (phi.T @ np.full(q.size, 0.2))[None], [2.0 / 299]
         ref = _significant_rows(P[None], e[None], V[:, None], rv)[0]
         np.testing.assert_allclose(_significant_nnls(P, e, V, rv), ref, rtol=1e-9, atol=0)
@@ -262,8 +277,8 @@ def test_collinear_load_terms_are_pruned_one_at_a_time():
     n = 4000
     carry = np.arange(n) % 2 == 0
     q = np.where(carry, rng.uniform(0.5, 1.5, n), 0.0)
-    phi = np.stack([np.ones(n), q, q * q, np.where(carry, 0.0, rng.uniform(0, 1, n))], axis=1)
-    e2 = phi @ np.array([0.0, 0.06, 0.04, 0.0])  # E² − v, v = 1 where the face carries
+    phi = q_features(np.stack([q, np.where(carry, 0.0, rng.uniform(0, 1, n))], axis=1))[:, 0]  # [1, L, q, q², q_other]
+    e2 = phi @ np.array([0.0, 0.0, 0.06, 0.04, 0.0])  # E² − v, v = 1 where the face carries
     P, e, V, rv = phi.T @ phi, phi.T @ e2, (phi.T @ carry.astype(float))[None], [2.0 / 1999]
     for c in (_significant_nnls(P, e, V, rv), _significant_rows(P[None], e[None], V[:, None], rv)[0]):
         assert np.count_nonzero(c) == 1
@@ -272,21 +287,26 @@ def test_collinear_load_terms_are_pruned_one_at_a_time():
 
 @pytest.mark.parametrize("n", [1, 20, 100, 2000, 5001])
 def test_the_coverage_bin_by_partial_sort_is_the_histograms(n):
-    """An exact reference (every weight 1): the order statistic gives the histogram's 95 % bin."""
-    from pito_core.calibration._residuals import _hist_bins, _order_bins
+    """An exact reference (every weight 1): the order statistic gives the histogram's 95 % bin,
+    under load and at rest."""
+    from pito_core.calibration._residuals import _Z_WIDTH, _coverage_scales, _hist_bins, _order_bins
 
     rng = np.random.default_rng(n)
     F = 2
-    phT = np.ones((F, 4, n), dtype=np.float32)
-    phT[:, 1:] = rng.uniform(0, 2, size=(F, 3, n))
+    phT = np.ones((F, N_FEATURES, n), dtype=np.float32)
+    phT[:, 1:] = rng.uniform(0, 2, size=(F, N_FEATURES - 1, n))
     ET = (rng.standard_t(3, size=(F, 6, n)) * rng.uniform(0.5, 2, size=(F, 6, 1))).astype(np.float32)
     ET[0, 0, : n // 2] = 0.0  # ties
     b = dict(ET=ET, phT=phT, carr=np.ones((F, n), dtype=bool), vT=None, sessions=[(0, slice(0, n))])
-    coef = rng.uniform(0.1, 1.0, size=(6 * F, 4))
-    np.testing.assert_array_equal(_order_bins(b, coef), _hist_bins(b, coef))
+    coef = rng.uniform(0.1, 1.0, size=(6 * F, N_FEATURES))
+
+    def by_histogram(b, coef):  # the scales the weighted histogram gives (a noisy reference's route)
+        return tuple((q * _Z_WIDTH / 1.959964) ** 2 for q in _hist_bins(b, coef))
+
+    np.testing.assert_array_equal(_coverage_scales(b, coef), by_histogram(b, coef))
     b["carr"] = np.zeros((F, n), dtype=bool)
-    b["carr"][1, ::3] = True  # a third loaded: those alone where they are 400 or more, else all
-    np.testing.assert_array_equal(_order_bins(b, coef), _hist_bins(b, coef))
+    b["carr"][1, ::3] = True  # a third loaded: those alone where they are 400 or more, else all; the rest at rest
+    np.testing.assert_array_equal(_coverage_scales(b, coef), by_histogram(b, coef))
     coef[0] = 0.0  # a row of zero variance: weights below 1, the histogram's
     assert _order_bins(b, coef) is None
 
@@ -298,18 +318,20 @@ def test_the_coverage_scale_is_the_loaded_samples_where_they_inform_it(noisy):
     at the modelled variance gave a scale of 0.45–0.50 (the loaded samples' intervals 0.7× too short).
     A face whose loaded samples the reference's noise swamps keeps every sample's: here a noise 3×
     the error's variance, weights 1/16 (500 of 8000 rows). There an error of 10 % in the
-    reference's noise (a 200-sample tare) moves each row's need by 0.3 of the variance."""
-    from pito_core.calibration._residuals import _coverage_scale
+    reference's noise (a 200-sample tare) moves each row's need by 0.3 of the variance.
+    At rest the samples at rest set the scale: their errors' 0.1² (one scale for both set it by the
+    loaded samples, 100× too wide)."""
+    from pito_core.calibration._residuals import _coverage_scales
 
     rng = np.random.default_rng(3)
     n_rest, n_load, F = 5000, 8000 if noisy else 2000, 2
     n = n_rest + n_load
     carr = np.zeros((F, n), dtype=bool)
     carr[:, n_rest:] = True
-    phT = np.ones((F, 4, n), dtype=np.float32)
+    phT = np.ones((F, N_FEATURES, n), dtype=np.float32)
     ET = rng.normal(size=(F, 6, n)).astype(np.float32)
     ET[:, :, :n_rest] *= 0.1  # at rest: far inside
-    coef = np.zeros((6 * F, 4))
+    coef = np.zeros((6 * F, N_FEATURES))
     coef[:, 0] = 1.0
     vT = None
     if noisy:  # face 2's loaded samples under a reference noise 3× their error's variance
@@ -317,8 +339,9 @@ def test_the_coverage_scale_is_the_loaded_samples_where_they_inform_it(noisy):
         vT[1, :, n_rest:] = 3.0
         ET[1, :, n_rest:] = rng.normal(scale=2.0, size=(6, n_load))
     b = dict(ET=ET, phT=phT, carr=carr, vT=vT, sessions=[(0, slice(0, n))])
-    s = _coverage_scale(b, coef)
+    s, s_rest = _coverage_scales(b, coef)
     np.testing.assert_allclose(s[:6], 1.0, atol=0.12)  # the loaded samples' N(0, 1)
+    np.testing.assert_allclose(s_rest, 0.01, rtol=0.12)  # at rest: N(0, 0.1²)
     if noisy:  # every sample's: mostly the rest's 0.1² (the loaded ones weigh 500 of 5500)
         assert np.all(s[6:] < 0.1)
 
@@ -404,39 +427,47 @@ def test_a_fit_in_the_reference_frame_models_its_errors_in_each_face_s_frame(tmp
     assert face.covariance.error_frame == "output"
 
 
-def test_a_sessions_mean_residual_where_a_face_carries_nothing_is_kept_when_beyond_the_offsets_noise():
-    from pito_core.calibration._reference_noise import center_free_rows
+def test_the_error_model_reads_the_residuals_a_tare_leaves():
+    """A tare zeroes the wrench at rest: each session's mean residual at rest (``L`` 0) leaves
+    every residual of that session, the loaded ones too, and is returned."""
+    from pito_core.calibration._residuals import _retared
 
     rng = np.random.default_rng(3)
-    E = rng.normal(size=(400, 6)) * 0.01 + np.array([0.02, 5.0, 0.0, 0.0, 0.0, -5.0])
-    carries = np.zeros((400, 1), dtype=bool)
-    carries[:100] = True  # the face carries on these rows: never shifted
-    kept = [(E.copy(), None, carries, 0)]
-    means = E[100:].mean(axis=0)
-    out = center_free_rows(kept)[0][0]  # without the offset's variance: every mean is taken out
-    np.testing.assert_allclose(out[100:].mean(axis=0), 0, atol=1e-12)
-    out = center_free_rows(kept, [np.full(6, 1.0)])[0][0]  # σ = 1: ±5 is a bias, 0.02 noise
-    np.testing.assert_allclose(out[100:].mean(axis=0), [0, means[1], 0, 0, 0, means[5]], atol=1e-12)
-    np.testing.assert_array_equal(out[:100], E[:100])
+    kept = []
+    for j, bias in enumerate(([0.02, 5.0, 0, 0, 0, -5.0], [1.0, 0, 0, 0, 0, 0])):
+        E = (rng.normal(size=(400, 6)) * 0.01 + np.array(bias)).astype(np.float32)
+        phi = np.ones((400, 1, N_FEATURES), dtype=np.float32)
+        phi[100:, :, 1] = 0.0  # at rest
+        E[:100] += 3.0  # loaded: an error of their own beside the bias
+        kept.append((E, phi, np.zeros((400, 1), dtype=bool), j))
+    out, means = _retared(kept, 2)
+    for (E, *_), (Eo, *_), m in zip(kept, out, means):
+        np.testing.assert_allclose(m, E[100:].mean(axis=0, dtype=float), rtol=1e-6)
+        np.testing.assert_allclose(Eo[100:].mean(axis=0, dtype=float), 0, atol=1e-6)
+        np.testing.assert_allclose(Eo[:100], E[:100] - m.astype(np.float32), rtol=1e-6)
 
 
 def test_the_offsets_noise_variance_is_that_of_the_session_means_on_linear_cubes(monkeypatch):
-    """``ReferenceLeverage.offset_var`` predicts the spread of the mean residual where a face
-    carries nothing (on a linear cube that mean is the offset's noise alone): mean² / var is χ²₁."""
-    from pito_core.calibration import _residuals
+    """``ReferenceLeverage.offset_var`` predicts the spread of the mean residual at rest (on a
+    linear cube that mean is the offset's noise alone): mean² / var is χ²₁. (``rest_bias`` is the
+    excess of mean² over it.)"""
+    from pito_core.calibration import _reference_noise, _residuals
 
-    seen = []
-    original = _residuals.center_free_rows
+    seen, means = [], []
+    original_retared, original_var = _residuals._retared, _reference_noise.ReferenceLeverage.offset_var
 
-    def record(kept, offset_var=None):
-        sums, counts = 0, 0
-        for E, _, carr, j, *_ in kept:
-            free = ~np.repeat(carr, 6, axis=1)
-            sums, counts = sums + np.where(free, E, 0).sum(axis=0), counts + free.sum(axis=0)
-        seen.append((sums / np.clip(counts, 1, None)) ** 2 / offset_var[0])
-        return original(kept, offset_var)
+    def record_means(kept, n_int):
+        out, m = original_retared(kept, n_int)
+        means.append(m[0])
+        return out, m
 
-    monkeypatch.setattr(_residuals, "center_free_rows", record)
+    def record_var(self, F, X=None):
+        v = original_var(self, F, X)
+        seen.append(means[-1] ** 2 / v[0])
+        return v
+
+    monkeypatch.setattr(_residuals, "_retared", record_means)
+    monkeypatch.setattr(_reference_noise.ReferenceLeverage, "offset_var", record_var)
     K = true_sensitivity(11, coupling=0.05)
     for method, kw in (("total", dict(flange="face", connected_face=6)),
                        ("loaded_frame", dict(flange="frame_hole", connected_face=5))):
