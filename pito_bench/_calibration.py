@@ -209,7 +209,9 @@ def interval_coverage(cal, session) -> dict:
     Targets come from the session's reference: the bench's simulated reference is noise-free
     (``_data.py``), so they are the true wrench; a noisy reference would make the figure a
     lower bound. Returns ``min``, ``median``, ``max`` over
-    faces and axes, and ``per_face`` (6 × 6, NaN where no output).
+    faces and axes, and ``per_face`` (6 × 6, NaN where no output); with 200 samples at rest or
+    more, ``rest_min``, ``rest_max``: the same at rest (true wrench 0), tared on the first half of
+    them and scored on the second.
     """
     counts = np.asarray(session.counts, dtype=float)
     loaded = np.asarray(session.loaded, dtype=bool)
@@ -221,7 +223,14 @@ def interval_coverage(cal, session) -> dict:
     single = loaded[usable].sum(axis=1) == 1
     per = np.where(cal.has_output[:, None], hit[single].mean(axis=0), np.nan)
     v = per[np.isfinite(per)]
-    return {"min": float(v.min()), "median": float(np.median(v)), "max": float(v.max()), "per_face": per.tolist()}
+    out = {"min": float(v.min()), "median": float(np.median(v)), "max": float(v.max()), "per_face": per.tolist()}
+    rest = np.flatnonzero(~loaded.any(axis=1))
+    if rest.size >= 200:  # at rest: tared on the first half, scored on the second (the true wrench is 0)
+        W, cov = cal.tare(counts[rest[: rest.size // 2]]).wrenches(counts[rest[rest.size // 2 :]], return_cov=True)
+        sd = np.sqrt(np.clip(np.diagonal(cov, axis1=-2, axis2=-1), 0, None))
+        r = (np.abs(W) <= 1.959964 * sd).mean(axis=0)[cal.has_output]
+        out.update(rest_min=float(r.min()), rest_max=float(r.max()))
+    return out
 
 
 def task_stream(path, method, test_path, block_size=65536, model="auto") -> dict:

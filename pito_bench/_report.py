@@ -179,15 +179,16 @@ def _calibration_tables(cal: dict) -> list[str]:
     rows = [[r["method"], f"{r['k']:,}", r.get("model", "?"), _f(r.get("auto_force_ratio_linear"), 3),
              _f(r.get("auto_torque_ratio_linear"), 3), _f(_n(r.get("auto_fit_s")) * 1e3), _f(r.get("auto_time_ratio_linear")),
              _f((r.get("coverage95") or {}).get("min"), 3), _f((r.get("coverage95") or {}).get("max"), 3),
-             _f((r.get("coverage95_linear") or {}).get("min"), 3), _f((r.get("coverage95_linear") or {}).get("max"), 3)]
+             _f((r.get("coverage95_linear") or {}).get("min"), 3), _f((r.get("coverage95_linear") or {}).get("max"), 3),
+             _f((r.get("coverage95") or {}).get("rest_min"), 3), _f((r.get("coverage95") or {}).get("rest_max"), 3)]
             for r in cal["memory"] if "model" in r]
     if rows:
         parts.append(text_table(
             "Calibration model chosen by cross-validation (default) against the papers' linear fit: held-out RMSE "
             "and fit-time ratios; coverage of the nominal 95 % interval per face and axis (targets: the "
-            "bench's simulated reference, which is noise-free, so the true wrench)",
+            "bench's simulated reference, which is noise-free, so the true wrench), loaded and, for the default, at rest",
             ["method", "k (samples)", "model", "RMSE F ratio", "RMSE T ratio", "auto fit (ms)", "fit time ratio",
-             "coverage min", "coverage max", "linear cov. min", "linear cov. max"], rows))
+             "coverage min", "coverage max", "linear cov. min", "linear cov. max", "at rest min", "at rest max"], rows))
     rows = [[f"{r['method']} ({r.get('model', 'auto')})", f"{r['k']:,}", _f(r["fit_s"]), _f(r.get("read_pass_s")), _f(r.get("ratio_read_pass")),
              _f(r.get("time_ratio_memory")), _f(r.get("time_ratio_lstsq")),
              _f(r["rmse_force_N"]), _f(r.get("rmse_ratio_lstsq"), 4), _f(r["fit_peak_rss_MB"]), _f(r["rss_before_MB"])]

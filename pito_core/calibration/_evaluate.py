@@ -284,5 +284,5 @@ def evaluate(calibration: Calibration, sessions, *, tare: bool = True,
         face_inverse_condition_numbers=calibration.face_inverse_condition_numbers(),
         simulated=bool(calibration.meta.get("simulated")) or any(bool(s.meta.get("simulated")) for s in sessions),
         sessions=[repr(s) for s in sessions],
-        uncertainty95=calibration_uncertainty(calibration, sessions, seed=seed),
+        uncertainty95=calibration_uncertainty(calibration, sessions, seed=seed, tare=tare),
     )

@@ -15,7 +15,8 @@ UNCERTAINTY_WORDS = ("± = 95 % interval (1.96 σ) of each face's true wrench fr
                      "median over the held-out loaded samples")
 
 
-def calibration_uncertainty(calibration: Calibration, sessions, max_samples: int = 2000, seed: int = 0):
+def calibration_uncertainty(calibration: Calibration, sessions, max_samples: int = 2000, seed: int = 0,
+                            tare: bool = False):
     """Half-width of the 95 % interval per face and axis, from the calibration's covariance.
 
     Parameters
@@ -25,6 +26,9 @@ def calibration_uncertainty(calibration: Calibration, sessions, max_samples: int
         Samples at which the covariance is evaluated (only loaded samples are used).
     max_samples : int
         At most this many samples (evenly random) are used.
+    tare : bool
+        Each session's samples with the calibration tared on its own unloaded samples (as
+        :func:`evaluate` computes its RMSE); otherwise with the calibration's own offset.
 
     Returns
     -------
@@ -36,17 +40,23 @@ def calibration_uncertainty(calibration: Calibration, sessions, max_samples: int
     if getattr(calibration, "covariance", None) is None:
         return None
     rng = np.random.default_rng(seed)
-    picked = []
+    picked = []  # (calibration in use, sample indices, counts)
     for s in _as_sessions(sessions):
         loaded = np.asarray(s.loaded).any(axis=1)
         idx = np.flatnonzero(loaded)
         if idx.size:
-            picked.append(np.asarray(s.counts, dtype=float)[idx])
+            counts = np.asarray(s.counts, dtype=float)
+            cal = calibration.tare(counts[~loaded]) if tare and (~loaded).any() else calibration
+            picked.append((cal, counts[idx]))
     if not picked:
         return None
-    counts = np.concatenate(picked)
-    if len(counts) > max_samples:
-        counts = counts[np.sort(rng.choice(len(counts), max_samples, replace=False))]
-    _, cov = calibration.wrenches(counts, return_cov=True)
-    sd = np.sqrt(np.clip(np.diagonal(cov, axis1=-2, axis2=-1), 0, None))  # (N, 6, 6)
-    return 1.96 * np.median(sd, axis=0)
+    n = sum(len(c) for _, c in picked)
+    keep = np.sort(rng.choice(n, max_samples, replace=False)) if n > max_samples else np.arange(n)
+    sd, start = [], 0
+    for cal, counts in picked:
+        mine = keep[(keep >= start) & (keep < start + len(counts))] - start
+        start += len(counts)
+        if mine.size:
+            _, cov = cal.wrenches(counts[mine], return_cov=True)
+            sd.append(np.sqrt(np.clip(np.diagonal(cov, axis1=-2, axis2=-1), 0, None)))  # (N, 6, 6)
+    return 1.96 * np.median(np.concatenate(sd), axis=0)

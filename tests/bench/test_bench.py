@@ -36,6 +36,8 @@ def test_quick_run_json_has_calibration_and_contact_ratios(quick_result):
         assert r["k"] in (1000, 2000)
         for key in ("rmse_force_N", "rmse_torque_Nm", "rmse_ratio_lstsq", "rmse_ratio_pinv", "time_ratio_lstsq"):
             assert math.isfinite(r[key]) and r[key] > 0, key
+        c = r["coverage95"]  # the default's intervals, loaded and at rest (true wrench 0)
+        assert 0 <= c["min"] <= c["max"] <= 1 and 0 <= c["rest_min"] <= c["rest_max"] <= 1, c
     rc = cal["random_cubes"]["rows"]  # default fit vs the papers' plain affine least squares (issue 10, item 7)
     assert {r["method"] for r in rc} == methods
     for r in rc:
