@@ -12,7 +12,8 @@ __all__ = ["calibration_uncertainty", "UNCERTAINTY_WORDS"]
 #: What :attr:`Evaluation.uncertainty95` is, in words (CLI, app, JSON).
 UNCERTAINTY_WORDS = ("± = 95 % interval (1.96 σ) of each face's true wrench from the calibration's own covariance "
                      "(fit residuals and design, gauge noise; the reference's noise, measured in the tare, taken out), "
-                     "median over the held-out loaded samples")
+                     "median over the held-out loaded samples, with the offset the RMSE uses (by default each "
+                     "session's own tare)")
 
 
 def calibration_uncertainty(calibration: Calibration, sessions, max_samples: int = 2000, seed: int = 0,
