@@ -91,7 +91,7 @@ class ReferenceLeverage:
 
     def set_error_cov(self, coef, corr, feats, X=None) -> None:
         """``Σ_r → Σ_e``: each group's residual covariance (its face blocks) becomes the mean, over the
-        group's design rows, of the error model's covariance (``coef (6F, 4)``, ``corr (F, 6, 6)``,
+        group's design rows, of the error model's covariance (``coef (6F, 5)``, ``corr (F, 6, 6)``,
         ``feats`` per block of :meth:`add`): the error that is not the reference's. ``X (F, 6, 6)``:
         the error model is in the faces' frames, mapped back to the output frame by ``X⁻¹``."""
         for g, own, kk in zip(self.groups, self.own, self.kk):

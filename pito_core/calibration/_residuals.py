@@ -67,7 +67,7 @@ def _reference_cov(mount, ref_cov, output_frame, idx) -> np.ndarray:
 
 
 def nnls_rows(PtP, Pte2):
-    """Per output ``a``, non-negative ``c`` minimising ``‖Φ c − e2‖²`` from ``PtP (..., 4, 4)`` and ``Pte2 (..., 4)``."""
+    """Per output ``a``, non-negative ``c`` minimising ``‖Φ c − e2‖²`` from ``PtP (..., 5, 5)`` and ``Pte2 (..., 5)``."""
     scale = np.sqrt(np.clip(np.diag(PtP), 1e-300, None))
     G = PtP / np.outer(scale, scale)
     w, V = np.linalg.eigh(G)
@@ -127,16 +127,16 @@ _BATCH_COND = 1e8
 
 
 def _masked(G, m) -> np.ndarray:
-    """``G (..., 4, 4)`` on the features ``m (..., 4)``, identity elsewhere (the sub-problem, padded)."""
+    """``G (..., 5, 5)`` on the features ``m (..., 5)``, identity elsewhere (the sub-problem, padded)."""
     mm = m[..., :, None] & m[..., None, :]
     return np.where(mm, G, np.eye(N_FEATURES))
 
 
 def _nnls_batch(Gs, bs, active) -> np.ndarray:
-    """Per row, the non-negative ``c`` on ``active (R, 4)`` minimising ``½ cᵀ Gs c − bsᵀ c`` (scaled,
-    positive definite ``Gs (R, 4, 4)``): the best of the sixteen supports' unconstrained solutions
+    """Per row, the non-negative ``c`` on ``active (R, 5)`` minimising ``½ cᵀ Gs c − bsᵀ c`` (scaled,
+    positive definite ``Gs (R, 5, 5)``): the best of the 32 supports' unconstrained solutions
     that are not negative (the minimum of a strictly convex problem is one of them)."""
-    m = _SUPPORTS[None] & active[:, None]  # (R, 16, 4)
+    m = _SUPPORTS[None] & active[:, None]  # (R, 32, 5)
     c = np.linalg.solve(_masked(Gs[:, None], m), np.where(m, bs[:, None], 0.0)[..., None])[..., 0]
     obj = 0.5 * np.einsum("rsi,rsi->rs", c, np.einsum("rij,rsj->rsi", Gs, c)) - np.einsum("rsi,ri->rs", c, bs)
     obj[~np.all(c >= 0, axis=-1)] = np.inf
@@ -144,7 +144,7 @@ def _nnls_batch(Gs, bs, active) -> np.ndarray:
 
 
 def _significant_rows(PtWP, PtWe, PtWv, rel_var) -> np.ndarray:
-    """:func:`_significant_nnls` of every row ``(R, 4)`` at once (rows of well-conditioned ``PtWP``;
+    """:func:`_significant_nnls` of every row ``(R, 5)`` at once (rows of well-conditioned ``PtWP``;
     the others one by one)."""
     R = PtWe.shape[0]
     coef = np.zeros((R, N_FEATURES))
@@ -315,10 +315,10 @@ def _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups, block_
                 stride, lev, X=None):
     """One pass over every ``stride``-th usable sample: the sums the error model is fitted from.
 
-    Returns ``PtP (F, 4, 4)``, ``Pte2 (F, 4, 6)``: per output face, the normal equations of the
+    Returns ``PtP (F, 5, 5)``, ``Pte2 (F, 5, 6)``: per output face, the normal equations of the
     squared residuals less the reference's variance and ``floor (6F,)`` on ``load_features``;
     ``EtE (F, 6, 6)``, the residuals' sums of products; ``kept``, per block ``(E (n, 6F) float32,
-    phi (n, F, 4) float32, carries (n, F) bool, session index)`` for the later passes; and the
+    phi (n, F, 5) float32, carries (n, F) bool, session index)`` for the later passes; and the
     groups' cluster scores (see :func:`_add_cluster_scores`).
     """
     F = len(cal.output_faces)
@@ -418,7 +418,7 @@ def _set_inflation(groups, clusters, stride) -> None:
 
 
 def _nnls_coefficients(PtP, Pte2) -> np.ndarray:
-    """``(6F, 4)`` non-negative variance coefficients of each row from the first pass's sums, unweighted."""
+    """``(6F, 5)`` non-negative variance coefficients of each row from the first pass's sums, unweighted."""
     F = PtP.shape[0]
     # no reference-noise response (PtWv = 0): the plain fit of every row, batched
     return _significant_rows(np.repeat(PtP, 6, axis=0), Pte2.transpose(0, 2, 1).reshape(6 * F, N_FEATURES),
@@ -435,7 +435,7 @@ def _stacked(kept, vdiag, F, noisy) -> dict:
     """Every kept block at once, face-major, as the reweighting steps and pass 4 read them (made
     once: none of it depends on the variance coefficients).
 
-    ``ET (F, 6, n)`` residuals and ``phT (F, 4, n)`` features (float32, as kept), ``carr (F, n)``,
+    ``ET (F, 6, n)`` residuals and ``phT (F, 5, n)`` features (float32, as kept), ``carr (F, n)``,
     ``vT (F, 6, n)`` the reference's variance in each residual (its own where the face carries, times
     the kept factor there, else its share through the fitted coefficients; None without reference
     noise: 0), and ``sessions``, ``(j, slice)`` of each session's (consecutive) samples.
@@ -487,7 +487,7 @@ def _slices(sl):
 
 
 def _variances(phT, coef, floor=None, out=None) -> np.ndarray:
-    """``(F, 6, n)`` each row's modelled variance at samples of features ``phT (F, 4, n)``: with
+    """``(F, 6, n)`` each row's modelled variance at samples of features ``phT (F, 5, n)``: with
     ``floor (6F,)`` added and not below 0."""
     F = phT.shape[0]
     C = coef.reshape(F, 6, N_FEATURES)
@@ -500,7 +500,7 @@ def _variances(phT, coef, floor=None, out=None) -> np.ndarray:
 
 
 def _weighted_sums(b, coef, floor, n_s, noisy) -> np.ndarray:
-    """``(n_s, F, 18, 10)``: per session, the sums over the samples of ``w``, ``w (E² − v)`` and ``w v``
+    """``(n_s, F, 18, 15)``: per session, the sums over the samples of ``w``, ``w (E² − v)`` and ``w v``
     (rows, 6 each) times the features' distinct products (:data:`_PAIRS`), ``w = 1 / (var + v)²``
     with a ``noisy`` reference, else 1 (then ``w v`` is 0 and not summed)."""
     F = b["ET"].shape[0]
@@ -531,7 +531,7 @@ def _weighted_sums(b, coef, floor, n_s, noisy) -> np.ndarray:
 
 
 def _feature_products(phT) -> np.ndarray:
-    """``(F, 10, n)`` the features' distinct products :data:`_PAIRS` at samples ``phT (F, 4, n)``."""
+    """``(F, 15, n)`` the features' distinct products :data:`_PAIRS` at samples ``phT (F, 5, n)``."""
     F, _, n = phT.shape
     PP = np.empty((F, len(_PAIRS[0]), n))
     PP[:, :N_FEATURES] = phT  # φ_0 φ_j = φ_j
