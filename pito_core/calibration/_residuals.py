@@ -120,7 +120,7 @@ def _significant_nnls(PtWP, PtWe, PtWv, rel_var) -> np.ndarray:
     return c
 
 
-#: Every support of the four features (rows of booleans), for the NNLS by enumeration.
+#: Every support of the five features (rows of booleans), for the NNLS by enumeration.
 _SUPPORTS = ((np.arange(2**N_FEATURES)[:, None] >> np.arange(N_FEATURES)) & 1).astype(bool)
 #: Scaled normal matrices better conditioned than this are solved in a batch (the others one by one).
 _BATCH_COND = 1e8
