@@ -41,7 +41,7 @@ def calibration_uncertainty(calibration: Calibration, sessions, max_samples: int
     if getattr(calibration, "covariance", None) is None:
         return None
     rng = np.random.default_rng(seed)
-    picked = []  # (calibration in use, sample indices, counts)
+    picked = []  # (calibration in use, loaded samples' counts)
     for s in _as_sessions(sessions):
         loaded = np.asarray(s.loaded).any(axis=1)
         idx = np.flatnonzero(loaded)
