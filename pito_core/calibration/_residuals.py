@@ -645,7 +645,7 @@ def _hist_bins(b, coef):
     samples' where they weigh :data:`_MIN_INFORMED` rows and :data:`_MIN_SHARE` of their number, else
     every sample's; the samples at rest's where they weigh :data:`_MIN_REST`, else ``q_load``)."""
     R = 6 * b["ET"].shape[0]
-    hist = np.zeros((3, R * (_Z_N + 1)))  # every sample's, the loaded samples', the samples at rest's
+    hist = np.zeros((2, R * (_Z_N + 1)))  # the loaded samples', the samples at rest's (every sample's: their sum)
     offset = np.arange(R)[:, None] * (_Z_N + 1)
     loaded = _loaded(b)
     for _, c in _chunks(b):
@@ -663,15 +663,14 @@ def _hist_bins(b, coef):
         z /= np.maximum(var, 1e-300, out=var)
         bins = _z_bins(z)
         bins += offset
-        hist[0] += np.bincount(bins.ravel(), weights=w.ravel(), minlength=hist.shape[1])
         ld = loaded[c["cols"]]
-        hist[1] += np.bincount(bins.ravel(), weights=(w * ld).ravel(), minlength=hist.shape[1])
-        hist[2] += np.bincount(bins.ravel(), weights=(w * ~ld).ravel(), minlength=hist.shape[1])
-    hist = hist.reshape(3, R, _Z_N + 1)
+        hist[0] += np.bincount(bins.ravel(), weights=(w * ld).ravel(), minlength=hist.shape[1])
+        hist[1] += np.bincount(bins.ravel(), weights=(w * ~ld).ravel(), minlength=hist.shape[1])
+    hist = hist.reshape(2, R, _Z_N + 1)
     w_sum = hist.sum(axis=2, keepdims=True)
-    informed = (w_sum[1] >= _MIN_INFORMED) & (w_sum[1] >= _MIN_SHARE * np.count_nonzero(loaded))
-    q_load = _first_bin(np.where(informed, hist[1], hist[0]))
-    return q_load, np.where(w_sum[2, :, 0] >= _MIN_REST, _first_bin(hist[2]), q_load)
+    informed = (w_sum[0] >= _MIN_INFORMED) & (w_sum[0] >= _MIN_SHARE * np.count_nonzero(loaded))
+    q_load = _first_bin(np.where(informed, hist[0], hist[0] + hist[1]))
+    return q_load, np.where(w_sum[1, :, 0] >= _MIN_REST, _first_bin(hist[1]), q_load)
 
 
 def _first_bin(hist) -> np.ndarray:
