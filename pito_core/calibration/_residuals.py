@@ -90,7 +90,8 @@ def _significant_nnls(PtWP, PtWe, PtWv, rel_var) -> np.ndarray:
     first (``q`` and ``q²`` are collinear: they share an excess neither shows alone, and dropping
     every weak term at once dropped both). Without reference noise: the plain fit.
     (The rows' own scatter is not counted: pruning real terms on it left intervals too short
-    on nonlinear cubes.)
+    on nonlinear cubes.) Rows with a polynomial correction are not pruned at all
+    (:func:`_corrected_rows`, :func:`_significant_rows`' ``unpruned``).
     """
     active = np.ones(PtWe.size, dtype=bool)
     c = np.zeros(PtWe.size)
@@ -143,9 +144,10 @@ def _nnls_batch(Gs, bs, active) -> np.ndarray:
     return c[np.arange(c.shape[0]), np.argmin(obj, axis=1)]
 
 
-def _significant_rows(PtWP, PtWe, PtWv, rel_var) -> np.ndarray:
+def _significant_rows(PtWP, PtWe, PtWv, rel_var, unpruned=None) -> np.ndarray:
     """:func:`_significant_nnls` of every row ``(R, 5)`` at once (rows of well-conditioned ``PtWP``;
-    the others one by one)."""
+    the others one by one); rows where ``unpruned (R,)`` is True keep every term the NNLS fits."""
+    unpruned = np.zeros(PtWe.shape[0], dtype=bool) if unpruned is None else np.asarray(unpruned, dtype=bool)
     R = PtWe.shape[0]
     coef = np.zeros((R, N_FEATURES))
     finite = np.all(np.isfinite(PtWP), axis=(1, 2)) & np.all(np.isfinite(PtWe), axis=1)
@@ -154,11 +156,11 @@ def _significant_rows(PtWP, PtWe, PtWv, rel_var) -> np.ndarray:
     w = np.linalg.eigvalsh(np.where(finite[:, None, None], Gs, np.eye(N_FEATURES)))
     batch = finite & (w[:, 0] > w[:, -1] / _BATCH_COND)
     for r in np.flatnonzero(finite & ~batch):
-        coef[r] = _significant_nnls(PtWP[r], PtWe[r], PtWv[:, r], rel_var)
+        coef[r] = nnls_rows(PtWP[r], PtWe[r]) if unpruned[r] else _significant_nnls(PtWP[r], PtWe[r], PtWv[:, r], rel_var)
     rows = np.flatnonzero(batch)
     Gs, bs, sc, P, Vs = Gs[rows], PtWe[rows] / scale[rows], scale[rows], PtWP[rows], PtWv[:, rows]
     active = np.ones((rows.size, N_FEATURES), dtype=bool)
-    prune = np.any(Vs != 0, axis=(0, 2))  # no reference noise in these rows: nothing was subtracted, keep the fit
+    prune = np.any(Vs != 0, axis=(0, 2)) & ~unpruned[rows]  # no reference noise in these rows: nothing was subtracted, keep the fit
     todo = np.ones(rows.size, dtype=bool)
     c = np.zeros((rows.size, N_FEATURES))
     while todo.any():
@@ -257,6 +259,7 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     vdiag = [np.diagonal(V, axis1=-2, axis2=-1) for V in vref_em]  # (F, 6) per session
     rel_var = [0.0 if n is None else 2.0 / max(n - 1, 1) for n in (ref_n or [None] * len(sessions))]
     b = _stacked(kept, vdiag, F, noisy)
+    b["unpruned"] = _corrected_rows(cal, X is not None)
     for _ in range(_REWEIGHT - 1 if noisy else 1):  # exact reference: the weights do not change
         _reweighted(b, coef, floor, rel_var, noisy)
     corr = _correlation(b, coef, floor, floor_m, vref_em, EtE)  # weighted by the last step's variances
@@ -557,7 +560,7 @@ def _reweighted(b, coef, floor, rel_var, noisy=True) -> None:
     PtWe = M[:, :, 6:12, :N_FEATURES].sum(axis=0).reshape(6 * F, N_FEATURES)
     PtWv = M[:, :, 12:, :N_FEATURES].reshape(n_s, 6 * F, N_FEATURES)  # per session: response to a relative error of its v
     fit = PtWP[:, 0, 0] > 0
-    coef[fit] = _significant_rows(PtWP[fit], PtWe[fit], PtWv[:, fit], rel_var)
+    coef[fit] = _significant_rows(PtWP[fit], PtWe[fit], PtWv[:, fit], rel_var, b["unpruned"][fit])
 
 
 def _correlation(b, coef, floor, floor_m, vref_full, EtE) -> np.ndarray:
@@ -777,6 +780,20 @@ def _features(cal, x, idx, xA=None, carries=None, unloaded=None) -> np.ndarray:
     if unloaded is not None:
         phi[..., 1] = ~unloaded[:, None]
     return phi
+
+
+def _corrected_rows(cal, by_face: bool = False) -> np.ndarray:
+    """``(6F,)`` bool: the matrix rows with a polynomial correction (with ``by_face``, every row of a
+    face that has one: the error model of a fit in S_A is in the faces' frames, where each row mixes
+    the face's S_A rows). Their load terms are not pruned (:func:`_significant_nnls`): the correction
+    absorbs part of its rows' misfit in training, and where the face carries the excess left hid
+    under the 3-σ test (``quasi_total``, nonlinear cube, 0.33 % reference noise, 2000-sample tare:
+    75.8–84.1 % coverage on the weakest axis of four faces where they carry, 95 % elsewhere)."""
+    F = len(cal.output_faces)
+    if cal.correction is None:
+        return np.zeros(6 * F, dtype=bool)
+    rows = np.any(cal.correction.coef != 0, axis=1)
+    return np.repeat(rows.reshape(F, 6).any(axis=1), 6) if by_face else rows
 
 
 def _corrected(cal) -> np.ndarray:
