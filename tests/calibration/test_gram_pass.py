@@ -89,3 +89,19 @@ def test_load_groups():
     n = loaded.sum(axis=1)
     expected = np.where(n == 0, 0, np.where(n == 1, loaded.argmax(axis=1) + 1, 7))
     np.testing.assert_array_equal(load_groups(loaded), expected)
+
+
+@pytest.mark.parametrize("contiguous", [True, False])
+def test_syrk_adds_the_gram_to_the_lower_triangle_in_place(contiguous):
+    """``_syrk_lower`` adds ``ZᵀZ`` to ``H``'s lower triangle and leaves its upper one, in place
+    (BLAS writes into ``H``'s transpose) or, for an ``H`` BLAS must copy, through the copy."""
+    rng = np.random.default_rng(3)
+    Z = rng.normal(size=(600, 43))
+    base = rng.normal(size=(43, 43 if contiguous else 50))
+    H = base[:, :43]
+    before = H.copy()
+    _gramfit._syrk_lower(H, Z)
+    lower = np.tril_indices(43)
+    np.testing.assert_allclose(H[lower], (before + Z.T @ Z)[lower], rtol=1e-12, atol=1e-9)
+    upper = np.triu_indices(43, 1)
+    np.testing.assert_array_equal(H[upper], before[upper])
