@@ -802,6 +802,4 @@ def _corrected_rows(cal, by_face: bool = False) -> np.ndarray:
 
 def _corrected(cal) -> np.ndarray:
     """``(F,)`` bool: the output faces with a polynomial correction."""
-    if cal.correction is None:
-        return np.zeros(len(cal.output_faces), dtype=bool)
-    return np.any(cal.correction.coef.reshape(len(cal.output_faces), -1) != 0, axis=1)
+    return _corrected_rows(cal).reshape(-1, 6).any(axis=1)
