@@ -99,7 +99,7 @@ class GramPass:
         self.n_used = 0
         self.carried_any = np.zeros(6, dtype=bool)
         self.centers = [None] * n_int if centers is None else [np.asarray(c, float) for c in centers]
-        # per session: unloaded samples and the Gram of their [1 | counts − c − xshift | r − rshift]
+        # per session: unloaded samples and the Gram (lower triangle) of their [1 | counts − c − xshift | r − rshift]
         self.tare = [dict(n=0, G=np.zeros((43, 43)), shift=None) for _ in range(n_int)]
         self.stride = max(1, int(total_samples) // ERROR_MODEL_SAMPLES)
         self.sub = [[] for _ in range(n_int)]
@@ -227,7 +227,7 @@ class GramPass:
             t["shift"] = np.r_[0.0, Z[0, 1:]]
         W = Z - t["shift"]
         t["n"] += W.shape[0]
-        t["G"] += W.T @ W  # n, the sums and the sums of products at once
+        _syrk_lower(t["G"], W)  # n, the sums and the sums of products at once (its lower triangle)
 
     def rest_noise(self):
         """``(tare_means, gauge_cov (36, 36), ref_covs, samples at rest)`` as :meth:`Calibrator._rest_noise` gives them."""
@@ -236,7 +236,7 @@ class GramPass:
             n = t["n"]
             if n == 0:
                 raise ValueError("loaded: the session has no unloaded samples (rows of all False) to take the offsets from")
-            G = t["G"]
+            G = np.tril(t["G"]) + np.tril(t["G"], -1).T
             mu = G[0, _X] / n
             cov = G[_X, _X] / n - np.outer(mu, mu)
             means.append(self.centers[k] + t["shift"][_X] + mu)

@@ -112,6 +112,31 @@ def test_validators():
         check_pose(mirror, "T")
 
 
+def test_check_pose_accepts_what_the_rotation_tolerance_accepts():
+    """check_pose's written-out tests take the same poses as np.allclose(·, atol=ROTATION_TOL) and det R > 0,
+    on proper and improper rotations perturbed around the tolerance."""
+    from pito_core.frames._checks import ROTATION_TOL
+
+    rng = np.random.default_rng(3)
+    verdicts = []
+    for i in range(3000):
+        T = np.eye(4)
+        T[:3, :3] = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+        T[:3, 3] = rng.normal(size=3)
+        T += rng.normal(size=(4, 4)) * 10 ** rng.uniform(-8, -5)
+        R = T[:3, :3]
+        expected = (np.allclose(T[3], [0, 0, 0, 1], atol=ROTATION_TOL)
+                    and np.allclose(R.T @ R, np.eye(3), atol=ROTATION_TOL) and np.linalg.det(R) >= 0)
+        try:
+            check_pose(T, "T")
+            got = True
+        except ValueError:
+            got = False
+        assert got == expected, (i, T)
+        verdicts.append(got)
+    assert 0.2 < np.mean(verdicts) < 0.8  # both verdicts, many times each
+
+
 def test_rotation_from_x_is_proper_for_any_direction():
     """The glyphs' per-frame rotation (scalar arithmetic) is orthonormal, right-handed, and takes +x onto the direction."""
     rng = np.random.default_rng(7)
