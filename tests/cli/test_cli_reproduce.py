@@ -76,6 +76,8 @@ EXPECTED = [
     "table1_inverse_condition_numbers.csv",
     "equilibrium.png",
     "equilibrium.csv",
+    "model_choice.png",
+    "model_choice.csv",
 ]
 
 
@@ -102,6 +104,11 @@ def test_quick_reproduction_writes_everything(quick_run):
     assert len(sq) == 1 + 6 * 3  # 6 connected faces × (loaded, unloaded, unloaded + frame_hole)
     header = (out / "rmse_methods.csv").read_text().splitlines()[0]
     assert "rmse_force_N" in header and "rmse_torque_Nm" in header
+    # Table I is of the papers' linear fits: the unloaded frame on its face flange alone has rank 30 (≈ 0),
+    # even where the default chose the polynomial model (its affine part is not of rank 30)
+    t1 = np.genfromtxt(out / "table1_inverse_condition_numbers.csv", delimiter=",", names=True)
+    assert np.all(t1["unloaded_frame_icn"] < 1e-10), t1["unloaded_frame_icn"]
+    assert np.all((t1["loaded_frame_icn"] > 1e-4) & (t1["unloaded_frame_with_frame_hole_icn"] > 1e-4))
 
 
 def test_failing_finding_is_reported_not_dropped(quick_run):
