@@ -239,7 +239,10 @@ class Calibration:
 
     @property
     def inverse_condition_number(self) -> float:
-        """σmin/σmax of :attr:`matrix` as fitted (the PITO paper's Table I figure)."""
+        """σmin/σmax of :attr:`matrix` as fitted: the affine part of the model in use. The PITO paper's
+        Table I figure is the linear fit's, ``linear_alternative().inverse_condition_number``: a polynomial
+        model's affine part is fitted per face and output group, so it can have full rank where the
+        linear fit's rank (and ``meta["net_load"]``) says the data leave directions unmeasured."""
         s = np.linalg.svd(self.matrix, compute_uv=False)
         return float(s[-1] / s[0]) if s[0] > 0 else 0.0
 
