@@ -138,7 +138,7 @@ class ReferenceLeverage:
             out.append(var.reshape(-1))
         return out
 
-    def in_sample(self, F, vref_full, X=None) -> list:
+    def in_sample(self, F, vref_full, X=None, gauge_cov=None) -> list:
         """Per block of :meth:`add`, ``(share, own)``, both ``(n, 6F)`` float32 (after :meth:`finish`).
 
         ``share``: the reference's share of the coefficients' variance at each training sample,
@@ -152,6 +152,11 @@ class ReferenceLeverage:
         residual: ``1`` for the affine rows; ``1 − 2h + q`` for the correction's (``h`` the fit's
         hat, ``q`` the share's leverage): a fit with many features absorbs its rows' own noise,
         ``E[E²] = e² + v (1 − 2h) + q v``.
+
+        With ``gauge_cov (36, 36)`` the share leaves out what the samples' gauge noise brings to ``x̃ᵀ
+        P M_k P x̃`` (:meth:`CovarianceGroup.noise_leverages`; at least 0): the residuals hold that part
+        in the gauge noise through the fitted matrix, the error model's floor (at rest, ``quasi_total``
+        on a linear cube at 0.33 %, face 5's tx: a share 2× the residuals' whole mean square).
 
         ``X (F, 6, 6)``: both in the faces' frames (the error model's for a fit in S_A): the share's
         covariance and the carrying rows' ``(1 − 2h + q)``-scaled one mapped by ``X``, ``own`` as the
@@ -174,6 +179,8 @@ class ReferenceLeverage:
                 BQ = (B @ Q.transpose(1, 0, 2).reshape(m, nb * m)).reshape(-1, nb, m)  # every face block in one product
                 BQ *= B[:, None, :]
                 h[:, kk] = BQ.sum(axis=2)
+                if gauge_cov is not None:
+                    h[:, kk] = np.maximum(h[:, kk] - g.noise_leverages(gauge_cov), 0.0)
             z = None
             if poly:
                 xt = x - tare_mean

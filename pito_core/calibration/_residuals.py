@@ -249,7 +249,7 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
         if poly_parts:
             lev.set_poly(poly_parts, cal.correction)
             poly_ref = lev.poly_blocks(vref_full)
-        kept = [(*k, *v) for k, v in zip(kept, lev.in_sample(F, vref_full, X))]
+        kept = [(*k, *v) for k, v in zip(kept, lev.in_sample(F, vref_full, X, gauge_cov))]
     else:
         kept = [(*k, None, None) for k in kept]
     # Where the reference's noise v is large against the error itself, E² − v says little about

@@ -171,12 +171,28 @@ class CovarianceGroup:
         xt, s = self._design(counts, offset)
         return np.einsum("ni,ij,nj->n", xt, self.design_pinv[s, s], xt)
 
-    def reference_leverages(self, counts: np.ndarray, offset: np.ndarray | None) -> np.ndarray:
-        """``x̃ᵀ P M_k P x̃`` per sample and face block ``(N, q // 6)`` (zeros without ``reference_leverage``)."""
+    def reference_leverages(self, counts: np.ndarray, offset: np.ndarray | None, gauge_cov=None) -> np.ndarray:
+        """``x̃ᵀ P M_k P x̃`` per sample and face block ``(N, q // 6)`` (zeros without ``reference_leverage``).
+
+        With ``gauge_cov (36, 36)``, less the part the counts' own noise brings, :meth:`noise_leverages`
+        (at least 0): the reference's noise in the slopes acting on the gauge noise is in the gauge noise
+        through the fitted matrix already, which the error model has (its floor, measured with that matrix).
+        """
         if self.reference_leverage is None:
             return np.zeros((counts.shape[0], self.rows.size // 6))
         xt, s = self._design(counts, offset)
-        return np.einsum("ni,bij,nj->nb", xt, self.reference_leverage[:, s, s], xt)
+        h = np.einsum("ni,bij,nj->nb", xt, self.reference_leverage[:, s, s], xt)
+        if gauge_cov is not None:
+            h -= self.noise_leverages(gauge_cov)
+            np.maximum(h, 0.0, out=h)
+        return h
+
+    def noise_leverages(self, gauge_cov) -> np.ndarray:
+        """``tr(Q_k Σ_g)`` per face block ``(q // 6,)``: the mean of ``x̃ᵀ Q_k x̃`` that gauge noise of
+        covariance ``gauge_cov (36, 36)`` adds, ``Q_k`` the slopes' block of ``P M_k P``."""
+        n_int = self.weights.size
+        S = np.asarray(gauge_cov, dtype=float)[np.ix_(self.inputs, self.inputs)]
+        return np.einsum("bij,ji->b", self.reference_leverage[:, n_int:, n_int:], S)
 
 
 #: The three products of a face block's row groups (forces 0–2, torques 3–5) in ``PolyReferenceBlock.leverage``.
@@ -351,7 +367,7 @@ class CalibrationCovariance:
             raise ValueError("poly_z: expected the samples' design [u; φ(u)] with a polynomial reference term")
         for g in self.groups:
             h = g.leverage(counts, None if fitted else offset)
-            h_ref = g.reference_leverages(counts, None if fitted else offset)
+            h_ref = g.reference_leverages(counts, None if fitted else offset, self.gauge_cov)
             for k in range(g.rows.size // 6):
                 block = int(g.rows[6 * k]) // 6
                 face = output_faces[block] - 1
