@@ -263,7 +263,7 @@ class Calibration:
 
     # ------------------------------------------------------------------ files
     def save(self, path) -> None:
-        """Write exactly ``path`` (HDF5, format ``pito-calibration`` v4; docs/file-formats.md)."""
+        """Write exactly ``path`` (HDF5, format ``pito-calibration`` v5; docs/file-formats.md)."""
         write_calibration(path, self)
 
     @classmethod
@@ -295,7 +295,8 @@ def load_calibration(path) -> Calibration:
             groups = [CovarianceGroup(**g) for g in cov["groups"]]
             poly = [PolyReferenceBlock(**b) for b in cov.get("poly_reference", [])]
             cov = CalibrationCovariance(groups, cov["gauge_cov"], cov["n_tare"], cov["variance_coef"], cov["residual_corr"],
-                                        poly, cov.get("error_frame", "output"), cov.get("rest_bias"))
+                                        poly, cov.get("error_frame", "output"), cov.get("rest_bias"),
+                                        cov.get("own_variance_coef"), cov.get("own_q"))
     except ValueError as exc:
         raise FileFormatError(f"{path}: covariance: {exc}") from None
     try:

@@ -428,10 +428,11 @@ class Calibrator:
                           linear_fit=linear_fit)
         # pass 3: the error a sample brings itself (noise, what the linear model misses), against its load
         poly_parts = st.poly.reference_parts if corr_fit is not None else []
-        coef, corr, poly_ref, error_frame, rest_bias = fit_error_model(cal, sessions, mounts, fit.offsets, tare_means, spec, fit.groups,
-                                               self.block_size, ref_covs, gauge_cov, samples=subsample, ref_n=ref_n,
-                                               poly_parts=poly_parts)
-        cal.covariance = CalibrationCovariance(fit.groups, gauge_cov, None, coef, corr, poly_ref, error_frame, rest_bias)
+        coef, own_q, corr, poly_ref, error_frame, rest_bias = fit_error_model(
+            cal, sessions, mounts, fit.offsets, tare_means, spec, fit.groups, self.block_size, ref_covs, gauge_cov,
+            samples=subsample, ref_n=ref_n, poly_parts=poly_parts)
+        cal.covariance = CalibrationCovariance(fit.groups, gauge_cov, None, coef[0], corr, poly_ref, error_frame, rest_bias,
+                                               own_variance_coef=coef[1], own_q=own_q)
         self.calibration_ = cal
         return self
 

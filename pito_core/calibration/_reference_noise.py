@@ -89,19 +89,19 @@ class ReferenceLeverage:
             out.append(np.stack([sum(w[b, j] * vref_full[j][k] for j in range(self.n_int)) for b, k in enumerate(kk)]))
         return out
 
-    def set_error_cov(self, coef, corr, feats, X=None) -> None:
+    def set_error_cov(self, variances, corr, X=None) -> None:
         """``Σ_r → Σ_e``: each group's residual covariance (its face blocks) becomes the mean, over the
-        group's design rows, of the error model's covariance (``coef (6F, 5)``, ``corr (F, 6, 6)``,
-        ``feats`` per block of :meth:`add`): the error that is not the reference's. ``X (F, 6, 6)``:
-        the error model is in the faces' frames, mapped back to the output frame by ``X⁻¹``."""
+        group's design rows, of the error model's covariance (``variances(i)``, of block ``i`` of :meth:`add`,
+        ``(n, 6F)`` each row's modelled variance; ``corr (F, 6, 6)``): the error that is not the
+        reference's. ``X (F, 6, 6)``: the error model is in the faces' frames, mapped back to the
+        output frame by ``X⁻¹``."""
         for g, own, kk in zip(self.groups, self.own, self.kk):
             R = g.residual_cov.copy()
             for b, k in enumerate(kk):
                 acc, n = np.zeros((6, 6)), 0
-                for (_, _, _, carries, unloaded), ph in zip(self.rows, feats):
+                for i, (_, _, _, carries, unloaded) in enumerate(self.rows):
                     rows = slice(None) if own is None else carries[:, self.out[own]] | unloaded
-                    var = np.asarray(ph[rows, k], dtype=float) @ coef[6 * k : 6 * k + 6].T  # (n, 6)
-                    sd = np.sqrt(np.clip(var, 0, None))
+                    sd = np.sqrt(np.clip(variances(i)[rows, 6 * k : 6 * k + 6], 0, None))
                     acc += sd.T @ sd
                     n += sd.shape[0]
                 S = corr[k] * acc / max(n, 1)

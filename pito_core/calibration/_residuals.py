@@ -21,7 +21,7 @@ from ._reference_noise import ReferenceLeverage, is_range
 from ._targets import block_targets
 from ._uncertainty import FULL_SCALE, N_FEATURES, q_features
 
-__all__ = ["fit_error_model", "N_CLUSTERS"]
+__all__ = ["fit_error_model", "own_q", "N_CLUSTERS"]
 
 #: Clusters of consecutive samples for the cluster-robust variance of the coefficients:
 #: few and long, so that errors correlated over a loading gesture stay within one.
@@ -238,12 +238,18 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     floor = np.diagonal(floor_m, axis1=1, axis2=2).reshape(-1).copy()
     noisy = any(np.any(rc) for rc in ref_covs if rc is not None)
     lev = ReferenceLeverage(groups, cal.output_faces, len(sessions)) if noisy else None
-    PtP, Pte2, EtE, kept, clusters = _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups,
-                                                 block_size, ref_covs, floor, samples, stride, lev, X)
+    PtP, Pte2, EtE, kept, clusters, qraw = _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups,
+                                                       block_size, ref_covs, floor, samples, stride, lev, X)
     _set_inflation(groups, clusters, stride)
     kept, rest_means = _retared(kept, len(sessions))
-    # the first weights (an exact reference: weights 1 whatever the coefficients, which the one step sets)
-    coef = _nnls_coefficients(PtP, Pte2) if noisy else np.zeros((6 * F, N_FEATURES))
+    # a face fitted on its own rows only (face_to_face) reads the crosstalk as a prediction its fit never saw:
+    # there its own error and the crosstalk's are two models (own_q); a joint fit has one (its crosstalk is in
+    # its residuals, and with a noisy reference q is 0 there: _features)
+    own_fit = np.isin(cal.output_faces, [cal.output_faces[int(g.rows[0]) // 6] for g in groups if g.inputs.size == 6])
+    q_own = own_q(qraw, [k[2] for k in kept], [k[1][:, 0, 1] > 0 for k in kept], own_fit)
+    # the first weights (an exact reference: weights 1 whatever the coefficients, which the one step sets);
+    # coef[0] where a face reads no load of its own, coef[1] where it does (own_load)
+    coef = np.stack([_nnls_coefficients(PtP, Pte2) if noisy else np.zeros((6 * F, N_FEATURES))] * 2)
     vref_full = [_reference_cov(m, rc, spec.output_frame, idx) for m, rc in zip(mounts, ref_covs)]
     vref_em = vref_full if X is None else [_reference_cov(m, rc, "face", idx) for m, rc in zip(mounts, ref_covs)]
     poly_ref = []
@@ -264,23 +270,79 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     rel_var = [0.0 if n is None else 2.0 / max(n - 1, 1) for n in (ref_n or [None] * len(sessions))]
     b = _stacked(kept, vdiag, F, noisy)
     b["unpruned"] = _corrected_rows(cal, X is not None)
-    for _ in range(_REWEIGHT - 1 if noisy else 1):  # exact reference: the weights do not change
-        _reweighted(b, coef, floor, rel_var, noisy)
-    corr = _correlation(b, coef, floor, floor_m, vref_em, EtE)  # weighted by the last step's variances
-    if noisy:
-        _reweighted(b, coef, floor, rel_var, noisy)
-    coef[:, 0] += floor
-    s_load, s_rest = _coverage_scales(b, coef)
-    c0 = coef[:, 0].copy()  # at rest (L = 0) the constant alone: its own scale there, the loaded one at L = 1
-    coef *= s_load[:, None]
-    coef[:, 0] = s_rest * c0
-    coef[:, 1] += (s_load - s_rest) * c0
+    # (F, n) bool, where each face reads a load of its own (_uncertainty.own_load; in training L is the loaded flag)
+    b["rho"] = np.zeros(b["carr"].shape, dtype=bool)
+    if np.isfinite(q_own).any():
+        b["rho"] = (np.concatenate(qraw).T >= q_own[:, None]) & (np.concatenate([k[1][:, 0, 1] for k in kept]) > 0)
+    del qraw
+    # the own model learns from the samples where the face carries: the crosstalk that reaches own_q (0.5 %
+    # of it) is read by it in use, but its errors set a fit of the face's own (face_to_face, linear cube:
+    # its q_other term 10⁴ × the error where the face carried)
+    b["own"] = b["rho"] & b["carr"]
+    b["support"] = _support(b)
+    first = coef.copy()
+    while True:
+        for _ in range(_REWEIGHT - 1 if noisy else 1):  # exact reference: the weights do not change
+            _reweighted(b, coef, floor, rel_var, noisy)
+        corr = _correlation(b, coef, floor, floor_m, vref_em, EtE)  # weighted by the last step's variances
+        if noisy:
+            _reweighted(b, coef, floor, rel_var, noisy)
+        coef[:, :, 0] += floor
+        s_load, s_own, s_rest, own_informed = _coverage_scales(b, coef)
+        # where the reference's noise swamps a face's own error, E² − v cannot tell it from the gauge noise
+        # (face_to_face, linear cube, 0.1 %: an error 60× the floor on one axis went unseen, 84 % coverage;
+        # the crosstalk's model on that row alone made the mean error of the design rows 10⁴× theirs): the
+        # face keeps one model, wide where it carries but not short
+        swamped = np.isfinite(q_own) & ~own_informed.reshape(F, 6).all(axis=1)
+        if not swamped.any():
+            break
+        q_own[swamped] = np.inf
+        b["rho"][swamped] = b["own"][swamped] = False
+        b["support"] = _support(b)
+        coef = first.copy()
+    c0 = coef[0, :, 0].copy()  # at rest (L = 0) the constant alone: its own scale there, the loaded one at L = 1
+    coef[0] *= s_load[:, None]
+    coef[0, :, 0] = s_rest * c0
+    coef[0, :, 1] += (s_load - s_rest) * c0
+    coef[1] *= s_own[:, None]
+    one = np.repeat(~np.isfinite(q_own), 6)  # faces with one model: the same coefficients
+    coef[1, one] = coef[0, one]
     if noisy:  # Σ_r → Σ_e: the reference's share is now in the groups' own term
-        lev.set_error_cov(coef, corr, [k[1] for k in kept], X)
+        # each design row's error by the model of what it is: the face's own where it carries (the flags; the
+        # crosstalk's model at a small own load of a face_to_face fit made the mean 10× the carrying rows')
+        ends = np.cumsum([0] + [k[0].shape[0] for k in kept])
+        lev.set_error_cov(lambda i: _variances(b["phT"][:, :, ends[i] : ends[i + 1]], coef,
+                                               rho=b["carr"][:, ends[i] : ends[i + 1]]).reshape(6 * F, -1).T, corr, X)
     # the fitted offset's own error at rest beyond the reference's noise through it (the groups' term)
     off_var = lev.offset_var(F, X) if noisy else [0.0] * len(sessions)
     rest_bias = np.mean([np.maximum(m * m - v, 0.0) for m, v in zip(rest_means, off_var)], axis=0)
-    return coef, corr, poly_ref, "output" if X is None else "face", rest_bias
+    return coef, q_own, corr, poly_ref, "output" if X is None else "face", rest_bias
+
+
+def own_q(qraw, carries, loaded, faces=None) -> np.ndarray:
+    """``(F,)`` per output face, the ``q`` from which it reads a load of its own (``own_load``): the
+    99.5th percentile of its ``q`` on the loaded samples where it carried nothing (its crosstalk, as
+    read in use). ``inf`` (one model) where fewer than :data:`_MIN_INFORMED` samples are on either side.
+
+    ``qraw``, ``carries`` (the faces that carry) and ``loaded`` (some face does), per kept block,
+    ``(n, F)``, ``(n, F)``, ``(n,)``; ``faces (F,)`` bool, those to split (None: all; the others ``inf``).
+    (Where a face carries, its error is its own load's; where another face does, the crosstalk's. One
+    model of both set the one by the other: ``face_to_face``'s
+    ``q`` term, fitted where the crosstalk is its own prediction (``q = E²``), made its intervals 18×
+    the error where the face carried, linear cube.)"""
+    out = np.full(qraw[0].shape[1], np.inf)
+    if faces is not None and not np.any(faces):
+        return out
+    q, c, ld = np.concatenate(qraw).T, np.concatenate(carries).T, np.concatenate(loaded)  # (F, n): rows contiguous
+    for f in (range(q.shape[0]) if faces is None else np.flatnonzero(faces)):
+        cross = q[f][ld & ~c[f]]
+        if cross.size < _MIN_INFORMED:
+            continue
+        k = int(np.ceil(0.995 * (cross.size - 1)))  # the 99.5th percentile, rounded up to a sample
+        q0 = np.partition(cross, k)[k]
+        if q0 > 0 and np.count_nonzero(q[f][ld] >= q0) >= _MIN_INFORMED:
+            out[f] = q0
+    return out
 
 
 def _retared(kept, n_int):
@@ -325,8 +387,9 @@ def _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups, block_
     Returns ``PtP (F, 5, 5)``, ``Pte2 (F, 5, 6)``: per output face, the normal equations of the
     squared residuals less the reference's variance and ``floor (6F,)`` on ``load_features``;
     ``EtE (F, 6, 6)``, the residuals' sums of products; ``kept``, per block ``(E (n, 6F) float32,
-    phi (n, F, 5) float32, carries (n, F) bool, session index)`` for the later passes; and the
-    groups' cluster scores (see :func:`_add_cluster_scores`).
+    phi (n, F, 5) float32, carries (n, F) bool, session index)`` for the later passes; the
+    groups' cluster scores (see :func:`_add_cluster_scores`); and per block each face's ``q (n, F)``
+    as read in use (:func:`_features`).
     """
     F = len(cal.output_faces)
     idx = [f - 1 for f in cal.output_faces]
@@ -341,6 +404,7 @@ def _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups, block_
     Pte2 = np.zeros((F, N_FEATURES, 6))
     EtE = np.zeros((F, 6, 6))
     kept = []  # per block: E, phi (float32), which faces carry, session: the data are read once
+    qraw = []  # per block: each face's q as read in use (not masked where it carries nothing)
     # to the error model's frame: one product with the block-diagonal map (an einsum over the faces
     # took 6 ms of a 60-ms fit of 10⁵ samples)
     XT = None if X is None else scipy.linalg.block_diag(*X).T
@@ -357,8 +421,9 @@ def _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups, block_
             # in the face frame, the faces' wrenches are the matrix's rows: the product is reused (and consumed)
             # with a noisy reference, a face of a joint fit has no load where it carries nothing (see _features)
             unloaded = (b.loaded[usable].view(np.uint8) @ np.ones(6, np.uint8)) == 0  # ~any(axis=1), 4× faster
-            phi = _features(cal, x, idx, xC if cal.output_frame == "face" else None,
-                            None if lev is None else carries[usable][:, idx] | keep_q, unloaded)  # (n, F, 5)
+            phi, q = _features(cal, x, idx, xC if cal.output_frame == "face" else None,
+                               None if lev is None else carries[usable][:, idx] | keep_q, unloaded)  # (n, F, 5)
+            qraw.append(q)
             kept.append((E.reshape(-1, 6 * F).astype(np.float32), phi.astype(np.float32), carries[usable][:, idx], j))
             EF = np.ascontiguousarray(E.transpose(1, 0, 2))  # (F, n, 6): products batched over faces
             EtE += np.matmul(EF.transpose(0, 2, 1), EF)  # the diagonal blocks of Eᵀ E only
@@ -374,7 +439,7 @@ def _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups, block_
                 lev.add(counts, carries[usable][:, idx], unloaded, j, tare_means[j])
             _add_cluster_scores(groups, clusters, own_face, counts, E_out.reshape(-1, 6 * F), carries[usable], unloaded,
                                 tare_means[j], j, n_int)
-    return PtP, Pte2, EtE, kept, clusters
+    return PtP, Pte2, EtE, kept, clusters, qraw
 
 
 def _add_cluster_scores(groups, clusters, own_face, counts, Eflat, carries, unloaded, tare_mean, j, n_int):
@@ -482,7 +547,8 @@ def _chunks(b, floor=None):
     for j, sl in b["sessions"]:
         for s in _slices(sl):
             c = dict(ET=b["ET"][:, :, s], phT=b["phT"][:, :, s], carr=b["carr"][:, s],
-                     vT=0.0 if b["vT"] is None else b["vT"][:, :, s], cols=s)
+                     vT=0.0 if b["vT"] is None else b["vT"][:, :, s], cols=s, rho=b["rho"][:, s] if b["rho"].any() else None,
+                     own=b["own"][:, s])
             if floor is not None:
                 E2 = c["ET"] * c["ET"]
                 if b["vT"] is not None:  # else 0: no pass
@@ -497,31 +563,39 @@ def _slices(sl):
     return [slice(a, min(a + _CHUNK, sl.stop)) for a in range(sl.start, sl.stop, _CHUNK)]
 
 
-def _variances(phT, coef, floor=None, out=None) -> np.ndarray:
-    """``(F, 6, n)`` each row's modelled variance at samples of features ``phT (F, 5, n)``: with
-    ``floor (6F,)`` added and not below 0."""
+def _variances(phT, coef, floor=None, out=None, rho=None) -> np.ndarray:
+    """``(F, 6, n)`` each row's modelled variance at samples of features ``phT (F, 5, n)``: ``coef[0]``'s
+    where the face reads no load of its own, ``coef[1]``'s where it does (``rho (F, n)`` bool);
+    with ``floor (6F,)`` added and not below 0."""
     F = phT.shape[0]
-    C = coef.reshape(F, 6, N_FEATURES)
-    if floor is None:
-        return np.matmul(C, phT, out=out)
-    C = C.copy()
-    C[..., 0] += floor.reshape(F, 6)  # φ_0 = 1
-    var = np.matmul(C, phT, out=out)
-    return np.maximum(var, 0, out=var)
+    C = coef.reshape(2, F, 6, N_FEATURES)
+    if floor is not None:
+        C = C.copy()
+        C[..., 0] += floor.reshape(F, 6)  # φ_0 = 1
+    var = np.matmul(C[0], phT, out=out)
+    if rho is not None and (C[1] != C[0]).any():  # (coef[1] is coef[0] for the faces of one model)
+        for f in np.flatnonzero(rho.any(axis=1)):  # the few samples of each face's own: not a product of all
+            r = rho[f]
+            var[f][:, r] = C[1, f] @ phT[f][:, r]
+    return var if floor is None else np.maximum(var, 0, out=var)
 
 
 def _weighted_sums(b, coef, floor, n_s, noisy) -> np.ndarray:
-    """``(n_s, F, 18, 15)``: per session, the sums over the samples of ``w``, ``w (E² − v)`` and ``w v``
+    """``(n_s, F, 18, 15 m)``: per session, the sums over the samples of ``w``, ``w (E² − v)`` and ``w v``
     (rows, 6 each) times the features' distinct products (:data:`_PAIRS`), ``w = 1 / (var + v)²``
-    with a ``noisy`` reference, else 1 (then ``w v`` is 0 and not summed)."""
+    with a ``noisy`` reference, else 1 (then ``w v`` is 0 and not summed); with ``m = 2`` models
+    (``b["rho"]`` has a face of its own) the last axis's first 15 over the samples where the face
+    reads no load of its own, its last 15 where it does and carries, else ``m = 1``."""
     F = b["ET"].shape[0]
-    M = np.zeros((n_s, F, 18, len(_PAIRS[0])))
+    P = len(_PAIRS[0])
+    split = b["rho"].any()
+    M = np.zeros((n_s, F, 18, (1 + split) * P))
     for j, c in _chunks(b, floor):
         n = c["ET"].shape[2]
         if noisy:
             L = np.empty((F, 18, n))
             w = L[:, :6]
-            tot = _variances(c["phT"], coef, floor, out=w)  # in place: w = 1 / tot², tot = max(var + v, 1e-300)
+            tot = _variances(c["phT"], coef, floor, out=w, rho=c["rho"])  # in place: w = 1 / tot², tot = max(var + v, 1e-300)
             tot += c["vT"]
             np.maximum(tot, 1e-300, out=tot)
             np.multiply(tot, tot, out=w)
@@ -532,7 +606,14 @@ def _weighted_sums(b, coef, floor, n_s, noisy) -> np.ndarray:
             L = np.empty((F, 7, n))
             L[:, 0] = 1.0
             L[:, 1:] = c["E2T"]
-        S = np.matmul(L, _feature_products(c["phT"]).transpose(0, 2, 1))
+        PP = _feature_products(c["phT"])
+        S = np.matmul(L, PP.transpose(0, 2, 1))
+        if split:  # each face's own model: its few samples (the crosstalk's: the rest), not a product of all
+            S = np.concatenate([S, np.zeros_like(S)], axis=2)
+            for f in np.flatnonzero(c["rho"].any(axis=1)):
+                r, o = c["rho"][f], c["own"][f]
+                S[f, :, :P] -= L[f][:, r] @ PP[f][:, r].T
+                S[f, :, P:] = L[f][:, o] @ PP[f][:, o].T
         if noisy:
             M[j] += S
         else:
@@ -561,14 +642,29 @@ def _reweighted(b, coef, floor, rel_var, noisy=True) -> None:
     """
     F, n_s = b["ET"].shape[0], len(rel_var)
     M = _weighted_sums(b, coef, floor, n_s, noisy)
-    PtWP = np.empty((F, 6, N_FEATURES, N_FEATURES))
+    P = len(_PAIRS[0])
+    m = M.shape[-1] // P  # models fitted: the crosstalk's (and every face's with one), and the faces' own
+    M = np.concatenate([M[..., :P], M[..., P:]], axis=1) if m == 2 else M  # the models' rows: (n_s, mF, 18, 15)
+    PtWP = np.empty((m * F, 6, N_FEATURES, N_FEATURES))
     PtWP[..., _PAIRS[0], _PAIRS[1]] = M[:, :, :6].sum(axis=0)
     PtWP[..., _PAIRS[1], _PAIRS[0]] = PtWP[..., _PAIRS[0], _PAIRS[1]]
-    PtWP = PtWP.reshape(6 * F, N_FEATURES, N_FEATURES)
-    PtWe = M[:, :, 6:12, :N_FEATURES].sum(axis=0).reshape(6 * F, N_FEATURES)
-    PtWv = M[:, :, 12:, :N_FEATURES].reshape(n_s, 6 * F, N_FEATURES)  # per session: response to a relative error of its v
+    PtWe = M[:, :, 6:12, :N_FEATURES].sum(axis=0)
+    PtWv = M[:, :, 12:, :N_FEATURES].copy()  # per session: response to a relative error of its v
+    # a model's feature that too few of its samples have is left out (its coefficient 0): where a face reads
+    # a load of its own L is 1 (the constant's), and in a joint fit with a noisy reference q is 0 where the
+    # face carries nothing (_features), so the crosstalk's model has only its few smallest own loads for it
+    # (its coefficient came out at 10¹⁶⁵)
+    off = ~b["support"][:m].reshape(m * F, N_FEATURES)  # (mF, 5)
+    PtWP[np.broadcast_to(off[:, None, :, None], PtWP.shape) | np.broadcast_to(off[:, None, None, :], PtWP.shape)] = 0.0
+    PtWP[..., np.arange(N_FEATURES), np.arange(N_FEATURES)] += np.broadcast_to(off[:, None, :], PtWe.shape)
+    PtWe[np.broadcast_to(off[:, None, :], PtWe.shape)] = 0.0
+    PtWv[np.broadcast_to(off[None, :, None, :], PtWv.shape)] = 0.0
+    PtWP = PtWP.reshape(6 * m * F, N_FEATURES, N_FEATURES)
+    PtWe = PtWe.reshape(6 * m * F, N_FEATURES)
+    PtWv = PtWv.reshape(n_s, 6 * m * F, N_FEATURES)
+    flat = coef[:m].reshape(6 * m * F, N_FEATURES)  # a view: the fit updates coef
     fit = PtWP[:, 0, 0] > 0
-    coef[fit] = _significant_rows(PtWP[fit], PtWe[fit], PtWv[:, fit], rel_var, b["unpruned"][fit])
+    flat[fit] = _significant_rows(PtWP[fit], PtWe[fit], PtWv[:, fit], rel_var, np.tile(b["unpruned"], m)[fit])
 
 
 def _correlation(b, coef, floor, floor_m, vref_full, EtE) -> np.ndarray:
@@ -587,7 +683,7 @@ def _correlation(b, coef, floor, floor_m, vref_full, EtE) -> np.ndarray:
     F = b["ET"].shape[0]
     S, w_sum, V = np.zeros((F, 6, 6)), np.zeros(F), np.zeros((F, 6))
     for j, c in _chunks(b):
-        var0 = _variances(c["phT"], coef, floor)
+        var0 = _variances(c["phT"], coef, floor, rho=c["rho"])
         if b["vT"] is None and np.all(var0 >= 1e-300):  # an exact reference: every weight is 1 (var0 / var0)
             S += np.matmul(c["ET"].copy(), c["ET"].transpose(0, 2, 1))  # a copy: not syrk, the same sums as E · 1
             if np.any(vref_full[j]):
@@ -621,8 +717,9 @@ def _correlation(b, coef, floor, floor_m, vref_full, EtE) -> np.ndarray:
 
 
 def _coverage_scales(b, coef):
-    """``(s_load, s_rest)``, each ``(6F,)``: factors on each row's variance so that ±1.96 σ holds 95 %
-    of its training residuals under load and at rest.
+    """``(s_load, s_own, s_rest, own_informed)``, each ``(6F,)``: factors on each row's variance so that ±1.96 σ holds
+    95 % of its training residuals under load (``coef[0]``'s, where the face reads no load of its own,
+    and ``coef[1]``'s, where it does and carries: ``b["own"]``) and at rest.
 
     Errors are not Gaussian (nonlinearity, drift): the interval, with the reference's noise
     (``b["vT"]``) added, is scaled to cover 95 % of the rows, weighted as in the reweighting:
@@ -630,19 +727,35 @@ def _coverage_scales(b, coef):
     every weight is 1 (where ``var ≥ 1e-300``): the bin is then that of an order statistic, found
     face by face by a partial sort (:func:`_order_bins`: the same bin, monotone in ``E² / var``).
 
-    ``s_load`` is the loaded samples' (some output face carries a load) if their weights add up to
-    :data:`_MIN_INFORMED` rows and :data:`_MIN_SHARE` of their number; else every sample's (a face
-    that carries on every loaded sample, under a reference noise that swamps its error, learns its
-    scale at rest: ``total``'s connected face on a random linear sensor, 0.3 %, 200-sample tare,
-    weights 9–804 of about 10,000 rows, covered 87.8 % on one axis from its loaded rows, 93.0 % from
-    every row). ``s_rest`` is the samples at rest's, where their weights add up to :data:`_MIN_REST`
-    rows (else ``s_load``): the errors at rest are the gauge noise's, and one scale for both set the
-    intervals at rest by the loaded samples' errors (nonlinear cube, exact reference, ``total``: at
-    rest 100 % on every axis).
+    ``s_load`` is the loaded samples' (some output face carries a load; the face reads none of its
+    own) if their weights add up to :data:`_MIN_INFORMED` rows and :data:`_MIN_SHARE` of their
+    number; else every sample's where it reads none (a face that carries on every loaded sample,
+    under a reference noise that swamps its error, learns its scale at rest: ``total``'s connected
+    face on a random linear sensor, 0.3 %, 200-sample tare, weights 9–804 of about 10,000 rows,
+    covered 87.8 % on one axis from its loaded rows, 93.0 % from every row). ``s_own`` is the samples'
+    where it reads its own, so informed (``own_informed``; else ``s_load``). ``s_rest`` is the samples at rest's, where
+    their weights add up to :data:`_MIN_REST` rows (else ``s_load``): the errors at rest are the gauge
+    noise's, and one scale for both set the intervals at rest by the loaded samples' errors (nonlinear
+    cube, exact reference, ``total``: at rest 100 % on every axis).
     """
     q = _order_bins(b, coef) if b["vT"] is None else None
-    q_load, q_rest = _hist_bins(b, coef) if q is None else q
-    return tuple((q * _Z_WIDTH / 1.959964) ** 2 for q in (q_load, q_rest))
+    q_load, q_own, q_rest, informed = _hist_bins(b, coef) if q is None else q
+    return (*((q * _Z_WIDTH / 1.959964) ** 2 for q in (q_load, q_own, q_rest)), informed)
+
+
+def _support(b) -> np.ndarray:
+    """``(2, F, 5)`` bool: the features that :data:`_MIN_INFORMED` or more samples of each model have (not 0):
+    the crosstalk's (``ρ = 0``), the face's own (``b["own"]``), L only in the first."""
+    phT = b["phT"]
+    if not b["rho"].any():  # one model: every feature as before the split
+        out = np.ones((2,) + phT.shape[:2], dtype=bool)
+        out[1] = False
+        return out
+    nz = (phT != 0).astype(np.float32)  # counts by a product: (F, 5, n) @ (F, n, 2)
+    out = np.matmul(nz, np.stack([~b["rho"], b["own"]], axis=2).astype(np.float32)).transpose(2, 0, 1) >= _MIN_INFORMED
+    out[1, :, 1] = False
+    out[:, :, 0] = True
+    return out
 
 
 def _loaded(b) -> np.ndarray:
@@ -650,17 +763,27 @@ def _loaded(b) -> np.ndarray:
     return b["carr"].any(axis=0)
 
 
+def _classes(b, loaded, cols=slice(None)) -> np.ndarray:
+    """``(3, F, n)`` bool of the samples ``cols``: loaded where the face reads no load of its own, at
+    rest, loaded where it reads its own and carries (``b["own"]``; the crosstalk it reads as its own
+    is in neither)."""
+    ld = loaded[cols]
+    own = b["own"][:, cols] & ld
+    return np.stack([ld & ~b["rho"][:, cols], np.broadcast_to(~ld, own.shape), own])
+
+
 def _hist_bins(b, coef):
-    """``(q_load, q_rest)``, each ``(6F,)``: per row, one more than the first bin of ``|E| / σ`` where
-    the weighted histogram's cumulative share reaches 95 % (see :func:`_coverage_scales`: the loaded
-    samples' where they weigh :data:`_MIN_INFORMED` rows and :data:`_MIN_SHARE` of their number, else
-    every sample's; the samples at rest's where they weigh :data:`_MIN_REST`, else ``q_load``)."""
-    R = 6 * b["ET"].shape[0]
-    hist = np.zeros((2, R * (_Z_N + 1)))  # the loaded samples', the samples at rest's (every sample's: their sum)
+    """``(q_load, q_own, q_rest)``, each ``(6F,)``: per row, one more than the first bin of ``|E| / σ``
+    where the weighted histogram's cumulative share reaches 95 % (see :func:`_coverage_scales`: each
+    class's where it weighs :data:`_MIN_INFORMED` rows and :data:`_MIN_SHARE` of its number, else the
+    fallback named there; the samples at rest's where they weigh :data:`_MIN_REST`, else ``q_load``)."""
+    F = b["ET"].shape[0]
+    R = 6 * F
+    hist = np.zeros((3, R * (_Z_N + 1)))  # per class of _classes
     offset = np.arange(R)[:, None] * (_Z_N + 1)
     loaded = _loaded(b)
     for _, c in _chunks(b):
-        var = _variances(c["phT"], coef).reshape(R, -1)  # (6F, n)
+        var = _variances(c["phT"], coef, rho=c["rho"]).reshape(R, -1)  # (6F, n)
         v_ref = c["vT"] if b["vT"] is None else c["vT"].reshape(R, -1)
         w = np.maximum(var + v_ref, 1e-300)
         np.divide(var, w, out=w)
@@ -674,14 +797,17 @@ def _hist_bins(b, coef):
         z /= np.maximum(var, 1e-300, out=var)
         bins = _z_bins(z)
         bins += offset
-        ld = loaded[c["cols"]]
-        hist[0] += np.bincount(bins.ravel(), weights=(w * ld).ravel(), minlength=hist.shape[1])
-        hist[1] += np.bincount(bins.ravel(), weights=(w * ~ld).ravel(), minlength=hist.shape[1])
-    hist = hist.reshape(2, R, _Z_N + 1)
-    w_sum = hist.sum(axis=2, keepdims=True)
-    informed = (w_sum[0] >= _MIN_INFORMED) & (w_sum[0] >= _MIN_SHARE * np.count_nonzero(loaded))
-    q_load = _first_bin(np.where(informed, hist[0], hist[0] + hist[1]))
-    return q_load, np.where(w_sum[1, :, 0] >= _MIN_REST, _first_bin(hist[1]), q_load)
+        for i, cls in enumerate(_classes(b, loaded, c["cols"])):
+            if i == 2 and not cls.any():  # no face reads a load of its own here
+                continue
+            hist[i] += np.bincount(bins.ravel(), weights=(w * np.repeat(cls, 6, axis=0)).ravel(), minlength=hist.shape[1])
+    hist = hist.reshape(3, R, _Z_N + 1)
+    w_sum = hist.sum(axis=2)
+    n_cls = np.repeat(_classes(b, loaded).sum(axis=2), 6, axis=1)  # (3, 6F)
+    informed = (w_sum >= _MIN_INFORMED) & (w_sum >= _MIN_SHARE * n_cls)
+    q_load = _first_bin(np.where(informed[0][:, None], hist[0], hist[0] + hist[1]))
+    q_own = np.where(informed[2], _first_bin(hist[2]), q_load)
+    return q_load, q_own, np.where(w_sum[1] >= _MIN_REST, _first_bin(hist[1]), q_load), informed[2]
 
 
 def _first_bin(hist) -> np.ndarray:
@@ -700,32 +826,43 @@ def _z_bins(z2) -> np.ndarray:
 
 def _order_bins(b, coef):
     """:func:`_hist_bins` with every weight 1 (an exact reference; None where some ``var < 1e-300``
-    gives a weight below 1): ``(q_load, q_rest)``, per row the bin of the ``m``-th smallest
-    ``z² = E² / var`` of the loaded samples (every sample's with fewer than :data:`_MIN_INFORMED`)
-    and of the samples at rest (``q_load`` with fewer than :data:`_MIN_REST`), ``m`` the least count
-    whose share ``m / n`` (as the histogram computes it) reaches 95 %. Face by face, each over all its
-    samples at once (in chunks, 6.7 of a fit's 81 ms)."""
+    gives a weight below 1): ``(q_load, q_own, q_rest)``, per row the bin of the ``m``-th smallest
+    ``z² = E² / var`` of each class's samples (with the fallbacks of :func:`_coverage_scales`), ``m``
+    the least count whose share ``m / n`` (as the histogram computes it) reaches 95 %. Face by face,
+    each over all its samples at once (in chunks, 6.7 of a fit's 81 ms)."""
     F, _, n = b["ET"].shape
     loaded = _loaded(b)
-    uses = [loaded if loaded.sum() >= _MIN_INFORMED else np.ones_like(loaded)]
-    if (~loaded).sum() >= _MIN_REST:
-        uses.append(~loaded)
-    if uses[0].sum() == 0:
-        return None
-    C = coef.reshape(F, 6, N_FEATURES)
-    out = np.empty((len(uses), F, 6), dtype=np.int64)
-    z2, counts = np.empty((6, n)), [int(use.sum()) for use in uses]
+    rest = ~loaded
+    n_rest = int(rest.sum())
+    C = coef.reshape(2, F, 6, N_FEATURES)
+    out = np.empty((3, F, 6), dtype=np.int64)
+    z2 = np.empty((6, n))
     for f in range(F):  # a face at a time: the working memory of one face's rows
-        var = C[f] @ b["phT"][f]  # (6, n)
+        var = C[0, f] @ b["phT"][f]  # (6, n)
+        rho = b["rho"][f]
+        split = rho.any()
+        if split:
+            var[:, rho] = C[1, f] @ b["phT"][f][:, rho]
         if not np.all(var >= 1e-300):
+            return None
+        other = loaded & ~rho if split else loaded
+        own = loaded & b["own"][f] if split else None
+        uses = [other if other.sum() >= _MIN_INFORMED else other | rest,
+                own if split and own.sum() >= _MIN_INFORMED else None,
+                rest if n_rest >= _MIN_REST else None]
+        if uses[0].sum() == 0:
             return None
         np.multiply(b["ET"][f], b["ET"][f], out=z2)
         z2 /= var
-        for i, (use, k) in enumerate(zip(uses, counts)):
+        for i, use in enumerate(uses):
+            if use is None:
+                out[i, f] = out[0, f]
+                continue
+            k = int(use.sum())
             m = _order_count(k)
             out[i, f] = _z_bins(np.partition(z2[:, use] if k < n else z2, m - 1, axis=1)[:, m - 1]) + 1
-    q = out.reshape(len(uses), -1)
-    return q[0], q[-1]
+    q = out.reshape(3, -1)
+    return q[0], q[1], q[2], np.ones(q.shape[1], dtype=bool)
 
 
 def _order_count(n) -> int:
@@ -751,9 +888,10 @@ def _predict(cal, x):
     return xC, (xC if cal.correction is None else xC + cal.correction(x))
 
 
-def _features(cal, x, idx, xA=None, carries=None, unloaded=None) -> np.ndarray:
-    """``load_features`` of the output faces ``idx`` (0-based) for offset-free counts ``x (n, 36)``: (n, F, 5)
-    (the faces without output count 0 in ``q_other``, as NaN faces there). ``xA`` (overwritten), if
+def _features(cal, x, idx, xA=None, carries=None, unloaded=None):
+    """``(phi, q)``: ``load_features`` of the output faces ``idx`` (0-based) for offset-free counts ``x (n, 36)``:
+    (n, F, 5) (the faces without output count 0 in ``q_other``, as NaN faces there), and each face's ``q (n, F)``
+    as read in use (not masked by ``carries``; 0 where ``unloaded``). ``xA`` (overwritten), if
     given, is the product ``x Aᵀ`` of the output faces' maps ``A`` (the matrix itself in the face frame).
 
     ``carries (n, F)``, if given: a face where it is False counts 0. Where a face carries nothing
@@ -776,14 +914,15 @@ def _features(cal, x, idx, xA=None, carries=None, unloaded=None) -> np.ndarray:
         xA = x @ A.T
     np.multiply(xA, xA, out=xA)
     q = xA @ np.kron(np.eye(len(idx)), FULL_SCALE[:, None] ** -2.0)  # Σ (w / FS)² per face: one product, 4× an einsum
-    if carries is not None:
-        q *= carries
     if unloaded is not None:
         q[unloaded] = 0.0
+    q_use = q.copy()
+    if carries is not None:
+        q *= carries
     phi = q_features(q)
     if unloaded is not None:
         phi[..., 1] = ~unloaded[:, None]
-    return phi
+    return phi, q_use
 
 
 def _corrected_rows(cal, by_face: bool = False) -> np.ndarray:

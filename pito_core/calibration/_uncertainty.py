@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 __all__ = ["CovarianceGroup", "PolyReferenceBlock", "CalibrationCovariance", "load_features", "q_features", "N_FEATURES",
-           "LOAD_Q", "upgraded_variance_coef",
+           "LOAD_Q", "upgraded_variance_coef", "own_load",
            "FULL_SCALE"]
 
 #: Full-scale loads that make a wrench dimensionless, ``[fx … tz]`` in N and N·m.
@@ -51,10 +51,16 @@ def load_features(face_wrenches: np.ndarray) -> np.ndarray:
 
     ``q = Σ (w / FULL_SCALE)²`` of the face's own predicted wrench (NaN faces count 0),
     ``q_other`` the sum of the other faces' ``q``, ``L = 1 − exp(−((q + q_other) / LOAD_Q)³)``: 0 at
-    rest, 1 under load (the error a load brings whatever its size is not the error at rest).
+    rest, 1 under load (the error a load brings whatever its size is not the error at rest); the last
+    three times ``L`` (0 at rest, as the training samples at rest have them).
     """
     u = np.nan_to_num(face_wrenches / FULL_SCALE)
-    return q_features(np.einsum("nfi,nfi->nf", u, u))
+    phi = q_features(np.einsum("nfi,nfi->nf", u, u))
+    # the load terms are the load's, as in training, where the samples at rest have q 0: at rest after a tare
+    # the predicted wrench is the gauge noise, and a q term fitted where a face's q is its crosstalk error
+    # (q = E²) read it as that much error again (face_to_face, nonlinear cube: intervals at rest covering 98 %)
+    phi[..., 2:] *= phi[..., 1:2]
+    return phi
 
 
 def q_features(q: np.ndarray) -> np.ndarray:
@@ -67,6 +73,15 @@ def q_features(q: np.ndarray) -> np.ndarray:
     out[..., 3] = q * q
     out[..., 4] = total - q
     return out
+
+
+def own_load(q, own_q, L=1.0) -> np.ndarray:
+    """Whether each face reads a load of its own: 1 where its ``q (..., F)`` reaches ``own_q (F,)`` (what
+    its crosstalk reached in training: :func:`pito_core.calibration._residuals.own_q`), else 0; times
+    the load indicator ``L`` (0 at rest). A switch, not a blend: a variance between the two models' is
+    the rarer one's where they differ by orders (``face_to_face``, linear cube: at ``ρ = 0.94`` the
+    crosstalk model's share was 10⁴ × the face's own error)."""
+    return (np.asarray(q) >= own_q) * np.asarray(L, dtype=float)
 
 
 def upgraded_variance_coef(coef: np.ndarray) -> np.ndarray:
@@ -285,6 +300,14 @@ class CalibrationCovariance:
         residual at rest, less the reference's noise through the offset), output units². The error
         model is of a tared calibration; this is added where the fitted offset is in use (zeros for
         older files, whose ``variance_coef`` holds it).
+    own_variance_coef : ndarray, shape (6F, 5)
+        The same as ``variance_coef`` where the face reads a load of its own (:func:`own_load`):
+        a face's error where it carries is not its error where another face does, whatever one
+        model of both gives them (``face_to_face``, linear cube: intervals 18× the error where
+        the face carried, right where it did not). Files before version 5: ``variance_coef``.
+    own_q : ndarray, shape (F,)
+        Per output face, the ``q`` from which :func:`own_load` reads it as its own (``inf``: one
+        model, files before version 5).
     """
 
     groups: list = field(default_factory=list)
@@ -295,6 +318,8 @@ class CalibrationCovariance:
     poly_reference: list = field(default_factory=list)
     error_frame: str = "output"
     rest_bias: np.ndarray | None = None
+    own_variance_coef: np.ndarray | None = None
+    own_q: np.ndarray | None = None
 
     def __post_init__(self):
         self.gauge_cov = np.asarray(self.gauge_cov, dtype=float)
@@ -328,16 +353,42 @@ class CalibrationCovariance:
         self.rest_bias = np.zeros(q) if self.rest_bias is None else np.asarray(self.rest_bias, dtype=float)
         if self.rest_bias.shape != (q,) or not np.all(np.isfinite(self.rest_bias)) or np.any(self.rest_bias < 0):
             raise ValueError(f"rest_bias: expected {q} finite non-negative values, got shape {self.rest_bias.shape}")
+        if (self.own_variance_coef is None) != (self.own_q is None):
+            raise ValueError("own_variance_coef, own_q: expected both or neither")
+        if self.own_q is None:  # one model whatever the load (files before version 5)
+            self.own_variance_coef, self.own_q = self.variance_coef, np.full(q // 6, np.inf)
+        self.own_variance_coef = np.asarray(self.own_variance_coef, dtype=float)
+        self.own_q = np.asarray(self.own_q, dtype=float).reshape(-1)
+        c = self.own_variance_coef
+        if c.shape != (q, N_FEATURES) or not np.all(np.isfinite(c)) or np.any(np.delete(c, 1, axis=1) < 0) \
+                or np.any(c[:, 0] + c[:, 1] < 0):
+            raise ValueError(f"own_variance_coef: expected finite values of shape ({q}, {N_FEATURES}), as variance_coef's")
+        if self.own_q.shape != (q // 6,) or np.any(np.isnan(self.own_q)) or np.any(self.own_q <= 0):
+            raise ValueError(f"own_q: expected {q // 6} positive values (inf: none), got {self.own_q!r}")
+
+    def variances(self, feats) -> np.ndarray:
+        """``(N, 6F)`` each row's error variance at the samples' ``load_features`` of its face ``feats (N, F, 5)``:
+        ``variance_coef``'s where the face reads no load of its own, ``own_variance_coef``'s where it does."""
+        F = feats.shape[1]
+        rho = own_load(feats[..., 2], self.own_q, feats[..., 1])  # (N, F)
+        v = np.einsum("nfk,fik->nfi", feats, self.variance_coef.reshape(F, 6, N_FEATURES))
+        v_own = np.einsum("nfk,fik->nfi", feats, self.own_variance_coef.reshape(F, 6, N_FEATURES))
+        return (v + rho[..., None] * (v_own - v)).reshape(-1, 6 * F)
+
+    def _copy(self, **changes) -> "CalibrationCovariance":
+        kw = dict(groups=self.groups, gauge_cov=self.gauge_cov, n_tare=self.n_tare, variance_coef=self.variance_coef,
+                  residual_corr=self.residual_corr, poly_reference=self.poly_reference, error_frame=self.error_frame,
+                  rest_bias=self.rest_bias, own_variance_coef=self.own_variance_coef, own_q=self.own_q)
+        kw.update(changes)
+        return CalibrationCovariance(**kw)
 
     def retared(self, n: int) -> "CalibrationCovariance":
         """The same, for an offset taken as the mean of ``n`` unloaded samples."""
-        return CalibrationCovariance(self.groups, self.gauge_cov, int(n), self.variance_coef, self.residual_corr,
-                                     self.poly_reference, self.error_frame, self.rest_bias)
+        return self._copy(n_tare=int(n))
 
     def linear(self) -> "CalibrationCovariance":
         """The same for the affine rows alone (the papers' linear alternative: no correction's term)."""
-        return CalibrationCovariance(self.groups, self.gauge_cov, self.n_tare, self.variance_coef, self.residual_corr,
-                                     error_frame=self.error_frame, rest_bias=self.rest_bias)
+        return self._copy(poly_reference=[])
 
     def face_covariances(self, counts, offset, apply, face_from_output, output_faces, explicit_offset: bool,
                          poly_z=None):
@@ -385,8 +436,9 @@ class CalibrationCovariance:
                     out[:, face] += X @ T @ X.T
         W = np.einsum("fij,nj->nfi", apply, counts - offset)
         feats = load_features(np.where(np.isin(np.arange(6), np.asarray(output_faces) - 1)[None, :, None], W, np.nan))
+        variances = self.variances(feats[:, np.asarray(output_faces) - 1])
         for k, f in enumerate(output_faces):
-            var = feats[:, f - 1] @ self.variance_coef[6 * k : 6 * k + 6].T  # (N, 6) output frame
+            var = variances[:, 6 * k : 6 * k + 6]  # (N, 6) output frame
             if fitted:  # the fitted offset's own error at rest (the error model is of a tared calibration)
                 var += self.rest_bias[6 * k : 6 * k + 6]
             sd = np.sqrt(np.clip(var, 0, None))

@@ -1,8 +1,8 @@
-"""The calibration file: HDF5, format ``pito-calibration``, version 4 (reads 1 to 4).
+"""The calibration file: HDF5, format ``pito-calibration``, version 5 (reads 1 to 5).
 
 Layout (docs/file-formats.md)::
 
-    /             attrs: format="pito-calibration", version=4, writer, method, output_frame,
+    /             attrs: format="pito-calibration", version=5, writer, method, output_frame,
                          output_faces [..], core_edge (m), meta (JSON text),
                          model (JSON text, version 3: which model and its cross-validated figures)
     /matrix       (6·F, 36) float64: counts → N, N·m
@@ -24,6 +24,8 @@ Layout (docs/file-formats.md)::
                           (versions 2 and 3: (6F, 4) on [1, q, q², q_other], read with L's 0)
         residual_corr     (F, 6, 6) float64: residual correlation between a face's six outputs
         rest_bias         (6F,) float64 (version 4; absent: zeros): the fitted offset's error² at rest
+        own_variance_coef (6F, 5) float64, own_q (F,) float64 (version 5; absent: variance_coef, inf):
+                          the error variance where a face reads a load of its own, and the q where that begins
         p{k}_rows (6,) bool, p{k}_cols (c,) int64, p{k}_leverage (3, c, c), p{k}_reference_cov (6, 6) float64,
                           attrs of p{k}_rows: block (optional, attrs n_poly_reference: a noisy reference
                           and a correction) the reference's noise through the correction's coefficients
@@ -50,10 +52,10 @@ from ._hdf5 import FileFormatError, checked_dataset, json_attr, open_checked, re
 __all__ = ["write_calibration", "read_calibration_fields", "CALIBRATION_FORMAT", "CALIBRATION_VERSION"]
 
 CALIBRATION_FORMAT = "pito-calibration"
-CALIBRATION_VERSION = 4
+CALIBRATION_VERSION = 5
 #: Versions this pito reads (version 1: no covariance; 1 and 2: no model choice; 2 and 3: no
-#: load indicator L in the error model).
-CALIBRATION_READ_VERSIONS = {1, 2, 3, 4}
+#: load indicator L in the error model; 2 to 4: one error model whatever face carries).
+CALIBRATION_READ_VERSIONS = {1, 2, 3, 4, 5}
 _CORRECTION_FIELDS = ("scale", "pairs", "cubes", "coef")
 #: The range the correction was fitted on (optional: older files load without, the plain polynomial).
 _CORRECTION_RANGE = ("lower", "upper")
@@ -102,6 +104,9 @@ def write_calibration(path, cal) -> None:
             checked_dataset(g, "residual_corr", data=cov.residual_corr)
             if getattr(cov, "rest_bias", None) is not None:
                 checked_dataset(g, "rest_bias", data=cov.rest_bias)
+            for name in ("own_variance_coef", "own_q"):
+                if getattr(cov, name, None) is not None:
+                    checked_dataset(g, name, data=getattr(cov, name))
             if getattr(cov, "error_frame", "output") != "output":
                 g.attrs["error_frame"] = cov.error_frame
             blocks = getattr(cov, "poly_reference", None) or []
@@ -122,7 +127,8 @@ def read_calibration_fields(path) -> dict:
     ``matrix`` (M, 36), ``output_faces``, ``output_frame``, ``offset`` (36,) counts,
     ``core_edge`` m, ``T_core_ati`` (4, 4), ``meta``), ``model`` (dict or None), ``correction``
     (dict of ``scale``, ``pairs``, ``cubes``, ``coef``, or None) and ``covariance``: ``None`` or a dict
-    (``groups``: list of dicts, ``gauge_cov``, ``n_tare``, ``variance_coef``, ``residual_corr``, ``rest_bias`` (or None),
+    (``groups``: list of dicts, ``gauge_cov``, ``n_tare``, ``variance_coef``, ``residual_corr``, ``rest_bias``,
+    ``own_variance_coef``, ``own_q`` (each or None),
     ``poly_reference``: list of dicts).
     The objects are built by ``pito_core.calibration.load_calibration`` (io never imports calibration).
     """
@@ -183,6 +189,7 @@ def _read_covariance(f, path) -> dict:
         "variance_coef": np.asarray(require(g, "variance_coef", path)[()]),
         "residual_corr": np.asarray(require(g, "residual_corr", path)[()]),
         "rest_bias": np.asarray(g["rest_bias"][()]) if "rest_bias" in g else None,
+        **{name: np.asarray(g[name][()]) if name in g else None for name in ("own_variance_coef", "own_q")},
     }
 
 

@@ -61,17 +61,30 @@ def test_covariance_round_trips_and_version_1_files_still_load(tmp_path):
     path = tmp_path / "c.pitocal"
     cal.save(path)
     with h5py.File(path) as f:
-        assert int(f.attrs["version"]) == 4 and "covariance" in f
+        assert int(f.attrs["version"]) == 5 and "covariance" in f
     back = load_calibration(path)
     x = np.random.default_rng(0).normal(size=(5, 36)) * 1e3 + cal.offset
     for a, b in zip(back.wrenches(x, return_cov=True), cal.wrenches(x, return_cov=True)):
         np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(back.covariance.own_q, cal.covariance.own_q)
+    np.testing.assert_array_equal(back.covariance.own_variance_coef, cal.covariance.own_variance_coef)
+    # a version-4 file: one error model whatever face carries
+    v4 = tmp_path / "v4.pitocal"
+    cal.save(v4)
+    with h5py.File(v4, "a") as f:
+        del f["covariance/own_variance_coef"], f["covariance/own_q"]
+        f.attrs["version"] = 4
+        seal(f)
+    old4 = load_calibration(v4)
+    np.testing.assert_array_equal(old4.covariance.own_variance_coef, cal.covariance.variance_coef)
+    assert np.all(old4.covariance.own_q == np.inf)
+    assert np.isfinite(old4.wrenches(x, return_cov=True)[1][:, [f - 1 for f in cal.output_faces]]).all()
     # a version-3 file: the error model on [1, q, q², q_other], read with the load indicator L's 0
     v3 = tmp_path / "v3.pitocal"
     cal.save(v3)
     with h5py.File(v3, "a") as f:
         coef4 = np.delete(f["covariance/variance_coef"][()], 1, axis=1)
-        del f["covariance/variance_coef"]
+        del f["covariance/variance_coef"], f["covariance/own_variance_coef"], f["covariance/own_q"]
         f["covariance"].create_dataset("variance_coef", data=coef4)
         f.attrs["version"] = 3
         seal(f)
@@ -310,7 +323,7 @@ def test_a_corrected_row_keeps_a_load_term_the_significance_test_would_drop():
 @pytest.mark.parametrize("n", [1, 20, 100, 2000, 5001])
 def test_the_coverage_bin_by_partial_sort_is_the_histograms(n):
     """An exact reference (every weight 1): the order statistic gives the histogram's 95 % bin,
-    under load and at rest."""
+    under load, where a face reads a load of its own (its own model's) and at rest."""
     from pito_core.calibration._residuals import _Z_WIDTH, _coverage_scales, _hist_bins, _order_bins
 
     rng = np.random.default_rng(n)
@@ -319,17 +332,24 @@ def test_the_coverage_bin_by_partial_sort_is_the_histograms(n):
     phT[:, 1:] = rng.uniform(0, 2, size=(F, N_FEATURES - 1, n))
     ET = (rng.standard_t(3, size=(F, 6, n)) * rng.uniform(0.5, 2, size=(F, 6, 1))).astype(np.float32)
     ET[0, 0, : n // 2] = 0.0  # ties
-    b = dict(ET=ET, phT=phT, carr=np.ones((F, n), dtype=bool), vT=None, sessions=[(0, slice(0, n))])
-    coef = rng.uniform(0.1, 1.0, size=(6 * F, N_FEATURES))
+    none = np.zeros((F, n), dtype=bool)
+    b = dict(ET=ET, phT=phT, carr=np.ones((F, n), dtype=bool), vT=None, sessions=[(0, slice(0, n))], rho=none, own=none)
+    coef = np.stack([rng.uniform(0.1, 1.0, size=(6 * F, N_FEATURES))] * 2)
 
     def by_histogram(b, coef):  # the scales the weighted histogram gives (a noisy reference's route)
-        return tuple((q * _Z_WIDTH / 1.959964) ** 2 for q in _hist_bins(b, coef))
+        return tuple((q * _Z_WIDTH / 1.959964) ** 2 for q in _hist_bins(b, coef)[:3])
 
-    np.testing.assert_array_equal(_coverage_scales(b, coef), by_histogram(b, coef))
+    np.testing.assert_array_equal(_coverage_scales(b, coef)[:3], by_histogram(b, coef))
     b["carr"] = np.zeros((F, n), dtype=bool)
     b["carr"][1, ::3] = True  # a third loaded: those alone where they are 400 or more, else all; the rest at rest
-    np.testing.assert_array_equal(_coverage_scales(b, coef), by_histogram(b, coef))
-    coef[0] = 0.0  # a row of zero variance: weights below 1, the histogram's
+    np.testing.assert_array_equal(_coverage_scales(b, coef)[:3], by_histogram(b, coef))
+    b["carr"][:, ::2] = True  # face 2 reads a load of its own on half its loaded samples, by its own model
+    b["rho"] = np.zeros((F, n), dtype=bool)
+    b["rho"][1, ::4] = True
+    b["own"] = b["rho"] & b["carr"]
+    coef[1] *= rng.uniform(0.5, 2.0, size=coef[1].shape)
+    np.testing.assert_array_equal(_coverage_scales(b, coef)[:3], by_histogram(b, coef))
+    coef[:, 0] = 0.0  # a row of zero variance: weights below 1, the histogram's
     assert _order_bins(b, coef) is None
 
 
@@ -360,8 +380,9 @@ def test_the_coverage_scale_is_the_loaded_samples_where_they_inform_it(noisy):
         vT = np.zeros((F, 6, n), dtype=np.float32)
         vT[1, :, n_rest:] = 3.0
         ET[1, :, n_rest:] = rng.normal(scale=2.0, size=(6, n_load))
-    b = dict(ET=ET, phT=phT, carr=carr, vT=vT, sessions=[(0, slice(0, n))])
-    s, s_rest = _coverage_scales(b, coef)
+    b = dict(ET=ET, phT=phT, carr=carr, vT=vT, sessions=[(0, slice(0, n))], rho=np.zeros((F, n), dtype=bool))
+    b["own"] = b["rho"]
+    s, _, s_rest, _ = _coverage_scales(b, np.stack([coef, coef]))
     np.testing.assert_allclose(s[:6], 1.0, atol=0.12)  # the loaded samples' N(0, 1)
     np.testing.assert_allclose(s_rest, 0.01, rtol=0.12)  # at rest: N(0, 0.1²)
     if noisy:  # every sample's: mostly the rest's 0.1² (the loaded ones weigh 500 of 5500)
@@ -542,3 +563,58 @@ def test_the_reference_term_leaves_out_what_the_gauge_noise_brings():
         hits = hits + _coverage(cal, test.counts[rest[1000:]], test.true_face_wrenches[rest[1000:]])
     cover = hits / 4
     assert 0.93 <= cover.min() and cover.max() <= 0.97, cover
+
+
+@pytest.mark.parametrize("reference_noise", [0.0, 0.0033])
+def test_where_a_face_carries_its_interval_is_of_its_own_error(reference_noise):
+    """``face_to_face`` fits each face on its own rows: where another face carries, its reading is
+    crosstalk its fit never saw, and its error the crosstalk itself (``q = E²``). One error model of
+    both read that identity at the face's own full load: on a linear cube with an exact reference its
+    intervals covered 100.0 % on every axis where the face carried (``e²/var`` 0.003: 18× the error),
+    95 % pooled over all rows. Now a face's own load has its own model (``own_q``).
+
+    ``gen.py`` cube, later session (1000 samples per face), coverage on the rows where the face
+    carries, per face and axis: exact reference, one calibration, 93–97 %. With 0.33 % reference
+    noise (the wizard's limit) its variance is 2000× the face's own error on this linear cube: there
+    ``E² − v`` cannot tell that error from the gauge noise (on one axis it was 60× the floor and went
+    unseen: 84 % coverage), so each face keeps one model, wide where it carries but not short.
+    """
+    seed, face = 1, 3
+    K = true_sensitivity(seed, coupling=0.05)
+    kw = dict(CASES["face_to_face"], connected_face=face, noise=2.0, counts_dtype=float, n_unloaded=2000)
+    test = make_session(K, k=1000, seed=seed + 1000, **kw)
+    loaded = test.loaded.any(axis=1)
+    truth = test.true_face_wrenches[loaded]
+    carries = np.abs(truth).max(axis=2) > 0  # (n, 6)
+    train = make_session(K, k=2000, seed=seed + 1, reference_noise=reference_noise, **kw)
+    cal = calibrate(train, "face_to_face", model="linear").tare(test.counts[~loaded])
+    W, cov = cal.wrenches(test.counts[loaded], return_cov=True)
+    h = np.abs(W - truth) <= 1.959964 * np.sqrt(np.diagonal(cov, axis1=-2, axis2=-1))
+    cover = (h & carries[:, :, None]).sum(axis=0) / carries.sum(axis=0)[:, None]
+    if reference_noise == 0:
+        assert np.isfinite(cal.covariance.own_q).all()  # every face has a model of its own
+        assert 0.93 <= cover.min() and cover.max() <= 0.97, cover
+    else:
+        assert np.all(cal.covariance.own_q == np.inf)
+        assert cover.min() >= 0.97, cover
+    pooled = h[:, cal.has_output].mean(axis=0)
+    assert 0.93 <= pooled.min() and pooled.max() <= 0.97, pooled
+
+
+def test_own_q_is_where_the_crosstalk_ends():
+    """A face reads a load of its own from the 99.5th percentile of the ``q`` its crosstalk reached
+    (the loaded samples where it carried nothing); with fewer than 400 samples on either side, never."""
+    from pito_core.calibration._residuals import own_q
+
+    rng = np.random.default_rng(0)
+    n = 6000
+    carries = np.zeros((n, 3), dtype=bool)
+    carries[:2000, 0] = carries[2000:4000, 1] = True
+    carries[:, 2] = rng.random(n) < 0.99  # face 3 carries on almost every sample: 60 of crosstalk
+    q = np.where(carries, rng.uniform(0.5, 2.0, (n, 3)), rng.uniform(0.0, 0.01, (n, 3)))
+    loaded = np.ones(n, dtype=bool)
+    q0 = own_q([q[:3000], q[3000:]], [carries[:3000], carries[3000:]], [loaded[:3000], loaded[3000:]])
+    cross = np.sort(q[~carries[:, 0], 0])
+    assert cross[int(0.995 * cross.size) - 1] <= q0[0] <= cross[-1]
+    assert 0.009 < q0[1] < 0.01 and q0[2] == np.inf
+    assert np.all(own_q([q], [carries], [loaded], faces=np.array([False, True, True]))[[0, 2]] == np.inf)
