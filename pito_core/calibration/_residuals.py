@@ -279,6 +279,7 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     # of it) is read by it in use, but its errors set a fit of the face's own (face_to_face, linear cube:
     # its q_other term 10⁴ × the error where the face carried)
     b["own"] = b["rho"] & b["carr"]
+    b["split"] = bool(b["rho"].any())
     b["support"] = _support(b)
     first = coef.copy()
     while True:
@@ -298,6 +299,7 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
             break
         q_own[swamped] = np.inf
         b["rho"][swamped] = b["own"][swamped] = False
+        b["split"] = bool(b["rho"].any())
         b["support"] = _support(b)
         coef = first.copy()
     c0 = coef[0, :, 0].copy()  # at rest (L = 0) the constant alone: its own scale there, the loaded one at L = 1
@@ -547,7 +549,7 @@ def _chunks(b, floor=None):
     for j, sl in b["sessions"]:
         for s in _slices(sl):
             c = dict(ET=b["ET"][:, :, s], phT=b["phT"][:, :, s], carr=b["carr"][:, s],
-                     vT=0.0 if b["vT"] is None else b["vT"][:, :, s], cols=s, rho=b["rho"][:, s] if b["rho"].any() else None,
+                     vT=0.0 if b["vT"] is None else b["vT"][:, :, s], cols=s, rho=b["rho"][:, s] if b["split"] else None,
                      own=b["own"][:, s])
             if floor is not None:
                 E2 = c["ET"] * c["ET"]
@@ -574,9 +576,7 @@ def _variances(phT, coef, floor=None, out=None, rho=None) -> np.ndarray:
         C[..., 0] += floor.reshape(F, 6)  # φ_0 = 1
     var = np.matmul(C[0], phT, out=out)
     if rho is not None and (C[1] != C[0]).any():  # (coef[1] is coef[0] for the faces of one model)
-        for f in np.flatnonzero(rho.any(axis=1)):  # the few samples of each face's own: not a product of all
-            r = rho[f]
-            var[f][:, r] = C[1, f] @ phT[f][:, r]
+        np.copyto(var, np.matmul(C[1], phT), where=rho[:, None, :])
     return var if floor is None else np.maximum(var, 0, out=var)
 
 
@@ -588,7 +588,7 @@ def _weighted_sums(b, coef, floor, n_s, noisy) -> np.ndarray:
     reads no load of its own, its last 15 where it does and carries, else ``m = 1``."""
     F = b["ET"].shape[0]
     P = len(_PAIRS[0])
-    split = b["rho"].any()
+    split = b["split"]
     M = np.zeros((n_s, F, 18, (1 + split) * P))
     for j, c in _chunks(b, floor):
         n = c["ET"].shape[2]
@@ -611,9 +611,11 @@ def _weighted_sums(b, coef, floor, n_s, noisy) -> np.ndarray:
         if split:  # each face's own model: its few samples (the crosstalk's: the rest), not a product of all
             S = np.concatenate([S, np.zeros_like(S)], axis=2)
             for f in np.flatnonzero(c["rho"].any(axis=1)):
-                r, o = c["rho"][f], c["own"][f]
-                S[f, :, :P] -= L[f][:, r] @ PP[f][:, r].T
+                o, x = c["own"][f], c["rho"][f] & ~c["carr"][f]  # its own samples; the crosstalk it reads as its own
                 S[f, :, P:] = L[f][:, o] @ PP[f][:, o].T
+                S[f, :, :P] -= S[f, :, P:]
+                if x.any():
+                    S[f, :, :P] -= L[f][:, x] @ PP[f][:, x].T
         if noisy:
             M[j] += S
         else:
@@ -747,7 +749,7 @@ def _support(b) -> np.ndarray:
     """``(2, F, 5)`` bool: the features that :data:`_MIN_INFORMED` or more samples of each model have (not 0):
     the crosstalk's (``ρ = 0``), the face's own (``b["own"]``), L only in the first."""
     phT = b["phT"]
-    if not b["rho"].any():  # one model: every feature as before the split
+    if not b["split"]:  # one model: every feature as before the split
         out = np.ones((2,) + phT.shape[:2], dtype=bool)
         out[1] = False
         return out

@@ -333,7 +333,8 @@ def test_the_coverage_bin_by_partial_sort_is_the_histograms(n):
     ET = (rng.standard_t(3, size=(F, 6, n)) * rng.uniform(0.5, 2, size=(F, 6, 1))).astype(np.float32)
     ET[0, 0, : n // 2] = 0.0  # ties
     none = np.zeros((F, n), dtype=bool)
-    b = dict(ET=ET, phT=phT, carr=np.ones((F, n), dtype=bool), vT=None, sessions=[(0, slice(0, n))], rho=none, own=none)
+    b = dict(ET=ET, phT=phT, carr=np.ones((F, n), dtype=bool), vT=None, sessions=[(0, slice(0, n))], rho=none, own=none,
+             split=False)
     coef = np.stack([rng.uniform(0.1, 1.0, size=(6 * F, N_FEATURES))] * 2)
 
     def by_histogram(b, coef):  # the scales the weighted histogram gives (a noisy reference's route)
@@ -346,7 +347,7 @@ def test_the_coverage_bin_by_partial_sort_is_the_histograms(n):
     b["carr"][:, ::2] = True  # face 2 reads a load of its own on half its loaded samples, by its own model
     b["rho"] = np.zeros((F, n), dtype=bool)
     b["rho"][1, ::4] = True
-    b["own"] = b["rho"] & b["carr"]
+    b["own"], b["split"] = b["rho"] & b["carr"], True
     coef[1] *= rng.uniform(0.5, 2.0, size=coef[1].shape)
     np.testing.assert_array_equal(_coverage_scales(b, coef)[:3], by_histogram(b, coef))
     coef[:, 0] = 0.0  # a row of zero variance: weights below 1, the histogram's
@@ -380,7 +381,7 @@ def test_the_coverage_scale_is_the_loaded_samples_where_they_inform_it(noisy):
         vT = np.zeros((F, 6, n), dtype=np.float32)
         vT[1, :, n_rest:] = 3.0
         ET[1, :, n_rest:] = rng.normal(scale=2.0, size=(6, n_load))
-    b = dict(ET=ET, phT=phT, carr=carr, vT=vT, sessions=[(0, slice(0, n))], rho=np.zeros((F, n), dtype=bool))
+    b = dict(ET=ET, phT=phT, carr=carr, vT=vT, sessions=[(0, slice(0, n))], rho=np.zeros((F, n), dtype=bool), split=False)
     b["own"] = b["rho"]
     s, _, s_rest, _ = _coverage_scales(b, np.stack([coef, coef]))
     np.testing.assert_allclose(s[:6], 1.0, atol=0.12)  # the loaded samples' N(0, 1)
