@@ -11,6 +11,9 @@ so "nominal 95 %" is a statement over calibrations and samples, checked pooled o
 
     PYTHONPATH=. python tests/calibration/coverage_table.py [methods] [lin,nl] [0,0.01,0.03] [linear,auto] [draws] [tare]
 
+Beside the pooled figures, those of the samples where the face carries (the contact's face; 1/6 of
+a face's samples or fewer, so the pooled figure is mostly its crosstalk's).
+
 ``tare``: samples at rest in each training session (default 300; the wizard's default tare is
 2 s, 2000 samples at 1 kHz), from which the reference's noise is known.
 """
@@ -31,13 +34,18 @@ FACE = {"face_to_face": 3, "quasi_total": 2, "total": 6, "loaded_frame": 5, "unl
 
 
 def hits(cal, test):
-    """Samples within the interval per face and axis (NaN where not measured), and the loaded samples."""
+    """Samples within the interval per face and axis (NaN where not measured), the same on the samples
+    where the face carries (its own load: the contact's face), and the numbers of both."""
     loaded = test.loaded.any(axis=1)
     W, cov = cal.wrenches(test.counts[loaded], return_cov=True)
     e = W - test.true_face_wrenches[loaded]
-    h = (np.abs(e) <= 1.959964 * np.sqrt(np.diagonal(cov, axis1=-2, axis2=-1))).sum(axis=0).astype(float)
+    inside = np.abs(e) <= 1.959964 * np.sqrt(np.diagonal(cov, axis1=-2, axis2=-1))
+    carries = np.abs(test.true_face_wrenches[loaded]).max(axis=2) > 0  # (n, 6)
+    h = inside.sum(axis=0).astype(float)
+    hc = (inside & carries[:, :, None]).sum(axis=0).astype(float)
     h[~(cal.coverage.faces & cal.has_output[:, None])] = np.nan
-    return h, loaded.sum()
+    hc[~(cal.coverage.faces & cal.has_output[:, None])] = np.nan
+    return h, loaded.sum(), hc, carries.sum(axis=0)[:, None]
 
 
 def sessions(method, K, kw, seed, k, noise):
@@ -55,16 +63,17 @@ def run(method, cube, noise, model, draws=16, seed=1, k=2000, kt=1000, tare=300)
     if cube == "nl":
         kw["response"] = nonlinear_response(seed, K, FACE[method], 0.08)
     tests = sessions(method, K, kw, seed + 1000, kt, 0.0)
-    H, N, single = 0, 0, []
+    H, N, HC, NC, single = 0, 0, 0, 0, []
     for d in range(draws):
         cal = calibrate(sessions(method, K, kw, seed + 1 + 31 * d, k, noise), method, model=model)
         hh, nn = 0, 0
         for t in tests:
-            h, n = hits(cal.tare(t.counts[~t.loaded.any(axis=1)]), t)
-            hh, nn = hh + h, nn + n
+            h, n, hc, nc = hits(cal.tare(t.counts[~t.loaded.any(axis=1)]), t)
+            hh, nn, HC, NC = hh + h, nn + n, HC + hc, NC + nc
         single.append(hh / nn)
         H, N = H + hh, N + nn
-    return H / N, np.array(single), N
+    with np.errstate(invalid="ignore"):
+        return H / N, np.array(single), N, HC / NC
 
 
 if __name__ == "__main__":
@@ -74,9 +83,9 @@ if __name__ == "__main__":
     noises = [float(x) for x in args[2].split(",")] if args[2] else [0.0, 0.01, 0.03]
     models = args[3].split(",") if args[3] else ["linear", "auto"]
     for method, cube, noise, model in itertools.product(methods, cubes, noises, models):
-        c, s, N = run(method, cube, noise, model, draws=int(args[4] or 16), tare=int(args[5] or 300))
-        v, sv = c[np.isfinite(c)], s[np.isfinite(s)]
-        out = int(((v < 0.93) | (v > 0.97)).sum())
-        print(f"{method:14s} {cube:3s} ref={noise:.2f} {model:6s} n={N:6d} pooled {v.min()*100:5.1f}-{v.max()*100:5.1f} "
-              f"mean {v.mean()*100:5.1f} out of 93-97: {out:2d}/{v.size} | single {sv.min()*100:5.1f}-{sv.max()*100:5.1f}",
-              flush=True)
+        c, s, N, cc = run(method, cube, noise, model, draws=int(args[4] or 16), tare=int(args[5] or 300))
+        v, sv, vc = c[np.isfinite(c)], s[np.isfinite(s)], cc[np.isfinite(cc)]
+        out, out_c = (int(((x < 0.93) | (x > 0.97)).sum()) for x in (v, vc))
+        print(f"{method:14s} {cube:3s} ref={noise:.4f} {model:6s} n={N:6d} pooled {v.min()*100:5.1f}-{v.max()*100:5.1f} "
+              f"mean {v.mean()*100:5.1f} out of 93-97: {out:2d}/{v.size} | single {sv.min()*100:5.1f}-{sv.max()*100:5.1f} "
+              f"| where the face carries {vc.min()*100:5.1f}-{vc.max()*100:5.1f} out {out_c:2d}/{vc.size}", flush=True)
