@@ -117,7 +117,8 @@ def _significant_nnls(PtWP, PtWe, PtWv, rel_var) -> np.ndarray:
         for j, rv in enumerate(rel_var):
             var = var + rv * (Pinv @ (PtWv[j][active] / sc)) ** 2
         z = np.full(active.size, np.inf)
-        z[active] = c[active] * sc / np.maximum(np.sqrt(var), 1e-300)
+        with np.errstate(over="ignore"):  # a term the reference's noise cannot move: z is inf, kept
+            z[active] = c[active] * sc / np.maximum(np.sqrt(var), 1e-300)
         if z.min() >= _SIGNIFICANT:
             break
         active[np.argmin(z)] = False  # the weakest alone: collinear features share what one would show
@@ -179,7 +180,8 @@ def _significant_rows(PtWP, PtWe, PtWv, rel_var, unpruned=None) -> np.ndarray:
         Pinv = np.linalg.pinv(np.where(mm, Gs[t], 0.0), hermitian=True)
         var = sum(rv * np.einsum("rij,rj->ri", Pinv, np.where(active[t], V[t] / sc[t], 0.0)) ** 2
                   for rv, V in zip(rel_var, Vs))  # of the scaled coefficients c · scale
-        z = np.where(active[t], c[t] / np.maximum(np.sqrt(var), 1e-300), np.inf)
+        with np.errstate(over="ignore"):  # a term the reference's noise cannot move: z is inf, kept
+            z = np.where(active[t], c[t] / np.maximum(np.sqrt(var), 1e-300), np.inf)
         weakest = np.argmin(z, axis=1)
         more = z[np.arange(t.size), weakest] < _SIGNIFICANT
         active[t[more], weakest[more]] = False  # the weakest alone: collinear features share what one would show
