@@ -72,15 +72,21 @@ def _reference_cov(mount, ref_cov, output_frame, idx) -> np.ndarray:
 
 def nnls_rows(PtP, Pte2):
     """Per output ``a``, non-negative ``c`` minimising ``‖Φ c − e2‖²`` from ``PtP (..., 5, 5)`` and ``Pte2 (..., 5)``."""
-    scale = np.sqrt(np.clip(np.diag(PtP), 1e-300, None))
+    c = np.zeros(Pte2.size)
+    on = np.diag(PtP) > 0  # a feature 0 on every sample has coefficient 0 (its scale would divide by 10⁻³⁰⁰)
+    if not on.any():
+        return c
+    PtP, Pte2 = PtP[np.ix_(on, on)], Pte2[on]
+    scale = np.sqrt(np.diag(PtP))
     G = PtP / np.outer(scale, scale)
     w, V = np.linalg.eigh(G)
     keep = w > 1e-10 * w[-1]
     if w[-1] <= 0 or not keep.any():
-        return np.zeros(Pte2.size)
+        return c
     R = (V[:, keep] * np.sqrt(w[keep])).T  # G = Rᵀ R
     rhs = (V[:, keep].T @ (Pte2 / scale)) / np.sqrt(w[keep])
-    return scipy.optimize.nnls(R, rhs)[0] / scale
+    c[on] = scipy.optimize.nnls(R, rhs)[0] / scale
+    return c
 
 
 def _significant_nnls(PtWP, PtWe, PtWv, rel_var) -> np.ndarray:
@@ -425,7 +431,12 @@ def _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups, block_
             # in the face frame, the faces' wrenches are the matrix's rows: the product is reused (and consumed)
             # with a noisy reference, a face of a joint fit has no load where it carries nothing (see _features)
             unloaded = (b.loaded[usable].view(np.uint8) @ np.ones(6, np.uint8)) == 0  # ~any(axis=1), 4× faster
-            phi, q = _features(cal, x, idx, xC if cal.output_frame == "face" else None,
+            # the features at the offset a tare sets, as the residuals are (_retared) and as in use: at the fitted
+            # offset of a nonlinear cube's linear fit the crosstalk's q held the bias at rest (face_to_face, exact
+            # reference: the crosstalk's intervals 94.0–99.2 % with a model of its own)
+            shift = tare_means[j] - o
+            xA = xC - shift @ cal.matrix.T if cal.output_frame == "face" else None
+            phi, q = _features(cal, x - shift, idx, xA,
                                None if lev is None else carries[usable][:, idx] | keep_q, unloaded)  # (n, F, 5)
             qraw.append(q)
             kept.append((E.reshape(-1, 6 * F).astype(np.float32), phi.astype(np.float32), carries[usable][:, idx], j))
