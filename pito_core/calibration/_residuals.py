@@ -19,7 +19,7 @@ import scipy.optimize
 from ..io import SessionBlock
 from ._reference_noise import ReferenceLeverage, is_range
 from ._targets import block_targets
-from ._uncertainty import FULL_SCALE, N_FEATURES, q_features
+from ._uncertainty import FULL_SCALE, N_FEATURES, own_load, q_features
 
 __all__ = ["fit_error_model", "own_q", "N_CLUSTERS"]
 
@@ -278,17 +278,11 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     rel_var = [0.0 if n is None else 2.0 / max(n - 1, 1) for n in (ref_n or [None] * len(sessions))]
     b = _stacked(kept, vdiag, F, noisy)
     b["unpruned"] = _corrected_rows(cal, X is not None)
-    # (F, n) bool, where each face reads a load of its own (_uncertainty.own_load; in training L is the loaded flag)
-    b["rho"] = np.zeros(b["carr"].shape, dtype=bool)
-    if np.isfinite(q_own).any():
-        b["rho"] = (np.concatenate(qraw).T >= q_own[:, None]) & (np.concatenate([k[1][:, 0, 1] for k in kept]) > 0)
+    rho = np.zeros(b["carr"].shape, dtype=bool)
+    if np.isfinite(q_own).any():  # in training L is the loaded flag
+        rho = own_load(np.concatenate(qraw).T, q_own[:, None], np.concatenate([k[1][:, 0, 1] for k in kept])) > 0
     del qraw
-    # the own model learns from the samples where the face carries: the crosstalk that reaches own_q (0.5 %
-    # of it) is read by it in use, but its errors set a fit of the face's own (face_to_face, linear cube:
-    # its q_other term 10⁴ × the error where the face carried)
-    b["own"] = b["rho"] & b["carr"]
-    b["split"] = bool(b["rho"].any())
-    b["support"] = _support(b)
+    _set_own_samples(b, rho)
     first = coef.copy()
     while True:
         for _ in range(_REWEIGHT - 1 if noisy else 1):  # exact reference: the weights do not change
@@ -306,9 +300,8 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
         if not swamped.any():
             break
         q_own[swamped] = np.inf
-        b["rho"][swamped] = b["own"][swamped] = False
-        b["split"] = bool(b["rho"].any())
-        b["support"] = _support(b)
+        rho[swamped] = False
+        _set_own_samples(b, rho)
         coef = first.copy()
     c0 = coef[0, :, 0].copy()  # at rest (L = 0) the constant alone: its own scale there, the loaded one at L = 1
     coef[0] *= s_load[:, None]
@@ -327,6 +320,18 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     off_var = lev.offset_var(F, X) if noisy else [0.0] * len(sessions)
     rest_bias = np.mean([np.maximum(m * m - v, 0.0) for m, v in zip(rest_means, off_var)], axis=0)
     return coef, q_own, corr, poly_ref, "output" if X is None else "face", rest_bias
+
+
+def _set_own_samples(b, rho) -> None:
+    """Set ``b["rho"]`` (``(F, n)`` bool: where each face reads a load of its own, :func:`own_load`) and
+    what follows from it: ``b["own"]``, those where it also carries (the own model learns from them: the
+    crosstalk that reaches ``own_q``, 0.5 % of it, is read by it in use, but its errors set a fit of the
+    face's own, ``face_to_face``, linear cube: its ``q_other`` term 10⁴ × the error where the face
+    carried), ``b["split"]`` (some face has a model of its own) and ``b["support"]``."""
+    b["rho"] = rho
+    b["own"] = rho & b["carr"]
+    b["split"] = bool(rho.any())
+    b["support"] = _support(b)
 
 
 def own_q(qraw, carries, loaded, faces=None) -> np.ndarray:
