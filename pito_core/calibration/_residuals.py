@@ -613,12 +613,17 @@ def _chunks(b, floor=None):
                      vT=0.0 if b["vT"] is None else b["vT"][:, :, s], cols=s, rho=b["rho"][:, s] if b["split"] else None,
                      own=b["own"][:, s])
             if floor is not None:
-                E2 = c["ET"] * c["ET"]
-                if b["vT"] is not None:  # else 0: no pass
-                    E2 -= c["vT"]
-                E2 -= floor.reshape(F, 6, 1)
-                c["E2T"] = E2
+                c["E2T"] = _squares_less(c, floor)
             yield j, c
+
+
+def _squares_less(c, floor, out=None) -> np.ndarray:
+    """``E2T (F, 6, n)`` of chunk ``c``: the residuals' squares less the reference's variance and ``floor (6F,)``."""
+    E2 = np.multiply(c["ET"], c["ET"], out=out)
+    if not np.isscalar(c["vT"]):  # else 0: no pass
+        E2 -= c["vT"]
+    E2 -= floor.reshape(E2.shape[0], 6, 1)
+    return E2
 
 
 def _slices(sl):
@@ -651,23 +656,25 @@ def _weighted_sums(b, coef, floor, n_s, noisy) -> np.ndarray:
     P = len(_PAIRS[0])
     split = b["split"]
     M = np.zeros((n_s, F, 18, (1 + split) * P))
-    for j, c in _chunks(b, floor):
+    # the rows (L) and the products (PP) of every chunk in two buffers, E² − v made in place in L (no chunk's
+    # own arrays, no copy): face_to_face's fit of 10⁵ samples 51.8 against 53.1 ms, the others 0–0.5 % faster
+    Lbuf, PPbuf = np.empty((F, 18 if noisy else 7, _CHUNK)), np.empty((F, P, _CHUNK))
+    for j, c in _chunks(b):
         n = c["ET"].shape[2]
+        L = Lbuf[:, :, :n]
         if noisy:
-            L = np.empty((F, 18, n))
             w = L[:, :6]
             tot = _variances(c["phT"], coef, floor, out=w, rho=c["rho"])  # in place: w = 1 / tot², tot = max(var + v, 1e-300)
             tot += c["vT"]
             np.maximum(tot, 1e-300, out=tot)
             np.multiply(tot, tot, out=w)
             np.divide(1.0, w, out=w)
-            np.multiply(w, c["E2T"], out=L[:, 6:12])
+            np.multiply(w, _squares_less(c, floor, out=L[:, 6:12]), out=L[:, 6:12])
             np.multiply(w, c["vT"], out=L[:, 12:])
         else:  # w = 1: the sums of 1 (one row for the six) and of E² − v
-            L = np.empty((F, 7, n))
             L[:, 0] = 1.0
-            L[:, 1:] = c["E2T"]
-        PP = _feature_products(c["phT"])
+            _squares_less(c, floor, out=L[:, 1:])
+        PP = _feature_products(c["phT"], PPbuf[:, :, :n])
         S = np.matmul(L, PP.transpose(0, 2, 1))
         if split:  # each face's own model: its few samples (the crosstalk's: the rest), not a product of all
             S = np.concatenate([S, np.zeros_like(S)], axis=2)
@@ -685,14 +692,15 @@ def _weighted_sums(b, coef, floor, n_s, noisy) -> np.ndarray:
     return M
 
 
-def _feature_products(phT) -> np.ndarray:
-    """``(F, 15, n)`` the features' distinct products :data:`_PAIRS` at samples ``phT (F, 5, n)``."""
+def _feature_products(phT, out=None) -> np.ndarray:
+    """``(F, 15, n)`` the features' distinct products :data:`_PAIRS` at samples ``phT (F, 5, n)`` (into ``out``)."""
     F, _, n = phT.shape
-    PP = np.empty((F, len(_PAIRS[0]), n))
+    PP = np.empty((F, len(_PAIRS[0]), n)) if out is None else out
     PP[:, :N_FEATURES] = phT  # φ_0 φ_j = φ_j
-    for p, (i, k) in enumerate(zip(*_PAIRS)):
-        if i > 0:
-            np.multiply(phT[:, i], phT[:, k], out=PP[:, p])
+    p = N_FEATURES
+    for i in range(1, N_FEATURES):  # φ_i φ_j, j ≥ i, in one product each (_PAIRS' order): 4 against 10 calls
+        np.multiply(phT[:, i : i + 1], phT[:, i:], out=PP[:, p : p + N_FEATURES - i])
+        p += N_FEATURES - i
     return PP
 
 
