@@ -113,7 +113,7 @@ class GramPass:
         self._one = np.ones(CHUNK)
         self._int_center = [None] * n_int  # c_k in the counts' integer dtype, where c_k is their first sample
         self._xc = [None if c is None else np.r_[0.0, c, np.zeros(6)] for c in self.centers]  # c_k in Z's columns
-        self._G = None
+        self._G = self._GG = None
 
     def add(self, k: int, b, mount, output_frame: str, poly=None, poly_center=None, limits=None):
         """Add block ``b`` of session ``k``; returns ``bad_connected`` (n,): samples loading the
@@ -138,7 +138,7 @@ class GramPass:
             self._cols[k] = [None if c.size == 43 else (f, c, self._xc[k][c])
                              for f, c in (self._group_columns(k, g) for g in range(7))]
             self._Hp[k] = [None if p is None else np.zeros((p[1].size, p[1].size)) for p in self._cols[k]]
-        self._G = None
+        self._G = self._GG = None
         group = load_groups(b.loaded)
         if poly is not None:
             self._add_poly(k, b, mount, output_frame, poly, poly_center)
@@ -285,13 +285,20 @@ class GramPass:
         out = []
         for k, blocks in enumerate(self.sub):
             x, r, ld = (np.concatenate([getattr(b, a) for b in blocks]) for a in ("counts", "reference", "loaded"))
-            out.append([SessionBlock(blocks[0].start, x[a : a + rows] + self.centers[k], r[a : a + rows], ld[a : a + rows])
+            # float64 first, then the centre added in place: the same sums as x + c (float32 + float64), 0.5
+            # against 0.6 ms for 10⁴ samples
+            x = x.astype(float)
+            x += self.centers[k]
+            out.append([SessionBlock(blocks[0].start, x[a : a + rows], r[a : a + rows], ld[a : a + rows])
                         for a in range(0, x.shape[0], rows)])
         return out
 
     def _group_grams(self):
         """Per session ``k``: ``(7, 73, 73)`` Gram of ``[1 | counts − c_k | targets of all six faces]``
-        in each load group, ``Eᵀ H E`` (see the module docstring); None for a session without blocks."""
+        in each load group, ``Eᵀ H E`` (see the module docstring); None for a session without blocks.
+        Made once after the last block (the joint and the own-gauge Grams read it: 0.4 ms a fit)."""
+        if self._GG is not None:
+            return self._GG
         out = []
         for k in range(self.n_int):
             if self.maps[k] is None:
@@ -309,6 +316,7 @@ class GramPass:
             # face f's target is s_f r A_fᵀ: rows of r, columns 6f..6f+5 of the targets
             E[:, 37:, 37:] = (signs[:, :, None, None] * A[None]).transpose(0, 3, 1, 2).reshape(7, 6, 36)
             out.append(np.transpose(E, (0, 2, 1)) @ self.H[k] @ E)
+        self._GG = out
         return out
 
     def _joint_gram(self) -> np.ndarray:
@@ -366,13 +374,17 @@ class GramPass:
         return own, joint
 
 
+_DSYRK = scipy.linalg.blas.dsyrk
+
+
 def _syrk_lower(H, Z) -> None:
     """Add ``ZᵀZ`` to the lower triangle of ``H`` (C order) in place: BLAS ``dsyrk`` into ``H``'s
     F-ordered transpose, no temporary (62 against 89 µs for ``H += Z.T @ Z`` on a load group's run of
     600 rows; the whole pass of 10⁵ samples 34.2 against 35.0 ms). The upper triangle is left as it was."""
-    out = scipy.linalg.blas.dsyrk(1.0, Z.T, beta=1.0, c=H.T, trans=0, lower=0, overwrite_c=1)
-    if not np.shares_memory(out, H):  # a copy (H not F-contiguous in transpose): keep its sums all the same
-        H.T[...] = out
+    # arguments by position, and H's own memory known by its base first: 2.2 against 4.2 µs a call (200 a fit)
+    out = _DSYRK(1.0, Z.T, 1.0, H.T, 0, 0, 1)  # alpha, a, beta, c, trans, lower, overwrite_c
+    if out.base is not (H if H.base is None else H.base) and not np.shares_memory(out, H):
+        H.T[...] = out  # a copy (H not F-contiguous in transpose): keep its sums all the same
 
 
 def check_connected(bad, k, b, connected_face) -> None:
