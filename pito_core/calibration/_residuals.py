@@ -517,14 +517,18 @@ def _add_cluster_scores(groups, clusters, own_face, counts, Eflat, carries, unlo
     for g in groups:
         cl = clusters[id(g)]
         f = own_face[id(g)]
-        rows = np.arange(counts.shape[0]) if f is None else np.flatnonzero(carries[:, f - 1] | unloaded)
+        rows = None if f is None else np.flatnonzero(carries[:, f - 1] | unloaded)
         # views where all are taken, else one C-ordered copy ([rows][:, inputs] gave a column-major one)
-        Xg = counts if f is None and is_range(g.inputs, 36) else counts[np.ix_(rows, g.inputs)]
-        A = np.empty((Xg.shape[0], n_int + g.inputs.size))
+        Xg = counts if f is None and is_range(g.inputs, 36) else _rows_cols(counts, rows, g.inputs)
+        # A in a buffer kept with the cluster, not one a block (face_to_face, 10⁵ samples: with the copies by
+        # slices, 3.3 against 3.6 ms a fit)
+        if cl.get("A") is None or cl["A"].shape[0] < Xg.shape[0]:
+            cl["A"] = np.empty((Xg.shape[0], n_int + g.inputs.size))
+        A = cl["A"][: Xg.shape[0]]
         A[:, :n_int] = 0.0
         A[:, j] = 1.0
         np.subtract(Xg, tare_mean[g.inputs], out=A[:, n_int:])
-        Eg = Eflat if f is None and is_range(g.rows, Eflat.shape[1]) else Eflat[np.ix_(rows, g.rows)]
+        Eg = Eflat if f is None and is_range(g.rows, Eflat.shape[1]) else _rows_cols(Eflat, rows, g.rows)
         a = 0
         while a < A.shape[0]:  # clusters of consecutive samples, across blocks
             take = min(A.shape[0] - a, cl["length"] - cl["n"])
@@ -536,6 +540,15 @@ def _add_cluster_scores(groups, clusters, own_face, counts, Eflat, carries, unlo
                 cl["meat"] += _quadratic(sc, g.design_pinv)
                 cl["score"] = np.zeros_like(sc)
                 cl["n"] = 0
+
+
+def _rows_cols(M, rows, cols) -> np.ndarray:
+    """``M[np.ix_(rows, cols)]`` (C-ordered; ``rows`` None: all), by a slice where ``cols`` are consecutive
+    (a group's own gauges or rows): 41 against 70 µs for 1,700 of 2,000 rows and 6 of 36 columns."""
+    if cols.size and np.all(np.diff(cols) == 1):
+        sl = slice(int(cols[0]), int(cols[-1]) + 1)
+        return np.ascontiguousarray(M[:, sl]) if rows is None else M[rows, sl]
+    return M[np.ix_(np.arange(M.shape[0]) if rows is None else rows, cols)]
 
 
 def _quadratic(sc, P) -> np.ndarray:
