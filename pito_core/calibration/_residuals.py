@@ -926,7 +926,7 @@ def _order_bins(b, coef):
         rho = b["rho"][f]
         split = rho.any()
         if split:
-            var[:, rho] = C[1, f] @ b["phT"][f][:, rho]
+            var[:, rho] = C[1, f] @ b["phT"][f].compress(rho, axis=1)  # C-ordered (not [:, rho]): 23 against 63 µs, the same
         if not np.all(var >= 1e-300):
             return None
         other = loaded & ~rho if split else loaded
