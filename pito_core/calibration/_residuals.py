@@ -699,10 +699,14 @@ def _weighted_sums(b, coef, floor, n_s, noisy) -> np.ndarray:
             S = np.concatenate([S, np.zeros_like(S)], axis=2)
             for f in np.flatnonzero(c["rho"].any(axis=1)):
                 o, x = c["own"][f], c["rho"][f] & ~c["carr"][f]  # its own samples; the crosstalk it reads as its own
-                S[f, :, P:] = L[f][:, o] @ PP[f][:, o].T
+                # rows of the transposes by index: the same operands as L[f][:, o] (column-major) and the same
+                # products, 23 against 33 µs each
+                o = np.flatnonzero(o)
+                S[f, :, P:] = L[f].T[o].T @ PP[f].T[o]
                 S[f, :, :P] -= S[f, :, P:]
                 if x.any():
-                    S[f, :, :P] -= L[f][:, x] @ PP[f][:, x].T
+                    x = np.flatnonzero(x)
+                    S[f, :, :P] -= L[f].T[x].T @ PP[f].T[x]
         if noisy:
             M[j] += S
         else:
