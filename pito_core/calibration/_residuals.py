@@ -538,7 +538,7 @@ def _add_cluster_scores(groups, clusters, own_face, counts, Eflat, carries, unlo
             if cl["n"] >= cl["length"]:
                 sc = cl["score"]
                 cl["meat"] += _quadratic(sc, g.design_pinv)
-                cl["score"] = np.zeros_like(sc)
+                sc[...] = 0.0  # the next cluster's, in place
                 cl["n"] = 0
 
 
