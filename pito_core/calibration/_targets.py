@@ -26,6 +26,12 @@ class MountGeometry:
         self.connected_face = session.connected_face
 
     @functools.cached_property
+    def face_rows_T(self) -> np.ndarray:
+        """``(6, 36)``: ``X_face_ati`` as every face's rows, transposed, C-ordered (the product with the
+        transposed view took 50 against 26 µs for 2000 samples, the same sums)."""
+        return np.ascontiguousarray(self.X_face_ati.reshape(36, 6).T)
+
+    @functools.cached_property
     def X_ati_face(self) -> np.ndarray:
         """``(6, 6, 6)`` inverses of ``X_face_ati`` (made when first read: the fit does not)."""
         return np.stack([np.linalg.inv(X) for X in self.X_face_ati])
@@ -74,7 +80,7 @@ def block_targets(reference: np.ndarray, loaded: np.ndarray, mount: MountGeometr
         carries[:, c] |= elsewhere
         sign[:, c] -= elsewhere
     if output_frame == "face":
-        T = reference @ mount.X_face_ati.reshape(36, 6).T  # (n, 36): every face's frame in one product
+        T = reference @ mount.face_rows_T  # (n, 36): every face's frame in one product
     else:
         T = np.tile(reference, 6)
     T *= np.repeat(sign, 6, axis=1)  # same-shape product: far faster than broadcasting over (n, 6, 6)
