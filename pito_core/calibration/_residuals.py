@@ -40,6 +40,9 @@ _Z_WIDTH, _Z_N = 0.005, 4000
 #: each one's need moves by ``v``'s own error (±8 % from 300 samples) times ``v / var``.
 _MIN_INFORMED = 400
 _MIN_SHARE = 0.5
+#: A corrected face of a joint fit keeps its own model (scaled as its crosstalk's) where its own samples'
+#: weights add up to this many, short of :data:`_MIN_INFORMED` (see :func:`fit_error_model`).
+_MIN_OWN_WEIGHT = 20.0
 #: Pass 4 scales the variance at rest by the samples at rest alone where they weigh this many
 #: (10 beyond the 95 % point); else by the loaded samples' scale.
 _MIN_REST = 200
@@ -297,12 +300,16 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
         if noisy:
             _reweighted(b, coef, floor, rel_var, noisy)
         coef[:, :, 0] += floor
-        s_load, s_own, s_rest, own_informed = _coverage_scales(b, coef)
+        s_load, s_own, s_rest, own_weight = _coverage_scales(b, coef)
         # where the reference's noise swamps a face's own error, E² − v cannot tell it from the gauge noise
         # (face_to_face, linear cube, 0.1 %: an error 60× the floor on one axis went unseen, 84 % coverage;
         # the crosstalk's model on that row alone made the mean error of the design rows 10⁴× theirs): the
         # face keeps one model, wide where it carries but not short
-        swamped = np.isfinite(q_own) & ~own_informed.reshape(F, 6).all(axis=1)
+        # A corrected face of a joint fit keeps its own model (its scale the crosstalk's) down to _MIN_OWN_WEIGHT:
+        # its one model's q term is the crosstalk's identity read at full load (nonlinear cube, wizard's tare,
+        # 0.1 · 0.33 %: intervals up to 3–6× the error where the face carried, 1.7× with its own)
+        informed = own_weight.reshape(F, 6) >= np.where(masked, _MIN_OWN_WEIGHT, np.inf)[:, None]
+        swamped = np.isfinite(q_own) & ~informed.all(axis=1)
         if not swamped.any():
             break
         q_own[swamped] = np.inf
@@ -811,7 +818,7 @@ def _correlation(b, coef, floor, floor_m, vref_full, EtE) -> np.ndarray:
 
 
 def _coverage_scales(b, coef):
-    """``(s_load, s_own, s_rest, own_informed)``, each ``(6F,)``: factors on each row's variance so that ±1.96 σ holds
+    """``(s_load, s_own, s_rest, own_weight)``, each ``(6F,)``: factors on each row's variance so that ±1.96 σ holds
     95 % of its training residuals under load (``coef[0]``'s, where the face reads no load of its own,
     and ``coef[1]``'s, where it does and carries: ``b["own"]``) and at rest.
 
@@ -827,14 +834,15 @@ def _coverage_scales(b, coef):
     under a reference noise that swamps its error, learns its scale at rest: ``total``'s connected
     face on a random linear sensor, 0.3 %, 200-sample tare, weights 9–804 of about 10,000 rows,
     covered 87.8 % on one axis from its loaded rows, 93.0 % from every row). ``s_own`` is the samples'
-    where it reads its own, so informed (``own_informed``; else ``s_load``). ``s_rest`` is the samples at rest's, where
+    where it reads its own, so informed (``own_weight`` inf; else ``s_load``, and ``own_weight`` the sum of those
+    samples' weights). ``s_rest`` is the samples at rest's, where
     their weights add up to :data:`_MIN_REST` rows (else ``s_load``): the errors at rest are the gauge
     noise's, and one scale for both set the intervals at rest by the loaded samples' errors (nonlinear
     cube, exact reference, ``total``: at rest 100 % on every axis).
     """
     q = _order_bins(b, coef) if b["vT"] is None else None
-    q_load, q_own, q_rest, informed = _hist_bins(b, coef) if q is None else q
-    return (*((q * _Z_WIDTH / 1.959964) ** 2 for q in (q_load, q_own, q_rest)), informed)
+    q_load, q_own, q_rest, own_weight = _hist_bins(b, coef) if q is None else q
+    return (*((q * _Z_WIDTH / 1.959964) ** 2 for q in (q_load, q_own, q_rest)), own_weight)
 
 
 def _support(b) -> np.ndarray:
@@ -867,10 +875,11 @@ def _classes(b, loaded, cols=slice(None)) -> np.ndarray:
 
 
 def _hist_bins(b, coef):
-    """``(q_load, q_own, q_rest)``, each ``(6F,)``: per row, one more than the first bin of ``|E| / σ``
+    """``(q_load, q_own, q_rest, own_weight)``, each ``(6F,)``: per row, one more than the first bin of ``|E| / σ``
     where the weighted histogram's cumulative share reaches 95 % (see :func:`_coverage_scales`: each
     class's where it weighs :data:`_MIN_INFORMED` rows and :data:`_MIN_SHARE` of its number, else the
-    fallback named there; the samples at rest's where they weigh :data:`_MIN_REST`, else ``q_load``)."""
+    fallback named there; the samples at rest's where they weigh :data:`_MIN_REST`, else ``q_load``),
+    and the own samples' weight where it is short of that (inf where it is not)."""
     F = b["ET"].shape[0]
     R = 6 * F
     hist = np.zeros((3, R * (_Z_N + 1)))  # per class of _classes
@@ -901,7 +910,9 @@ def _hist_bins(b, coef):
     informed = (w_sum >= _MIN_INFORMED) & (w_sum >= _MIN_SHARE * n_cls)
     q_load = _first_bin(np.where(informed[0][:, None], hist[0], hist[0] + hist[1]))
     q_own = np.where(informed[2], _first_bin(hist[2]), q_load)
-    return q_load, q_own, np.where(w_sum[1] >= _MIN_REST, _first_bin(hist[1]), q_load), informed[2]
+    # the own samples' weight where they inform the scale (inf), else their weight
+    own_weight = np.where(informed[2], np.inf, w_sum[2])
+    return q_load, q_own, np.where(w_sum[1] >= _MIN_REST, _first_bin(hist[1]), q_load), own_weight
 
 
 def _first_bin(hist) -> np.ndarray:
@@ -920,7 +931,7 @@ def _z_bins(z2) -> np.ndarray:
 
 def _order_bins(b, coef):
     """:func:`_hist_bins` with every weight 1 (an exact reference; None where some ``var < 1e-300``
-    gives a weight below 1): ``(q_load, q_own, q_rest)``, per row the bin of the ``m``-th smallest
+    gives a weight below 1): ``(q_load, q_own, q_rest, own_weight)``, per row the bin of the ``m``-th smallest
     ``z² = E² / var`` of each class's samples (with the fallbacks of :func:`_coverage_scales`), ``m``
     the least count whose share ``m / n`` (as the histogram computes it) reaches 95 %. Face by face,
     each over all its samples at once (in chunks, 6.7 of a fit's 81 ms)."""
@@ -960,7 +971,7 @@ def _order_bins(b, coef):
             sel.partition(m - 1, axis=1)
             out[i, f] = _z_bins(sel[:, m - 1]) + 1
     q = out.reshape(3, -1)
-    return q[0], q[1], q[2], np.ones(q.shape[1], dtype=bool)
+    return q[0], q[1], q[2], np.full(q.shape[1], np.inf)
 
 
 def _order_count(n) -> int:
