@@ -224,6 +224,30 @@ def test_intervals_where_a_corrected_face_carries_cover_the_truth_under_a_noisy_
     assert cover.min() >= 0.9, cover
 
 
+def _corrected_coverage(method, face, reference_noise, check=None, draws=8):
+    """Coverage of ``draws`` calibrations of the nonlinear cube pooled, wizard's tare, on a later
+    session: ``(pooled, where the face carries)``, each per face and axis; ``check(cal)`` on each fit."""
+    seed = 1
+    K = true_sensitivity(seed, coupling=0.05)
+    kw = dict(CASES[method], connected_face=face, noise=2.0, counts_dtype=float, n_unloaded=2000,
+              response=nonlinear_response(seed, K, face, 0.08))
+    test = make_session(K, k=1000, seed=seed + 1000, **kw)
+    loaded = test.loaded.any(axis=1)
+    truth = test.true_face_wrenches[loaded]
+    carries = (np.abs(truth).max(axis=2) > 0)[:, :, None]
+    hits, hits_c, n_c = 0, 0, 0
+    for d in range(draws):
+        cal = calibrate(make_session(K, k=2000, seed=seed + 1 + 31 * d, reference_noise=reference_noise, **kw), method)
+        assert cal.model.name == "poly"
+        if check is not None:
+            check(cal)
+        cal = cal.tare(test.counts[~loaded])
+        W, cov = cal.wrenches(test.counts[loaded], return_cov=True)
+        hit = np.abs(W - truth) <= 1.959964 * np.sqrt(np.diagonal(cov, axis1=-2, axis2=-1))
+        hits, hits_c, n_c = hits + hit.sum(axis=0), hits_c + (hit & carries).sum(axis=0), n_c + carries.sum(axis=0)
+    return (hits / (draws * loaded.sum()))[cal.has_output], (hits_c / np.maximum(n_c, 1))[cal.has_output]
+
+
 @pytest.mark.parametrize("method, upper", [("quasi_total", 0.97), ("loaded_frame", 0.97), ("total", 0.985)])
 def test_a_corrected_face_of_a_joint_fit_has_a_model_of_its_own_load(method, upper):
     """A joint fit's face with a correction has two error models, as a ``face_to_face`` face has:
@@ -233,26 +257,12 @@ def test_a_corrected_face_of_a_joint_fit_has_a_model_of_its_own_load(method, upp
     calibrations pooled, covered 92.1–97.2 % (``quasi_total``), 92.2–97.1 % (``loaded_frame``) and
     94.9–100.0 % (``total``, 20 of 36 axes above 97 %); now 93.9–96.8, 93.7–96.2 and 94.3–98.3 %.
     Pooled over every loaded row, 93–97 % on every axis, as before."""
-    seed = 1
-    K = true_sensitivity(seed, coupling=0.05)
+
+    def some_own_model(cal):
+        assert np.isfinite(cal.covariance.own_q).any()
+
     face = {"quasi_total": 2, "loaded_frame": 5, "total": 6}[method]
-    kw = dict(CASES[method], connected_face=face, noise=2.0, counts_dtype=float, n_unloaded=2000,
-              response=nonlinear_response(seed, K, face, 0.08))
-    test = make_session(K, k=1000, seed=seed + 1000, **kw)
-    loaded = test.loaded.any(axis=1)
-    truth = test.true_face_wrenches[loaded]
-    carries = (np.abs(truth).max(axis=2) > 0)[:, :, None]
-    hits, hits_c, n_c = 0, 0, 0
-    for d in range(8):
-        cal = calibrate(make_session(K, k=2000, seed=seed + 1 + 31 * d, **kw), method)
-        assert cal.model.name == "poly"
-        assert np.isfinite(cal.covariance.own_q).any()  # some face has a model of its own
-        cal = cal.tare(test.counts[~loaded])
-        W, cov = cal.wrenches(test.counts[loaded], return_cov=True)
-        hit = np.abs(W - truth) <= 1.959964 * np.sqrt(np.diagonal(cov, axis1=-2, axis2=-1))
-        hits, hits_c, n_c = hits + hit.sum(axis=0), hits_c + (hit & carries).sum(axis=0), n_c + carries.sum(axis=0)
-    pooled = (hits / (8 * loaded.sum()))[cal.has_output]
-    cover = (hits_c / np.maximum(n_c, 1))[cal.has_output]
+    pooled, cover = _corrected_coverage(method, face, 0.0, some_own_model)
     assert 0.93 <= pooled.min() and pooled.max() <= 0.97, pooled
     assert 0.93 <= cover.min() and cover.max() <= upper, cover
 
@@ -264,23 +274,6 @@ def test_a_corrected_face_keeps_its_own_model_under_a_quiet_reference():
     where the face carried, its intervals covered 94.8–100.0 % (20 of 36 axes above 97 %, 8
     calibrations). It keeps its own model now down to a weight of 20 (scaled as its crosstalk's):
     94.4–99.0 % (12 above 97 %). Pooled 93–97 % on every axis, as before."""
-    seed, face = 1, 6
-    K = true_sensitivity(seed, coupling=0.05)
-    kw = dict(CASES["total"], connected_face=face, noise=2.0, counts_dtype=float, n_unloaded=2000,
-              response=nonlinear_response(seed, K, face, 0.08))
-    test = make_session(K, k=1000, seed=seed + 1000, **kw)
-    loaded = test.loaded.any(axis=1)
-    truth = test.true_face_wrenches[loaded]
-    carries = (np.abs(truth).max(axis=2) > 0)[:, :, None]
-    hits, hits_c, n_c = 0, 0, 0
-    for d in range(8):
-        cal = calibrate(make_session(K, k=2000, seed=seed + 1 + 31 * d, reference_noise=0.001, **kw), "total")
-        assert cal.model.name == "poly"
-        cal = cal.tare(test.counts[~loaded])
-        W, cov = cal.wrenches(test.counts[loaded], return_cov=True)
-        hit = np.abs(W - truth) <= 1.959964 * np.sqrt(np.diagonal(cov, axis1=-2, axis2=-1))
-        hits, hits_c, n_c = hits + hit.sum(axis=0), hits_c + (hit & carries).sum(axis=0), n_c + carries.sum(axis=0)
-    pooled = (hits / (8 * loaded.sum()))[cal.has_output]
-    cover = (hits_c / np.maximum(n_c, 1))[cal.has_output]
+    pooled, cover = _corrected_coverage("total", 6, 0.001)
     assert 0.93 <= pooled.min() and pooled.max() <= 0.97, pooled
     assert 0.93 <= cover.min() and cover.max() <= 0.995, cover
