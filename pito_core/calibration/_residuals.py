@@ -249,10 +249,10 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     floor = np.diagonal(floor_m, axis1=1, axis2=2).reshape(-1).copy()
     noisy = any(np.any(rc) for rc in ref_covs if rc is not None)
     lev = ReferenceLeverage(groups, cal.output_faces, len(sessions)) if noisy else None
+    masked = _split_faces(cal, groups)
     PtP, Pte2, EtE, kept, clusters, qraw, phi_one = _first_pass(cal, sessions, mounts, offsets, tare_means, spec,
                                                                 groups, block_size, ref_covs, floor, samples, stride,
-                                                                lev, X)
-    masked = _split_faces(cal, groups)
+                                                                lev, X, masked)
     _set_inflation(groups, clusters, stride)
     kept, rest_means = _retared(kept, len(sessions))
     # a face fitted on its own rows only (face_to_face) reads the crosstalk as a prediction its fit never saw:
@@ -430,7 +430,7 @@ def _error_frame(cal):
 
 
 def _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups, block_size, ref_covs, floor, samples,
-                stride, lev, X=None):
+                stride, lev, X=None, split=None):
     """One pass over every ``stride``-th usable sample: the sums the error model is fitted from.
 
     Returns ``PtP (F, 5, 5)``, ``Pte2 (F, 5, 6)``: per output face, the normal equations of the
@@ -448,7 +448,7 @@ def _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups, block_
     # faces that keep their q where they carry nothing (see _features): fitted on their own rows only,
     # or with a polynomial correction
     keep_q = np.isin(cal.output_faces, [f for f in own_face.values() if f is not None]) | _corrected(cal)
-    split = _split_faces(cal, groups)  # q masked where they carry nothing, also with an exact reference
+    split = _split_faces(cal, groups) if split is None else split  # q masked where they carry nothing, also exact
     phi_one = [] if split.any() else None  # their features with q kept (one model: see _split_faces)
     clusters = {id(g): dict(score=np.zeros((g.design_pinv.shape[0], g.rows.size)), n=0,
                             meat=np.zeros(g.rows.size), length=max(50, -(-g.dof // (N_CLUSTERS * stride)))) for g in groups}
@@ -479,11 +479,10 @@ def _first_pass(cal, sessions, mounts, offsets, tare_means, spec, groups, block_
             shift = tare_means[j] - o
             xA = xC - shift @ cal.matrix.T if cal.output_frame == "face" else None
             carr = carries[usable][:, idx]
-            if phi_one is not None:
-                phi_one.append(_features(cal, x - shift, idx, None if xA is None else xA.copy(),
-                                         None if lev is None else carr | keep_q, unloaded)[0].astype(np.float32))
             phi, q = _features(cal, x - shift, idx, xA,
                                _q_mask(carr, keep_q, split, lev is not None), unloaded)  # (n, F, 5)
+            if phi_one is not None:  # the same q, kept as before the split
+                phi_one.append(_load_phi(q, None if lev is None else carr | keep_q, unloaded).astype(np.float32))
             qraw.append(q)
             kept.append((E.reshape(-1, 6 * F).astype(np.float32), phi.astype(np.float32), carries[usable][:, idx], j))
             EF = np.ascontiguousarray(E.transpose(1, 0, 2))  # (F, n, 6): products batched over faces
@@ -1025,13 +1024,16 @@ def _features(cal, x, idx, xA=None, carries=None, unloaded=None):
     q = xA @ np.kron(np.eye(len(idx)), FULL_SCALE[:, None] ** -2.0)  # Σ (w / FS)² per face: one product, 4× an einsum
     if unloaded is not None:
         q[unloaded] = 0.0
-    q_use = q.copy()
-    if carries is not None:
-        q *= carries
-    phi = q_features(q)
+    return _load_phi(q, carries, unloaded), q
+
+
+def _load_phi(q, carries=None, unloaded=None) -> np.ndarray:
+    """``(n, F, 5)`` :func:`_features`' features from each face's ``q (n, F)`` as read in use (0 where ``unloaded``),
+    ``q`` counted where ``carries`` (None: everywhere) and ``L`` the flags' where ``unloaded`` is given."""
+    phi = q_features(q if carries is None else q * carries)
     if unloaded is not None:
         phi[..., 1] = ~unloaded[:, None]
-    return phi, q_use
+    return phi
 
 
 def _corrected_rows(cal, by_face: bool = False) -> np.ndarray:
