@@ -48,6 +48,11 @@ _GRAM_SCALE = np.outer(np.tile(1 / FULL_SCALE, 6), np.tile(1 / FULL_SCALE, 6))
 #: What may fill the load directions the data leave unexcited: nothing (the papers' plain
 #: least squares) or each face's own-gauge fit.
 PRIORS = (None, "own_gauge")
+#: The polynomial correction's zero: the mean counts of a session's first stretch at rest (the
+#: tare it opens with), up to this many samples. Its features are monomials of counts less that zero, so it
+#: is read before the fit's one pass; the mean of every sample at rest took a pass of its own (13.1
+#: of 36.2 s of a 10⁷-sample fit from a file).
+POLY_TARE_SAMPLES = 4096
 #: ``meta["net_load"]``, in words for the command line and the app.
 NET_LOAD_MEASURED = "measured"
 NET_LOAD_PRIOR = "not measured: from the faces' own-gauge fits"
@@ -127,17 +132,13 @@ def session_tare_stats(session: CalibrationSession, block_size: int = 65536):
     return mean, np.sqrt(np.clip(np.diag(cov), 0.0, None))
 
 
-def _tare_moments(session: CalibrationSession, block_size: int = 65536, with_reference: bool = False):
+def _tare_moments(session: CalibrationSession, block_size: int = 65536):
     """``(mean (36,), cov (36, 36), n)`` of the unloaded samples' counts (cov with 1/n).
 
-    With ``with_reference``, also ``cov (6, 6)`` of the reference over the same samples
-    (its noise at rest, N², N²·m, N²·m²). Refuses NaN, inf and saturated counts anywhere
-    in the session, naming the sample indices.
+    Refuses NaN, inf and saturated counts anywhere in the session, naming the sample indices.
     """
     total = np.zeros(36)
     total_sq = np.zeros((36, 36))
-    r_total = np.zeros(6)
-    r_sq = np.zeros((6, 6))
     n = 0
     shift = None  # first unloaded sample: sums of squares about it do not cancel catastrophically
     lo, hi = session.counts_range
@@ -151,32 +152,46 @@ def _tare_moments(session: CalibrationSession, block_size: int = 65536, with_ref
             c = c - shift
             total += c.sum(axis=0)
             total_sq += c.T @ c
-            r = b.reference[free]
-            r_total += r.sum(axis=0)
-            r_sq += r.T @ r
             n += c.shape[0]
     if n == 0:
         raise ValueError("loaded: the session has no unloaded samples (rows of all False) to take the offsets from")
     mean = total / n
     cov = total_sq / n - np.outer(mean, mean)
-    out = (mean + shift, 0.5 * (cov + cov.T), n)
-    if with_reference:
-        rm = r_total / n
-        rc = r_sq / n - np.outer(rm, rm)
-        out = out + (0.5 * (rc + rc.T),)
-    return out
+    return mean + shift, 0.5 * (cov + cov.T), n
 
 
-def _gauge_scale(sessions, tare_means, block_size) -> np.ndarray:
-    """``(36,)`` spread of each gauge about its tare (RMS over each session's first block), counts."""
-    ss, n = np.zeros(36), 0
-    for s, m in zip(sessions, tare_means):
-        b = next(iter(s.iter_blocks(block_size, counts_dtype=None)))
-        d = b.counts - m
-        ss += np.einsum("ij,ij->j", d, d)
-        n += d.shape[0]
-    rms = np.sqrt(ss / max(n, 1))
-    return np.where(rms > 0, rms, 1.0)
+def _poly_zero(session: CalibrationSession, block_size: int, n: int = POLY_TARE_SAMPLES):
+    """What the polynomial correction's pass needs before it starts, from the session's first samples:
+    ``(zero (36,) counts, scale_sq (36,) counts², rows, reference_varies)``.
+
+    ``zero`` is the mean counts of the session's first stretch at rest (the tare it opens with; its
+    first ``n`` samples); ``scale_sq`` and ``rows`` the sum of squares of the first block's counts
+    less ``zero`` and its rows; ``reference_varies``: the reference moves over that stretch (it has
+    noise). Only the blocks up to the stretch's end are read. Raises ``ValueError`` if the session
+    has no sample at rest.
+    """
+    counts, refs, got, first = [], [], 0, None
+    for b in session.iter_blocks(block_size, counts_dtype=None):
+        first = b.counts if first is None else first
+        rest = ~b.loaded.any(axis=1)
+        if got:  # the stretch goes on from the last block: it ends at the first loaded sample
+            start = 0
+        elif rest.any():
+            start = int(np.argmax(rest))
+        else:
+            continue
+        stop = start + int(np.argmin(rest[start:])) if not rest[start:].all() else rest.size
+        stop = min(stop, start + n - got)
+        counts.append(b.counts[start:stop].astype(float))
+        refs.append(b.reference[start:stop])
+        got += stop - start
+        if got >= n or stop < rest.size:
+            break
+    if got == 0:
+        raise ValueError("loaded: the session has no unloaded samples (rows of all False) to take the offsets from")
+    zero = np.concatenate(counts).mean(axis=0)
+    d = first - zero
+    return zero, np.einsum("ij,ij->j", d, d), d.shape[0], bool(np.ptp(np.concatenate(refs), axis=0).any())
 
 
 def _rescale_groups(groups, residual, out_faces, E2, poly) -> None:
@@ -258,8 +273,6 @@ def _add_block(st: _Streams, k: int, n_int: int, b, center, targets, carries, us
     if st.joint is not None:
         idx = [f - 1 for f in st.joint_faces]
         st.joint.add(A[usable], targets[usable][:, idx, :].reshape(-1, 6 * len(idx)))
-    if st.poly is not None:
-        st.poly.add(k, A[:, n_int:], targets, usable, carries, b.loaded)
 
 
 def _own_offsets(tare_means, out_faces, own_C, own_b) -> list:
@@ -396,13 +409,14 @@ class Calibrator:
         self._check_sessions(spec, sessions)
         n_int = len(sessions)
         mounts = [MountGeometry(s) for s in sessions]
-        # the polynomial features are monomials of counts less the tare mean: that model needs
-        # the tare means before its pass (pass 1); the linear fit takes them in its one pass
-        known = self._rest_noise(sessions) if self.model != "linear" and self.prior is None else None
+        # the polynomial features are monomials of counts less a zero known before the pass: each
+        # session's opening tare (its first stretch at rest); the linear fit takes the means of all
+        # samples at rest in its one pass
+        zeros = [_poly_zero(s, self.block_size) for s in sessions] if self.model != "linear" and self.prior is None else None
         # one pass: checks, tare moments, targets and their Gram (excitation, load rank), the
         # Gram of the affine design [offset column of each session | counts − tare mean | targets],
         # the error model's subsample; a second (QR) pass only where the Gram route is in doubt
-        st, (tare_means, gauge_cov, ref_covs, ref_n), subsample = self._stream(spec, sessions, mounts, known)
+        st, (tare_means, gauge_cov, ref_covs, ref_n), subsample = self._stream(spec, sessions, mounts, zeros)
         out_faces = st.joint_faces or self._output_faces(spec, sessions, st.carried_any)
         if not out_faces:
             raise ValueError("loaded: no face carried load in the sessions; nothing to calibrate")
@@ -417,7 +431,7 @@ class Calibrator:
             fit.offsets = _own_offsets(tare_means, out_faces, own_C, own_b)
         else:
             self._solve_joint(st, out_faces, load_rank, own_C, gauge_cov, tare_means, center, weights, fit)
-        choice, corr_fit, linear_fit = self._poly_step(st.poly, out_faces, tare_means, fit)
+        choice, corr_fit, linear_fit = self._poly_step(st.poly, out_faces, None if zeros is None else [z[0] for z in zeros], fit)
         self.offsets_ = fit.offsets
         self.tare_means_ = tare_means
         self.n_samples_ = st.n_used
@@ -436,20 +450,11 @@ class Calibrator:
         self.calibration_ = cal
         return self
 
-    def _rest_noise(self, sessions):
-        """Pass 1: each session's tare mean (36,) counts, the pooled gauge covariance at rest
-        (36, 36) counts², each session's reference covariance at rest (6, 6) N/N·m², and the
-        samples at rest it comes from."""
-        n_int = len(sessions)
-        moments = [_tare_moments(s, self.block_size, with_reference=True) for s in sessions]
-        tare_means = [m[0] for m in moments]
-        n_tare = sum(m[2] for m in moments)
-        gauge_cov = sum(m[1] * m[2] for m in moments) / max(n_tare - n_int, 1)  # pooled within sessions
-        ref_covs = [m[3] * m[2] / max(m[2] - 1, 1) for m in moments]  # the reference's own noise at rest
-        return tare_means, gauge_cov, ref_covs, [m[2] for m in moments]
-
-    def _stream(self, spec, sessions, mounts, known):
+    def _stream(self, spec, sessions, mounts, zeros):
         """The one pass (:class:`GramPass`), then the factors: ``(_Streams, (tare_means, gauge_cov, ref_covs, ref_n), subsample)``.
+
+        ``zeros`` (:func:`_poly_zero` of each session, or None for no polynomial correction): the
+        polynomial features' zero and scale.
 
         Where a Gram factor is in doubt (``GramQR.trouble``: ill-conditioned or rank-deficient
         designs) the fit takes a second pass with the streamed Householder QR instead.
@@ -458,10 +463,11 @@ class Calibrator:
         need_own = spec.inputs == "own" or self.prior == "own_gauge"
         joint_faces = self._output_faces(spec, sessions, None) if spec.inputs == "all" else ()
         poly = None
-        if known is not None:
-            poly = PolyAccumulator(spec.inputs == "own", joint_faces, n_int, _gauge_scale(sessions, known[0], self.block_size),
+        if zeros is not None:  # each gauge's spread about its zero (RMS over each session's first block), counts
+            rms = np.sqrt(sum(z[1] for z in zeros) / max(sum(z[2] for z in zeros), 1))
+            poly = PolyAccumulator(spec.inputs == "own", joint_faces, n_int, np.where(rms > 0, rms, 1.0),
                                    {s.connected_face for s in sessions if s.flange == "face"}, [len(s) for s in sessions],
-                                   noisy_reference=any(np.any(rc) for rc in known[2]))
+                                   noisy_reference=any(z[3] for z in zeros))
         total_samples = sum(len(s) for s in sessions)
         # the same provisional centres whatever the model, so model="auto" that keeps the linear
         # fit gives it bit for bit
@@ -470,7 +476,7 @@ class Calibrator:
         for k, (s, mount) in enumerate(zip(sessions, mounts)):
             lo, hi = s.counts_range
             for b in s.iter_blocks(self.block_size, counts_dtype=None):  # GramPass converts (and checks) chunk by chunk
-                check_connected(gp.add(k, b, mount, spec.output_frame, poly, None if known is None else known[0][k],
+                check_connected(gp.add(k, b, mount, spec.output_frame, poly, None if zeros is None else zeros[k][0],
                                        limits=(lo, hi)), k, b, s.connected_face)
                 done += b.counts.shape[0]
                 if self.progress is not None:
@@ -538,7 +544,7 @@ class Calibrator:
             fit.residual[f - 1] = res.residual_rms[6 * k : 6 * k + 6]
         fit.groups.append(self._group(res, np.arange(36), np.arange(6 * len(out_faces)), center, weights))
 
-    def _poly_step(self, poly, out_faces, tare_means, fit):
+    def _poly_step(self, poly, out_faces, zeros, fit):
         """The model choice, and the polynomial correction where chosen: ``(choice, correction, linear_fit)``."""
         choice, corr, linear_fit = ModelChoice(reason="the papers' affine least squares, as requested"), None, None
         if poly is not None:
@@ -547,8 +553,8 @@ class Calibrator:
                 C, B, D, E2 = sol
                 linear_fit = (fit.matrix.copy(), np.mean(fit.offsets, axis=0))
                 fit.matrix[:] = C
-                # the zero-load counts: the tare means for the corrected rows, the affine rows' fitted offsets
-                fit.offsets = mixed_offsets(C, linear_fit[0], choice.row_alpha, tare_means, fit.offsets)
+                # the zero-load counts: the features' zeros for the corrected rows, the affine rows' fitted offsets
+                fit.offsets = mixed_offsets(C, linear_fit[0], choice.row_alpha, zeros, fit.offsets)
                 corr = poly_correction(poly, D)
                 _rescale_groups(fit.groups, fit.residual, out_faces, E2, poly)
         elif self.model != "linear":

@@ -120,7 +120,8 @@ class GramPass:
         connected face under a ``frame`` flange (see :func:`check_connected`).
 
         ``b.counts`` may be in the stored dtype (integer counts are converted chunk by chunk).
-        ``poly`` (a ``PolyAccumulator``) is fed the counts less ``poly_center`` (the tare mean).
+        ``poly`` (a ``PolyAccumulator``) is fed the counts less ``poly_center`` (its zero, the session's
+        opening tare).
         With ``limits`` (the ADC range ``(lo, hi)``) the block is checked as :func:`check_block`
         does, chunk by chunk as it is read (before anything else reads it when ``poly`` is given).
         """
@@ -246,8 +247,10 @@ class GramPass:
 
     @staticmethod
     def _add_poly(k, b, mount, output_frame, poly, poly_center) -> None:
-        targets, carries, usable, _ = block_targets(b.reference, b.loaded, mount, output_frame)
-        poly.add(k, b.counts - poly_center, targets, usable, carries, b.loaded)
+        def targets_of(rows):
+            return block_targets(b.reference[rows], b.loaded[rows], mount, output_frame)[:3]
+
+        poly.add(k, b.counts, poly_center, b.loaded, targets_of)
 
     def _tare(self, k, Z) -> None:
         """Add the unloaded samples ``Z`` (rows of ``[1 | counts − c | r]``) to session ``k``'s tare sums."""
@@ -261,7 +264,8 @@ class GramPass:
         _syrk_lower(t["G"], W)  # n, the sums and the sums of products at once (its lower triangle)
 
     def rest_noise(self):
-        """``(tare_means, gauge_cov (36, 36), ref_covs, samples at rest)`` as :meth:`Calibrator._rest_noise` gives them."""
+        """``(tare_means (36,) each, gauge_cov (36, 36) pooled within sessions, ref_covs (6, 6) each, samples at rest each)``:
+        the counts' means and covariance at rest (counts, counts²) and the reference's (N², N²·m, N²·m²)."""
         means, covs, ns, ref_covs = [], [], [], []
         for k, t in enumerate(self.tare):
             n = t["n"]

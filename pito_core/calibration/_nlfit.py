@@ -64,7 +64,8 @@ class PolyAccumulator:
     n_int : int
         Sessions (offset columns).
     scale : ndarray, shape (36,)
-        Counts per unit of ``u``.
+        Counts per unit of ``u`` while the rows are added (any positive scale: the Grams are put in
+        the final one, each gauge's RMS about its zero over the fitted rows, before the fit).
     reaction_faces : set of int
         Connected faces under a ``face`` flange.
     session_lengths : list of int
@@ -79,6 +80,7 @@ class PolyAccumulator:
         self.stride = max(1, int(np.ceil(sum(session_lengths) / MAX_ROWS)))
         # range of each scaled channel over the fitted rows: the correction is tapered beyond it
         self.lower, self.upper = np.full(N_GAUGES, np.inf), np.full(N_GAUGES, -np.inf)
+        self._ss, self._ss_rows, self._final = np.zeros(N_GAUGES), 0, False  # the final scale's sums
         self._session, self._seen = None, 0
         if own:
             self.acc = {f: FoldedGram(n_int + 6 + 27, 6, n_folds) for f in FACES}
@@ -94,17 +96,28 @@ class PolyAccumulator:
             self.carry = {f: np.zeros((p(f), p(f))) for f in faces}
             self.carry_n = {f: np.zeros(n_int) for f in faces}
 
-    def add(self, k, x, targets, usable, carries, loaded):
-        """Rows of session ``k``: ``x (n, 36)`` counts less its tare mean, ``targets (n, 6, 6)``."""
+    def add(self, k, counts, center, loaded, targets_of):
+        """Rows of session ``k``: ``counts (n, 36)`` as stored, ``center (36,)`` its tare mean,
+        ``loaded (n, 6)``. ``targets_of(rows)`` (a slice) gives ``(targets (r, 6, 6), carries (r, 6),
+        usable (r,))`` of the rows it keeps, as :func:`~._targets.block_targets` does: only those
+        are worked out (one sample in ``stride``), the range and the segments from every row.
+        """
         fold = self.counter.ids(loaded, new_session=self._session != k) % self.K
         self._session = k
-        if usable.any():
-            u = x[usable] / self.scale
-            self.lower, self.upper = np.minimum(self.lower, u.min(axis=0)), np.maximum(self.upper, u.max(axis=0))
+        usable = np.count_nonzero(loaded, axis=1) <= 1  # as block_targets: unloaded or one face loaded
+        if usable.any():  # (c − center) / scale is monotone in c: the extremes of the counts give those of u
+            c = counts if usable.all() else counts[usable]
+            lo = (c.min(axis=0) - center) / self.scale
+            hi = (c.max(axis=0) - center) / self.scale
+            self.lower, self.upper = np.minimum(self.lower, lo), np.maximum(self.upper, hi)
+        rows = slice(None)
         if self.stride > 1:  # every stride-th sample of the sessions
-            keep = (self._seen + np.arange(x.shape[0])) % self.stride == 0
-            self._seen += x.shape[0]
-            x, targets, usable, carries, loaded, fold = x[keep], targets[keep], usable[keep], carries[keep], loaded[keep], fold[keep]
+            rows = slice((-self._seen) % self.stride, None, self.stride)
+            self._seen += counts.shape[0]
+        targets, carries, usable = targets_of(rows)
+        x, loaded, fold = counts[rows] - center, loaded[rows], fold[rows]
+        self._ss += np.einsum("ij,ij->j", x, x)
+        self._ss_rows += x.shape[0]
         for a in range(0, x.shape[0], CHUNK):  # bounded memory: features of CHUNK rows at a time
             sl = slice(a, a + CHUNK)
             self._add(k, x[sl], targets[sl], usable[sl], carries[sl], loaded[sl], fold[sl])
@@ -149,6 +162,37 @@ class PolyAccumulator:
         self.carry[f] += X @ X.T
         self.carry_n[f][k] += X.shape[1]
 
+    def _rescale(self) -> None:
+        """Put the Grams, the range and ``scale`` in the final scale: each gauge's RMS about its zero over
+        the fitted rows (``u`` to unit spread, which the ridge's footing needs). Its features are monomials,
+        so a scale per gauge scales each design column: ``G → d G d``, exact (to rounding) whatever scale
+        the rows were added in (the first block's: the tare's noise alone where the session opens with a
+        tare longer than a block)."""
+        if self._final:
+            return
+        self._final = True
+        rms = np.sqrt(self._ss / max(self._ss_rows, 1))
+        new = np.where(rms > 0, rms, self.scale)
+        r = self.scale / new  # u in the new scale = u in the old × r
+
+        def factors(cols, pairs, cubes, q):
+            rc = r[cols]
+            return np.r_[np.ones(self.n_int), rc, rc[pairs[:, 0]] * rc[pairs[:, 1]], rc[cubes] ** 3, np.ones(q)]
+
+        if self.own:
+            for f, acc in self.acc.items():
+                d = factors(np.arange(6 * (f - 1), 6 * f), _PAIRS6, _CUBES6, acc.q)
+                acc.gram *= np.outer(d, d)
+                if self.carry is not None:
+                    self.carry[f] *= np.outer(d[: acc.p], d[: acc.p])
+        else:
+            d = factors(np.arange(N_GAUGES), _PAIRS, _CUBES, self.acc.q)
+            self.acc.gram *= np.outer(d, d)
+            if self.carry is not None:
+                for f in self.carry:
+                    self.carry[f] *= np.outer(d[: self.acc.p], d[: self.acc.p])
+        self.lower, self.upper, self.scale = self.lower * r, self.upper * r, new
+
     def rows_of(self, f) -> int:
         """Rows (samples) of face ``f``'s problem (over every sample: the fitted ones × stride)."""
         return (self.acc[f].n_rows if self.own else self.acc.n_rows) * self.stride
@@ -178,6 +222,7 @@ class PolyAccumulator:
         rows that keep the affine fit are ``linear_matrix``'s, with no feature and ``E2`` NaN. ``E2``
         is scaled from the fitted samples to all (× ``stride``).
         """
+        self._rescale()
         parts = self.problems(out_faces, rank_a)
         results = [(cross_validate(acc, probs, alphas), [p.weight for p in probs]) for acc, probs, _ in parts]
         choice = choose_model(results, requested, self.counter.count)

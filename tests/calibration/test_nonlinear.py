@@ -13,7 +13,8 @@ import pytest
 from gen import CASES, FULL_SCALE, make_session, true_sensitivity
 from test_uncertainty import _coverage
 
-from pito_core.calibration import calibrate
+from pito_core.calibration import Calibrator, calibrate
+from pito_core.calibration._fit import _poly_zero
 
 
 def nonlinear_response(seed, K, connected_face, strength):
@@ -124,6 +125,43 @@ def test_bad_model_is_refused():
     s = make_session(K, k=50, flange="face")
     with pytest.raises(ValueError, match="model: expected one of"):
         calibrate(s, "total", model="cubic")
+
+
+def test_the_default_fit_reads_the_session_once_after_its_opening_tare(monkeypatch):
+    """The polynomial features' zero is the session's opening tare, read before the one pass, not a pass
+    of its own (a third of a 10⁷-sample fit's time): every sample is read once, the blocks up to the
+    tare's end twice; it equals that tare's mean."""
+    K = true_sensitivity(12, coupling=0.05)
+    s = make_session(K, k=2000, flange="face", connected_face=2, noise=2.0, n_unloaded=300, counts_dtype=float,
+                     response=nonlinear_response(12, K, 2, 0.1))
+    read = []
+    iter_blocks = type(s).iter_blocks
+
+    def counted(self, *args, **kwargs):
+        for b in iter_blocks(self, *args, **kwargs):
+            read.append(b.counts.shape[0])
+            yield b
+
+    monkeypatch.setattr(type(s), "iter_blocks", counted)
+    assert Calibrator("total", block_size=256).fit(s).calibration_.model.name == "poly"
+    assert sum(read) == len(s) + 512  # the 300 samples at rest: blocks 0 and 1 again
+    np.testing.assert_allclose(_poly_zero(s, 256)[0], s.counts[:300].mean(axis=0), rtol=1e-15)
+
+
+@pytest.mark.parametrize("method", ["total", "face_to_face", "loaded_frame"])
+def test_the_default_fit_does_not_depend_on_the_block_size(method):
+    """The features are scaled by each gauge's spread over the fitted rows, whatever block they came in.
+    Scaled by the first block's (the tare's noise alone in blocks of 256 after a 300-sample tare), the
+    fit chose the linear model here and its wrenches moved by up to 13 N."""
+    K = true_sensitivity(12, coupling=0.05)
+    s = make_session(K, k=2000, connected_face=2, noise=2.0, n_unloaded=300, counts_dtype=float,
+                     response=nonlinear_response(12, K, 2, 0.1), **CASES[method])
+    small, big = (Calibrator(method, block_size=n).fit(s).calibration_ for n in (256, 65536))
+    assert small.model.name == big.model.name == "poly"
+    Ws, Cs = small.wrenches(s.counts[::7], return_cov=True)
+    Wb, Cb = big.wrenches(s.counts[::7], return_cov=True)
+    np.testing.assert_allclose(Ws, Wb, rtol=0, atol=1e-8)
+    np.testing.assert_allclose(Cs, Cb, rtol=0, atol=1e-9 * np.nanmax(np.abs(Cb)))
 
 
 def test_the_papers_linear_fit_is_kept_beside_the_polynomial(tmp_path):
