@@ -70,12 +70,14 @@ def _calibration_targets(cal: dict | None) -> list[dict]:
                     "measured": f"calibrate(): {r['fit_s'] * 1e3:.0f} ms, least-squares core: {r['core_s'] * 1e3:.0f} ms "
                                 f"({r['method']}, k = {r['k']:,})",
                     "met": r["fit_s"] <= 0.05, "value_s": r["fit_s"], "core_s": r["core_s"]})
-    st = [r for r in cal["streamed"] if r["k"] >= 5e6 and r.get("model", "linear") == "linear"]
-    if st:
-        r = max(st, key=lambda r: r["k"])
-        out.append({"target": "10⁷ samples streamed ≤ 30 s under 500 MB",
-                    "measured": f"{r['fit_s']:.1f} s, peak RSS {r['fit_peak_rss_MB']:.0f} MB (k = {r['k']:,}, linear)",
-                    "met": r["fit_s"] <= 30 and r["fit_peak_rss_MB"] <= 500})
+    for model in ("linear", "auto"):  # the papers' fit and the default (with its cross-validation)
+        st = [r for r in cal["streamed"] if r["k"] >= 5e6 and r.get("model", "linear") == model]
+        if st:
+            r = max(st, key=lambda r: r["k"])
+            out.append({"target": "10⁷ samples streamed ≤ 30 s under 500 MB",
+                        "measured": f"{r['fit_s']:.1f} s, peak RSS {r['fit_peak_rss_MB']:.0f} MB (k = {r['k']:,}, "
+                                    f"{'default' if model == 'auto' else model})",
+                        "met": r["fit_s"] <= 30 and r["fit_peak_rss_MB"] <= 500})
     return out
 
 

@@ -43,6 +43,9 @@ _MIN_SHARE = 0.5
 #: A corrected face of a joint fit keeps its own model (scaled as its crosstalk's) where its own samples'
 #: weights add up to this many, short of :data:`_MIN_INFORMED` (see :func:`fit_error_model`).
 _MIN_OWN_WEIGHT = 20.0
+#: Where the reference's noise swamps a face's own error, its own model is the mean excess this many
+#: standard errors above (:func:`_own_bound`).
+_BOUND_Z = 3.0
 #: Pass 4 scales the variance at rest by the samples at rest alone where they weigh this many
 #: (10 beyond the 95 % point); else by the loaded samples' scale.
 _MIN_REST = 200
@@ -309,7 +312,11 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
         # its one model's q term is the crosstalk's identity read at full load (nonlinear cube, wizard's tare,
         # 0.1 · 0.33 %: intervals up to 3–6× the error where the face carried, 1.7× with its own)
         informed = own_weight.reshape(F, 6) >= np.where(masked, _MIN_OWN_WEIGHT, np.inf)[:, None]
-        swamped = np.isfinite(q_own) & ~informed.all(axis=1)
+        # a face fitted on its own rows keeps its two models: its crosstalk's error is another face's load read
+        # as its own (face_to_face, linear cube, 0.1 %: one model's intervals 10–200× the error where it carried);
+        # where swamped, its own model is a bound (_own_bound)
+        bounded = np.isfinite(q_own) & ~masked & ~informed.all(axis=1)
+        swamped = np.isfinite(q_own) & masked & ~informed.all(axis=1)
         if not swamped.any():
             break
         q_own[swamped] = np.inf
@@ -324,6 +331,10 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     coef[1] *= s_own[:, None]
     one = np.repeat(~np.isfinite(q_own), 6)  # faces with one model: the same coefficients
     coef[1, one] = coef[0, one]
+    rows = np.flatnonzero(np.repeat(bounded, 6) & ~informed.reshape(-1))
+    if rows.size:
+        coef[1, rows] = 0.0
+        coef[1, rows, 0] = _own_bound(b, floor, rows)
     if noisy:  # Σ_r → Σ_e: the reference's share is now in the groups' own term
         # each design row's error by the model of what it is: the face's own where it carries (the flags; the
         # crosstalk's model at a small own load of a face_to_face fit made the mean 10× the carrying rows')
@@ -334,6 +345,25 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
     off_var = lev.offset_var(F, X) if noisy else [0.0] * len(sessions)
     rest_bias = np.mean([np.maximum(m * m - v, 0.0) for m, v in zip(rest_means, off_var)], axis=0)
     return coef, q_own, corr, poly_ref, "output" if X is None else "face", rest_bias
+
+
+def _own_bound(b, floor, rows) -> np.ndarray:
+    """``(rows.size,)`` the variance of a face's own error where the reference's noise swamps it (rows of the
+    own model, ``(6F,)`` indices): the mean of ``E² − v − floor`` over the samples where the face reads its own
+    load and carries, :data:`_BOUND_Z` standard errors above (not below 0), plus the floor. A bound, not a fit:
+    each sample's ``E² − v`` has the reference's noise's spread, ``√2 v``, so a model of the own load's terms
+    could not be told from 0 (``face_to_face``, linear cube, 0.1 %: fitted, an axis whose error was 60× the
+    floor covered 84 %)."""
+    out = np.empty(rows.size)
+    for i, r in enumerate(rows):
+        f, a = divmod(int(r), 6)
+        own = b["own"][f]
+        e2 = b["ET"][f, a, own] ** 2 - floor[r]
+        if b["vT"] is not None:
+            e2 -= b["vT"][f, a, own]
+        se = e2.std(ddof=1) / np.sqrt(e2.size) if e2.size > 1 else np.inf
+        out[i] = max(e2.mean() + _BOUND_Z * se, 0.0) + floor[r]
+    return out
 
 
 def _set_own_samples(b, rho) -> None:

@@ -578,7 +578,10 @@ def test_where_a_face_carries_its_interval_is_of_its_own_error(reference_noise):
     carries, per face and axis: exact reference, one calibration, 93–97 %. With 0.33 % reference
     noise (the wizard's limit) its variance is 2000× the face's own error on this linear cube: there
     ``E² − v`` cannot tell that error from the gauge noise (on one axis it was 60× the floor and went
-    unseen: 84 % coverage), so each face keeps one model, wide where it carries but not short.
+    unseen: 84 % coverage), so each face's own model is a bound (``_residuals._own_bound``), wide
+    where it carries but not short: σ 1.3–111× the error's RMS there, median 5.8 (with the one model
+    each face had before, 2.4–114, median 23; the widest are samples whose own load stays under the
+    crosstalk's ``own_q``, read by the crosstalk's model).
     """
     seed, face = 1, 3
     K = true_sensitivity(seed, coupling=0.05)
@@ -596,8 +599,12 @@ def test_where_a_face_carries_its_interval_is_of_its_own_error(reference_noise):
         assert np.isfinite(cal.covariance.own_q).all()  # every face has a model of its own
         assert 0.93 <= cover.min() and cover.max() <= 0.97, cover
     else:
-        assert np.all(cal.covariance.own_q == np.inf)
-        assert cover.min() >= 0.97, cover
+        assert np.isfinite(cal.covariance.own_q).all()
+        assert cover.min() >= 0.95, cover
+        var = np.diagonal(cov, axis1=-2, axis2=-1)
+        e2 = ((W - truth) ** 2 * carries[:, :, None]).sum(axis=0)
+        ratio = np.sqrt((var * carries[:, :, None]).sum(axis=0) / e2)
+        assert np.median(ratio) <= 10, ratio
     pooled = h[:, cal.has_output].mean(axis=0)
     assert 0.93 <= pooled.min() and pooled.max() <= 0.97, pooled
 
