@@ -366,7 +366,10 @@ def test_the_live_scene_draws_in_its_own_thread(live, qtbot):
         finally:
             scene.plotter.ren_win.RemoveObserver(obs2)
         assert len(starts) >= 3
-        assert np.diff(starts).min() >= 1.0 / rt.max_rate - 1e-3
+        # the limiter spaces its own starts by 1 / max_rate; the render's StartEvent comes a little after
+        # each, by as much as the machine delays it (one gap was 18.6 ms at 50 frames/s with the machine
+        # busy), so the spacing is checked on average over the run
+        assert np.diff(starts).mean() >= 0.95 / rt.max_rate, np.diff(starts)
         assert rt.errors == []
     finally:
         scene.plotter.ren_win.RemoveObserver(obs)
