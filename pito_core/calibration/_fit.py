@@ -166,7 +166,7 @@ def _poly_zero(session: CalibrationSession, block_size: int, n: int = POLY_TARE_
 
     ``zero`` is the mean counts of the session's first stretch at rest (the tare it opens with; its
     first ``n`` samples); ``scale_sq`` and ``rows`` the sum of squares of the first block's counts
-    less ``zero`` and its rows; ``reference_varies``: the reference moves over that stretch (it has
+    less ``zero`` and its rows (a provisional scale: ``PolyAccumulator`` rescales); ``reference_varies``: the reference moves over that stretch (it has
     noise). Only the blocks up to the stretch's end are read. Raises ``ValueError`` if the session
     has no sample at rest.
     """
@@ -463,7 +463,7 @@ class Calibrator:
         need_own = spec.inputs == "own" or self.prior == "own_gauge"
         joint_faces = self._output_faces(spec, sessions, None) if spec.inputs == "all" else ()
         poly = None
-        if zeros is not None:  # each gauge's spread about its zero (RMS over each session's first block), counts
+        if zeros is not None:  # a provisional scale (the first blocks' RMS about the zero; the fit's is the fitted rows')
             rms = np.sqrt(sum(z[1] for z in zeros) / max(sum(z[2] for z in zeros), 1))
             poly = PolyAccumulator(spec.inputs == "own", joint_faces, n_int, np.where(rms > 0, rms, 1.0),
                                    {s.connected_face for s in sessions if s.flange == "face"}, [len(s) for s in sessions],

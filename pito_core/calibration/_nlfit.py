@@ -97,7 +97,7 @@ class PolyAccumulator:
             self.carry_n = {f: np.zeros(n_int) for f in faces}
 
     def add(self, k, counts, center, loaded, targets_of):
-        """Rows of session ``k``: ``counts (n, 36)`` as stored, ``center (36,)`` its tare mean,
+        """Rows of session ``k``: ``counts (n, 36)`` as stored, ``center (36,)`` its zero (opening tare),
         ``loaded (n, 6)``. ``targets_of(rows)`` (a slice) gives ``(targets (r, 6, 6), carries (r, 6),
         usable (r,))`` of the rows it keeps, as :func:`~._targets.block_targets` does: only those
         are worked out (one sample in ``stride``), the range and the segments from every row.

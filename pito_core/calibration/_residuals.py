@@ -305,16 +305,15 @@ def fit_error_model(cal, sessions, mounts, offsets, tare_means, spec, groups, bl
         coef[:, :, 0] += floor
         s_load, s_own, s_rest, own_weight = _coverage_scales(b, coef)
         # where the reference's noise swamps a face's own error, E² − v cannot tell it from the gauge noise
-        # (face_to_face, linear cube, 0.1 %: an error 60× the floor on one axis went unseen, 84 % coverage;
-        # the crosstalk's model on that row alone made the mean error of the design rows 10⁴× theirs): the
-        # face keeps one model, wide where it carries but not short
-        # A corrected face of a joint fit keeps its own model (its scale the crosstalk's) down to _MIN_OWN_WEIGHT:
-        # its one model's q term is the crosstalk's identity read at full load (nonlinear cube, wizard's tare,
+        # (face_to_face, linear cube, 0.1 %: a fitted own model missed an error 60× the floor on one axis, 84 %
+        # coverage; the crosstalk's model on that row alone made the mean error of the design rows 10⁴× theirs).
+        # A face fitted on its own rows keeps its two models, the own one a bound on those rows (_own_bound): its
+        # crosstalk is another face's load read as its own, and one model set its intervals where it carried at
+        # 10–200× the error (linear cube, 0.1 %). A corrected face of a joint fit keeps its own model (its scale
+        # the crosstalk's) down to _MIN_OWN_WEIGHT, below it one model, wide where it carries but not short: its
+        # one model's q term is the crosstalk's identity read at full load (nonlinear cube, wizard's tare,
         # 0.1 · 0.33 %: intervals up to 3–6× the error where the face carried, 1.7× with its own)
         informed = own_weight.reshape(F, 6) >= np.where(masked, _MIN_OWN_WEIGHT, np.inf)[:, None]
-        # a face fitted on its own rows keeps its two models: its crosstalk's error is another face's load read
-        # as its own (face_to_face, linear cube, 0.1 %: one model's intervals 10–200× the error where it carried);
-        # where swamped, its own model is a bound (_own_bound)
         bounded = np.isfinite(q_own) & ~masked & ~informed.all(axis=1)
         swamped = np.isfinite(q_own) & masked & ~informed.all(axis=1)
         if not swamped.any():
