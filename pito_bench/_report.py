@@ -65,11 +65,14 @@ def _calibration_targets(cal: dict | None) -> list[dict]:
         return out
     mem = [r for r in cal["memory"] if r["method"] in ("unloaded_frame", "total") and "core_s" in r]
     r = _nearest(mem, 1e5)
-    if r:
+    if r:  # every method's linear fit at that k: the slowest decides
+        rows = [x for x in cal["memory"] if x["k"] == r["k"]]
+        slow = max(rows, key=lambda x: x["fit_s"])
         out.append({"target": "36×36 fit from 10⁵ samples ≤ 50 ms",
-                    "measured": f"calibrate(): {r['fit_s'] * 1e3:.0f} ms, least-squares core: {r['core_s'] * 1e3:.0f} ms "
+                    "measured": f"calibrate(): {min(x['fit_s'] for x in rows) * 1e3:.1f}–{slow['fit_s'] * 1e3:.1f} ms over "
+                                f"{len(rows)} methods (slowest {slow['method']}), least-squares core: {r['core_s'] * 1e3:.0f} ms "
                                 f"({r['method']}, k = {r['k']:,})",
-                    "met": r["fit_s"] <= 0.05, "value_s": r["fit_s"], "core_s": r["core_s"]})
+                    "met": slow["fit_s"] <= 0.05, "value_s": slow["fit_s"], "core_s": r["core_s"]})
     for model in ("linear", "auto"):  # the papers' fit and the default (with its cross-validation)
         st = [r for r in cal["streamed"] if r["k"] >= 5e6 and r.get("model", "linear") == model]
         if st:
