@@ -354,14 +354,14 @@ def _own_bound(b, floor, rows) -> np.ndarray:
     could not be told from 0 (``face_to_face``, linear cube, 0.1 %: fitted, an axis whose error was 60× the
     floor covered 84 %)."""
     out = np.empty(rows.size)
-    for i, r in enumerate(rows):
-        f, a = divmod(int(r), 6)
+    for f in np.unique(rows // 6):
         own = b["own"][f]
-        e2 = b["ET"][f, a, own] ** 2 - floor[r]
-        if b["vT"] is not None:
-            e2 -= b["vT"][f, a, own]
-        se = e2.std(ddof=1) / np.sqrt(e2.size) if e2.size > 1 else np.inf
-        out[i] = max(e2.mean() + _BOUND_Z * se, 0.0) + floor[r]
+        c = dict(ET=b["ET"][f : f + 1, :, own], vT=0.0 if b["vT"] is None else b["vT"][f : f + 1, :, own])
+        e2 = _squares_less(c, floor[6 * f : 6 * f + 6])[0]  # (6, n)
+        se = e2.std(axis=1, ddof=1) / np.sqrt(e2.shape[1]) if e2.shape[1] > 1 else np.full(6, np.inf)
+        bound = np.maximum(e2.mean(axis=1) + _BOUND_Z * se, 0.0) + floor[6 * f : 6 * f + 6]
+        at = rows // 6 == f
+        out[at] = bound[rows[at] % 6]
     return out
 
 
