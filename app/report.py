@@ -83,7 +83,9 @@ def rmse_figure(evaluation, fig: Figure | None = None, dark: bool = True, *, rea
             okU = np.isfinite(u)
             if okU.any():
                 ax.scatter(faces[okU], u[okU], marker="_", s=250, linewidths=2,
-                           color=DARK["fg"] if dark else "black", label="± 95 % of the true wrench")
+                           color=DARK["fg"] if dark else "black",
+                           label="± 95 % (may be short)" if getattr(evaluation, "uncertainty95_caveat", None)
+                           else "± 95 % of the true wrench")
                 leg = ax.legend(fontsize=SMALL, loc="upper left", framealpha=0.6)
                 if dark:
                     leg.get_frame().set_facecolor(DARK["bg"])
@@ -242,6 +244,10 @@ def _report_lines(calibration, evaluation, info: dict, generated: str) -> list[s
         for key, (force, torque) in calibration.model.cv_rms().items()
     ] + [
         f"| held-out single-face samples | {evaluation.n_single} |",
+    ] + [
+        f"| 95 % intervals | **may be short**: {caveat} |"
+        for caveat in [getattr(evaluation, "uncertainty95_caveat", None)] if caveat
+    ] + [
         "",
         "## Held-out RMSE per loaded face",
         "",

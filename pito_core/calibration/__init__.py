@@ -23,6 +23,7 @@ from ._fit import (
     session_offsets,
 )
 from ._uncertainty import CalibrationCovariance, CovarianceGroup
+from ._reference_noise import NoisyReferenceWarning
 from ._lstsq import GRAM_KAPPA_MAX, GramQR, LstsqResult, StreamedQR
 from ._cv import MODELS, ModelChoice, segment_ids
 from ._poly import PolyCorrection
@@ -83,6 +84,7 @@ __all__ = [
     "METHODS",
     "MethodSpec",
     "RankDeficientWarning",
+    "NoisyReferenceWarning",
     "SessionBlock",
     "calibrate",
     "get_method",

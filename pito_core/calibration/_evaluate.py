@@ -9,7 +9,7 @@ import numpy as np
 
 from ._calibration import Calibration
 from ._fit import AXES, _as_sessions, session_offsets
-from ._interval import UNCERTAINTY_WORDS, calibration_uncertainty
+from ._interval import UNCERTAINTY_WORDS, calibration_uncertainty, interval_caveat
 from ._metrics import (
     DEFAULT_FORCE_THRESHOLD, DEFAULT_TORQUE_THRESHOLD, PAPER_IDENTIFICATION_RULE, _RULE_WORDS, _Acc, _rms_rows,
     identify_loaded_faces,
@@ -55,6 +55,8 @@ class Evaluation:
     uncertainty95 : ndarray (6, 6) or None
         Half-width of the 95 % interval per face and axis from the calibration's own
         covariance (:func:`calibration_uncertainty`); None for calibrations without one.
+    uncertainty95_caveat : str or None
+        Why those intervals may be short, in one line (:func:`interval_caveat`), or None.
     """
 
     method: str
@@ -71,6 +73,7 @@ class Evaluation:
     simulated: bool = False
     sessions: list = field(default_factory=list)
     uncertainty95: np.ndarray | None = None
+    uncertainty95_caveat: str | None = None
 
     def identification_headline(self) -> list[dict]:
         """The papers' face identification figures: single-face loads by force, squeeze by torque.
@@ -135,6 +138,7 @@ class Evaluation:
             "face_inverse_condition_numbers": nan_to_none(clean(self.face_inverse_condition_numbers)),
             "uncertainty95": None if self.uncertainty95 is None else nan_to_none(clean(self.uncertainty95)),
             "uncertainty95_meaning": UNCERTAINTY_WORDS,
+            "uncertainty95_caveat": self.uncertainty95_caveat,
         }
         if series:
             d["comparison"] = {k: np.asarray(v).tolist() for k, v in self.comparison.items()}
@@ -285,4 +289,5 @@ def evaluate(calibration: Calibration, sessions, *, tare: bool = True,
         simulated=bool(calibration.meta.get("simulated")) or any(bool(s.meta.get("simulated")) for s in sessions),
         sessions=[repr(s) for s in sessions],
         uncertainty95=calibration_uncertainty(calibration, sessions, seed=seed, tare=tare),
+        uncertainty95_caveat=interval_caveat(calibration),
     )

@@ -31,6 +31,7 @@ from ._nlfit import PolyAccumulator, correction as poly_correction, mixed_offset
 from ._methods import MethodSpec, get_method
 from ..io import CalibrationSession
 from ._targets import MountGeometry, block_targets
+from ._reference_noise import reference_noise_at_rest
 from ._residuals import fit_error_model
 from ._uncertainty import CalibrationCovariance, CovarianceGroup
 
@@ -437,6 +438,7 @@ class Calibrator:
         self.n_samples_ = st.n_used
         s0 = next(s for s in sessions if s.flange in spec.flanges)
         meta = self._meta(spec, sessions, st, out_faces, load_rank, fit, choice, corr_fit)
+        meta["reference_noise_at_rest"] = reference_noise_at_rest(ref_covs, ref_n)
         cal = Calibration(spec.name, fit.matrix, out_faces, spec.output_frame, np.mean(fit.offsets, axis=0), s0.core,
                           s0.T_core_ati, meta, correction=corr_fit, model=choice,
                           linear_fit=linear_fit)

@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+import warnings
 from importlib.metadata import entry_points
 
 from .._version import __version__
@@ -57,6 +58,19 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+def _one_line(default):
+    """A ``warnings.showwarning`` that prints pito's own warnings as one line on stderr, like its errors, and
+    hands the others to ``default``."""
+
+    def show(message, category, filename, lineno, file=None, line=None) -> None:
+        if category.__module__.startswith("pito_core"):
+            print(f"pito: warning: {message}", file=sys.stderr if file is None else file)
+        else:
+            default(message, category, filename, lineno, file, line)
+
+    return show
+
+
 def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
@@ -64,7 +78,9 @@ def main(argv=None) -> int:
         parser.print_help()
         return 2
     try:
-        return int(args.func(args) or 0)
+        with warnings.catch_warnings():
+            warnings.showwarning = _one_line(warnings.showwarning)
+            return int(args.func(args) or 0)
     except (ValueError, FileNotFoundError) as exc:  # user errors: one clear line, no traceback
         print(f"pito: error: {exc}", file=sys.stderr)
         return 1

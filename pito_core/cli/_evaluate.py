@@ -74,6 +74,8 @@ def print_evaluation(ev, calibration=None) -> None:
     print(f"({ev.n_single} samples)")
     if unc is not None:
         print(f"({UNCERTAINTY_WORDS})")
+        if ev.uncertainty95_caveat:
+            print(f"WARNING: {ev.uncertainty95_caveat}")
     else:
         print("(± not available: this calibration has no covariance — fit it again with this pito)")
     if ev.n_squeeze:

@@ -109,3 +109,24 @@ def test_replay_and_export_write_the_same_csv_and_mat(tmp_path, capsys):
     a, b = read_recording_csv(tmp_path / "a_pito.csv"), read_recording_csv(tmp_path / "b_pito.csv")
     assert a.keys() == b.keys() and all(np.array_equal(a[k], b[k]) for k in a)
     assert (tmp_path / "a.mat").exists() and (tmp_path / "b.mat").exists()
+
+
+def test_calibrate_and_evaluate_name_a_reference_noisier_than_the_tare_allows(tmp_path, capsys):
+    """A session whose reference is noisier at rest than the tare's stillness limits (2 % of full scale on
+    a random sensor, not the cube's simulator): ``pito calibrate`` fits it and warns in one line, as it
+    reports errors; ``pito evaluate`` says the ± may be short."""
+    from pito_core.sim import random_sensor, random_sensor_session
+
+    sensor = random_sensor(2, condition=(1.0, 30.0))
+    train, _ = random_sensor_session(sensor, "face", 6, 400, n_tare=500, seed=3, reference_noise=0.02)
+    test, _ = random_sensor_session(sensor, "face", 6, 100, n_tare=200, seed=4)
+    train.save(tmp_path / "train.pitosession")
+    test.save(tmp_path / "test.pitosession")
+    cal = tmp_path / "c.pitocal"
+    assert main(["calibrate", "--method", "total", "--model", "linear", "-o", str(cal),
+                 str(tmp_path / "train.pitosession")]) == 0
+    warned = [line for line in capsys.readouterr().err.splitlines() if "warning" in line]
+    assert len(warned) == 1 and warned[0].startswith("pito: warning: sessions[0].reference: its noise at rest is "), warned
+    assert main(["evaluate", str(cal), str(tmp_path / "test.pitosession")]) == 0
+    warned = [line for line in capsys.readouterr().out.splitlines() if line.startswith("WARNING:")]
+    assert len(warned) == 1 and "is above the limits the intervals were checked within" in warned[0], warned
