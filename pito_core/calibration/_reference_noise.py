@@ -232,11 +232,11 @@ class NoisyReferenceWarning(UserWarning):
 
 def reference_noise_at_rest(ref_covs, ref_n) -> dict:
     """The reference's noise at rest in the calibration's ``meta``, with a :class:`NoisyReferenceWarning` where
-    it is above the tare's stillness limits (``pito_core.defaults``; 0.33 % and 0.5 % of a Nano17's 15 N and
-    0.1 N·m). The intervals' coverage was checked up to those: the wizard refuses a tare above them, a session
-    recorded elsewhere is fitted all the same. Above them the reference's noise swamps the calibration's own
-    error and the training data cannot tell its shape: at 1–3 % some axes' intervals fall short where the
-    face carries (docs/calibration.md, "Uncertainty").
+    it is above the tare's stillness limits (``pito_core.defaults``; 0.33 % and 0.5 % of the simulated cubes'
+    full scale, 15 N and 0.1 N·m). The intervals' coverage was checked up to those: the wizard refuses a tare
+    above them, a session recorded elsewhere is fitted all the same. Above them the reference's noise swamps
+    the calibration's own error and the training data cannot tell its shape: at 1–3 % some axes' intervals
+    fall short where the face carries (docs/calibration.md, "Uncertainty").
 
     ``ref_covs``: per session, the reference's covariance at rest ``(6, 6)`` (N², N²·m, N²·m²) from ``ref_n``
     samples. Returns ``{"force_std_N": [...], "torque_std_Nm": [...], "within_limits": bool}``, per session the
