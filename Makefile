@@ -13,7 +13,7 @@ demo: deps venv
 
 test: deps venv
 	$(BIN)/lint-imports
-	$(XVFB) $(BIN)/python -m pytest -q $(PYTEST_ARGS)
+	$(XVFB) $(BIN)/python -m pytest -q --durations=15 $(PYTEST_ARGS)
 
 deps:
 	@bash scripts/install-system-deps.sh

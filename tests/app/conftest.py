@@ -22,10 +22,6 @@ def pytest_collection_modifyitems(config, items):
                 item.add_marker(skip)
 
 
-def pytest_configure(config):
-    config.addinivalue_line("markers", "needs_display: creates windows (skipped without an X server)")
-
-
 @pytest.fixture(autouse=True)
 def gc_in_gui_thread(request):
     """Garbage cycles (closed windows, pages, menus) freed in the GUI thread only, as in
