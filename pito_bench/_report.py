@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 import os
 
+from pito_core.report import fmt, new_figure, save_png, table
+
 from ._model_choice import model_choice_table
 from ._single_contact import plot_single, single_table_rows
 
@@ -12,17 +14,8 @@ __all__ = ["format_report", "targets", "write_plots", "text_table"]
 
 
 def _f(x, digits=3) -> str:
-    if x is None:
-        return "—"
-    try:
-        x = float(x)
-    except (TypeError, ValueError):
-        return str(x)
-    if not math.isfinite(x):
-        return "—"
-    if x != 0 and (abs(x) >= 1e6 or abs(x) < 1e-3):
-        return f"{x:.{digits - 1}e}"
-    return f"{x:.{digits}g}"
+    """A figure with 3 significant digits (the bench's tables)."""
+    return fmt(x, digits)
 
 
 def _n(x) -> float:
@@ -39,11 +32,8 @@ def _ci(row: dict, key: str) -> str:
 
 
 def text_table(title, header, rows) -> str:
-    """Right-aligned columns; first column left-aligned."""
-    cols = [list(map(str, header))] + [[str(c) for c in r] for r in rows]
-    w = [max(len(r[k]) for r in cols) for k in range(len(header))]
-    line = lambda r: "  ".join(c.ljust(w[k]) if k == 0 else c.rjust(w[k]) for k, c in enumerate(r))  # noqa: E731
-    return "\n".join([title, line(cols[0]), "  ".join("-" * x for x in w)] + [line(r) for r in cols[1:]])
+    """A titled table (:func:`pito_core.report.table`)."""
+    return table(header, rows, title)
 
 
 # ---------------------------------------------------------------- targets
@@ -332,23 +322,6 @@ def _live_table(title, runs) -> str:
 
 
 # ---------------------------------------------------------------- plots
-def _save(fig, out_dir: str, name: str) -> str:
-    """Write ``fig`` as ``out_dir/name`` (PNG, 120 dpi), return the path."""
-    path = os.path.join(out_dir, name)
-    fig.tight_layout()
-    fig.savefig(path, dpi=120)
-    return path
-
-
-def _subplots(*grid, figsize):
-    """A new figure (no pyplot, no backend switch: nothing global changes) and its axes ``grid``."""
-    # deferred: matplotlib takes ~0.4 s to load and this module loads with `pito --help`
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=figsize)
-    return fig, fig.subplots(*grid)
-
-
 def write_plots(result: dict, out_dir) -> list[str]:
     """PNG plots of speed against error into ``out_dir``; returns the paths written."""
     os.makedirs(out_dir, exist_ok=True)
@@ -356,21 +329,21 @@ def write_plots(result: dict, out_dir) -> list[str]:
     tag = " (QUICK run)" if result.get("meta", {}).get("quick") else ""
     cal = result.get("calibration")
     if cal and cal["memory"]:
-        paths.append(_save(_calibration_plot(cal, tag), out_dir, "calibration_speed_vs_error.png"))
+        paths.append(save_png(_calibration_plot(cal, tag), os.path.join(out_dir, "calibration_speed_vs_error.png")))
     con = result.get("contact")
     if con and con["pareto"]:
-        paths.append(_save(_contact_pareto_plot(con, tag), out_dir, "contact_speed_vs_error.png"))
-        paths.append(_save(_contact_crb_plot(con, tag), out_dir, "contact_crb_ratio.png"))
+        paths.append(save_png(_contact_pareto_plot(con, tag), os.path.join(out_dir, "contact_speed_vs_error.png")))
+        paths.append(save_png(_contact_crb_plot(con, tag), os.path.join(out_dir, "contact_crb_ratio.png")))
     if con and con.get("single"):
-        fig, axes = _subplots(1, 2, figsize=(12, 5))
+        fig, axes = new_figure(1, 2, figsize=(12, 5))
         plot_single(con["single"], axes, tag)
-        paths.append(_save(fig, out_dir, "contact_single.png"))
+        paths.append(save_png(fig, os.path.join(out_dir, "contact_single.png")))
     return paths
 
 
 def _calibration_plot(cal: dict, tag: str):
     """Held-out force RMSE (N) against fit time (s), pito and numpy lstsq, each method and size."""
-    fig, ax = _subplots(figsize=(7, 5))
+    fig, ax = new_figure(figsize=(7, 5))
     methods = sorted({r["method"] for r in cal["memory"]})
     for j, m in enumerate(methods):
         rs = sorted((r for r in cal["memory"] if r["method"] == m), key=lambda r: r["k"])
@@ -396,7 +369,7 @@ def _calibration_plot(cal: dict, tag: str):
 
 def _contact_pareto_plot(con: dict, tag: str):
     """Worst error/CRB against solves per second, per surface and solver (filled: Pareto-optimal)."""
-    fig, ax = _subplots(figsize=(7, 5))
+    fig, ax = new_figure(figsize=(7, 5))
     kinds = sorted({p["surface"] for p in con["pareto"]})
     markers = {"closed form (soft finger)": "o", "point contact (weighted LS)": "D",
                "scipy least_squares (soft finger)": "s", "scipy least_squares (point contact)": "v"}
@@ -419,7 +392,7 @@ def _contact_pareto_plot(con: dict, tag: str):
 
 def _contact_crb_plot(con: dict, tag: str):
     """Error/CRB per surface, scenario and noise level."""
-    fig, ax = _subplots(figsize=(7, 5))
+    fig, ax = new_figure(figsize=(7, 5))
     labels = [f"{a['surface']}/{a['scenario']}/{a['noise']}" for a in con["accuracy"]]
     ax.bar(range(len(labels)), [_n(a["crb_ratio"]) for a in con["accuracy"]], color="C0")
     ax.axhline(1.05, color="k", lw=0.8, ls=":")

@@ -19,7 +19,7 @@ from ..defaults import LOADED_FORCE_N, LOADED_TORQUE_NM
 from ..io import calibration_hash, short_hash
 from ._sessions import load_sessions
 from ._model import print_model
-from ._tables import fmt, table
+from ..report import fmt, table
 
 HELP = """\
 Evaluate a calibration on held-out sessions with the papers' figures of merit:

@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-import csv
 import os
 
 import numpy as np
 
+from ..report import new_figure, save_png, write_csv
 from ._experiments import METHOD_ORDER, Results
 
 __all__ = ["write_figures", "FIGURES"]
@@ -40,28 +40,11 @@ _COLORS = {"face_to_face": "#d62728", "quasi_total": "#ff7f0e", "total": "#2ca02
 _PER_CONNECTED = ("loaded_frame", "unloaded_frame", "unloaded_frame+frame_hole")
 
 
-def _subplots(*grid, figsize, **kwargs):
-    """A new figure (no pyplot, no backend switch: nothing global changes) and its axes ``grid``."""
-    # deferred: matplotlib takes ~0.4 s to load and this module loads with `pito --help`
-    from matplotlib.figure import Figure
-
-    fig = Figure(figsize=figsize)
-    return fig, fig.subplots(*grid, **kwargs)
-
-
-def _write_csv(path, header, rows):
-    with open(path, "w", newline="") as f:
-        w = csv.writer(f)
-        w.writerow(header)
-        for r in rows:
-            w.writerow(["" if (isinstance(v, float) and not np.isfinite(v)) else (f"{v:.9g}" if isinstance(v, float) else v)
-                        for v in r])
+_SIM_NOTE = "SIMULATED data — pito_core.sim default cube"
 
 
 def _save(fig, path):
-    fig.text(0.995, 0.005, "SIMULATED data — pito_core.sim default cube", ha="right", va="bottom", fontsize=7,
-             color="0.4")
-    fig.savefig(path, dpi=110)
+    save_png(fig, path, dpi=110, note=_SIM_NOTE, tight=False)
 
 
 def write_figures(res: Results, out_dir) -> list[str]:
@@ -88,10 +71,10 @@ def _model_choice(res, out):
         lin, ch = res.linear_evaluations[m], res.evaluations[m]
         rows.append([m, res.calibrations[m].model.name, _overall(lin, 0), _overall(ch, 0), _overall(lin, 3),
                      _overall(ch, 3)])
-    _write_csv(os.path.join(out, "model_choice.csv"), ["method", "model_chosen", "linear_force_rmse_N",
+    write_csv(os.path.join(out, "model_choice.csv"), ["method", "model_chosen", "linear_force_rmse_N",
                                                        "chosen_force_rmse_N", "linear_torque_rmse_Nm",
                                                        "chosen_torque_rmse_Nm"], rows)
-    fig, axs = _subplots(1, 2, figsize=(11, 3.9))
+    fig, axs = new_figure(1, 2, figsize=(11, 3.9))
     x = np.arange(len(methods))
     for ax, (k, unit, what) in zip(axs, ((2, "N", "force"), (4, "N·m", "torque"))):
         ax.bar(x - 0.2, [r[k] for r in rows], 0.4, color="0.6", label="papers' linear fit")
@@ -108,7 +91,7 @@ def _model_choice(res, out):
 # ---------------------------------------------------------------------- identification
 def _identification(res, out, method="unloaded_frame"):
     tag = "" if method == "unloaded_frame" else f"_{method}"
-    fig, axs = _subplots(2, 1, figsize=(9, 6.5))
+    fig, axs = new_figure(2, 1, figsize=(9, 6.5))
     files = []
     for ax, kind, key, unit, thr in (
         (axs[0], "single", "force_norm", "N", 0.5),
@@ -140,7 +123,7 @@ def _identification(res, out, method="unloaded_frame"):
         ax.legend(fontsize=7, ncol=4, loc="upper right")
         name = f"identification{tag}_{kind}.csv"
         rows = [[float(t[n])] + [float(x) for x in v[n]] + [int(x) for x in loaded[n]] for n in range(0, t.size, step)]
-        _write_csv(os.path.join(out, name), ["time_s"] + [f"face{i}_{key}_{'N' if unit == 'N' else 'Nm'}" for i in range(1, 7)]
+        write_csv(os.path.join(out, name), ["time_s"] + [f"face{i}_{key}_{'N' if unit == 'N' else 'Nm'}" for i in range(1, 7)]
                    + [f"face{i}_loaded" for i in range(1, 7)], rows)
         files.append(name)
     fig.tight_layout()
@@ -161,11 +144,11 @@ def _comparison(res, out):
         for n in range(len(cmp["kind"])):
             rows.append([m, str(cmp["kind"][n]), int(cmp["face"][n])] + [float(x) for x in cmp["reference"][n]]
                         + [float(x) for x in cmp["predicted"][n]])
-    _write_csv(os.path.join(out, "comparison.csv"), ["method", "kind", "face"] + [f"ref_{a}" for a in _AXES]
+    write_csv(os.path.join(out, "comparison.csv"), ["method", "kind", "face"] + [f"ref_{a}" for a in _AXES]
                + [f"pred_{a}" for a in _AXES], rows)
     files = ["comparison.csv"]
     for name, axes, unit in (("comparison_forces.png", (0, 1, 2), "N"), ("comparison_torques.png", (3, 4, 5), "N·m")):
-        fig, axs = _subplots(1, 3, figsize=(11, 3.9))
+        fig, axs = new_figure(1, 3, figsize=(11, 3.9))
         for ax, k in zip(axs, axes):
             lim = 0.0
             for m in methods:
@@ -199,7 +182,7 @@ def _force_torque_bars(path, x, series, width, *, ylabel, title, xlabel, xtickla
     as a group on ``x``; ``ylabel`` and ``title`` are formatted with ``what`` ("force" or
     "torque") and ``unit``.
     """
-    fig, axs = _subplots(1, 2, figsize=figsize)
+    fig, axs = new_figure(1, 2, figsize=figsize)
     for j, (m, f, t) in enumerate(series):
         dx = (j - (len(series) - 1) / 2) * width
         axs[0].bar(x + dx, f, width, label=m, color=_COLORS[m])
@@ -221,7 +204,7 @@ def _rmse_methods(res, out):
         for i in range(6):
             rows.append([m, i + 1, float(ev.rmse_force()[i]), float(ev.rmse_torque()[i])])
         rows.append([m, "squeeze", *squeeze_rmse(ev)])
-    _write_csv(os.path.join(out, "rmse_methods.csv"), ["method", "face", "rmse_force_N", "rmse_torque_Nm"], rows)
+    write_csv(os.path.join(out, "rmse_methods.csv"), ["method", "face", "rmse_force_N", "rmse_torque_Nm"], rows)
     series = [(m, [r[2] for r in rows if r[0] == m], [r[3] for r in rows if r[0] == m]) for m in METHOD_ORDER]
     _force_torque_bars(os.path.join(out, "rmse_methods.png"), np.arange(7), series, 0.8 / len(METHOD_ORDER),
                        ylabel="RMSE, {what} [{unit}]", title="{what} RMSE per face and method",
@@ -243,7 +226,7 @@ def _rmse_connected(res, out):
         for m in _PER_CONNECTED:
             _, ev = res.per_connected[(m, c)]
             rows.append([c, m, float(np.nanmean(ev.rmse_force())), float(np.nanmean(ev.rmse_torque()))])
-    _write_csv(os.path.join(out, "rmse_connected_face.csv"),
+    write_csv(os.path.join(out, "rmse_connected_face.csv"),
                ["connected_face", "method", "rmse_force_N", "rmse_torque_Nm"], rows)
     _per_connected_bars(os.path.join(out, "rmse_connected_face.png"), rows, ylabel="mean RMSE, {what} [{unit}]",
                         title="loaded vs unloaded frame, {what}")
@@ -256,7 +239,7 @@ def _squeeze_connected(res, out):
         for m in _PER_CONNECTED:
             ev = res.squeeze_per_connected[(m, c)]
             rows.append([c, m, *squeeze_rmse(ev), ev.n_squeeze])
-    _write_csv(os.path.join(out, "squeeze_connected_face.csv"),
+    write_csv(os.path.join(out, "squeeze_connected_face.csv"),
                ["connected_face", "method", "squeeze_rmse_force_N", "squeeze_rmse_torque_Nm", "samples"], rows)
     _per_connected_bars(os.path.join(out, "squeeze_connected_face.png"), rows,
                         ylabel="squeeze resultant RMSE, {what} [{unit}]", title="squeeze pairs vs reference, {what}")
@@ -277,9 +260,9 @@ def table1_rows(res):
 
 def _table1(res, out):
     rows = table1_rows(res)
-    _write_csv(os.path.join(out, "table1_inverse_condition_numbers.csv"),
+    write_csv(os.path.join(out, "table1_inverse_condition_numbers.csv"),
                ["connected_face", "loaded_frame_icn", "unloaded_frame_icn", "unloaded_frame_with_frame_hole_icn"], rows)
-    fig, ax = _subplots(figsize=(7, 3.8))
+    fig, ax = new_figure(figsize=(7, 3.8))
     x = np.arange(1, 7)
     ax.bar(x - 0.27, [r[1] for r in rows], 0.27, label="loaded_frame (36×36)", color=_COLORS["loaded_frame"])
     ax.bar(x, [max(r[2], 3.1e-5) for r in rows], 0.27, label="unloaded_frame alone (rank 30: ≈0, clipped)",
@@ -304,7 +287,7 @@ def _equilibrium(res, out):
     run = g["run"]
     t = run.time - run.time[0]
     step = max(1, t.size // 3000)
-    fig, axs = _subplots(2, 1, figsize=(9, 6), sharex=True)
+    fig, axs = new_figure(2, 1, figsize=(9, 6), sharex=True)
     axs[0].plot(t[::step], g["m_a_minus_g"][::step], "k-", lw=1.2, label="truth m‖a − g‖")
     axs[0].axhline(run.weight, color="0.5", ls="--", lw=0.9, label=f"weight m g = {run.weight:.2f} N")
     for m, eq in g["methods"].items():
@@ -336,7 +319,7 @@ def _equilibrium(res, out):
         rows.append([float(t[n]), int(on[n]), float(g["m_a_minus_g"][n]), float(g["truth"].torque_cog_norm[n])]
                     + [float(g["methods"][m].force_sum_norm[n]) for m in methods]
                     + [float(g["methods"][m].torque_cog_norm[n]) for m in methods])
-    _write_csv(os.path.join(out, "equilibrium.csv"),
+    write_csv(os.path.join(out, "equilibrium.csv"),
                ["time_s", "on_table", "truth_m_a_minus_g_N", "truth_torque_cog_Nm"]
                + [f"{m}_force_sum_N" for m in methods] + [f"{m}_torque_cog_Nm" for m in methods], rows)
     return ["equilibrium.png", "equilibrium.csv"]
@@ -351,10 +334,10 @@ def _contact(res, out):
     rows = [[src, int(r[0]) + 1, float(pts[int(r[0]), 0]), float(pts[int(r[0]), 1]), float(r[1]), float(r[2]), float(r[3]),
              float(r[4]), int(r[5])]
             for src in ("cube", "reference") for r in tc[src]["rows"]]
-    _write_csv(os.path.join(out, "contact_points.csv"),
+    write_csv(os.path.join(out, "contact_points.csv"),
                ["sensor", "point", "target_x_m", "target_y_m", "est_mean_x_m", "est_mean_y_m", "rms_error_to_target_m",
                 "rms_error_to_placed_m", "samples"], rows)
-    fig, ax = _subplots(figsize=(5.2, 5.2))
+    fig, ax = new_figure(figsize=(5.2, 5.2))
     half = 0.023 * 1000
     ax.plot([-half, half, half, -half, -half], [-half, -half, half, half, -half], "k-", lw=0.8, label="46×46 mm patch")
     smp = tc["samples"]

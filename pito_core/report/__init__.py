@@ -1,0 +1,14 @@
+"""Output for people: plain-text tables with units and figures that change no global setting.
+
+One place for what the command line, ``pito bench`` and ``pito reproduce`` print and draw:
+
+- :func:`fmt` a number with its significant digits (``—`` for NaN or None),
+- :func:`table` right-aligned plain-text columns under a header,
+- :func:`new_figure` a matplotlib ``Figure`` and its axes grid (no pyplot, no backend switch),
+- :func:`save_png` and :func:`write_csv` the files behind a figure.
+"""
+
+from ._figures import new_figure, save_png, write_csv
+from ._text import fmt, table
+
+__all__ = ["fmt", "table", "new_figure", "save_png", "write_csv"]
