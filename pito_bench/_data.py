@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from pito_core.calibration import CalibrationSession
+from pito_core.defaults import FULL_SCALE_FACE
 from pito_core.frames import FACES, invert_pose, wrench_adjoint
 from pito_core.io import write_session
 from pito_core.sim import VirtualCube, reference_pose
@@ -30,7 +31,7 @@ MOUNT_OF_METHOD = {
     "unloaded_frame": ("face", 6),
 }
 #: Full-scale applied load per axis, N and N·m.
-LOAD_SCALE = np.array([15.0, 15.0, 15.0, 0.1, 0.1, 0.1])
+LOAD_SCALE = np.asarray(FULL_SCALE_FACE)
 #: Fraction of unloaded samples.
 UNLOADED_FRACTION = 0.05
 #: Samples generated per block (memory of the generator ≈ 400 B × this).

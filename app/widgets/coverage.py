@@ -8,13 +8,14 @@ from PySide6.QtGui import QColor, QFont, QPainter, QPen
 from PySide6.QtWidgets import QSizePolicy, QWidget
 
 from pito_core.defaults import FULL_SCALE_FACE
+from pito_core.frames import WRENCH_COMPONENTS, WRENCH_UNITS
 
 __all__ = ["CoverageModel", "CoverageBars", "FULL_SCALE", "AXIS_LABELS", "LEGEND_TEXT", "UNDER_COLOR", "REACHED_COLOR"]
 
 #: Full-scale loads of one face: ±15 N, ±0.1 N·m (fx, fy, fz, tx, ty, tz).
 FULL_SCALE = np.array(FULL_SCALE_FACE)  # N, N·m per axis (pito_core.defaults)
-AXIS_LABELS = ("fx", "fy", "fz", "tx", "ty", "tz")
-AXIS_UNITS = ("N", "N", "N", "N·m", "N·m", "N·m")
+AXIS_LABELS = WRENCH_COMPONENTS
+AXIS_UNITS = WRENCH_UNITS
 
 
 class CoverageModel(QObject):

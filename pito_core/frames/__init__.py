@@ -3,6 +3,8 @@
 from ._checks import ROTATION_TOL, check_face, check_pose, check_vectors
 from ._cube import CUBE_ADC_LIMIT, DEFAULT_EDGE, FACE_NORMALS, FACES, N_GAUGES, OPPOSITE_FACE, CubeCore
 from ._transforms import (
+    WRENCH_COMPONENTS,
+    WRENCH_UNITS,
     cross_rows,
     invert_pose,
     pose_from_rotation_translation,
@@ -23,6 +25,8 @@ __all__ = [
     "N_GAUGES",
     "OPPOSITE_FACE",
     "ROTATION_TOL",
+    "WRENCH_COMPONENTS",
+    "WRENCH_UNITS",
     "check_face",
     "check_pose",
     "check_vectors",

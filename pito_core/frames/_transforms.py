@@ -17,6 +17,8 @@ import numpy as np
 from ._checks import check_pose, check_vectors
 
 __all__ = [
+    "WRENCH_COMPONENTS",
+    "WRENCH_UNITS",
     "cross_rows",
     "pose_from_rotation_translation",
     "rotation_from_x",
@@ -28,6 +30,11 @@ __all__ = [
     "transform_directions",
 ]
 
+
+#: The order of a wrench's six components, everywhere in pito (arrays, files, channels, tables).
+WRENCH_COMPONENTS = ("fx", "fy", "fz", "tx", "ty", "tz")
+#: The units of :data:`WRENCH_COMPONENTS`: forces in N, moments in N·m.
+WRENCH_UNITS = ("N", "N", "N", "N·m", "N·m", "N·m")
 
 #: component indices (1, 2, 0) and (2, 0, 1): ``(a × b)_k = a_{k+1} b_{k+2} − a_{k+2} b_{k+1}``
 _NEXT, _PREV = np.array([1, 2, 0]), np.array([2, 0, 1])

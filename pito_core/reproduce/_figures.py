@@ -6,6 +6,7 @@ import os
 
 import numpy as np
 
+from ..frames import WRENCH_COMPONENTS
 from ..report import new_figure, save_png, write_csv
 from ._experiments import METHOD_ORDER, Results
 
@@ -33,7 +34,6 @@ FIGURES = {
 }
 
 _SIM = " [SIMULATED]"
-_AXES = ("fx", "fy", "fz", "tx", "ty", "tz")
 _COLORS = {"face_to_face": "#d62728", "quasi_total": "#ff7f0e", "total": "#2ca02c", "loaded_frame": "#9467bd",
            "unloaded_frame": "#1f77b4", "unloaded_frame+frame_hole": "#17becf"}
 #: The three per-connected-face calibrations.
@@ -144,8 +144,8 @@ def _comparison(res, out):
         for n in range(len(cmp["kind"])):
             rows.append([m, str(cmp["kind"][n]), int(cmp["face"][n])] + [float(x) for x in cmp["reference"][n]]
                         + [float(x) for x in cmp["predicted"][n]])
-    write_csv(os.path.join(out, "comparison.csv"), ["method", "kind", "face"] + [f"ref_{a}" for a in _AXES]
-               + [f"pred_{a}" for a in _AXES], rows)
+    write_csv(os.path.join(out, "comparison.csv"), ["method", "kind", "face"] + [f"ref_{a}" for a in WRENCH_COMPONENTS]
+               + [f"pred_{a}" for a in WRENCH_COMPONENTS], rows)
     files = ["comparison.csv"]
     for name, axes, unit in (("comparison_forces.png", (0, 1, 2), "N"), ("comparison_torques.png", (3, 4, 5), "N·m")):
         fig, axs = new_figure(1, 3, figsize=(11, 3.9))
@@ -158,9 +158,9 @@ def _comparison(res, out):
                 if ok.any():
                     lim = max(lim, np.abs(cmp["reference"][ok, k]).max())
             ax.plot([-lim, lim], [-lim, lim], "k-", lw=0.7)
-            ax.set_xlabel(f"reference {_AXES[k]} [{unit}]")
-            ax.set_ylabel(f"calibrated cube {_AXES[k]} [{unit}]")
-            ax.set_title(f"{_AXES[k]}, reference frame{_SIM}", fontsize=9)
+            ax.set_xlabel(f"reference {WRENCH_COMPONENTS[k]} [{unit}]")
+            ax.set_ylabel(f"calibrated cube {WRENCH_COMPONENTS[k]} [{unit}]")
+            ax.set_title(f"{WRENCH_COMPONENTS[k]}, reference frame{_SIM}", fontsize=9)
         axs[0].legend(fontsize=7, markerscale=4)
         fig.tight_layout()
         _save(fig, os.path.join(out, name))

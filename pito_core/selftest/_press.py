@@ -15,11 +15,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..frames import N_GAUGES, invert_pose
+from ..frames import N_GAUGES, WRENCH_COMPONENTS, invert_pose
 
 __all__ = ["PressStep", "StepCheck", "PressTestResult", "PRESS_PROTOCOL", "check_press_test"]
 
-AXES = ("fx", "fy", "fz", "tx", "ty", "tz")
+AXES = WRENCH_COMPONENTS
 
 
 @dataclass(frozen=True)
