@@ -10,7 +10,7 @@ from PySide6.QtCore import QObject, Signal
 from pito_core.calibration import METHODS, CalibrationSession, completing_mount, get_method, session_from_arrays
 from pito_core.frames import FACES, CubeCore, invert_pose
 
-from .capture import CaptureRules, FaceCaptures
+from pito_core.devices import CaptureRules, FaceCaptures
 
 __all__ = ["WizardModel", "Stage", "faces_to_load", "validation_rules", "RECOMMENDED_METHOD", "RECOMMENDED_WHY",
            "VALIDATION_WHY"]

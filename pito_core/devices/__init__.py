@@ -8,6 +8,7 @@ from ._acquisition import Acquisition
 from ._tare import TareCheck, TareRefused, check_tare, tare_event
 from ._clock import PAIRING_RULE, StreamClock, TickUnwrapper, pair_reference
 from ._atical import DIST_UNITS, AtiCalibration, load_ati_calibration
+from ._capture import Capture, CaptureRules, FaceCaptures, is_still, scaled
 from ._frame import (
     FRAME_DTYPE,
     FRAME_SIZE,
@@ -44,6 +45,11 @@ from ._ring import Ring
 from ._serial import DEFAULT_BAUDRATE, DeviceError, PitoBatch, PitoSerial, list_serial_ports
 
 __all__ = [
+    "Capture",
+    "CaptureRules",
+    "FaceCaptures",
+    "is_still",
+    "scaled",
     "TareCheck",
     "TareRefused",
     "check_tare",

@@ -140,7 +140,7 @@ def test_plot_curves_carry_the_bounds_pyqtgraph_would_find(qtbot):
 
 
 def test_load_page_progress_follows_the_gate_that_holds_the_face():
-    from app.wizard.capture import CaptureRules, FaceCaptures
+    from pito_core.devices import CaptureRules, FaceCaptures
     from app.wizard.load_page import face_gates
 
     fc = FaceCaptures(1, CaptureRules(k=100))

@@ -127,7 +127,7 @@ def test_a_calibration_without_the_completing_mount_says_so_live(qapp, grasp):
 
 
 def test_the_wizard_builds_its_sessions_with_the_one_saturation_rule(qapp):
-    from app.wizard.capture import Capture
+    from pito_core.devices import Capture
     from app.wizard.model import WizardModel
 
     model = WizardModel()

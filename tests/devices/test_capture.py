@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from app.wizard.capture import CaptureRules, FaceCaptures, is_still, scaled
+from pito_core.devices import CaptureRules, FaceCaptures, is_still, scaled
 from app.wizard.model import faces_to_load
 from pito_core.frames import CubeCore, invert_pose, transform_wrench
 from pito_core.sim import simulate_calibration

@@ -1,4 +1,4 @@
-"""Capture rules of the loading step (pure numpy, no Qt): still, new, covered, conditioned.
+"""Capture rules of a calibration's loading step (the wizard's; pure numpy): still, new, covered, conditioned.
 
 The loading step watches the stream of samples of one face. A window of samples is
 kept (a *capture*) only when the load on the face is still (small spread over the
@@ -13,7 +13,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from pito_core.defaults import FULL_SCALE_FACE
+from ..defaults import FULL_SCALE_FACE
 
 FULL_SCALE = np.array(FULL_SCALE_FACE)  # [fx, fy, fz, tx, ty, tz] full scale, N and N·m
 
