@@ -315,8 +315,9 @@ class Calibrator:
         ``linear``: the papers' affine least squares ``C = W S⁺``, exactly. ``poly``: the same
         design with a ridge-regularised polynomial correction of each face's own gauges
         (docs/calibration.md). ``auto`` (default): ``poly`` only where cross-validation over
-        whole loading segments shows it predicts held-out segments better (``_cv.MARGIN``),
-        its ridge chosen the same way; the figures are in ``calibration_.model``.
+        whole loading segments chooses it: the best mean held-out score, then the simplest
+        candidate within one standard error of it (``_cv.N_SE``), per face's forces and torques;
+        the figures are in ``calibration_.model``.
     min_snr : None or 0
         Removed (it tuned a ridge towards the own-gauge fits); 0 is accepted and means the
         default. Use ``prior="own_gauge"`` for a prior on the unexcited directions.
@@ -557,7 +558,7 @@ class Calibrator:
                 fit.matrix[:] = C
                 # the zero-load counts: the features' zeros for the corrected rows, the affine rows' fitted offsets
                 fit.offsets = mixed_offsets(C, linear_fit[0], choice.row_alpha, zeros, fit.offsets)
-                corr = poly_correction(poly, D)
+                corr = poly_correction(poly, D, C - linear_fit[0])
                 _rescale_groups(fit.groups, fit.residual, out_faces, E2, poly)
         elif self.model != "linear":
             choice = ModelChoice(requested=self.model, reason="the papers' affine least squares: prior='own_gauge' "

@@ -58,7 +58,7 @@ CALIBRATION_VERSION = 5
 CALIBRATION_READ_VERSIONS = {1, 2, 3, 4, 5}
 _CORRECTION_FIELDS = ("scale", "pairs", "cubes", "coef")
 #: The range the correction was fitted on (optional: older files load without, the plain polynomial).
-_CORRECTION_RANGE = ("lower", "upper")
+_CORRECTION_RANGE = ("lower", "upper", "edge_matrix")
 _GROUP_FIELDS = ("inputs", "rows", "design_pinv", "residual_cov", "center", "weights", "inflation")
 #: Group fields written only when set (the reference's noise per face block; absent: None).
 _GROUP_OPTIONAL = ("reference_leverage", "reference_cov")
