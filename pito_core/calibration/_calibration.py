@@ -200,8 +200,9 @@ class Calibration:
         W = np.einsum("fij,nj->nfi", self._apply, x)
         if self._apply_nl is not None:
             W += np.einsum("fir,nr->nfi", self._apply_nl, self.correction.features(x))
-        if self._apply_edge is not None:  # beyond the fitted range, the linear fit's slope
-            W += np.einsum("fij,nj->nfi", self._apply_edge, self.correction.beyond(x))
+        d = None if self._apply_edge is None else self.correction.beyond(x)
+        if d is not None:  # beyond the fitted range, the linear fit's slope
+            W += np.einsum("fij,nj->nfi", self._apply_edge, d)
         W[:, ~self.has_output] = np.nan
         if not return_cov:
             return W[0] if single else W

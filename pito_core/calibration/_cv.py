@@ -373,7 +373,7 @@ def _group_choice(e: np.ndarray, n_rows: np.ndarray, force: bool) -> int:
     return best
 
 
-def choose_model(results, requested: str, n_segments: int) -> ModelChoice:
+def choose_model(results, requested: str, n_segments: int, group: int = 3) -> ModelChoice:
     """Choose, per output group, the affine rows or the correction.
 
     Parameters
@@ -386,6 +386,8 @@ def choose_model(results, requested: str, n_segments: int) -> ModelChoice:
         ``auto`` applies :func:`_group_choice`; ``poly`` uses the correction on every group;
         ``linear`` none (the figures are still reported).
     n_segments : int
+    group : int
+        Outputs chosen together: 3 (forces, torques) or 6 (a face's whole wrench).
     """
     alphas = results[0][0]["alphas"]
     K = results[0][0]["sse"].shape[1]
@@ -396,8 +398,8 @@ def choose_model(results, requested: str, n_segments: int) -> ModelChoice:
         sse = np.nan_to_num(cv["sse"])
         n = max(int(cv["n_rows"].sum()), 1)
         for j, w in enumerate(weights):
-            for g in range(0, w.size, 3):
-                cols = np.arange(g, min(g + 3, w.size))
+            for g in range(0, w.size, group):
+                cols = np.arange(g, min(g + group, w.size))
                 e = np.einsum("akc,c->ak", sse[:, :, j, cols], w[cols] ** 2)
                 chosen = _group_choice(e, cv["n_rows"], requested == "poly")
                 pick = chosen if chosen else 1 + int(np.argmin(e[1:].sum(axis=1)))  # the correction at its best ridge
@@ -412,7 +414,7 @@ def choose_model(results, requested: str, n_segments: int) -> ModelChoice:
     used = [a for a in row_alpha if a is not None]
     won = int(np.sum(folds[2] < folds[0]))
     ratio = score["chosen"] / score["linear"] if score["linear"] > 0 else float("nan")
-    n_groups, n_used = len(row_alpha) // 3, len(used) // 3
+    n_groups, n_used = len(row_alpha) // group, len(used) // group
     name = "poly" if used else "linear"
     if requested == "auto":
         why = (f"cross-validated over {K} folds of {n_segments} loading segments: the polynomial correction is used for "

@@ -214,7 +214,7 @@ class PolyAccumulator:
                          FULL_SCALE_WEIGHT, rank_a) for k, f in enumerate(self.out_faces)]
         return [(self.acc, probs, list(self.out_faces))]
 
-    def fit(self, out_faces, requested, linear_matrix, rank_a=None, alphas=ALPHAS):
+    def fit(self, out_faces, requested, linear_matrix, rank_a=None, alphas=ALPHAS, group=3):
         """Choose the model per output group; returns ``(ModelChoice, solution or None)``.
 
         The solution (for ``poly``) is ``(C (6F, 36), B (n_int, 6F), D (6F, 162), E2 (6F,))``: slopes
@@ -225,7 +225,7 @@ class PolyAccumulator:
         self._rescale()
         parts = self.problems(out_faces, rank_a)
         results = [(cross_validate(acc, probs, alphas), [p.weight for p in probs]) for acc, probs, _ in parts]
-        choice = choose_model(results, requested, self.counter.count)
+        choice = choose_model(results, requested, self.counter.count, group)
         if choice.name != "poly":
             return choice, None
         F = len(out_faces)
