@@ -31,7 +31,7 @@ N_FOLDS = 5
 #: Ridge strengths tried for the nonlinear features (relative to their mean squared singular value).
 ALPHAS = 10.0 ** np.arange(-7.0, 0.5, 1.0)
 #: Segments are cut to at most this fraction of a session, so every fold holds many of them.
-MAX_SEGMENT_FRACTION = 1 / 40
+MAX_SEGMENT_FRACTION = 1 / 20
 #: Eigenvalues of the scaled Gram of the unpenalised columns below this fraction of the
 #: largest are dropped (singular values under 10⁻⁶·σ₁: what a Gram in double can resolve).
 GRAM_RTOL = 1e-12
@@ -266,6 +266,9 @@ def solution_operator(G: np.ndarray, pr: Problem, alpha: float) -> np.ndarray:
 #: The one-standard-error rule (Hastie et al.): the simplest candidate whose mean held-out score
 #: is within this many standard errors (over folds) of the best one's.
 N_SE = 1.0
+#: Held-out mean squares (outputs scaled by full scale) closer than this are a tie: an RMSE of
+#: 10⁻⁶ of full scale, below what the Gram's rounding resolves on noise-free data.
+SCORE_ATOL = 1e-12
 MODELS = ("auto", "linear", "poly")
 
 
@@ -357,7 +360,7 @@ def _group_choice(e: np.ndarray, n_rows: np.ndarray, force: bool) -> int:
     Each candidate's score on fold ``k`` is its held-out mean square ``e[a, k] / n_rows[k]``; the
     best mean over folds wins, then the one-standard-error rule: the simplest candidate (the
     affine fit, then the correction from the strongest ridge to the weakest) whose mean is within
-    ``N_SE`` standard errors of the best one's. ``force``: the correction, at its best ridge.
+    ``N_SE`` standard errors of the best one's (or of ``SCORE_ATOL``). ``force``: the correction, at its best ridge.
     """
     ok = n_rows > 0
     score = e[:, ok] / n_rows[ok]
@@ -368,7 +371,7 @@ def _group_choice(e: np.ndarray, n_rows: np.ndarray, force: bool) -> int:
     best = int(np.argmin(mean))
     se = float(np.std(score[best], ddof=1) / np.sqrt(K)) if K > 1 else np.inf
     for a in [0, *range(len(mean) - 1, 0, -1)]:  # simplest first: alphas ascend, so the strongest ridge is last
-        if mean[a] <= mean[best] + N_SE * se:
+        if mean[a] <= mean[best] + max(N_SE * se, SCORE_ATOL):
             return a
     return best
 
