@@ -1,8 +1,8 @@
-"""The calibration file: HDF5, format ``pito-calibration``, version 5 (reads 1 to 5).
+"""The calibration file: HDF5, format ``pito-calibration``, version 6 (reads 6 only: 0.1.0 is unreleased).
 
 Layout (docs/file-formats.md)::
 
-    /             attrs: format="pito-calibration", version=5, writer, method, output_frame,
+    /             attrs: format="pito-calibration", version=6, writer, method, output_frame,
                          output_faces [..], core_edge (m), meta (JSON text),
                          model (JSON text, version 3: which model and its cross-validated figures)
     /matrix       (6·F, 36) float64: counts → N, N·m
@@ -35,7 +35,8 @@ Layout (docs/file-formats.md)::
         cubes             (Q,) int64 gauges of the cubes u_i³
         coef              (6·F, P + Q) float64: N, N·m per feature, rows as /matrix
         linear_matrix     (6·F, 36) float64, linear_offset (36,): the papers' linear fit of the same data
-        lower, upper      (36,) float64 (optional): range of u fitted; the monomials are tapered beyond it (absent: not)
+        lower, upper      (36,) float64: range of u fitted; a sample beyond it is drawn back along its ray (_poly.py)
+        edge_matrix       (6·F, 36) float64: the corrected slopes less the linear fit's, used beyond the range
 
 Versions 1 and 2 have no model: they load as the papers' linear model.
 """
@@ -52,10 +53,10 @@ from ._hdf5 import FileFormatError, checked_dataset, json_attr, open_checked, re
 __all__ = ["write_calibration", "read_calibration_fields", "CALIBRATION_FORMAT", "CALIBRATION_VERSION"]
 
 CALIBRATION_FORMAT = "pito-calibration"
-CALIBRATION_VERSION = 5
-#: Versions this pito reads (version 1: no covariance; 1 and 2: no model choice; 2 and 3: no
-#: load indicator L in the error model; 2 to 4: one error model whatever face carries).
-CALIBRATION_READ_VERSIONS = {1, 2, 3, 4, 5}
+CALIBRATION_VERSION = 6
+#: Versions this pito reads (6: the correction's edge_matrix; no file of an older version exists
+#: outside the tests, and 0.1.0 is unreleased).
+CALIBRATION_READ_VERSIONS = {6}
 _CORRECTION_FIELDS = ("scale", "pairs", "cubes", "coef")
 #: The range the correction was fitted on (optional: older files load without, the plain polynomial).
 _CORRECTION_RANGE = ("lower", "upper", "edge_matrix")
