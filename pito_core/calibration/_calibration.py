@@ -307,9 +307,10 @@ def load_calibration(path) -> Calibration:
         if cov is not None:
             groups = [CovarianceGroup(**g) for g in cov["groups"]]
             poly = [PolyReferenceBlock(**b) for b in cov.get("poly_reference", [])]
-            cov = CalibrationCovariance(groups, cov["gauge_cov"], cov["n_tare"], cov["variance_coef"], cov["residual_corr"],
-                                        poly, cov.get("error_frame", "output"), cov.get("rest_bias"),
-                                        cov.get("own_variance_coef"), cov.get("own_q"))
+            cov = CalibrationCovariance(
+                groups=groups, gauge_cov=cov["gauge_cov"], n_tare=cov["n_tare"], variance_coef=cov["variance_coef"],
+                residual_corr=cov["residual_corr"], poly_reference=poly, error_frame=cov.get("error_frame", "output"),
+                rest_bias=cov.get("rest_bias"), own_variance_coef=cov.get("own_variance_coef"), own_q=cov.get("own_q"))
     except ValueError as exc:
         raise FileFormatError(f"{path}: covariance: {exc}") from None
     try:

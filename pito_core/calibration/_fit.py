@@ -449,8 +449,10 @@ class Calibrator:
         coef, own_q, corr, poly_ref, error_frame, rest_bias = fit_error_model(
             cal, sessions, mounts, fit.offsets, tare_means, spec, fit.groups, self.block_size, ref_covs, gauge_cov,
             samples=subsample, ref_n=ref_n, poly_parts=poly_parts)
-        cal.covariance = CalibrationCovariance(fit.groups, gauge_cov, None, coef[0], corr, poly_ref, error_frame, rest_bias,
-                                               own_variance_coef=coef[1], own_q=own_q)
+        cal.covariance = CalibrationCovariance(
+            groups=fit.groups, gauge_cov=gauge_cov, n_tare=None, variance_coef=coef[0], residual_corr=corr,
+            poly_reference=poly_ref, error_frame=error_frame, rest_bias=rest_bias, own_variance_coef=coef[1],
+            own_q=own_q)
         self.calibration_ = cal
         return self
 
