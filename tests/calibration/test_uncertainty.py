@@ -135,7 +135,7 @@ def test_the_contact_solver_takes_the_covariance_directly():
 @NOISIER_THAN_THE_TARE_ALLOWS
 @pytest.mark.parametrize("method, flange", [("total", "face"), ("unloaded_frame", "face"), ("face_to_face", "frame_hole"),
                                            ("loaded_frame", "frame_hole")])
-@pytest.mark.parametrize("reference_noise", [0.003, 0.01])
+@pytest.mark.parametrize("reference_noise", [0.01])
 def test_coverage_of_the_true_wrench_with_a_noisy_reference(method, flange, reference_noise):
     """The interval is of the true wrench: the reference's own noise (in every training target,
     here 0.3 % and 1 % of full scale, measured at rest in the tare) is not counted as calibration
@@ -391,7 +391,7 @@ def test_the_reference_noise_through_the_correction_is_its_coefficients_term():
     test = make_session(K, k=300, seed=1001, **kw)
     loaded = test.loaded.any(axis=1)
     pred, actual = np.zeros((6, 6)), np.zeros((6, 6))
-    for d in range(4):
+    for d in range(3):
         noisy = calibrate(make_session(K, k=1000, seed=2 + 31 * d, reference_noise=0.03, **kw), "total")
         clean = calibrate(make_session(K, k=1000, seed=2 + 31 * d, **kw), "total")
         cov = noisy.covariance
