@@ -75,13 +75,15 @@ def _path(rng, n: int, scale: float) -> np.ndarray:
 
 
 def cube_session(cube: BenchCube, flange: str, connected_face: int, faces, k: int, *, pairs=(), load_scale=1.0,
-                 n_rest=300, noise=2.0, seed=1, offset_shift=0.0):
+                 n_rest=300, noise=2.0, seed=1, offset_shift=0.0, reference_noise=0.0):
     """A session of ``k`` samples per loaded face in ``faces`` (then per squeezed pair in ``pairs``).
 
     ``flange``: ``face`` (the connected face carries the reaction), ``frame`` (it carries
     nothing) or ``frame_hole`` (every face carries its own load only). Returns
     ``(session, F)``: the :class:`CalibrationSession` and the true face wrenches ``F (N, 6, 6)``
-    (face frames, N and N·m). ``offset_shift`` moves the zero-load counts (a later session).
+    (face frames, N and N·m). ``offset_shift`` moves the zero-load counts (a later session);
+    ``reference_noise`` is the reference's own noise (standard deviation, a fraction of ``FULL_SCALE``
+    per axis, on every sample).
     """
     rng = np.random.default_rng(seed)
     core = CubeCore()
@@ -112,6 +114,8 @@ def cube_session(cube: BenchCube, flange: str, connected_face: int, faces, k: in
     F = np.stack([transform_wrench(carried[:, i], poses[i]) for i in range(6)], axis=1)
     counts = cube.offset + offset_shift + cube.counts(F) + rng.normal(scale=noise, size=(len(F), 36))
     reference = transform_wrench(total, T_core_ati)
+    if reference_noise:
+        reference = reference + rng.normal(size=reference.shape) * reference_noise * FULL_SCALE
     s = CalibrationSession(np.round(counts).astype(np.int64), reference, loaded, T_core_ati, flange, c, core=core,
                            meta={"generator": "pito_bench._cubes (simulated)", "simulated": True})
     return s, F
