@@ -7,7 +7,7 @@ coupling blocks of relative size ``coupling``; then, per form,
 - ``saturation``: each gauge ``s tanh(lin / s)``, ``s`` set so a full-scale load is compressed
   by ``level`` (amplifier or bridge saturation);
 - ``hub``: each gauge adds a quadratic form of its own face's wrench (scaled to full scale),
-  ``level`` of the gauge's full-scale span (hub bending);
+  at most ``level`` of the gauge's full-scale span within full scale (hub bending);
 - ``both``: the two together.
 
 Loads move smoothly (piecewise-linear between random knots, within ± ``load_scale`` full
@@ -50,7 +50,9 @@ class BenchCube:
         xs = x[np.argmin(np.abs(np.tanh(x) / x - (1 - level)))]
         self.sat = span / xs
         A = rng.normal(size=(36, 6, 6))
-        self.hub = 0.5 * (A + A.transpose(0, 2, 1)) / 6.0  # per gauge, a quadratic form of its face's scaled wrench
+        A = 0.5 * (A + A.transpose(0, 2, 1))
+        # per gauge, a quadratic form of its face's wrench scaled to full scale, |uᵀAu| ≤ 1 within full scale
+        self.hub = A / np.abs(A).sum(axis=(1, 2))[:, None, None]
         self.offset = 1e6 * rng.uniform(0.5, 1.0, size=36)
 
     def counts(self, F: np.ndarray) -> np.ndarray:
