@@ -27,7 +27,7 @@ MOUNT = {"face_to_face": "frame_hole", "quasi_total": "frame", "total": "face", 
          "unloaded_frame": "face"}
 RATIO = 1.02
 
-SETTINGS = dict(derandomize=True, deadline=None, database=None, max_examples=3,
+SETTINGS = dict(derandomize=True, deadline=None, database=None, max_examples=2,
                 suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 
 
