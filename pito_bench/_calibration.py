@@ -35,6 +35,7 @@ from pito_core.calibration import (
 from pito_core.sim import VirtualCube, random_sensor, random_sensor_session, simulate_calibration
 
 from ._baseline import plain_affine_lstsq
+from ._cubes import BenchCube, cube_session
 from ._data import MOUNT_OF_METHOD, write_session_file
 from ._timing import best_time, peak_rss_mb, run_worker
 
@@ -427,3 +428,65 @@ def hysteresis_trial(taus=(20, 100, 500), k: int = 3000, seed: int = 1) -> list[
         r = np.array(r)
         out.append({"tau_samples": tau, "linear_ratio": float(np.median(r[:, 0])), "poly_ratio": float(np.median(r[:, 1]))})
     return out
+
+
+#: Cubes of the coverage study (``_cubes.py``): (form, coupling, nonlinearity at full scale).
+COVERAGE_CUBES = (("linear", 0.02, 0.0), ("linear", 0.10, 0.0), ("saturation", 0.05, 0.1), ("hub", 0.05, 0.1))
+#: Reference noise levels of the coverage study (fraction of full scale): exact, and the tare's force limit.
+COVERAGE_REFERENCE_NOISE = (0.0, 0.0033)
+
+
+def task_coverage_cubes(k, draws, seed=1) -> dict:
+    """Nominal 95 % intervals against the TRUE face wrench on the bench's own cubes (SIMULATED, ``_cubes.py``).
+
+    Each method is fitted ``draws`` times (2000 samples at rest, as the wizard's 2 s tare) on single-face
+    loads and scored on a later session re-tared on its own samples at rest (single-face loads):
+    the share of samples inside ``W ± 1.96 σ``, per face and axis, pooled over the draws.
+    """
+    flanges = {"face_to_face": "frame_hole", "quasi_total": "frame", "total": "face", "loaded_frame": "frame_hole",
+               "unloaded_frame": "face"}
+    rows = []
+    for form, coupling, level in COVERAGE_CUBES:
+        cube = BenchCube(form, coupling, level, seed=0)
+        for noise in COVERAGE_REFERENCE_NOISE:
+            for method, fl in flanges.items():
+                c = 6
+                faces = [f for f in range(1, 7) if not ((fl == "frame" or method == "unloaded_frame") and f == c)]
+                test, F = cube_session(cube, fl, c, faces, max(k // 2, 300), n_rest=1000, seed=seed + 500,
+                                       offset_shift=50.0)
+                ld = test.loaded.any(axis=1)
+                hits = n = 0
+                for d in range(draws):
+                    train, _ = cube_session(cube, fl, c, faces, k, n_rest=2000, seed=seed + 31 * d,
+                                            reference_noise=noise)
+                    with warnings.catch_warnings():
+                        warnings.simplefilter("ignore")
+                        cal = calibrate(train, method).tare(test.counts[~ld])
+                    W, cov = cal.wrenches(test.counts[ld], return_cov=True)
+                    inside = np.abs(W - F[ld]) <= 1.959964 * np.sqrt(np.diagonal(cov, axis1=-2, axis2=-1))
+                    hits, n = hits + inside.sum(axis=0), n + ld.sum()
+                cover = (hits / n)[cal.has_output]
+                rows.append({"cube": f"{form} {coupling:.0%}", "method": method, "reference_noise": noise,
+                             "model": cal.model.name, "pooled": float(cover.mean()), "min": float(cover.min()),
+                             "max": float(cover.max()), "out_of_93_97": int(((cover < 0.93) | (cover > 0.97)).sum()),
+                             "n_axes": int(cover.size), "per_face_axis": np.where(cal.has_output[:, None],
+                                                                                  hits / n, np.nan).tolist()})
+    return {"rows": rows}
+
+
+def coverage_cubes(quick: bool = False, threads: int = 1, progress=print) -> dict:
+    """The section ``calibration.coverage_cubes`` of ``pito bench`` (in a subprocess)."""
+    k, draws = (1000, 2) if quick else (2000, 4)
+    progress(f"calibration: interval coverage on the bench's own cubes, k = {k} per face, {draws} draws")
+    r = run_worker("cal_coverage_cubes", {"k": k, "draws": draws}, threads=threads)
+    return {"data": "SIMULATED: pito_bench._cubes (independent of pito_core.sim)", "k": k, "draws": draws,
+            "rows": r["rows"]}
+
+
+def coverage_cubes_table(cc) -> tuple[str, list, list]:
+    """``(title, header, rows)`` of the coverage study for the text report."""
+    rows = [[r["cube"], r["method"], f"{100 * r['reference_noise']:.2f}", r["model"], f"{100 * r['pooled']:.1f}",
+             f"{100 * r['min']:.1f}", f"{100 * r['max']:.1f}", f"{r['out_of_93_97']}/{r['n_axes']}"] for r in cc["rows"]]
+    title = (f"Calibration intervals, nominal 95 %, against the true face wrench ({cc['data']}; {cc['draws']} "
+             f"calibrations pooled, later session re-tared; % of samples inside, per face and axis)")
+    return title, ["cube", "method", "ref noise %FS", "model", "pooled %", "min %", "max %", "axes outside 93-97"], rows

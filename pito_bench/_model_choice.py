@@ -1,5 +1,11 @@
 """Calibration model choice on a later session: the default against the papers' linear fit.
 
+Two sets of cubes, both SIMULATED. The bench's own (``_cubes.py``, independent of
+``pito_core.sim``: linear, per-gauge saturation, quadratic hub bending, both, coupling up to
+10 %): each method fitted on single-face loads, scored on a later session (new offsets) of
+single-face loads, squeeze loads (neighbouring faces in pairs) and single-face loads 1.5×
+beyond the training's; truth = the cube's face wrenches. Then ``pito_core.sim``'s:
+
 SIMULATED (``pito_core.sim.VirtualCube`` seed 0, with its temperature drift and frame
 hysteresis): each method is fitted on one session per connected face and scored on a
 LATER session of the same cube (other seed, one hour later: single-face loads, and
@@ -16,9 +22,16 @@ import numpy as np
 from pito_core.calibration import calibrate
 from pito_core.sim import VirtualCube, simulate_calibration, simulate_squeeze
 
+from ._cubes import BenchCube, cube_session
 from ._timing import run_worker
 
-__all__ = ["task_model_choice", "model_choice_ratios"]
+__all__ = ["task_model_choice", "task_independent_cubes", "model_choice_ratios", "CUBES"]
+
+#: The bench's own cubes: (form, inter-face coupling, nonlinearity at full scale).
+CUBES = (("linear", 0.02, 0.0), ("linear", 0.10, 0.0), ("saturation", 0.02, 0.1), ("saturation", 0.10, 0.1),
+         ("hub", 0.05, 0.1), ("both", 0.10, 0.1))
+#: Later-session loads: (kind, squeeze, load scale).
+TEST_KINDS = (("single", False, 1.0), ("squeeze", True, 1.0), ("beyond", False, 1.5))
 
 #: Flange each method is fitted with (``unloaded_frame``: its free faces only).
 FLANGE = {"face_to_face": "frame_hole", "quasi_total": "frame", "total": "face", "loaded_frame": "frame_hole",
@@ -64,6 +77,32 @@ def task_model_choice(k, faces, seed=1) -> dict:
     return {"rows": rows}
 
 
+def task_independent_cubes(k, connected_face=6, seed=1) -> dict:
+    """Held-out RMSE ratios default / linear per cube, method and test kind (see the module docstring)."""
+    rows = []
+    for form, coupling, level in CUBES:
+        cube = BenchCube(form, coupling, level, seed=0)
+        for method, fl in FLANGE.items():
+            c = connected_face
+            faces = [f for f in range(1, 7) if not ((fl == "frame" or method == "unloaded_frame") and f == c)]
+            train, _ = cube_session(cube, fl, c, faces, k, seed=seed)
+            auto, lin = calibrate(train, method), calibrate(train, method, model="linear")
+            ra = auto.model.row_alpha or []
+            row = {"cube": f"{form} {coupling:.0%}", "method": method, "k_per_face": int(k),
+                   "groups": 2 * len(auto.output_faces), "groups_corrected": sum(a is not None for a in ra) // 3}
+            pairs = [(faces[i], faces[(i + 1) % len(faces)]) for i in range(len(faces))]
+            for kind, squeeze, scale in TEST_KINDS:
+                s, F = cube_session(cube, fl, c, [] if squeeze else faces, max(k // 2, 300), pairs=pairs if squeeze else (),
+                                    load_scale=scale, seed=seed + 100, offset_shift=50.0)
+                rest = s.counts[~s.loaded.any(axis=1)]
+                W, Wl = auto.tare(rest).wrenches(s.counts), lin.tare(rest).wrenches(s.counts)
+                mask = s.loaded & auto.has_output[None]
+                row[kind + "_F"] = _ratio(W, Wl, F, mask, slice(0, 3))
+                row[kind + "_T"] = _ratio(W, Wl, F, mask, slice(3, 6))
+            rows.append(row)
+    return {"rows": rows}
+
+
 def model_choice_ratios(quick: bool = False, threads: int = 1, progress=print) -> dict:
     """The section ``calibration.model_choice`` of ``pito bench`` (in a subprocess)."""
     faces = [6, 2] if quick else [6, 2, 3, 1]
@@ -72,8 +111,12 @@ def model_choice_ratios(quick: bool = False, threads: int = 1, progress=print) -
     rows = []
     for k in ks:
         rows += run_worker("cal_model_choice", {"k": k, "faces": faces}, threads=threads)["rows"]
+    k_ind = 1000 if quick else 2000
+    progress(f"calibration: model choice on the bench's own cubes, k = {k_ind} per face")
+    ind = run_worker("cal_independent", {"k": k_ind}, threads=threads)["rows"]
     return {"data": "SIMULATED: pito_core.sim.VirtualCube seed 0, trained on one session, scored on a later one",
-            "rows": rows}
+            "rows": rows, "independent": {"data": "SIMULATED: pito_bench._cubes (independent of pito_core.sim)",
+                                          "rows": ind}}
 
 
 def model_choice_table(mc) -> tuple[str, list, list]:
@@ -89,3 +132,23 @@ def model_choice_table(mc) -> tuple[str, list, list]:
     header = ["method", "k per face", "groups corrected", "single F worst", "single T worst", "squeeze F worst",
               "squeeze T worst", "single F median", "single T median"]
     return title, header, rows
+
+
+def independent_table(mc) -> tuple[str, list, list] | None:
+    """``(title, header, rows)`` of the bench's own cubes, with the worst and median over them."""
+    ind = (mc or {}).get("independent")
+    if not ind:
+        return None
+    keys = [f"{k}_{p}" for k, _, _ in TEST_KINDS for p in "FT"]
+    rows = [[r["cube"], r["method"], f"{r['groups_corrected']}/{r['groups']}"] + [f"{r[k]:.3f}" for k in keys]
+            for r in ind["rows"]]
+    nl = np.array([[r[k] for k in keys] for r in ind["rows"] if not r["cube"].startswith("linear")])
+    li = np.array([[r[k] for k in keys] for r in ind["rows"] if r["cube"].startswith("linear")])
+    if nl.size:
+        rows.append(["nonlinear cubes", "worst", ""] + [f"{v:.3f}" for v in nl.max(axis=0)])
+        rows.append(["nonlinear cubes", "median", ""] + [f"{v:.3f}" for v in np.median(nl, axis=0)])
+    if li.size:
+        rows.append(["linear cubes", "worst", ""] + [f"{v:.3f}" for v in li.max(axis=0)])
+    title = (f"Calibration model on a later session ({ind['data']}): default / papers' linear fit, held-out RMSE "
+             "ratio (single-face, squeeze, single-face at 1.5× the training loads)")
+    return title, ["cube", "method", "groups corrected"] + keys, rows

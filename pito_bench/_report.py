@@ -7,7 +7,8 @@ import os
 
 from pito_core.report import fmt, new_figure, save_png, table
 
-from ._model_choice import model_choice_table
+from ._calibration import coverage_cubes_table
+from ._model_choice import independent_table, model_choice_table
 from ._single_contact import plot_single, single_table_rows
 
 __all__ = ["format_report", "targets", "write_plots", "text_table"]
@@ -206,6 +207,10 @@ def _calibration_tables(cal: dict) -> list[str]:
              "prior F worst", "prior F median", "prior T median"], rows))
     if cal.get("model_choice"):
         parts.append(text_table(*model_choice_table(cal["model_choice"])))
+        if independent_table(cal["model_choice"]):
+            parts.append(text_table(*independent_table(cal["model_choice"])))
+    if cal.get("coverage_cubes"):
+        parts.append(text_table(*coverage_cubes_table(cal["coverage_cubes"])))
     rows = [[os.path.basename(g["path"]), f"{g['n']:,}", _f(g["seconds"]), _f(g["file_MB"])] for g in cal["generation"]]
     parts.append(text_table("Simulated session files (generation, not fit time)",
                             ["file", "samples", "generation (s)", "size (MB)"], rows))

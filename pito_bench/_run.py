@@ -18,7 +18,7 @@ import scipy
 
 from pito_core import __version__
 
-from ._calibration import random_cube_ratios, run_calibration
+from ._calibration import coverage_cubes, random_cube_ratios, run_calibration
 from ._model_choice import model_choice_ratios
 from ._contact import run_contact
 from ._pipeline import run_pipeline
@@ -126,6 +126,7 @@ def run_bench(*, quick: bool = False, sections=SECTIONS, sizes=None, threads: in
                                                     n_test=5_000 if quick else 20_000, progress=progress)
             result["calibration"]["random_cubes"] = random_cube_ratios(quick=quick, threads=threads, progress=progress)
             result["calibration"]["model_choice"] = model_choice_ratios(quick=quick, threads=threads, progress=progress)
+            result["calibration"]["coverage_cubes"] = coverage_cubes(quick=quick, threads=threads, progress=progress)
         if "contact" in sections:
             result["contact"] = run_contact(quick=quick, threads=threads, progress=progress, **(contact_sizes or {}))
         if "pipeline" in sections:

@@ -18,6 +18,8 @@ TASKS = {
     "cal_memory": ("_calibration", "task_memory"),
     "cal_random": ("_calibration", "task_random_cubes"),
     "cal_model_choice": ("_model_choice", "task_model_choice"),
+    "cal_independent": ("_model_choice", "task_independent_cubes"),
+    "cal_coverage_cubes": ("_calibration", "task_coverage_cubes"),
     "cal_stream": ("_calibration", "task_stream"),
     "contact": ("_contact", "task_contact"),
     "contact_single": ("_single_contact", "task_single_contact"),

@@ -63,15 +63,17 @@ def fit_and_evaluate(sessions, method: str, holdout: float = 0.25, seed: int = 0
     try:
         cal = calibrate(train, method, **fit_options)
     except RankDeficientError as exc:  # unexcited directions or dead channels: fit minimum-norm, say so
+        fit_options["allow_rank_deficient"] = True
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            cal = calibrate(train, method, allow_rank_deficient=True, **fit_options)
+            cal = calibrate(train, method, **fit_options)
         note = f"minimum-norm fit — {exc}"
     figures = None
     if validation is not None:
         progress(0.7, f"validating on {validation.counts.shape[0]} fresh samples")
         if model == "auto":  # a correction the validation pass does not confirm gives way to the linear fit
-            cal, figures = confirm_model(cal, validation, seed=seed)
+            refit = {k: v for k, v in fit_options.items() if k != "progress"}  # the linear fit again, if it is used
+            cal, figures = confirm_model(cal, validation, seed=seed, sessions=train, fit_options=refit)
         else:
             figures = validation_figures(cal, validation, seed=seed)
     progress(0.8, f"evaluating on {test.counts.shape[0]} held-out samples")

@@ -110,6 +110,7 @@ class Calibration:
         self._face_from_output = self._build_adjoints()
         self._apply = self._build_apply()
         self._apply_nl = self._build_apply_nl()
+        self._apply_edge = self._build_apply_edge()
 
     def _build_adjoints(self) -> np.ndarray:
         """(6, 6, 6): each face's fitted output frame → its face frame (identity for ``face``)."""
@@ -134,6 +135,15 @@ class Calibration:
         A = np.zeros((6, 6, self.correction.n_features))
         for k, f in enumerate(self.output_faces):
             A[f - 1] = self._face_from_output[f - 1] @ self.correction.coef[6 * k : 6 * k + 6]
+        return A
+
+    def _build_apply_edge(self):
+        """(6, 6, 36) maps: counts beyond the correction's range → wrench on face i (None without an edge term)."""
+        if self.correction is None or self.correction.beyond(np.zeros((1, 36))) is None:
+            return None
+        A = np.zeros((6, 6, 36))
+        for k, f in enumerate(self.output_faces):
+            A[f - 1] = self._face_from_output[f - 1] @ self.correction.edge_matrix[6 * k : 6 * k + 6]
         return A
 
     # ------------------------------------------------------------------ use
@@ -190,6 +200,9 @@ class Calibration:
         W = np.einsum("fij,nj->nfi", self._apply, x)
         if self._apply_nl is not None:
             W += np.einsum("fir,nr->nfi", self._apply_nl, self.correction.features(x))
+        d = None if self._apply_edge is None else self.correction.beyond(x)
+        if d is not None:  # beyond the fitted range, the linear fit's slope
+            W += np.einsum("fij,nj->nfi", self._apply_edge, d)
         W[:, ~self.has_output] = np.nan
         if not return_cov:
             return W[0] if single else W
@@ -294,9 +307,10 @@ def load_calibration(path) -> Calibration:
         if cov is not None:
             groups = [CovarianceGroup(**g) for g in cov["groups"]]
             poly = [PolyReferenceBlock(**b) for b in cov.get("poly_reference", [])]
-            cov = CalibrationCovariance(groups, cov["gauge_cov"], cov["n_tare"], cov["variance_coef"], cov["residual_corr"],
-                                        poly, cov.get("error_frame", "output"), cov.get("rest_bias"),
-                                        cov.get("own_variance_coef"), cov.get("own_q"))
+            cov = CalibrationCovariance(
+                groups=groups, gauge_cov=cov["gauge_cov"], n_tare=cov["n_tare"], variance_coef=cov["variance_coef"],
+                residual_corr=cov["residual_corr"], poly_reference=poly, error_frame=cov.get("error_frame", "output"),
+                rest_bias=cov.get("rest_bias"), own_variance_coef=cov.get("own_variance_coef"), own_q=cov.get("own_q"))
     except ValueError as exc:
         raise FileFormatError(f"{path}: covariance: {exc}") from None
     try:

@@ -31,7 +31,7 @@ N_FOLDS = 5
 #: Ridge strengths tried for the nonlinear features (relative to their mean squared singular value).
 ALPHAS = 10.0 ** np.arange(-7.0, 0.5, 1.0)
 #: Segments are cut to at most this fraction of a session, so every fold holds many of them.
-MAX_SEGMENT_FRACTION = 1 / 40
+MAX_SEGMENT_FRACTION = 1 / 20
 #: Eigenvalues of the scaled Gram of the unpenalised columns below this fraction of the
 #: largest are dropped (singular values under 10⁻⁶·σ₁: what a Gram in double can resolve).
 GRAM_RTOL = 1e-12
@@ -263,11 +263,12 @@ def solution_operator(G: np.ndarray, pr: Problem, alpha: float) -> np.ndarray:
     return np.block([[P + PGab @ RGbaP, -RGbaP.T], [-RGbaP, R]])
 
 
-#: Per output group, the correction must cut the cross-validated RMSE to at most this fraction
-#: of the affine fit's, ...
-MARGIN = 0.8
-#: ... by more than this many standard errors of the per-fold differences, on most folds.
+#: The one-standard-error rule (Hastie et al.): the simplest candidate whose mean held-out score
+#: is within this many standard errors (over folds) of the best one's.
 N_SE = 1.0
+#: Held-out mean squares (outputs scaled by full scale) closer than this are a tie: an RMSE of
+#: 10⁻⁶ of full scale, below what the Gram's rounding resolves on noise-free data.
+SCORE_ATOL = 1e-12
 MODELS = ("auto", "linear", "poly")
 
 
@@ -352,24 +353,30 @@ class ModelChoice:
         return cls(**{k: d[k] for k in cls.__dataclass_fields__ if k in d})
 
 
-def _group_choice(e: np.ndarray, force: bool):
-    """``(index of α, use)`` for one output group from its held-out SSE ``e (A, K)`` (row 0: affine).
+def _group_choice(e: np.ndarray, n_rows: np.ndarray, force: bool) -> int:
+    """Index of the chosen candidate (0: affine; ``i ≥ 1``: the correction at ``alphas[i]``) for one
+    output group from its held-out SSE ``e (A, K)``.
 
-    The ridge is the one of least cross-validated error; the correction is used if forced,
-    or if it cuts the affine fit's RMSE to ``MARGIN`` or less, by more than ``N_SE``
-    standard errors of the per-fold differences (the one-standard-error rule), and on
-    most folds.
+    Each candidate's score on fold ``k`` is its held-out mean square ``e[a, k] / n_rows[k]``; the
+    best mean over folds wins, then the one-standard-error rule: the simplest candidate (the
+    affine fit, then the correction from the strongest ridge to the weakest) whose mean is within
+    ``N_SE`` standard errors of the best one's (or of ``SCORE_ATOL``). ``force``: the correction, at its best ridge.
     """
-    tot = e.sum(axis=1)
-    K = e.shape[1]
-    pick = 1 + int(np.argmin(tot[1:]))
-    d = e[pick] - e[0]
-    se_d = np.std(d, ddof=1) / np.sqrt(K) if K > 1 else np.inf
-    wins = tot[0] > 0 and np.sqrt(tot[pick] / tot[0]) <= MARGIN and d.mean() + N_SE * se_d < 0 and (d < 0).sum() > K / 2
-    return pick, bool(force or wins)
+    ok = n_rows > 0
+    score = e[:, ok] / n_rows[ok]
+    mean = score.mean(axis=1)
+    if force:
+        return 1 + int(np.argmin(mean[1:]))
+    K = score.shape[1]
+    best = int(np.argmin(mean))
+    se = float(np.std(score[best], ddof=1) / np.sqrt(K)) if K > 1 else np.inf
+    for a in [0, *range(len(mean) - 1, 0, -1)]:  # simplest first: alphas ascend, so the strongest ridge is last
+        if mean[a] <= mean[best] + max(N_SE * se, SCORE_ATOL):
+            return a
+    return best
 
 
-def choose_model(results, requested: str, n_segments: int) -> ModelChoice:
+def choose_model(results, requested: str, n_segments: int, group: int = 3) -> ModelChoice:
     """Choose, per output group, the affine rows or the correction.
 
     Parameters
@@ -382,6 +389,8 @@ def choose_model(results, requested: str, n_segments: int) -> ModelChoice:
         ``auto`` applies :func:`_group_choice`; ``poly`` uses the correction on every group;
         ``linear`` none (the figures are still reported).
     n_segments : int
+    group : int
+        Outputs chosen together: 3 (forces, torques) or 6 (a face's whole wrench).
     """
     alphas = results[0][0]["alphas"]
     K = results[0][0]["sse"].shape[1]
@@ -392,11 +401,12 @@ def choose_model(results, requested: str, n_segments: int) -> ModelChoice:
         sse = np.nan_to_num(cv["sse"])
         n = max(int(cv["n_rows"].sum()), 1)
         for j, w in enumerate(weights):
-            for g in range(0, w.size, 3):
-                cols = np.arange(g, min(g + 3, w.size))
+            for g in range(0, w.size, group):
+                cols = np.arange(g, min(g + group, w.size))
                 e = np.einsum("akc,c->ak", sse[:, :, j, cols], w[cols] ** 2)
-                pick, use = _group_choice(e, requested == "poly")
-                use = use and requested != "linear"
+                chosen = _group_choice(e, cv["n_rows"], requested == "poly")
+                pick = chosen if chosen else 1 + int(np.argmin(e[1:].sum(axis=1)))  # the correction at its best ridge
+                use = chosen > 0 and requested != "linear"
                 folds += np.stack([e[0], e[pick], e[pick] if use else e[0]])
                 for key, a in (("linear", 0), ("poly", pick), ("chosen", pick if use else 0)):
                     rmse[key] += np.sqrt(sse[a][:, j][:, cols].sum(axis=0) / n).tolist()
@@ -407,13 +417,12 @@ def choose_model(results, requested: str, n_segments: int) -> ModelChoice:
     used = [a for a in row_alpha if a is not None]
     won = int(np.sum(folds[2] < folds[0]))
     ratio = score["chosen"] / score["linear"] if score["linear"] > 0 else float("nan")
-    n_groups, n_used = len(row_alpha) // 3, len(used) // 3
+    n_groups, n_used = len(row_alpha) // group, len(used) // group
     name = "poly" if used else "linear"
     if requested == "auto":
         why = (f"cross-validated over {K} folds of {n_segments} loading segments: the polynomial correction is used for "
-               f"{n_used} of {n_groups} output groups (a face's forces or torques), where it beat the affine fit to "
-               f"≤ {MARGIN:.2f}× by more than {N_SE:g} standard error on most folds; held-out error "
-               f"{ratio:.2f}× the affine fit's")
+               f"{n_used} of {n_groups} output groups (a face's forces or torques): the simplest candidate within "
+               f"{N_SE:g} standard error of the best mean held-out score; held-out error {ratio:.2f}× the affine fit's")
         if not used:
             why += "; kept the papers' affine fit"
     else:

@@ -315,11 +315,9 @@ class Calibrator:
         ``linear``: the papers' affine least squares ``C = W S⁺``, exactly. ``poly``: the same
         design with a ridge-regularised polynomial correction of each face's own gauges
         (docs/calibration.md). ``auto`` (default): ``poly`` only where cross-validation over
-        whole loading segments shows it predicts held-out segments better (``_cv.MARGIN``),
-        its ridge chosen the same way; the figures are in ``calibration_.model``.
-    min_snr : None or 0
-        Removed (it tuned a ridge towards the own-gauge fits); 0 is accepted and means the
-        default. Use ``prior="own_gauge"`` for a prior on the unexcited directions.
+        whole loading segments chooses it: the best mean held-out score, then the simplest
+        candidate within one standard error of it (``_cv.N_SE``), per face's forces and torques;
+        the figures are in ``calibration_.model``.
 
     Attributes
     ----------
@@ -334,26 +332,28 @@ class Calibrator:
     """
 
     def __init__(self, method, *, prior=None, allow_rank_deficient: bool = False, block_size: int = 65536,
-                 progress=None, min_snr=None, model: str = "auto"):
-        self.method = get_method(method).name
-        if model not in MODELS:
-            raise ValueError(f"model: expected one of {MODELS}, got {model!r}")
-        if model == "poly" and prior is not None:
-            raise ValueError("model: 'poly' fits the measured load directions only; use prior=None with it")
-        self.model = model
-        if prior not in PRIORS:
-            raise ValueError(f"prior: expected None or 'own_gauge', got {prior!r}")
+                 progress=None, model: str = "auto"):
+        self.method = method
         self.prior = prior
-        self.allow_rank_deficient = bool(allow_rank_deficient)
-        if int(block_size) < 1:
-            raise ValueError(f"block_size: expected a positive number of samples, got {block_size!r}")
-        self.block_size = int(block_size)
+        self.allow_rank_deficient = allow_rank_deficient
+        self.block_size = block_size
         self.progress = progress
-        if min_snr is not None and min_snr != 0:
-            raise ValueError(
-                f"min_snr: no longer supported (got {min_snr!r}); the default is the papers' plain least squares, "
-                "and prior='own_gauge' fills only the unexcited load directions from each face's own-gauge fit"
-            )
+        self.model = model
+
+    # ---------------------------------------------------------------- checks
+    def _check_settings(self) -> None:
+        """Validate the settings (at :meth:`fit`, as scikit-learn's estimators do)."""
+        self.method = get_method(self.method).name
+        if self.model not in MODELS:
+            raise ValueError(f"model: expected one of {MODELS}, got {self.model!r}")
+        if self.prior not in PRIORS:
+            raise ValueError(f"prior: expected None or 'own_gauge', got {self.prior!r}")
+        if self.model == "poly" and self.prior is not None:
+            raise ValueError("model: 'poly' fits the measured load directions only; use prior=None with it")
+        if int(self.block_size) < 1:
+            raise ValueError(f"block_size: expected a positive number of samples, got {self.block_size!r}")
+        self.block_size = int(self.block_size)
+        self.allow_rank_deficient = bool(self.allow_rank_deficient)
 
     # ---------------------------------------------------------------- checks
     def _check_sessions(self, spec: MethodSpec, sessions: list[CalibrationSession]) -> None:
@@ -401,6 +401,7 @@ class Calibrator:
         BLAS/LAPACK run single-threaded during the fit: its QR folds cache-sized chunks,
         which threads only slow down (and, on a busy machine, by ten times or more).
         """
+        self._check_settings()
         with _threadpools().limit(limits=1):
             return self._fit(sessions)
 
@@ -432,7 +433,8 @@ class Calibrator:
             fit.offsets = _own_offsets(tare_means, out_faces, own_C, own_b)
         else:
             self._solve_joint(st, out_faces, load_rank, own_C, gauge_cov, tare_means, center, weights, fit)
-        choice, corr_fit, linear_fit = self._poly_step(st.poly, out_faces, None if zeros is None else [z[0] for z in zeros], fit)
+        choice, corr_fit, linear_fit = self._poly_step(st.poly, out_faces, None if zeros is None else [z[0] for z in zeros], fit,
+                                                       group=6 if spec.output_frame == "reference" else 3)
         self.offsets_ = fit.offsets
         self.tare_means_ = tare_means
         self.n_samples_ = st.n_used
@@ -447,8 +449,10 @@ class Calibrator:
         coef, own_q, corr, poly_ref, error_frame, rest_bias = fit_error_model(
             cal, sessions, mounts, fit.offsets, tare_means, spec, fit.groups, self.block_size, ref_covs, gauge_cov,
             samples=subsample, ref_n=ref_n, poly_parts=poly_parts)
-        cal.covariance = CalibrationCovariance(fit.groups, gauge_cov, None, coef[0], corr, poly_ref, error_frame, rest_bias,
-                                               own_variance_coef=coef[1], own_q=own_q)
+        cal.covariance = CalibrationCovariance(
+            groups=fit.groups, gauge_cov=gauge_cov, n_tare=None, variance_coef=coef[0], residual_corr=corr,
+            poly_reference=poly_ref, error_frame=error_frame, rest_bias=rest_bias, own_variance_coef=coef[1],
+            own_q=own_q)
         self.calibration_ = cal
         return self
 
@@ -546,18 +550,21 @@ class Calibrator:
             fit.residual[f - 1] = res.residual_rms[6 * k : 6 * k + 6]
         fit.groups.append(self._group(res, np.arange(36), np.arange(6 * len(out_faces)), center, weights))
 
-    def _poly_step(self, poly, out_faces, zeros, fit):
-        """The model choice, and the polynomial correction where chosen: ``(choice, correction, linear_fit)``."""
+    def _poly_step(self, poly, out_faces, zeros, fit, group=3):
+        """The model choice, and the polynomial correction where chosen: ``(choice, correction, linear_fit)``.
+
+        ``group``: outputs chosen together (3: a face's forces, its torques; 6: a face's wrench, for an
+        output frame other than the face's, whose torques mix the forces back in when moved to the face)."""
         choice, corr, linear_fit = ModelChoice(reason="the papers' affine least squares, as requested"), None, None
         if poly is not None:
-            choice, sol = poly.fit(out_faces, self.model, fit.matrix)
+            choice, sol = poly.fit(out_faces, self.model, fit.matrix, group=group)
             if sol is not None:
                 C, B, D, E2 = sol
                 linear_fit = (fit.matrix.copy(), np.mean(fit.offsets, axis=0))
                 fit.matrix[:] = C
                 # the zero-load counts: the features' zeros for the corrected rows, the affine rows' fitted offsets
                 fit.offsets = mixed_offsets(C, linear_fit[0], choice.row_alpha, zeros, fit.offsets)
-                corr = poly_correction(poly, D)
+                corr = poly_correction(poly, D, C - linear_fit[0])
                 _rescale_groups(fit.groups, fit.residual, out_faces, E2, poly)
         elif self.model != "linear":
             choice = ModelChoice(requested=self.model, reason="the papers' affine least squares: prior='own_gauge' "
@@ -653,7 +660,6 @@ class Calibrator:
 
     def _check_excitation(self, out_faces, gram) -> None:
         problems = []
-        self._deficient_faces = set()
         for f in out_faces:
             G = gram[6 * (f - 1) : 6 * f, 6 * (f - 1) : 6 * f]
             w, V = np.linalg.eigh(G)
@@ -663,7 +669,6 @@ class Calibrator:
             weak = np.sqrt(np.clip(w, 0, None) / w[-1]) < EXCITATION_RTOL
             if weak.any():
                 problems.append((f, [_direction_name(V[:, k]) for k in np.flatnonzero(weak)]))
-        self._deficient_faces = {f for f, _ in problems}
         if not problems:
             return
         text = "; ".join(f"face {f}: {', '.join(names)}" for f, names in problems)

@@ -78,7 +78,7 @@ class PolyAccumulator:
         self.reaction_faces = set(reaction_faces)
         self.counter = SegmentCounter(max(1, int(np.ceil(max(session_lengths) * MAX_SEGMENT_FRACTION))))
         self.stride = max(1, int(np.ceil(sum(session_lengths) / MAX_ROWS)))
-        # range of each scaled channel over the fitted rows: the correction is tapered beyond it
+        # range of each scaled channel over the fitted rows: the correction clamps its channels to it
         self.lower, self.upper = np.full(N_GAUGES, np.inf), np.full(N_GAUGES, -np.inf)
         self._ss, self._ss_rows, self._final = np.zeros(N_GAUGES), 0, False  # the final scale's sums
         self._session, self._seen = None, 0
@@ -214,7 +214,7 @@ class PolyAccumulator:
                          FULL_SCALE_WEIGHT, rank_a) for k, f in enumerate(self.out_faces)]
         return [(self.acc, probs, list(self.out_faces))]
 
-    def fit(self, out_faces, requested, linear_matrix, rank_a=None, alphas=ALPHAS):
+    def fit(self, out_faces, requested, linear_matrix, rank_a=None, alphas=ALPHAS, group=3):
         """Choose the model per output group; returns ``(ModelChoice, solution or None)``.
 
         The solution (for ``poly``) is ``(C (6F, 36), B (n_int, 6F), D (6F, 162), E2 (6F,))``: slopes
@@ -225,7 +225,7 @@ class PolyAccumulator:
         self._rescale()
         parts = self.problems(out_faces, rank_a)
         results = [(cross_validate(acc, probs, alphas), [p.weight for p in probs]) for acc, probs, _ in parts]
-        choice = choose_model(results, requested, self.counter.count)
+        choice = choose_model(results, requested, self.counter.count, group)
         if choice.name != "poly":
             return choice, None
         F = len(out_faces)
@@ -288,12 +288,13 @@ class PolyAccumulator:
                     carry_n=self.carry_n[f].copy())
 
 
-def correction(poly: PolyAccumulator, D) -> PolyCorrection:
-    """The calibration's correction from the fitted feature coefficients ``D (6F, 162)``, tapered
-    beyond the range of the gauges the accumulator ``poly`` saw (``_poly.py``)."""
+def correction(poly: PolyAccumulator, D, edge_matrix) -> PolyCorrection:
+    """The calibration's correction from the fitted feature coefficients ``D (6F, 162)``, clamped
+    to the range of the gauges the accumulator ``poly`` saw, with the linear fit's slope beyond it
+    (``edge_matrix (6F, 36)``: the corrected slopes less the linear fit's; ``_poly.py``)."""
     seen = poly.lower <= poly.upper
     lower, upper = np.where(seen, poly.lower, 0.0), np.where(seen, poly.upper, 0.0)
-    return PolyCorrection(poly.scale, _PAIRS, _CUBES, D, lower, upper)
+    return PolyCorrection(poly.scale, _PAIRS, _CUBES, D, lower, upper, edge_matrix)
 
 
 def mixed_offsets(C, linear_matrix, row_alpha, tare_means, linear_offsets) -> list:

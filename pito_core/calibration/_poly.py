@@ -5,24 +5,21 @@ monomials of the offset-free channels ``u = (counts − offset) / scale``: withi
 of channels (a face's own six gauges), every square and pairwise product (``u_i u_j``,
 ``i ≤ j``) and every cube (``u_i³``). Squares and products model a quadratic response
 (hub bending, load-dependent contact in the frame's screw joints); cubes a per-gauge
-odd nonlinearity (amplifier or bridge saturation). Beyond the range its channels were
-fitted on (``lower``, ``upper``), a polynomial grows fast and its fit says nothing: there
-each monomial continues from its value at the range's edge along ``EDGE_SLOPE`` of its
-slope there (a taper between holding the edge value and the tangent line).
+odd nonlinearity (amplifier or bridge saturation). A polynomial must not extrapolate: where a
+sample's channels leave the range they were fitted on (``lower``, ``upper``), the sample is
+drawn back along its own ray from zero load, ``x_c = t x`` with the largest ``t ≤ 1`` that puts
+every channel inside (a larger load of the same pattern becomes the largest trained one; a
+clamp of each channel alone would put the products at corners no load reached), and the
+correction is ``Δw = coef · φ(x_c / scale) + E (x_c − x)``, ``E`` the corrected model's slopes
+less the linear fit's (``edge_matrix``). Inside the range: the polynomial; beyond it: its value
+at the edge plus the linear fit's slope from there, so it never grows faster than the linear fit.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["poly_terms", "poly_features", "poly_features_t", "PolyCorrection", "EDGE_SLOPE"]
-
-#: Beyond the fitted range, a monomial continues along this fraction of its slope at the edge.
-#: 0 holds the edge value, 1 follows the tangent. Measured (held-out RMSE on a later session,
-#: docs/calibration.md): holding (0) lost to the linear fit on a cube whose gauges saturate
-#: (tanh) when the later loads were twice the training's (1.23×); the tangent (1) lost on
-#: ``pito_core.sim``'s free-face torques (1.06×); 0.5 won on both (≤ 0.55×, ≤ 1.013×).
-EDGE_SLOPE = 0.5
+__all__ = ["poly_terms", "poly_features", "poly_features_t", "PolyCorrection"]
 
 
 def poly_terms(blocks) -> tuple[np.ndarray, np.ndarray]:
@@ -71,11 +68,14 @@ class PolyCorrection:
         (``[fx, fy, fz, tx, ty, tz]`` per output face, N and N·m, in its output frame).
     lower, upper : array-like, shape (m,), optional
         Range of ``u`` (dimensionless) the correction was fitted on; beyond it the monomials
-        are tapered (``EDGE_SLOPE``). None (files written before the range was kept): the
-        plain polynomial everywhere.
+        are clamped to it. None: the plain polynomial everywhere (for tests of the features).
+    edge_matrix : array-like, shape (q, m), optional
+        Slopes of the corrected model less those of the linear fit (output units per count):
+        beyond the range, ``edge_matrix (x_c − x)`` brings the slope back to the linear fit's.
+        None: zero.
     """
 
-    def __init__(self, scale, pairs, cubes, coef, lower=None, upper=None):
+    def __init__(self, scale, pairs, cubes, coef, lower=None, upper=None, edge_matrix=None):
         self.scale = np.asarray(scale, dtype=float).reshape(-1)
         self.pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
         self.cubes = np.asarray(cubes, dtype=np.int64).reshape(-1)
@@ -97,26 +97,37 @@ class PolyCorrection:
             if self.lower.shape != (m,) or self.upper.shape != (m,) or np.any(np.isnan(self.lower)) \
                     or np.any(np.isnan(self.upper)) or np.any(self.lower > self.upper):
                 raise ValueError(f"lower, upper: expected ({m},) ranges with lower ≤ upper")
+        self.edge_matrix = None
+        if edge_matrix is not None:
+            self.edge_matrix = np.asarray(edge_matrix, dtype=float)
+            if self.edge_matrix.shape != (self.coef.shape[0], m) or not np.all(np.isfinite(self.edge_matrix)):
+                raise ValueError(f"edge_matrix: expected finite values of shape ({self.coef.shape[0]}, {m}), "
+                                 f"got {self.edge_matrix.shape}")
+
+    def clamped(self, x: np.ndarray) -> np.ndarray:
+        """``(N, m)`` offset-free counts ``x (N, m)`` drawn back along their ray from zero into the
+        fitted range (``x`` itself inside it, or without a range)."""
+        x = np.asarray(x, dtype=float)
+        if self.lower is None:
+            return x
+        lo, hi = self.lower * self.scale, self.upper * self.scale
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = np.where(x > hi, hi / x, np.where(x < lo, lo / x, 1.0))
+        t = np.clip(np.nan_to_num(t, nan=1.0), 0.0, 1.0).min(axis=1, initial=1.0)
+        return x * t[:, None]
 
     def _features_t(self, x: np.ndarray, pairs: np.ndarray, cubes: np.ndarray) -> np.ndarray:
-        """``(P + Q, N)`` features of offset-free counts ``x (N, m)``, tapered beyond the fitted range.
+        """``(P + Q, N)`` features of offset-free counts ``x (N, m)`` drawn back into the fitted range."""
+        uT = np.ascontiguousarray((self.clamped(x) / self.scale).T)  # (m, N)
+        return poly_features_t(uT, pairs, cubes)
 
-        With ``c`` the channels clipped to the range, ``d = u − c`` and ``s = EDGE_SLOPE``:
-        ``u_i u_j → c_i c_j + s (c_j d_i + c_i d_j)`` and ``u_i³ → c_i³ + 3 s c_i² d_i``.
-        """
-        uT = np.ascontiguousarray((np.asarray(x, dtype=float) / self.scale).T)  # (m, N)
-        if self.lower is None:
-            return poly_features_t(uT, pairs, cubes)
-        cT = np.clip(uT, self.lower[:, None], self.upper[:, None], out=np.empty_like(uT))
-        out = poly_features_t(cT, pairs, cubes)
-        beyond = np.flatnonzero(np.any(cT != uT, axis=0))  # samples with a channel beyond the range
-        if beyond.size:
-            c, d = cT[:, beyond], uT[:, beyond] - cT[:, beyond]
-            P = pairs.shape[0]
-            i, j = pairs[:, 0], pairs[:, 1]
-            out[:P, beyond] += EDGE_SLOPE * (c[j] * d[i] + c[i] * d[j])
-            out[P:, beyond] += EDGE_SLOPE * 3.0 * c[cubes] ** 2 * d[cubes]
-        return out
+    def beyond(self, x: np.ndarray) -> np.ndarray | None:
+        """``(N, m)`` ``x_c − x``: how far offset-free counts ``x (N, m)`` lie beyond the fitted range
+        along their ray (counts; zero inside), or None when there is no range or no ``edge_matrix``."""
+        if self.lower is None or self.edge_matrix is None:
+            return None
+        x = np.asarray(x, dtype=float)
+        return self.clamped(x) - x
 
     @property
     def n_features(self) -> int:
@@ -127,8 +138,10 @@ class PolyCorrection:
         return self._features_t(x, self.pairs, self.cubes).T
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
-        """``(N, q)`` correction for offset-free counts ``x (N, m)``, output units."""
+        """``(N, q)`` correction for offset-free counts ``x (N, m)``, output units (the edge term included)."""
         used = np.flatnonzero(np.any(self.coef != 0, axis=0))  # rows that keep the affine fit use none
         P = self.pairs.shape[0]
         phi = self._features_t(x, self.pairs[used[used < P]], self.cubes[used[used >= P] - P])
-        return (self.coef[:, used] @ phi).T
+        out = (self.coef[:, used] @ phi).T
+        d = self.beyond(x)
+        return out if d is None else out + d @ self.edge_matrix.T

@@ -215,10 +215,12 @@ class ReferenceLeverage:
                 keep[:, rows] = np.maximum(1.0 - 2.0 * h + q[:, 3 * g], 0.0)[:, None]
         r = p["rows"]
         a, b = np.sqrt(q), np.sqrt(keep)
-        T = np.where(np.outer(r, r), V, 0.0)[None] * (a[:, :, None] * a[:, None, :])
-        v += np.einsum("ij,njk,ik->ni", Xk, T, Xk)
+        Vr = np.where(np.outer(r, r), V, 0.0)
         d = np.clip(np.diagonal(Xk @ V @ Xk.T), 1e-300, None)
-        own[:] = np.einsum("ij,njk,ik->ni", Xk, V[None] * (b[:, :, None] * b[:, None, :]), Xk) / d
+        for i in range(Xk.shape[0]):  # row i of Xk T Xkᵀ, T = V ∘ (a aᵀ): the quadratic form a (x_i x_iᵀ ∘ V) aᵀ
+            xx = np.outer(Xk[i], Xk[i])
+            v[:, i] += np.einsum("nj,nj->n", a @ (xx * Vr), a)
+            own[:, i] = np.einsum("nj,nj->n", b @ (xx * V), b) / d[i]
 
 
 def is_range(ix, n) -> bool:

@@ -105,10 +105,10 @@ def fit_sensor(counts, wrench, groups=None, model: str = "auto", *, n_folds: int
         Loading segment of each sample: folds hold whole segments, dealt round-robin so
         every fold spans the data. Default: ``DEFAULT_SEGMENTS`` contiguous pieces.
     model : {"auto", "linear", "poly"}
-        ``auto`` uses the polynomial correction only for the outputs (in threes: forces,
-        torques) where its held-out error beats the affine fit's by ``_cv.MARGIN`` and by
-        more than one standard error of the folds; the others keep the plain affine least
-        squares, which ``linear`` gives everywhere.
+        ``auto`` scores, per output group (in threes: forces, torques), the affine fit and the
+        correction along its ridge path by their mean held-out score over the folds, and takes
+        the simplest within one standard error of the best (``_cv.N_SE``); ``linear`` is the
+        plain affine least squares everywhere, ``poly`` the correction at its best ridge.
     n_folds : int
     alphas : sequence of float
         Relative ridge strengths tried for the polynomial features.
@@ -148,6 +148,7 @@ def fit_sensor(counts, wrench, groups=None, model: str = "auto", *, n_folds: int
                 ZT[1 + m + r :] = w[sl][order].T
                 folded.add_sorted(ZT, bounds)
         X = qr.solve().X  # (1 + m, q)
+        X_lin = X.copy()
         D = np.zeros((q, r))
         if nl:
             prob = Problem(np.arange(1 + m), np.arange(1 + m, 1 + m + r), np.arange(q), 1.0 / w.std(axis=0).clip(1e-300))
@@ -162,6 +163,8 @@ def fit_sensor(counts, wrench, groups=None, model: str = "auto", *, n_folds: int
                 f"the affine least squares: {n_groups} loading segment(s) are too few to cross-validate"
             choice = ModelChoice(name="linear", requested=model, n_segments=n_groups, reason=why)
     coef = (X[1 : 1 + m] / scale[:, None]).T
-    u = (c - center) / scale  # the range fitted: the correction is tapered beyond it (_poly.py)
-    correction = PolyCorrection(scale, pairs, cubes, D, u.min(axis=0), u.max(axis=0)) if choice.name == "poly" else None
+    u = (c - center) / scale  # the range fitted: the correction clamps its channels to it (_poly.py)
+    edge = ((X[1 : 1 + m] - X_lin[1 : 1 + m]) / scale[:, None]).T  # beyond the range: the linear fit's slope
+    correction = PolyCorrection(scale, pairs, cubes, D, u.min(axis=0), u.max(axis=0), edge) if choice.name == "poly" \
+        else None
     return SensorFit(choice, coef, X[0].copy(), center, correction)

@@ -271,7 +271,7 @@ class PolyReferenceBlock:
         return out
 
 
-@dataclass
+@dataclass(kw_only=True)
 class CalibrationCovariance:
     """Everything needed to give each sample's face wrenches a covariance.
 

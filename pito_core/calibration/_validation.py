@@ -8,11 +8,12 @@ loaded face, split where the time jumps), not over samples.
 from __future__ import annotations
 
 import dataclasses
+import warnings
 
 import numpy as np
 
 from ._calibration import Calibration
-from ._fit import session_offsets
+from ._fit import calibrate, session_offsets
 from ..io import CalibrationSession
 from ._targets import MountGeometry, block_targets
 
@@ -126,7 +127,8 @@ def _corrected_groups(calibration: Calibration) -> list[tuple[int, int]]:
     return sorted({(calibration.output_faces[r // 6], (r % 6) // 3) for r, a in enumerate(rows) if a is not None})
 
 
-def confirm_model(calibration: Calibration, session: CalibrationSession, *, seed: int = 0):
+def confirm_model(calibration: Calibration, session: CalibrationSession, *, seed: int = 0, sessions=None,
+                  fit_options: dict | None = None):
     """Keep a polynomial correction only if the validation pass confirms it; its figures.
 
     Cross-validation inside one session can miss what a later session shows (new loads,
@@ -135,6 +137,11 @@ def confirm_model(calibration: Calibration, session: CalibrationSession, *, seed
     the correction is worse on any of them, the linear fit is used, and its
     ``model.reason`` says where the correction lost. The choice looks at the validation
     pass, so that pass's figures are then, by a little, optimistic for the choice made.
+
+    ``sessions`` (the training sessions; ``fit_options``: more arguments of :func:`calibrate`):
+    the linear fit is then fitted again from them, so that its error model is its own (the same
+    matrix; :meth:`Calibration.linear_alternative` keeps the correction's error model, whose
+    residuals are smaller than the linear fit's).
 
     Returns
     -------
@@ -157,6 +164,10 @@ def confirm_model(calibration: Calibration, session: CalibrationSession, *, seed
             lost.append(f"face {face} {('forces', 'torques')[part]} {a * k:.3g} against {b * k:.3g} {unit}")
     if not lost:
         return calibration, figures
+    if sessions is not None:
+        with warnings.catch_warnings():  # the first fit of the same data has warned already
+            warnings.simplefilter("ignore")
+            linear = calibrate(sessions, calibration.method, **{**(fit_options or {}), "model": "linear"})
     linear.model = dataclasses.replace(
         linear.model, requested=calibration.model.requested,
         reason="the papers' linear fit: the polynomial correction chosen by cross-validation lost on the "

@@ -1,14 +1,14 @@
-"""The calibration file: HDF5, format ``pito-calibration``, version 5 (reads 1 to 5).
+"""The calibration file: HDF5, format ``pito-calibration``, version 6 (reads 6 only: 0.1.0 is unreleased).
 
 Layout (docs/file-formats.md)::
 
-    /             attrs: format="pito-calibration", version=5, writer, method, output_frame,
+    /             attrs: format="pito-calibration", version=6, writer, method, output_frame,
                          output_faces [..], core_edge (m), meta (JSON text),
-                         model (JSON text, version 3: which model and its cross-validated figures)
+                         model (JSON text: which model and its cross-validated figures)
     /matrix       (6·F, 36) float64: counts → N, N·m
     /offset       (36,) float64 counts
     /T_core_ati   (4, 4) float64
-    /covariance   group (version 2; absent in version 1 files), attrs: n_groups, n_tare (-1: fitted offset),
+    /covariance   group (optional: a calibration built without one), attrs: n_groups, n_tare (-1: fitted offset),
                   error_frame (optional, "face": variance_coef and residual_corr in each face's frame; absent: output)
         gauge_cov         (36, 36) float64 counts²: gauge noise at rest
         g{k}_inputs       (m,) int64 gauge columns of least-squares problem k
@@ -21,23 +21,21 @@ Layout (docs/file-formats.md)::
         g{k}_reference_leverage (q/6, n_int+m, n_int+m), g{k}_reference_cov (q/6, 6, 6) float64
                           (optional: a noisy reference) P M_k P and Σ_ref,k per face block
         variance_coef     (6F, 5) float64: each row's error variance on [1, L, q, q², q_other]
-                          (versions 2 and 3: (6F, 4) on [1, q, q², q_other], read with L's 0)
         residual_corr     (F, 6, 6) float64: residual correlation between a face's six outputs
-        rest_bias         (6F,) float64 (version 4; absent: zeros): the fitted offset's error² at rest
-        own_variance_coef (6F, 5) float64, own_q (F,) float64 (version 5; absent: variance_coef, inf):
+        rest_bias         (6F,) float64: the fitted offset's error² at rest
+        own_variance_coef (6F, 5) float64, own_q (F,) float64:
                           the error variance where a face reads a load of its own, and the q where that begins
         p{k}_rows (6,) bool, p{k}_cols (c,) int64, p{k}_leverage (3, c, c), p{k}_reference_cov (6, 6) float64,
                           attrs of p{k}_rows: block (optional, attrs n_poly_reference: a noisy reference
                           and a correction) the reference's noise through the correction's coefficients
-    /correction   group (version 3, model "poly" only): the polynomial correction
+    /correction   group (model "poly" only): the polynomial correction
         scale             (36,) float64 counts per unit of u = (counts − offset) / scale
         pairs             (P, 2) int64 gauge pairs of the products u_i u_j
         cubes             (Q,) int64 gauges of the cubes u_i³
         coef              (6·F, P + Q) float64: N, N·m per feature, rows as /matrix
         linear_matrix     (6·F, 36) float64, linear_offset (36,): the papers' linear fit of the same data
-        lower, upper      (36,) float64 (optional): range of u fitted; the monomials are tapered beyond it (absent: not)
-
-Versions 1 and 2 have no model: they load as the papers' linear model.
+        lower, upper      (36,) float64: range of u fitted; a sample beyond it is drawn back along its ray (_poly.py)
+        edge_matrix       (6·F, 36) float64: the corrected slopes less the linear fit's, used beyond the range
 """
 
 from __future__ import annotations
@@ -52,13 +50,13 @@ from ._hdf5 import FileFormatError, checked_dataset, json_attr, open_checked, re
 __all__ = ["write_calibration", "read_calibration_fields", "CALIBRATION_FORMAT", "CALIBRATION_VERSION"]
 
 CALIBRATION_FORMAT = "pito-calibration"
-CALIBRATION_VERSION = 5
-#: Versions this pito reads (version 1: no covariance; 1 and 2: no model choice; 2 and 3: no
-#: load indicator L in the error model; 2 to 4: one error model whatever face carries).
-CALIBRATION_READ_VERSIONS = {1, 2, 3, 4, 5}
+CALIBRATION_VERSION = 6
+#: Versions this pito reads (6: the correction's edge_matrix; no file of an older version exists
+#: outside the tests, and 0.1.0 is unreleased).
+CALIBRATION_READ_VERSIONS = {6}
 _CORRECTION_FIELDS = ("scale", "pairs", "cubes", "coef")
-#: The range the correction was fitted on (optional: older files load without, the plain polynomial).
-_CORRECTION_RANGE = ("lower", "upper")
+#: The range the correction was fitted on, and its slopes beyond.
+_CORRECTION_RANGE = ("lower", "upper", "edge_matrix")
 _GROUP_FIELDS = ("inputs", "rows", "design_pinv", "residual_cov", "center", "weights", "inflation")
 #: Group fields written only when set (the reference's noise per face block; absent: None).
 _GROUP_OPTIONAL = ("reference_leverage", "reference_cov")

@@ -55,3 +55,18 @@ def test_a_linear_calibration_passes_through():
     cal = calibrate(train, "total", model="linear")
     out, figures = confirm_model(cal, fresh)
     assert out is cal and np.isfinite(figures.worst_force)
+
+
+def test_given_the_training_sessions_the_linear_fit_keeps_its_own_error_model():
+    """With ``sessions`` the linear fit that replaces a lost correction is fitted again: the same
+    matrix, and the error model of the linear fit (not the correction's, whose residuals are smaller)."""
+    method = "total"
+    K = true_sensitivity(5, coupling=0.05)
+    kw = dict(CASES[method], connected_face=6, noise=4.0, counts_dtype=float)
+    train, fresh = make_session(K, k=150, seed=11, **kw), make_session(K, k=100, seed=12, **kw)
+    forced = calibrate(train, method, model="poly")
+    cal, _ = confirm_model(forced, fresh, sessions=train, fit_options={"block_size": 4096})
+    assert cal.correction is None and "lost on the validation pass" in cal.model.reason
+    own = calibrate(train, method, model="linear")
+    np.testing.assert_allclose(cal.matrix, forced.linear_alternative().matrix, rtol=1e-9, atol=1e-12)
+    np.testing.assert_array_equal(cal.covariance.variance_coef, own.covariance.variance_coef)

@@ -41,7 +41,7 @@ def _gram(A, B, blocks=4):
     return GramQR(G[:p, :p], G[:p, p:], G[p:, p:], A.shape[0])
 
 
-@pytest.mark.parametrize("kappa", [1.0, 1e2, 1e3, 1e4, 1e6, 1e8])
+@pytest.mark.parametrize("kappa", [1.0, 1e4, 1e8])
 def test_gram_core_is_used_only_where_it_is_accurate(kappa):
     A, B = _design(kappa)
     k = _scaled_kappa(A)

@@ -39,9 +39,9 @@ def test_saturating_sensor_gets_the_polynomial(m):
     (ct, wt, gt, _), (ch, _, _, th) = _split(80, c, w, g, truth, n_train=40)
     auto, lin = fit_sensor(ct, wt, gt), fit_sensor(ct, wt, gt, model="linear")
     assert isinstance(auto, SensorFit) and auto.model == "poly" and lin.model == "linear"
-    # ≤ 0.6: the held-out segments reach beyond the training range, where the correction is
-    # tapered (EDGE_SLOPE); measured 0.32, 0.59, 0.21 for m = 6, 8, 24 (0.19, 0.20, 0.08 untapered)
-    assert _rmse(auto, ch, th) <= 0.6 * _rmse(lin, ch, th)
+    # ≤ 0.65: the held-out segments reach beyond the training range, where the correction is
+    # drawn back into it with the linear fit's slope beyond (_poly.py)
+    assert _rmse(auto, ch, th) <= 0.65 * _rmse(lin, ch, th)
     assert auto.predict(ch).shape == (len(ch), 6) and auto.n_features_in_ == m
 
 

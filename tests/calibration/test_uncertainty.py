@@ -1,6 +1,7 @@
 """Issue 10, item 4: the calibration's covariance, stored, propagated per sample, and checked by Monte Carlo."""
 
 import h5py
+from pito_core.io import FileFormatError
 import numpy as np
 import pytest
 from gen import CASES, make_session, true_sensitivity
@@ -59,53 +60,24 @@ def test_retare_adds_the_tare_noise_and_explicit_offsets_only_the_slopes():
                                rtol=1e-6)
 
 
-def test_covariance_round_trips_and_version_1_files_still_load(tmp_path):
+def test_covariance_round_trips_and_older_versions_are_refused(tmp_path):
     K = true_sensitivity(43)
     cal = calibrate(make_session(K, flange="frame_hole", connected_face=3, k=300, noise=2.0), "face_to_face")
     path = tmp_path / "c.pitocal"
     cal.save(path)
     with h5py.File(path) as f:
-        assert int(f.attrs["version"]) == 5 and "covariance" in f
+        assert int(f.attrs["version"]) == 6 and "covariance" in f
     back = load_calibration(path)
     x = np.random.default_rng(0).normal(size=(5, 36)) * 1e3 + cal.offset
     for a, b in zip(back.wrenches(x, return_cov=True), cal.wrenches(x, return_cov=True)):
         np.testing.assert_array_equal(a, b)
     np.testing.assert_array_equal(back.covariance.own_q, cal.covariance.own_q)
     np.testing.assert_array_equal(back.covariance.own_variance_coef, cal.covariance.own_variance_coef)
-    # a version-4 file: one error model whatever face carries
-    v4 = tmp_path / "v4.pitocal"
-    cal.save(v4)
-    with h5py.File(v4, "a") as f:
-        del f["covariance/own_variance_coef"], f["covariance/own_q"]
-        f.attrs["version"] = 4
+    with h5py.File(path, "a") as f:  # 0.1.0 is unreleased: one version is read
+        f.attrs["version"] = 5
         seal(f)
-    old4 = load_calibration(v4)
-    np.testing.assert_array_equal(old4.covariance.own_variance_coef, cal.covariance.variance_coef)
-    assert np.all(old4.covariance.own_q == np.inf)
-    assert np.isfinite(old4.wrenches(x, return_cov=True)[1][:, [f - 1 for f in cal.output_faces]]).all()
-    # a version-3 file: the error model on [1, q, q², q_other], read with the load indicator L's 0
-    v3 = tmp_path / "v3.pitocal"
-    cal.save(v3)
-    with h5py.File(v3, "a") as f:
-        coef4 = np.delete(f["covariance/variance_coef"][()], 1, axis=1)
-        del f["covariance/variance_coef"], f["covariance/own_variance_coef"], f["covariance/own_q"]
-        f["covariance"].create_dataset("variance_coef", data=coef4)
-        f.attrs["version"] = 3
-        seal(f)
-    old3 = load_calibration(v3)
-    np.testing.assert_array_equal(old3.covariance.variance_coef, np.insert(coef4, 1, 0.0, axis=1))
-    assert np.isfinite(old3.wrenches(x, return_cov=True)[1][:, [f - 1 for f in cal.output_faces]]).all()
-    # a version-1 file (no covariance) written as pito did before
-    with h5py.File(path, "a") as f:
-        del f["covariance"]
-        f.attrs["version"] = 1
-        del f.attrs["pito_checksums"]  # version-1 files had no checksum manifest (issue 13)
-    with pytest.warns(UserWarning, match="cannot be verified"):
-        old = load_calibration(path)
-    assert old.covariance is None
-    np.testing.assert_array_equal(old.wrenches(x), cal.wrenches(x))
-    with pytest.raises(ValueError, match=r"return_cov: this calibration has no covariance .*version 1"):
-        old.wrenches(x, return_cov=True)
+    with pytest.raises(FileFormatError, match="version"):
+        load_calibration(path)
 
 
 @pytest.mark.parametrize("method, flange", [("loaded_frame", "frame_hole"), ("unloaded_frame", "face"),
@@ -163,7 +135,7 @@ def test_the_contact_solver_takes_the_covariance_directly():
 @NOISIER_THAN_THE_TARE_ALLOWS
 @pytest.mark.parametrize("method, flange", [("total", "face"), ("unloaded_frame", "face"), ("face_to_face", "frame_hole"),
                                            ("loaded_frame", "frame_hole")])
-@pytest.mark.parametrize("reference_noise", [0.003, 0.01])
+@pytest.mark.parametrize("reference_noise", [0.01])
 def test_coverage_of_the_true_wrench_with_a_noisy_reference(method, flange, reference_noise):
     """The interval is of the true wrench: the reference's own noise (in every training target,
     here 0.3 % and 1 % of full scale, measured at rest in the tare) is not counted as calibration
@@ -419,7 +391,7 @@ def test_the_reference_noise_through_the_correction_is_its_coefficients_term():
     test = make_session(K, k=300, seed=1001, **kw)
     loaded = test.loaded.any(axis=1)
     pred, actual = np.zeros((6, 6)), np.zeros((6, 6))
-    for d in range(4):
+    for d in range(3):
         noisy = calibrate(make_session(K, k=1000, seed=2 + 31 * d, reference_noise=0.03, **kw), "total")
         clean = calibrate(make_session(K, k=1000, seed=2 + 31 * d, **kw), "total")
         cov = noisy.covariance
@@ -437,7 +409,7 @@ def test_the_reference_noise_through_the_correction_is_its_coefficients_term():
             pred[f, use] += np.diagonal(term, axis1=1, axis2=2).mean(axis=0)[use]
             actual[f, use] += (diff[:, f] ** 2).mean(axis=0)[use]
     ratio = pred[actual > 0] / actual[actual > 0]
-    assert ratio.size >= 12, ratio
+    assert ratio.size >= 8, ratio
     assert 0.8 <= np.exp(np.log(ratio).mean()) <= 1.25 and ratio.min() > 0.5 and ratio.max() < 2.0, ratio
 
 
