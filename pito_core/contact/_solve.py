@@ -19,6 +19,7 @@ from ._plausibility import (
 )
 from ._pointcontact import DEFAULT_WRENCH_COV, refine_point_contact
 from ._quadric import solve_ellipsoid, solve_plane, solve_sphere
+from ._soft_test import soft_finger_test
 from ._surfaces import Ellipsoid, MeshSurface, Plane, Sphere, Surface, check_positive
 
 __all__ = ["solve", "contact_crb", "DEFAULT_FORCE_THRESHOLD"]
@@ -236,13 +237,24 @@ def _solve_rows(surfaces, f, m, ws, Sn, *, with_cov, point_contact, single_conta
         tau = np.zeros(len(c))
     ok &= np.isfinite(c).all(axis=1)
 
+    test = cov = None
+    if not (single_contact or with_cov):  # the bare solver: no Jacobian to build
+        for _, boundary, sl in blocks:
+            if boundary is not None:
+                ok[sl] &= boundary._contains(c[sl])
+        return c, n, force, tau, ok, facet, cov, test
+    if single_contact and not point_contact and not with_cov:  # the soft finger's test in closed form
+        test = soft_finger_test(c, n, force, tau, Sn, blocks, mu, e, alpha)
+        for _, boundary, sl in blocks:
+            if boundary is not None:
+                ok[sl] &= boundary._contains(c[sl])
+        return c, n, force, tau, ok, facet, cov, test
     with np.errstate(invalid="ignore", divide="ignore"):  # NaN rows stay NaN
         if len(surfaces) == 1:
             shape = surfaces[0][0]._shape_operator(c, n)
         else:
             shape = np.concatenate([s._shape_operator(c[sl], n[sl]) for s, _, sl in blocks])
         J, T = wrench_jacobian(c, n, shape, force, tau, point_contact=point_contact)
-        test = None
         if single_contact:
             if point_contact:
                 variance = param_variance(covariance_from_jacobian(J, T, Sn).param_cov)
@@ -254,7 +266,6 @@ def _solve_rows(surfaces, f, m, ws, Sn, *, with_cov, point_contact, single_conta
     for _, boundary, sl in blocks:
         if boundary is not None:
             ok[sl] &= boundary._contains(c[sl])
-    cov = None
     if with_cov:
         J[~ok] = np.nan
         cov = covariance_from_jacobian(J, T, Sn)
