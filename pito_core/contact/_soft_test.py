@@ -54,6 +54,30 @@ def _dot(a, b):
     return out
 
 
+def _mat3(A, x):
+    """``A x`` for a ``(3, 3)`` matrix and component arrays ``(3, N)``, row by row (no BLAS: the same
+    rounding whatever ``N``)."""
+    out = np.empty_like(x)
+    for i in range(3):
+        np.multiply(A[i, 0], x[0], out=out[i])
+        out[i] += A[i, 1] * x[1]
+        out[i] += A[i, 2] * x[2]
+    return out
+
+
+def _quad6(u, S):
+    """``uᵀ S u`` over the first axis of ``u (6, …)`` for a symmetric ``S (6, 6)``, term by term (no BLAS:
+    the same rounding whatever the batch, so grouped and single solves agree bitwise)."""
+    out = np.zeros(u.shape[1:])
+    for i in range(6):
+        if S[i, i] != 0.0:
+            out += S[i, i] * (u[i] * u[i])
+        for j in range(i + 1, 6):
+            if S[i, j] != 0.0:
+                out += (2.0 * S[i, j]) * (u[i] * u[j])
+    return out
+
+
 def _tangents(n):
     """``t1, t2`` ``(3, N)`` of unit normals ``n (3, N)`` (tangent_basis's rule)."""
     use_x = np.abs(n[0]) < 0.9
@@ -71,9 +95,10 @@ def _dn(surface, c, n, t):
         return t * (1.0 / surface.radius)
     if isinstance(surface, Ellipsoid):
         A = surface._A
-        At = A @ t
+        At = _mat3(A, t)
         At -= n * _dot(n, At)
-        At /= np.sqrt(np.square(A @ (c - surface.center[:, None])).sum(axis=0))
+        g = _mat3(A, c - surface.center[:, None])
+        At /= np.sqrt(_dot(g, g))
         return At
     return None  # plane, mesh facet
 
@@ -183,8 +208,7 @@ def _variance(gb, gf, c, adj, det, w_cov):
     u[3:] = um
     u[:3] = gf + _cross(c[:, None], um)
     if w_cov.ndim == 2:
-        U = u.reshape(6, -1)
-        return np.einsum("ij,ij->j", w_cov @ U, U).reshape(gb.shape[1:])
+        return _quad6(u, w_cov)
     return np.einsum("ikn,nij,jkn->kn", u, w_cov, u)
 
 
