@@ -218,16 +218,17 @@ def _solve_rows(surfaces, f, m, ws, Sn, *, with_cov, point_contact, single_conta
     """
     e = torsion_radius
     blocks = [b for b in surfaces if b[2].stop > b[2].start]  # the blocks with rows to solve
+    force = np.array(f, order="C")  # ours: the kernels read it, the point-contact refinement writes it
+    mc = np.ascontiguousarray(m) if mesh else m  # the closed forms take strided moments
     if len(surfaces) == 1:
-        c, n, tau, ok, facet = _solve_surface(surfaces[0][0], np.ascontiguousarray(f), np.ascontiguousarray(m))
+        c, n, tau, ok, facet = _solve_surface(surfaces[0][0], force, mc)
     else:
-        solved = [_solve_surface(s, np.ascontiguousarray(f[sl]), np.ascontiguousarray(m[sl])) for s, _, sl in blocks]
+        solved = [_solve_surface(s, force[sl], mc[sl]) for s, _, sl in blocks]
         c, n, tau, ok = (np.concatenate([r[k] for r in solved]) for k in range(4))
         facet = np.full(len(c), -1, np.intp) if mesh else None
         for r, (_, _, sl) in zip(solved, blocks):
             if r[4] is not None:
                 facet[sl] = r[4]
-    force = f.copy()
     W = np.linalg.inv(Sn) if point_contact else None
     if point_contact and len(c):
         for surface, _, sl in blocks:
@@ -235,7 +236,7 @@ def _solve_rows(surfaces, f, m, ws, Sn, *, with_cov, point_contact, single_conta
             if len(sel):
                 _refine(surface, c, n, force, ok, sel, ws[sel], W if W.ndim == 2 else W[sel])
         tau = np.zeros(len(c))
-    ok &= np.isfinite(c).all(axis=1)
+    ok &= np.isfinite(np.einsum("ij,j->i", c, _ZERO3))  # isfinite(c).all(axis=1): 0 · ±inf and 0 · NaN are NaN
 
     test = cov = None
     if not (single_contact or with_cov):  # the bare solver: no Jacobian to build
@@ -300,6 +301,8 @@ def _check_alpha(alpha) -> float:
 #: ``c, n, force, tau`` of no rows; a :class:`ContactCovariance` of no rows
 _NO_ROWS = (np.empty((0, 3)), np.empty((0, 3)), np.empty((0, 3)), np.empty(0))
 _NO_COV = (np.empty((0, 3, 3)), np.empty((0, 3, 3)), np.empty(0), np.empty((0, 6, 6)), np.empty((0, 3, 2)))
+#: zeros (3,): ``x @ _ZERO3`` is finite exactly where the row x is
+_ZERO3 = np.zeros(3)
 #: a single-contact test of no rows
 _NO_TEST = (np.empty(0, bool), np.empty(0), np.empty(0, np.int8))
 
@@ -320,7 +323,7 @@ def _assemble(N, strong, all_strong, c, n, force, tau, ok, facet, cov, test) -> 
     est = ContactEstimate(
         point=full(c),
         normal=full(n),
-        force=full(np.array(force, dtype=float)),
+        force=full(force),
         torsion=full(np.asarray(tau, dtype=float)),
         valid=full(ok, False, bool),
     )
