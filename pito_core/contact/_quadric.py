@@ -71,7 +71,9 @@ def solve_plane(f, m, point, normal):
 
     Returns ``c, n, tau, ok`` (see module docstring); ``ok`` is ``f · n < 0``.
     """
-    fn = np.einsum("ij,j->i", f, normal)
+    fn = f[:, 0] * normal[0]
+    fn += f[:, 1] * normal[1]
+    fn += f[:, 2] * normal[2]
     d = float(point @ normal)
     ok = fn < 0
     with np.errstate(divide="ignore", invalid="ignore"):

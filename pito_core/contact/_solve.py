@@ -15,7 +15,6 @@ from ._plausibility import (
     SingleContactReason,
     param_variance,
     single_contact_test,
-    soft_finger_variance,
 )
 from ._pointcontact import DEFAULT_WRENCH_COV, refine_point_contact
 from ._quadric import solve_ellipsoid, solve_plane, solve_sphere
@@ -239,39 +238,34 @@ def _solve_rows(surfaces, f, m, ws, Sn, *, with_cov, point_contact, single_conta
     ok &= np.isfinite(np.einsum("ij,j->i", c, _ZERO3))  # isfinite(c).all(axis=1): 0 · ±inf and 0 · NaN are NaN
 
     test = cov = None
-    if not (single_contact or with_cov):  # the bare solver: no Jacobian to build
-        for _, boundary, sl in blocks:
-            if boundary is not None:
-                ok[sl] &= boundary._contains(c[sl])
-        return c, n, force, tau, ok, facet, cov, test
-    if single_contact and not point_contact and not with_cov:  # the soft finger's test in closed form
+    if single_contact and not point_contact:  # the soft finger's test in closed form (_soft_test)
         test = soft_finger_test(c, n, force, tau, Sn, blocks, mu, e, alpha)
-        for _, boundary, sl in blocks:
-            if boundary is not None:
-                ok[sl] &= boundary._contains(c[sl])
-        return c, n, force, tau, ok, facet, cov, test
-    with np.errstate(invalid="ignore", divide="ignore"):  # NaN rows stay NaN
-        if len(surfaces) == 1:
-            shape = surfaces[0][0]._shape_operator(c, n)
-        else:
-            shape = np.concatenate([s._shape_operator(c[sl], n[sl]) for s, _, sl in blocks])
-        J, T = wrench_jacobian(c, n, shape, force, tau, point_contact=point_contact)
-        if single_contact:
-            if point_contact:
+    elif single_contact or with_cov:
+        with np.errstate(invalid="ignore", divide="ignore"):  # NaN rows stay NaN
+            shape = _shape(surfaces, blocks, c, n)
+            J, T = wrench_jacobian(c, n, shape, force, tau, point_contact=point_contact)
+            if single_contact:  # point contact: the parameters' covariance, and the χ² residual
                 variance = param_variance(covariance_from_jacobian(J, T, Sn).param_cov)
-            else:
-                variance = soft_finger_variance(J, c, Sn)
-            boundary = surfaces[0][1] if len(surfaces) == 1 else [(b, sl) for _, b, sl in blocks]
-            test = single_contact_test(c, n, force, tau, ws, variance, T, shape, W, boundary=boundary, mu=mu,
-                                       torsion_radius=e, alpha=alpha, point_contact=point_contact)
+                boundary = surfaces[0][1] if len(surfaces) == 1 else [(b, sl) for _, b, sl in blocks]
+                test = single_contact_test(c, n, force, tau, ws, variance, T, shape, W, boundary=boundary, mu=mu,
+                                           torsion_radius=e, alpha=alpha, point_contact=point_contact)
     for _, boundary, sl in blocks:
         if boundary is not None:
             ok[sl] &= boundary._contains(c[sl])
     if with_cov:
+        if single_contact and not point_contact:
+            with np.errstate(invalid="ignore", divide="ignore"):
+                J, T = wrench_jacobian(c, n, _shape(surfaces, blocks, c, n), force, tau, point_contact=point_contact)
         J[~ok] = np.nan
         cov = covariance_from_jacobian(J, T, Sn)
-
     return c, n, force, tau, ok, facet, cov, test
+
+
+def _shape(surfaces, blocks, c, n):
+    """Shape operators ``(n, 3, 3)`` of the solved rows, block by block."""
+    if len(surfaces) == 1:
+        return surfaces[0][0]._shape_operator(c, n)
+    return np.concatenate([s._shape_operator(c[sl], n[sl]) for s, _, sl in blocks])
 
 
 def _refine(surface, c, n, force, ok, sel, ws, Wn):
