@@ -95,6 +95,18 @@ def _contact_targets(con: dict | None) -> list[dict]:
         if v is not None:
             out.append({"target": f"contact {kind} ≥ {goal:.0e} solves/s (one core)", "measured": f"{v:.3g} solves/s",
                         "met": v >= goal})
+    for kind in ("plane", "sphere", "ellipsoid"):  # issue 44: against the plain closed form, the test's cost
+        bare = next((s for s in con["speed"] if s["surface"] == kind and s["solver"] == "closed form (soft finger)"), None)
+        test = next((s for s in con["speed"] if s["surface"] == kind and "single-contact" in s["solver"]), None)
+        if bare is None or test is None or "speed_ratio_plain" not in bare:
+            continue
+        goal = 5e5 if kind == "ellipsoid" else 1e6
+        out.append({"target": f"contact {kind}: solve ≥ 1 × plain numpy closed form; test ≤ 0.5 × the solve; "
+                              f"with the test ≥ {goal:.0e} solves/s",
+                    "measured": f"{bare['speed_ratio_plain']:.2f} ×; test {test['test_cost_ratio']:.2f} ×; "
+                                f"{test['solves_per_s']:.3g} solves/s",
+                    "met": bare["speed_ratio_plain"] >= 1 and test["test_cost_ratio"] <= 0.5
+                    and test["solves_per_s"] >= goal})
     acc = [a for a in con["accuracy"] if math.isfinite(_n(a["crb_ratio"]))]
     if acc:
         worst = max(acc, key=lambda a: a["crb_ratio"])
@@ -225,10 +237,12 @@ def _calibration_tables(cal: dict) -> list[str]:
 def _contact_tables(con: dict) -> list[str]:
     """The contact section's tables: speed, accuracy against the CRB, the single-contact flag, Pareto."""
     parts = []
-    rows = [[s["surface"], s["solver"], _f(s["solves_per_s"]), _f(s["speed_ratio_scipy"]), f"{s['batch']:,}"]
+    rows = [[s["surface"], s["solver"], _f(s["solves_per_s"]), _f(s.get("speed_ratio_plain")),
+             _f(s.get("test_cost_ratio")), _f(s["speed_ratio_scipy"]), f"{s['batch']:,}"]
             for s in con["speed"]]
-    parts.append(text_table(f"Contact speed (one thread; batch of wrenches, mid noise)",
-                            ["surface", "solver", "solves/s", "ratio scipy (same model)", "batch"], rows))
+    parts.append(text_table("Contact speed (one thread; batch of wrenches, mid noise; modes side by side)",
+                            ["surface", "solver", "solves/s", "× plain numpy closed form", "test cost / solve",
+                             "× scipy (same model)", "batch"], rows))
     rows = []
     for a in con["accuracy"]:
         rows.append([a["surface"], a["scenario"], f"{a['noise']} ({a['sigma_force_N']:g} N, {a['sigma_moment_Nm']:g} N·m)",

@@ -78,9 +78,20 @@ def solve_plane(f, m, point, normal):
     ok = fn < 0
     with np.errstate(divide="ignore", invalid="ignore"):
         inv = 1.0 / fn
-        c = _cross(normal, m)
-        c += d * f
-        c *= inv[:, None]
+        c = np.empty_like(f)
+        for i, (j, k) in enumerate(((1, 2), (2, 0), (0, 1))):  # c_i = ((n × m)_i + d f_i) / (n · f)
+            col = c[:, i]
+            if normal[j] != 0.0:  # (n × m)_i = n_j m_k − n_k m_j, the zero terms of a constant normal left out
+                np.multiply(normal[j], m[:, k], out=col)
+                if normal[k] != 0.0:
+                    col -= normal[k] * m[:, j]
+            elif normal[k] != 0.0:
+                np.multiply(-normal[k], m[:, j], out=col)
+            else:
+                col[:] = 0.0
+            if d != 0.0:
+                col += d * f[:, i]
+            col *= inv
         tau = _dot(f, m) * inv
     n = np.empty_like(f)
     n[:] = normal

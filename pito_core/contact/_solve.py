@@ -302,8 +302,8 @@ _NO_TEST = (np.empty(0, bool), np.empty(0), np.empty(0, np.int8))
 
 
 def _assemble(N, strong, all_strong, c, n, force, tau, ok, facet, cov, test) -> ContactEstimate:
-    bad = ~ok
-    any_bad = bool(bad.any())
+    bad = np.flatnonzero(~ok)
+    any_bad = len(bad) > 0
 
     def full(x, fill=np.nan, dtype=float):
         if any_bad:
