@@ -55,6 +55,7 @@ def targets(result: dict) -> list[dict]:
     """The issue's targets against this run: ``target``, ``measured``, ``met`` (bool or None)."""
     pipe = result.get("pipeline")
     return (_calibration_targets(result.get("calibration")) + _contact_targets(result.get("contact"))
+            + _analysis_targets(result.get("analysis"))
             + _pipeline_targets(pipe) + _live_targets(result.get("live"), pipe))
 
 
@@ -82,6 +83,16 @@ def _calibration_targets(cal: dict | None) -> list[dict]:
                                     f"{'default' if model == 'auto' else model})",
                         "met": r["fit_s"] <= 30 and r["fit_peak_rss_MB"] <= 500})
     return out
+
+
+def _analysis_targets(an: dict | None) -> list[dict]:
+    """Issue 44, point 2: ≥ 2·10⁵ samples/s per core without figures, figures adding ≤ 20 %."""
+    if not an:
+        return []
+    r = an["analyze_recording_samples_per_s"]
+    return [{"target": "analysis ≥ 2·10⁵ samples/s per core without figures; figures add ≤ 20 %",
+             "measured": f"{r:.3g} samples/s; figures +{100 * an['figures_share']:.0f} %",
+             "met": r >= 2e5 and an["figures_share"] <= 0.2}]
 
 
 def _contact_targets(con: dict | None) -> list[dict]:
@@ -169,7 +180,7 @@ def format_report(result: dict) -> str:
                  f"{', QUICK' if m.get('quick') else ''}")
     parts.append("Times are best of repeats; ratios are against baselines measured in the same process and run.")
     for key, tables in (("calibration", _calibration_tables), ("contact", _contact_tables),
-                        ("pipeline", _pipeline_tables), ("live", _live_window_tables)):
+                        ("pipeline", _pipeline_tables), ("analysis", _analysis_tables), ("live", _live_window_tables)):
         if result.get(key):
             parts += tables(result[key])
     tg = result.get("targets")
@@ -177,6 +188,19 @@ def format_report(result: dict) -> str:
         parts.append(text_table("Targets", ["target", "measured", "met"],
                                 [[t["target"], t["measured"], {True: "yes", False: "NO", None: "—"}[t["met"]]] for t in tg]))
     return "\n\n".join(p for p in parts if p) + "\n"
+
+
+def _analysis_tables(an: dict) -> list[str]:
+    """The analysis section's table: every stage's rate beside the bare read of the same file."""
+    rows = [[r["stage"], _f(r["s"] * 1e3), _f(r["samples_per_s"]), _f(r["ratio_read"])] for r in an["rows"]]
+    rows.append(["analyze_recording (end to end, no figures)", _f(an["analyze_recording_s"] * 1e3),
+                 _f(an["analyze_recording_samples_per_s"]),
+                 _f(an["samples"] / an["read_samples_per_s"] / an["analyze_recording_s"])])
+    return [text_table(f"Analysis, stage by stage ({an['data']}; {an['samples']:,} samples, {an['trials']} trials; "
+                       f"CPU time of a one-thread worker, best of repeats; figures add "
+                       f"{100 * an['figures_share']:.0f} % to the analysis; worker peak RSS "
+                       f"{_f(an.get('peak_rss_mb'))} MB)",
+                       ["stage", "time (ms)", "samples/s", "× the bare read's rate"], rows)]
 
 
 def _calibration_tables(cal: dict) -> list[str]:

@@ -23,7 +23,7 @@ def _library_assembly(name: str) -> Assembly:
 
 
 def solve_object(assembly, face_wrenches, force_threshold=DEFAULT_FORCE_THRESHOLD, *,
-                 point_contact=False, wrench_cov=None) -> ContactEstimate:
+                 point_contact=False, wrench_cov=None, single_contact: bool = True) -> ContactEstimate:
     """Contacts on all six patches of an object, expressed in the core frame.
 
     Parameters
@@ -43,6 +43,8 @@ def solve_object(assembly, face_wrenches, force_threshold=DEFAULT_FORCE_THRESHOL
         sample and face as ``Calibration.wrenches(counts, return_cov=True)`` returns it
         (leading shape that of ``face_wrenches``). Faces whose covariance is NaN (no
         output) get no covariance.
+    single_contact : bool
+        Run the single-contact test (default); False leaves its three fields None.
 
     Returns
     -------
@@ -68,7 +70,7 @@ def solve_object(assembly, face_wrenches, force_threshold=DEFAULT_FORCE_THRESHOL
               else flat[:, faces[0] if len(faces) == 1 else faces, :].reshape(-1, 6)  # (M·k, 6), sample-major
               for _, faces in groups]
     covs = None if covs is None else [_group_cov(covs, faces, M) for _, faces in groups]
-    est = _solve_patches([patch for patch, _ in groups], blocks, thr, covs, point_contact)
+    est = _solve_patches([patch for patch, _ in groups], blocks, thr, covs, point_contact, single_contact)
     return _to_core(_by_face(est, [faces for _, faces in groups], M), poses, lead)
 
 

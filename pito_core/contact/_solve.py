@@ -140,7 +140,7 @@ def solve(
     return out._reshape(lead)
 
 
-def _solve_patches(patches, blocks, force_threshold, covs, point_contact) -> ContactEstimate:
+def _solve_patches(patches, blocks, force_threshold, covs, point_contact, single_contact=True) -> ContactEstimate:
     """``solve(patch, w, force_threshold, point_contact=…, wrench_cov=S)`` of several patches in one pass.
 
     For ``solve_object``: ``blocks`` are each patch's rows ``w (N_k, 6)`` and ``covs`` their
@@ -160,7 +160,7 @@ def _solve_patches(patches, blocks, force_threshold, covs, point_contact) -> Con
         else:
             S = np.concatenate([np.broadcast_to(c, (len(b), 6, 6)) for c, b in zip(covs, blocks)])
     return _solve_checked(parts, w, _check_threshold(force_threshold), S, point_contact=point_contact,
-                          single_contact=True, alpha=SINGLE_CONTACT_ALPHA)
+                          single_contact=single_contact, alpha=SINGLE_CONTACT_ALPHA)
 
 
 def _solve_checked(parts, w, thr, S, *, point_contact, single_contact, alpha):
