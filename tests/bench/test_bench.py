@@ -299,7 +299,8 @@ def test_analysis_section_times_every_stage_of_a_simulated_recording():
     r = task_analysis(n_trials=1, repeat=1)
     assert r["samples"] == 6000 and r["trials"] == 1
     stages = [row["stage"] for row in r["rows"]]
-    assert stages == ["read", "pair", "calibrate", "contacts", "single-contact test", "metrics", "figures", "write"]
+    assert stages == ["read", "pair", "calibrate", "contacts", "single-contact test", "contacts with the test", "metrics",
+                      "figures", "write"]
     assert all(row["samples_per_s"] > 0 for row in r["rows"] if row["stage"] not in ("calibrate", "single-contact test"))
     assert r["rows"][0]["ratio_read"] == 1.0
     assert r["analyze_recording_samples_per_s"] > 0 and r["figures_share"] > 0
