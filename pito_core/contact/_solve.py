@@ -115,7 +115,8 @@ def solve(
         uses ``wrench_cov`` (or ``DEFAULT_WRENCH_COV`` if None) as the wrench's noise.
     single_contact : bool
         Run the single-contact test (default). False leaves the three ``single_contact*``
-        fields None (the bare solver, ~6× faster on analytic surfaces).
+        fields None (the bare solver: no Jacobian is built unless ``wrench_cov`` asks for
+        the covariances).
 
     Returns
     -------
