@@ -48,11 +48,10 @@ def _recording(directory: Path, n_trials: int, seed: int = 0) -> Path:
 
 def task_analysis(n_trials: int = 5, repeat: int = 3, seed: int = 0) -> dict:
     """Seconds and samples/s of every stage of the analysis of one simulated lift recording."""
-    from pito_core.analysis import analyze_contacts, analyze_recording, save_trial_figures, write_analysis
-    from pito_core.analysis._analyze import _data_contacts
+    from pito_core.analysis import (analyze_contacts, analyze_recording, recording_contacts, save_trial_figures,
+                                    write_analysis)
     from pito_core.contact import solve_object
-    from pito_core.interop import export_data
-    from pito_core.interop._provenance import recording_calibration
+    from pito_core.interop import recording_calibration
     from pito_core.io import read_recording
     from pito_core.pipeline import replay_recording
 
@@ -76,7 +75,7 @@ def task_analysis(n_trials: int = 5, repeat: int = 3, seed: int = 0) -> dict:
         except TypeError:  # a pito_core before solve_object(single_contact=...): the two together
             t["contacts"] = float("nan")
         t["single-contact test"] = t_test - t["contacts"]
-        time_s, contacts, meta = _data_contacts(export_data(path), path)
+        time_s, contacts, meta = recording_contacts(path)
         cog = meta["cog_m"] if meta["cog_m"] is not None else (0.0, 0.0, 0.0)
         t["metrics"], analysis = best_time(lambda: analyze_contacts(time_s, contacts, cog=cog, mass=meta["mass_kg"],
                                                                     meta=meta), repeat, clock=clock)
