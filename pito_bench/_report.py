@@ -112,12 +112,12 @@ def _contact_targets(con: dict | None) -> list[dict]:
         if bare is None or test is None or "speed_ratio_plain" not in bare:
             continue
         goal = 5e5 if kind == "ellipsoid" else 1e6
-        out.append({"target": f"contact {kind}: solve ≥ 1 × plain numpy closed form; test ≤ 0.5 × the solve; "
-                              f"with the test ≥ {goal:.0e} solves/s",
-                    "measured": f"{bare['speed_ratio_plain']:.2f} ×; test {test['test_cost_ratio']:.2f} ×; "
-                                f"{test['solves_per_s']:.3g} solves/s",
-                    "met": bare["speed_ratio_plain"] >= 1 and test["test_cost_ratio"] <= 0.5
-                    and test["solves_per_s"] >= goal})
+        out.append({"target": f"contact {kind}: solve ≥ 1 × a plain numpy closed form; with the test ≥ {goal:.0e} "
+                              "solves/s",
+                    "measured": f"{bare['speed_ratio_plain']:.2f} ×; {test['solves_per_s']:.3g} solves/s",
+                    "met": bare["speed_ratio_plain"] >= 1 and test["solves_per_s"] >= goal})
+        out.append({"target": f"contact {kind}: the single-contact test ≤ 0.5 × the solve's own cost",
+                    "measured": f"{test['test_cost_ratio']:.2f} ×", "met": test["test_cost_ratio"] <= 0.5})
     acc = [a for a in con["accuracy"] if math.isfinite(_n(a["crb_ratio"]))]
     if acc:
         worst = max(acc, key=lambda a: a["crb_ratio"])
