@@ -129,18 +129,18 @@ def soft_finger_test(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha):
         t1, t2 = _tangents(nT)
         finite &= np.isfinite(_dot(t1, t1) + _dot(t2, t2))
         a1, a2 = _cross(t1, fT), _cross(t2, fT)
-        d1, d2 = np.zeros((3, N)), np.zeros((3, N))
-        curved = np.zeros(N, bool)
-        for surface, _, sl in blocks:
-            got = _dn(surface, cT[:, sl], nT[:, sl], t1[:, sl])
-            if got is not None:
-                d1[:, sl] = got
-                d2[:, sl] = _dn(surface, cT[:, sl], nT[:, sl], t2[:, sl])
-                curved[sl] = True
-        if curved.any():
+        curved = any(isinstance(surface, Ellipsoid) for surface, _, _ in blocks)  # spheres too
+        if curved:  # ∂n/∂θ; planes and facets have none (their θ-gradients below are 0)
+            d1, d2 = np.zeros((3, N)), np.zeros((3, N))
+            for surface, _, sl in blocks:
+                got = _dn(surface, cT[:, sl], nT[:, sl], t1[:, sl])
+                if got is not None:
+                    d1[:, sl] = got
+                    d2[:, sl] = _dn(surface, cT[:, sl], nT[:, sl], t2[:, sl])
             a1 += tau * d1
             a2 += tau * d2
-        adj = (_cross(a2, nT), _cross(nT, a1), _cross(a1, a2))
+        bounded = any(boundary is not None for _, boundary, _ in blocks)
+        adj = (_cross(a2, nT), _cross(nT, a1) if curved or bounded else None, _cross(a1, a2))
         det = _dot(a1, adj[0])
         # the pushing force and the friction margin
         fn = -_dot(fT, nT)
@@ -152,12 +152,14 @@ def soft_finger_test(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha):
         k = ft / s
         shear_ok = s > 0
         # gradients [θ1, θ2, τ] and over f of the two limits, side by side: (…, 2, N)
-        gb = np.empty((3, 2, N))
-        np.negative(_dot(fT, d1), out=gb[0, 0])
-        np.negative(_dot(fT, d2), out=gb[1, 0])
-        gb[2, 0] = 0.0
-        gs_t1 = fn * _dot(u, d1) * k
-        gs_t2 = fn * _dot(u, d2) * k
+        gb = np.zeros((3, 2, N))
+        if curved:
+            np.negative(_dot(fT, d1), out=gb[0, 0])
+            np.negative(_dot(fT, d2), out=gb[1, 0])
+            gs_t1 = fn * _dot(u, d1) * k
+            gs_t2 = fn * _dot(u, d2) * k
+        else:
+            gs_t1 = gs_t2 = np.zeros(N)
         gs_tau = tq / (torsion_radius * s)
         gf = np.empty((3, 2, N))
         np.negative(nT, out=gf[:, 0])
@@ -174,7 +176,7 @@ def soft_finger_test(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha):
         g = np.empty((2, N))
         g[0] = fn
         np.subtract(mu_ * fn, s, out=g[1])
-        var = _variance(gb, gf, cT, adj, det, w_cov)
+        var = _variance(gb, gf, cT, adj, det, w_cov, flat=not curved)
         z = np.full((3, N), np.inf)
         z[:2] = _z(g, var)
         for surface, boundary, sl in blocks:
@@ -200,9 +202,15 @@ def soft_finger_test(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha):
     return _decide(p_all, z_all, finite, shear[finite], alpha, False)
 
 
-def _variance(gb, gf, c, adj, det, w_cov):
-    """``σ²`` ``(K, N)`` of ``K`` functions with gradients ``gb (3, K, N)`` over ``[θ1, θ2, τ]`` and ``gf (3, K, N)`` over f."""
-    um = gb[0] * adj[0][:, None] + gb[1] * adj[1][:, None] + gb[2] * adj[2][:, None]  # (3, K, N)
+def _variance(gb, gf, c, adj, det, w_cov, flat=False):
+    """``σ²`` ``(K, N)`` of ``K`` functions with gradients ``gb (3, K, N)`` over ``[θ1, θ2, τ]`` and ``gf (3, K, N)`` over f.
+
+    ``flat``: the θ-gradients are 0 (a plane or a facet): only the τ term of ``u_m``.
+    """
+    if flat:
+        um = gb[2] * adj[2][:, None]
+    else:
+        um = gb[0] * adj[0][:, None] + gb[1] * adj[1][:, None] + gb[2] * adj[2][:, None]  # (3, K, N)
     um /= det
     u = np.empty((6,) + gb.shape[1:])
     u[3:] = um
