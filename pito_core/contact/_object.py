@@ -100,14 +100,32 @@ def _by_face(est: ContactEstimate, faces: list, M: int) -> dict:
 def _to_core(out: dict, poses: tuple, lead: tuple) -> ContactEstimate:
     """Face-frame fields ``(M, 6, …)`` → a core-frame :class:`ContactEstimate` of batch shape ``lead + (6,)``."""
     R, t = poses  # (6, 3, 3), (6, 3): T_core_face of every face
-    out["point"] = np.einsum("mfj,fkj->mfk", out["point"], R) + t
-    out["normal"] = np.einsum("mfj,fkj->mfk", out["normal"], R)
-    out["force"] = np.einsum("mfj,fkj->mfk", out["force"], R)
+    out["point"] = _rotate(out["point"], R)
+    out["point"] += t
+    out["normal"] = _rotate(out["normal"], R)
+    out["force"] = _rotate(out["force"], R)
     Rt = np.swapaxes(R, 1, 2)
     for k in ("point_cov", "force_cov"):
         if k in out:
             out[k] = R @ out[k] @ Rt
     return ContactEstimate(**{k: v.reshape(lead + v.shape[1:]) for k, v in out.items()}, frame="core")
+
+
+def _rotate(x, R) -> np.ndarray:
+    """``x_core = R_f x_face`` of vectors ``x (M, 6, 3)`` with every face's rotation ``R (6, 3, 3)``.
+
+    Component by component (``(x0 R_k0 + x2 R_k2) + x1 R_k1``: einsum's arithmetic here, a
+    quarter of its time); a cube's face rotations are signed permutations, so the result is
+    exact whatever the order.
+    """
+    out = np.empty(x.shape)
+    x0, x1, x2 = x[..., 0], x[..., 1], x[..., 2]
+    for k in range(3):
+        o = out[..., k]
+        np.multiply(x0, R[:, k, 0], out=o)
+        o += x2 * R[:, k, 2]
+        o += x1 * R[:, k, 1]
+    return out
 
 
 def _face_covs(wrench_cov, lead: tuple) -> np.ndarray:
