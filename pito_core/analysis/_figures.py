@@ -35,7 +35,8 @@ def trial_figure(analysis, trial) -> Figure:
     m = m[:: max(1, m.size // _MAX_POINTS)]  # a screen's worth of points per curve
     t = g.time[m]
     fingers = np.array([i + 1 != analysis.settings.base_face for i in range(6)])
-    fig = Figure(figsize=(8, 7.5), layout="constrained")
+    fig = Figure(figsize=(8, 7.5))  # fixed margins: a layout engine would cost a third of the drawing
+    fig.subplots_adjust(left=0.08, right=0.98, bottom=0.065, top=0.91, hspace=0.1)
     FigureCanvasAgg(fig)
     axes = fig.subplots(3, 1, sharex=True)
     ax = axes[0]
@@ -86,6 +87,6 @@ def save_trial_figures(analysis, directory, dpi: int = 90) -> list:
     out = []
     for tr in analysis.trials:
         path = Path(directory) / f"trial_{tr.index:02d}.png"
-        trial_figure(analysis, tr).savefig(path, dpi=dpi)
+        trial_figure(analysis, tr).savefig(path, dpi=dpi, pil_kwargs={"compress_level": 1})  # fast zlib
         out.append(path)
     return out
