@@ -25,7 +25,11 @@ from ._mcap import write_mcap
 from ._nwb import BEHAVIOR_MODULE, MISC_MODULE, missing_metadata, write_nwb
 from ._nwb_trials import GRASP_PHASES_TABLE, append_grasp_phases
 from ._provenance import (
+    BULKY_RECORD_KEYS,
     assembly_record,
+    calibration_file_bytes,
+    calibration_from_bytes,
+    record_file_bytes,
     calibration_from_record,
     calibration_hash,
     calibration_record,
@@ -48,7 +52,11 @@ __all__ = [
     "GRASP_PHASES_TABLE",
     "append_grasp_phases",
     "LslPublisher",
+    "BULKY_RECORD_KEYS",
     "assembly_record",
+    "calibration_file_bytes",
+    "calibration_from_bytes",
+    "record_file_bytes",
     "calibration_from_record",
     "calibration_hash",
     "calibration_record",

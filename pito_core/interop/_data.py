@@ -117,7 +117,8 @@ def export_data(path, calibration=None, assembly=None, *, calibration_source: st
         reference=None if reference is None else np.asarray(reference, float),
         face_wrenches=W,
         contacts=cont,
-        calibration=None if cal is None else calibration_record(cal, calibration_source or "recording"),
+        calibration=None if cal is None else (meta["calibration"] if calibration is None and meta.get("calibration")
+                                              else calibration_record(cal, calibration_source)),
         assembly=assembly_record(pipe.assembly if pipe.assembly is not None else assembly),
         note=note,
         meta=meta,

@@ -15,8 +15,10 @@ Topics (profile ``ros2``, encoding ``cdr``; stamps = recording start (UNIX) + sa
   samples with a reference value (no message carries NaN).
 - ``/tf_static`` — ``tf2_msgs/msg/TFMessage``: ``pito_core`` → ``pito_face_{i}`` (i = 1..6).
 - ``/pito/raw_counts`` — ``std_msgs/msg/Int32MultiArray`` (36 counts) every sample.
-- metadata record ``pito_provenance`` (calibration method/date/hash, assembly, note) and the
-  attachment ``calibration.json`` (the full record: matrix, offset).
+- metadata record ``pito_provenance`` (calibration method/date/hash, assembly, note), the
+  attachment ``calibration.json`` (the full record of :func:`~pito_core.interop.calibration_record`)
+  and the attachment ``calibration.pitocal``: the calibration file's exact bytes (the whole
+  model, correction and covariance), whose content hash is the record's ``hash``.
 
 The fixed-layout messages are CDR-encoded in bulk with numpy (the generic encoder of
 ``mcap_ros2`` costs ~30 µs a message); the tests decode them with ``mcap_ros2``'s decoder.
@@ -31,6 +33,7 @@ from scipy.spatial.transform import Rotation
 
 from ..frames import CubeCore
 from ._conventions import ROS_CORE_FRAME, ROS_FACE_FRAME
+from ._provenance import BULKY_RECORD_KEYS, record_file_bytes
 
 __all__ = ["write_mcap", "MSGDEFS"]
 
@@ -171,11 +174,13 @@ def _write_provenance(w, data, stamp: np.ndarray) -> None:
     meta = {"note": data.note, "simulated": json.dumps(data.simulated),
             "assembly": json.dumps(data.assembly), "calibration": json.dumps(
                 None if data.calibration is None else
-                {k: v for k, v in data.calibration.items() if k not in ("matrix", "offset")}, default=str)}
+                {k: v for k, v in data.calibration.items() if k not in BULKY_RECORD_KEYS}, default=str)}
     w.add_metadata("pito_provenance", meta)
     if data.calibration is not None:
-        w.add_attachment(0, int(stamp[0]) if stamp.size else 0, "calibration.json", "application/json",
-                         json.dumps(data.calibration, default=str).encode())
+        t = int(stamp[0]) if stamp.size else 0
+        w.add_attachment(0, t, "calibration.json", "application/json", json.dumps(data.calibration, default=str).encode())
+        if "file" in data.calibration:
+            w.add_attachment(0, t, "calibration.pitocal", "application/x-hdf5", record_file_bytes(data.calibration))
 
 
 def _write_tf_static(topics: _Topics, data, stamp: np.ndarray) -> None:

@@ -15,8 +15,10 @@ Layout (all series share the cube's timestamps, s from ``session_start_time``):
   description).
 - ``processing/misc/calibration_matrix`` — ``DynamicTable``, one row per matrix
   row: ``face``, ``component``, ``unit``, ``coefficients`` (36, N or N·m per count),
-  ``offset_counts`` as its own table; the full provenance record (method, date, hash,
-  assembly) as JSON in the table's description and in ``nwbfile.notes``.
+  ``offset_counts`` as its own table; ``calibration_file`` (one row: ``content_hash``,
+  ``sha256``, ``size_bytes``, ``content_base64``): the calibration file's exact bytes, the whole
+  model (correction, covariance); the provenance record (method, date, hash, assembly) as JSON
+  in the table's description and in ``nwbfile.notes``.
 
 Module names are the NWB schema's own (``behavior``: what the hand did to the object;
 ``misc``: the calibration), as nwbinspector's ``check_processing_module_name`` asks.
@@ -33,6 +35,7 @@ import numpy as np
 
 from ..contact import SingleContactReason
 from ._conventions import CORE_FRAME, FACE_FRAME
+from ._provenance import BULKY_RECORD_KEYS
 
 __all__ = ["write_nwb", "missing_metadata", "KEYWORDS", "BEHAVIOR_MODULE", "MISC_MODULE"]
 
@@ -81,7 +84,7 @@ def _nwb_file(data, *, experimenter, session_description, institution, lab, iden
 
     start = _dt.datetime.fromtimestamp(data.start_unix or 0.0, tz=_dt.timezone.utc)
     prov = {"calibration": None if data.calibration is None else
-            {k: v for k, v in data.calibration.items() if k not in ("matrix", "offset")},
+            {k: v for k, v in data.calibration.items() if k not in BULKY_RECORD_KEYS},
             "assembly": data.assembly, "note": data.note, "simulated": data.simulated,
             "recording_meta": {k: v for k, v in data.meta.items() if k not in ("calibration", "assembly")}}
     desc = session_description or ("PITO grasp recording" + (" (SIMULATED devices)" if data.simulated else ""))
@@ -189,7 +192,7 @@ def _add_calibration(nwb, cal: dict) -> None:
     frame = "own face frame" if cal["output_frame"] == "face" else "reference frame S_A"
     mod = nwb.create_processing_module(MISC_MODULE, f"PITO calibration used ({cal['method']}, {cal['hash']})")
     mod.add(DynamicTable(name="calibration_matrix", description=json.dumps(
-        {k: v for k, v in cal.items() if k not in ("matrix", "offset")}, default=str), columns=[
+        {k: v for k, v in cal.items() if k not in BULKY_RECORD_KEYS}, default=str), columns=[
         VectorData(name="face", description="output face 1..6", data=faces),
         VectorData(name="component", description=f"wrench component, in the face's {frame}", data=comps),
         VectorData(name="unit", description="unit of the coefficients", data=units),
@@ -198,6 +201,16 @@ def _add_calibration(nwb, cal: dict) -> None:
     mod.add(DynamicTable(name="calibration_offset", description="unloaded counts subtracted before the matrix", columns=[
         VectorData(name="channel", description="gauge channel 1..36", data=list(range(1, 37))),
         VectorData(name="offset_counts", description="counts", data=np.asarray(cal["offset"], float))]))
+    f = cal.get("file")
+    if f:  # the whole model (correction, covariance): the calibration file's bytes, as embedded in the recording
+        mod.add(DynamicTable(name="calibration_file", description="the calibration file (pito-calibration, HDF5) the "
+                             "wrenches were computed with, base64; read back with "
+                             "pito_core.interop.calibration_from_record(json.loads(...)) or decode and open as HDF5",
+                             columns=[
+            VectorData(name="content_hash", description="pito content hash of the calibration", data=[cal["hash"]]),
+            VectorData(name="sha256", description="SHA-256 of the file's bytes", data=[f["sha256"]]),
+            VectorData(name="size_bytes", description="bytes", data=[int(f["size_bytes"])]),
+            VectorData(name="content_base64", description="the file's bytes, base64", data=[f["content"]])]))
 
 
 def missing_metadata(*, subject_id=None, species=None, sex=None, age=None, experimenter=None, institution=None) -> list[str]:
