@@ -10,6 +10,7 @@ from .. import analysis
 from ..calibration import load_calibration
 from ..interop import export_data, missing_metadata, write_mcap, write_nwb
 from ..io import export_recording_files, read_recording
+from ..pipeline import recording_times
 from ._analyze import add_study_options, run_many
 
 HELP = """\
@@ -92,7 +93,7 @@ def run(args) -> int:
         raise ValueError("output: give at least one of --nwb, --mcap, --csv, --mat")
     if args.csv or args.mat:
         rec = read_recording(args.file, recover=args.recover)
-        for written in export_recording_files(rec, args.csv, args.mat):
+        for written in export_recording_files(rec, args.csv, args.mat, recording_times(rec)):
             print(f"wrote {written}")
     if not (args.nwb or args.mcap):
         return 0

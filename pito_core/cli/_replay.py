@@ -12,7 +12,7 @@ from ..calibration import load_calibration
 from ..devices import STATUS_SATURATION
 from ..interop import recording_calibration
 from ..io import Recording, export_recording_files
-from ..pipeline import Pipeline, RecordingReader
+from ..pipeline import Pipeline, RecordingReader, recording_times
 
 HELP = """\
 Replay a pito recording (written by `pito record`), print its content, or export it.
@@ -22,8 +22,9 @@ Without options the recording is replayed at real speed (--speed 2 is twice as f
 paired to the cube samples by the device clocks, the recorded tare applied), printing each
 second of recording: cube samples, and the paired reference's mean force magnitude (N);
 with --calibration FILE also the largest force on each face (N). --csv PREFIX writes PREFIX_pito.csv
-(host_time s, seq, time_us µs, counts_1..36) and PREFIX_ati.csv (host_time s, rdt_seq,
-ft_seq, status, fx fy fz N, tx ty tz N·m); --mat FILE writes a MATLAB file (variables
+(time s, host_time s, seq, time_us µs, counts_1..36) and PREFIX_ati.csv (time s, host_time s,
+rdt_seq, ft_seq, status, fx fy fz N, tx ty tz N·m); `time` is the one time base of every
+export: the cube's device clock, unwrapped, from the first sample, strictly increasing; --mat FILE writes a MATLAB file (variables
 listed in docs/devices.md). A recording whose recorder was killed is incomplete: add
 --recover to read every intact chunk.
 """
@@ -66,7 +67,7 @@ def run(args) -> int:
     rec = Recording(args.file, recover=args.recover)
     print(_summary(rec))
     if args.csv or args.mat:
-        for written in export_recording_files(rec, args.csv, args.mat):
+        for written in export_recording_files(rec, args.csv, args.mat, recording_times(rec)):
             print(f"wrote {written}")
         return 0
     if args.info:

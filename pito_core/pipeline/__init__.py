@@ -16,7 +16,8 @@ from ._bundle import LiveBundle, face_sums
 from ._pipeline import Pipeline
 from ._open import open_acquisition, open_reader
 from ._process import PipelineProcess, PipelineProcessError
-from ._readers import AcquisitionReader, NewSamples, RecordingReader, device_time_base, recording_samples
+from ._readers import (AcquisitionReader, NewSamples, RecordingReader, device_time_base, recording_samples,
+                       recording_times)
 from ._replay import replay_blocks, replay_recording
 from ._thread import PipelineThread
 
@@ -40,4 +41,5 @@ __all__ = [
     "replay_recording",
     "replay_blocks",
     "device_time_base",
+    "recording_times",
 ]

@@ -18,7 +18,8 @@ from ..devices import StreamClock, TickUnwrapper
 from ..frames import CUBE_ADC_LIMIT
 from ..io import read_recording
 
-__all__ = ["NewSamples", "AcquisitionReader", "RecordingReader", "recording_samples", "device_time_base"]
+__all__ = ["NewSamples", "AcquisitionReader", "RecordingReader", "recording_samples", "device_time_base",
+           "recording_times"]
 
 
 @dataclass
@@ -292,3 +293,12 @@ class RecordingReader:
 
     def close(self) -> None:
         pass
+
+
+def recording_times(recording) -> tuple[np.ndarray, np.ndarray]:
+    """``(cube times (n,), reference times (m,))`` s of a :class:`~pito_core.io.Recording`, row for row.
+
+    The one time base of every export (:func:`device_time_base`): CSV/MAT ``time``, NWB, MCAP, analysis.
+    """
+    cube, ref = recording_samples(recording)
+    return device_time_base(cube, ref if ref["time"].size else None)
