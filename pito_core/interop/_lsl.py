@@ -12,10 +12,12 @@
   (manufacturer, model), ``reference_frame``, ``calibration`` (method, date, hash, source),
   ``assembly`` (name, patch per face), ``simulated``.
 
-Timestamps: each sample's time from the pairing rule (device clock mapped onto the host's
-``time.monotonic``; :mod:`pito_core.devices._clock`) plus the offset ``local_clock() −
-time.monotonic()`` (measured when the publisher starts; both are CLOCK_MONOTONIC on Linux,
-so it is ~0): LSL time of the sample's *acquisition*, not of its push.
+Timestamps: the cube's device clock (``time_us``, unwrapped; the one time base of pito's
+exports), strictly increasing, a dropped frame a gap, placed on the LSL clock once: the first
+sample published gets its pairing-rule time (device clock mapped onto the host's
+``time.monotonic``, :mod:`pito_core.devices._clock`) plus ``local_clock() − time.monotonic()``
+(both CLOCK_MONOTONIC on Linux, so ~0), every later one that plus its device time since: LSL
+time of the sample's *acquisition*, not of its push.
 
 Inside a network namespace with loopback only, liblsl logs "No local network interface
 addresses found": expected there (its streams still resolve on 127.0.0.1).
@@ -182,6 +184,7 @@ class LslPublisher:
         self.clock_offset = pylsl.local_clock() - time.monotonic()
         self.pushed = 0
         self.names = (WRENCH_STREAM, CONTACT_STREAM)
+        self.time_base = None  # (LSL time s, device tick µs) of the first sample published
 
     def __call__(self, bundle) -> None:
         # each cube sample once, as it arrives (its face wrenches do not wait for the reference);
@@ -189,7 +192,13 @@ class LslPublisher:
         W, t = bundle.arrived_face_wrenches, bundle.arrived_time
         if W is None or t is None or len(t) == 0 or len(W) != len(t):
             return
-        ts = (np.asarray(t, float) + self.clock_offset).tolist()
+        tick = bundle.arrived_tick
+        if tick is None or len(tick) != len(t):
+            ts = (np.asarray(t, float) + self.clock_offset).tolist()
+        else:
+            if self.time_base is None:
+                self.time_base = (float(t[0]) + self.clock_offset, int(tick[0]))
+            ts = (self.time_base[0] + (np.asarray(tick, np.int64) - self.time_base[1]) * 1e-6).tolist()
         self.wrench_outlet.push_chunk(wrench_samples(W), ts)
         self.contact_outlet.push_chunk(contact_samples(self.pipeline.contacts(np.asarray(W))), ts)
         self.pushed += len(ts)
