@@ -191,15 +191,36 @@ def _record(args) -> int:
                 pass
             finally:
                 acq.stop()
+                for device in (cube, netft):  # no frame after this: every frame received is collected next
+                    if device is not None:
+                        device.close()
+                acq.stop()  # collects what arrived until the devices closed
                 writer.close()
             stats = acq.stats()
             print(_line(time.monotonic() - t0, stats), file=sys.stderr)
             rows = writer.rows_written
             label = " (simulated)" if info["simulated"] else ""
             print(f"wrote {args.output}: {rows['pito']} cube samples, {rows['netft']} reference samples{label}")
+            lost = _lost_at_handoff(stats, rows)
+            if lost:
+                print(f"pito: error: {lost}", file=sys.stderr)
+                return 1
     finally:
         signal.signal(signal.SIGTERM, old)
     return 0
+
+
+def _lost_at_handoff(stats: dict, rows: dict) -> str:
+    """A sentence naming the stream whose frames received by the driver did not all reach the file ('' if none)."""
+    lost = []
+    got = int(stats["pito"]["frames"])
+    if got != rows["pito"]:
+        lost.append(f"cube: {got} frames received, {rows['pito']} recorded")
+    if stats.get("netft") is not None:
+        got = int(stats["netft"]["records"])
+        if got != rows["netft"]:
+            lost.append(f"reference: {got} records received, {rows['netft']} recorded")
+    return "; ".join(lost)
 
 
 def _record_loop(args, acq, reader, pipeline, sinks, writer, stop: dict, t0: float) -> None:
