@@ -164,6 +164,8 @@ def run_serial(task, recordings, progress=None, **kwargs) -> StudyResult:
         try:
             res, err = task(p, **kwargs), None
             out.results.append(res)
+        except ImportError:  # a missing optional dependency fails every recording: say so once
+            raise
         except Exception as exc:  # a failed recording is reported by name; the others go on
             res, err = None, f"{type(exc).__name__}: {exc}"
             out.failed[p] = err

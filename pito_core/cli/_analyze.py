@@ -121,7 +121,8 @@ def run_many(task, args, **kwargs) -> int:
     if workers is not None and workers < 0:
         raise ValueError(f"--workers: expected >= 0, got {workers}")
     serial = workers == 0 or (workers is None and args.scheduler is None and len(args.files) == 1)
-    if serial:
+    if not serial:
+        analysis.require_distributed()
         res = analysis.run_serial(task, args.files, progress=progress, **kwargs)
     else:
         res = analysis.run_study(task, args.files, scheduler=args.scheduler, n_workers=workers or 2,
@@ -140,6 +141,7 @@ def run_many(task, args, **kwargs) -> int:
 
 
 def run(args) -> int:
+    analysis.require_pandas()  # before any recording is read: a missing extra is one line, exit 2
     settings = settings_from(args)
     return run_many(analysis.analyze_to_dir, args, out_root=args.out, calibration=args.calibration, assembly=args.object,
                     settings=settings, nwb=args.nwb, figures=not args.no_figures, overwrite=args.overwrite)

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import os
 import signal
 import sys
 import time
@@ -11,6 +12,7 @@ import time
 from ..calibration import load_calibration
 from ..devices import DEFAULT_BAUDRATE, Acquisition, DeviceError, open_devices
 from ..interop import LslPublisher, calibration_record, machine_only_config
+from ..interop._lsl import listening_sockets
 from ..interop._conventions import CONTACT_CHANNEL_COUNT, WRENCH_CHANNELS
 from ..pipeline import AcquisitionReader, Pipeline
 from ..sim import SimulatorError
@@ -29,8 +31,11 @@ strictly increasing, placed on the LSL clock at the first sample), with channel 
 hash) and the patch assembly in the stream description. docs/interop.md gives the layout.
 
 LSL finds peers by multicast on the local network unless configured: set LSLAPICFG to a
-machine-only config (`pito stream --write-machine-config FILE` writes one) when the streams
-must not leave this computer.
+machine-only config (`pito stream --write-machine-config FILE` writes one) so discovery stays
+on 127.0.0.1. liblsl still binds each outlet's TCP and UDP data ports (16572, 16573, ...)
+to every interface (it has no setting for their address): the first line printed says
+exactly what this process listens on; a firewall (or a private network namespace) keeps
+other computers out.
 
 Addresses as `pito record`: --pito PORT or `sim`, --ati HOST[:PORT] or `sim` (or omitted).
 """
@@ -80,9 +85,13 @@ def run(args) -> int:
             acq = Acquisition(cube, netft, buffer_seconds=10.0, reference_rate_hz=args.ati_rate,
                               meta={"simulated": info["simulated"]})
             reader = AcquisitionReader(acq, simulated=info["simulated"], history=0.0)
+            where = listening_sockets()
             print(f"publishing LSL streams {pub.names[0]} (Force, {6 * len(WRENCH_CHANNELS)} ch) and {pub.names[1]} "
                   f"(Contact, {CONTACT_CHANNEL_COUNT} ch)"
-                  f"{' (simulated devices)' if info['simulated'] else ''}; Ctrl-C stops", file=sys.stderr, flush=True)
+                  f"{' (simulated devices)' if info['simulated'] else ''}; listening on "
+                  f"{', '.join(where) if where else 'ports 16571-16604 (liblsl defaults; address not readable here)'}"
+                  f" (LSLAPICFG={os.environ.get('LSLAPICFG') or 'not set: multicast discovery on the network'}); "
+                  "Ctrl-C stops", file=sys.stderr, flush=True)
             t0 = time.monotonic()
             try:
                 acq.start()

@@ -28,6 +28,8 @@ Safety: liblsl multicasts to find peers unless configured; run under a machine-o
 
 from __future__ import annotations
 
+import ipaddress
+import os
 import time
 from pathlib import Path
 
@@ -47,7 +49,7 @@ from ._conventions import (
 from ._provenance import assembly_record as _asm, calibration_record as _cal
 
 __all__ = ["LslPublisher", "lsl_stream_infos", "wrench_samples", "contact_samples", "machine_only_config",
-           "MACHINE_ONLY_CONFIG"]
+           "MACHINE_ONLY_CONFIG", "listening_sockets"]
 
 #: liblsl configuration that keeps every packet on this machine (write it to a file, point LSLAPICFG at it).
 MACHINE_ONLY_CONFIG = """\
@@ -75,6 +77,51 @@ def machine_only_config(path) -> str:
     """Write :data:`MACHINE_ONLY_CONFIG` to ``path``; returns the path (for ``LSLAPICFG``)."""
     Path(path).write_text(MACHINE_ONLY_CONFIG)
     return str(Path(path).resolve())
+
+
+def listening_sockets() -> list[str] | None:
+    """This process's listening TCP and bound UDP sockets, e.g. ``["TCP 0.0.0.0:16572", "UDP 127.0.0.1:16571"]``.
+
+    Read from ``/proc`` (Linux: the socket inodes of ``/proc/self/fd`` matched in ``/proc/self/net``);
+    None where that is not available. With pito's machine-only config liblsl answers discovery on
+    127.0.0.1 only, but binds each outlet's TCP and UDP data ports to every interface (liblsl has
+    no setting for their address): this says exactly what listens where.
+    """
+    fd_dir, net = Path("/proc/self/fd"), Path("/proc/self/net")
+    if not fd_dir.is_dir() or not net.is_dir():
+        return None
+    inodes = set()
+    for fd in fd_dir.iterdir():
+        try:
+            target = os.readlink(fd)
+        except OSError:
+            continue
+        if target.startswith("socket:["):
+            inodes.add(target[8:-1])
+    found = []
+    for proto, kind, listen_state in (("tcp", "TCP", "0A"), ("udp", "UDP", "07"), ("tcp6", "TCP", "0A"),
+                                      ("udp6", "UDP", "07")):
+        try:
+            lines = (net / proto).read_text().splitlines()[1:]
+        except OSError:
+            continue
+        for line in lines:
+            f = line.split()
+            if len(f) > 9 and f[9] in inodes and f[3] == listen_state:
+                found.append(f"{kind} {_address(f[1])}")
+    return sorted(set(found))
+
+
+def _address(hex_addr: str) -> str:
+    """``0100007F:407C`` (``/proc/net/tcp``, little-endian IPv4 or IPv6) → ``127.0.0.1:16508``."""
+    host, port = hex_addr.split(":")
+    raw = bytes.fromhex(host)
+    if len(raw) == 4:
+        ip = ".".join(str(b) for b in raw[::-1])
+    else:
+        words = [raw[k:k + 4][::-1] for k in range(0, 16, 4)]
+        ip = "[" + ipaddress.IPv6Address(b"".join(words)).compressed + "]"
+    return f"{ip}:{int(port, 16)}"
 
 
 def wrench_samples(face_wrenches) -> np.ndarray:
