@@ -121,8 +121,9 @@ def run_many(task, args, **kwargs) -> int:
     if workers is not None and workers < 0:
         raise ValueError(f"--workers: expected >= 0, got {workers}")
     serial = workers == 0 or (workers is None and args.scheduler is None and len(args.files) == 1)
-    if not serial:
+    if not serial:  # before any recording is read: a missing extra is one line, exit 2
         analysis.require_distributed()
+    if serial:
         res = analysis.run_serial(task, args.files, progress=progress, **kwargs)
     else:
         res = analysis.run_study(task, args.files, scheduler=args.scheduler, n_workers=workers or 2,
