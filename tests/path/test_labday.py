@@ -252,8 +252,11 @@ def test_stream_read_by_an_lsl_inlet(day, tmp_path):
     assert "(Contact, 72 ch)" in err
     # the first line says exactly what this process listens on: what `ss` sees in the namespace
     pid = (tmp_path / "pid").read_text().strip()
-    seen = {f"{f[0].upper()} {f[4]}" for f in (ln.split() for ln in (tmp_path / "ss").read_text().splitlines())
-            if f"pid={pid}," in ln}
+    seen = set()
+    for ln in (tmp_path / "ss").read_text().splitlines():
+        if f"pid={pid}," in ln:
+            f = ln.split()
+            seen.add(f"{f[0].upper()} {f[4]}")
     said = set(re.search(r"listening on (.*?) \(LSLAPICFG=", err)[1].split(", "))
     assert seen and seen == said, (seen, said)
     assert "UDP 127.0.0.1:16571" in said  # discovery on loopback only (the machine-only config)
