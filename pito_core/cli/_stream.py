@@ -11,9 +11,14 @@ import time
 
 from ..calibration import load_calibration
 from ..devices import DEFAULT_BAUDRATE, Acquisition, DeviceError, open_devices
-from ..interop import LslPublisher, calibration_record, machine_only_config
-from ..interop._lsl import listening_sockets
-from ..interop._conventions import CONTACT_CHANNEL_COUNT, WRENCH_CHANNELS
+from ..interop import (
+    CONTACT_CHANNEL_COUNT,
+    WRENCH_CHANNELS,
+    LslPublisher,
+    calibration_record,
+    listening_sockets,
+    machine_only_config,
+)
 from ..pipeline import AcquisitionReader, Pipeline
 from ..sim import SimulatorError
 from ._record import _addresses

@@ -8,8 +8,7 @@ import numpy as np
 
 from ..contact import ContactEstimate
 from ..io import read_recording
-from ..pipeline import Pipeline, RecordingReader, device_time_base, replay_blocks
-from ..pipeline._replay import concatenate_bundles
+from ..pipeline import Pipeline, RecordingReader, concatenate_bundles, device_time_base, replay_blocks
 from ._provenance import assembly_record, calibration_record, recording_calibration
 
 __all__ = ["ExportData", "export_data"]

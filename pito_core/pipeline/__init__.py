@@ -18,7 +18,7 @@ from ._open import open_acquisition, open_reader
 from ._process import PipelineProcess, PipelineProcessError
 from ._readers import (AcquisitionReader, NewSamples, RecordingReader, device_time_base, recording_samples,
                        recording_times)
-from ._replay import replay_blocks, replay_recording
+from ._replay import concatenate_bundles, replay_blocks, replay_recording
 from ._thread import PipelineThread
 
 __all__ = [
@@ -40,6 +40,7 @@ __all__ = [
     "recording_samples",
     "replay_recording",
     "replay_blocks",
+    "concatenate_bundles",
     "device_time_base",
     "recording_times",
 ]
