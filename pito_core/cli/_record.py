@@ -81,8 +81,8 @@ def register(sub) -> None:
     p.add_argument("--simulated", action="store_true",
                    help="label the recording simulated (devices of `pito sim-devices` given by address)")
     p.add_argument("--calibration", metavar="FILE",
-                   help="calibration file: computed live, and embedded in the recording (matrix, offset, method, "
-                        "date, sha256 hash) so exports know how wrenches were computed (docs/interop.md)")
+                   help="calibration file: computed live, and embedded in the recording (the file's exact bytes: "
+                        "the whole model, under its content hash) so exports compute with it (docs/interop.md)")
     p.add_argument("--object", metavar="NAME", help="patch assembly (library name or .json) for contacts; embedded too")
     p.add_argument("--lsl", action="store_true",
                    help="also publish the LSL streams pito-wrenches and pito-contacts while recording "
