@@ -110,7 +110,8 @@ def _targets(task, recording, kwargs) -> list[Path] | None:
 
 
 def _on_worker(task, recording, **kwargs) -> tuple[dict, dict, str]:
-    """``task`` on a worker, writing into a temporary folder of its own: ``(result, {relative path: bytes}, worker)``."""
+    """``task`` on a worker, into a temporary folder of its own: ``(result (with its ``worker``), {relative path: bytes},
+    the temporary folder)`` (the folder's name is replaced by the client's ``out_root`` in the result)."""
     distributed = require_distributed()
     try:
         worker = distributed.get_worker()
@@ -119,7 +120,7 @@ def _on_worker(task, recording, **kwargs) -> tuple[dict, dict, str]:
     except ValueError:  # not on a worker (a synchronous client in a test)
         address = ""
     with tempfile.TemporaryDirectory(prefix="pito-task-") as d:
-        res = task(recording, **{**kwargs, "out_root": d, "overwrite": True})
+        res = task(recording, **({**kwargs, "out_root": d} if "out_root" in kwargs else kwargs))
         files = {p.relative_to(d).as_posix(): p.read_bytes() for p in sorted(Path(d).rglob("*")) if p.is_file()}
     res = dict(res)
     res["worker"] = address
