@@ -19,7 +19,7 @@ def open_inlet(name: str, timeout: float):
     found = pylsl.resolve_byprop("name", name, timeout=timeout)
     if not found:
         raise SystemExit(f"stream {name} not resolved")
-    return pylsl.StreamInlet(found[0], max_buflen=60, processing_flags=0)
+    return pylsl.StreamInlet(found[0], max_buflen=360, processing_flags=0)  # s at the nominal rate: a whole recording pushed at once
 
 
 def main(rec_path: str, cal_path: str, assembly: str) -> None:
