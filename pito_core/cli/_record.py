@@ -92,10 +92,11 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def _line(elapsed, stats) -> str:
+def _line(elapsed, stats, closed: bool = False) -> str:
+    """One progress line; ``closed``: the final one, after pito closed the devices itself."""
     p = stats["pito"]
     s = f"{elapsed:7.1f} s  cube {p['frames']} frames, dropped {p['dropped']}, crc errors {p['crc_errors']}"
-    if not p["connected"]:
+    if not p["connected"] and not closed:
         s += " (disconnected)"
     if stats["netft"] is not None:
         f = stats["netft"]
@@ -197,7 +198,7 @@ def _record(args) -> int:
                 acq.stop()  # collects what arrived until the devices closed
                 writer.close()
             stats = acq.stats()
-            print(_line(time.monotonic() - t0, stats), file=sys.stderr)
+            print(_line(time.monotonic() - t0, stats, closed=True), file=sys.stderr)
             rows = writer.rows_written
             label = " (simulated)" if info["simulated"] else ""
             print(f"wrote {args.output}: {rows['pito']} cube samples, {rows['netft']} reference samples{label}")
