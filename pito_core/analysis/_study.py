@@ -223,7 +223,7 @@ def run_study(task, recordings, *, scheduler: str | None = None, n_workers: int 
             out.workers = len(seen)
             if progress is not None and dashboard and cluster is not None:
                 progress(0, len(paths), None, None, client.dashboard_link)
-            t_submit = time.perf_counter()
+            t_submit, t_wall = time.perf_counter(), time.time()
             todo, k = [], 0
             for g, p in zip(given, paths):
                 targets = _targets(task, p, {**kwargs, "out_root": out_root})
@@ -260,7 +260,7 @@ def run_study(task, recordings, *, scheduler: str | None = None, n_workers: int 
                     break
             out.compute_seconds = time.perf_counter() - t_submit
             out.lost_workers = sorted(seen - set(client.scheduler_info()["workers"]))
-            out.rerun = _reruns(client, set(paths), dict(zip(paths, given)))
+            out.rerun = _reruns(client, set(paths), dict(zip(paths, given)), names, t_wall)
     finally:
         if cluster is not None:
             cluster.close()
@@ -268,10 +268,21 @@ def run_study(task, recordings, *, scheduler: str | None = None, n_workers: int 
     return out
 
 
-def _reruns(client, paths: set, names: dict) -> dict:
-    """Recording (as given) → workers it was started on, for those started more than once in this study."""
+def _reruns(client, paths: set, names: dict, keys: dict, since: float) -> dict:
+    """Recording (as given) → the workers it was started on, for those started more than once in this study.
+
+    From the tasks' start events (:data:`TASK_EVENTS`) and the scheduler's ``remove-worker`` events
+    (a task processing on a worker that left is run again elsewhere, even if it had not logged its start).
+    """
     started: dict = {}
     for _, msg in client.get_events(TASK_EVENTS):
         if isinstance(msg, dict) and msg.get("recording") in paths:
-            started.setdefault(msg["recording"], []).append(msg.get("worker"))
-    return {names[p]: w for p, w in started.items() if len(w) > 1}
+            started.setdefault(names[msg["recording"]], []).append(msg.get("worker"))
+    for t, msg in client.get_events("all"):
+        if t < since or not isinstance(msg, dict) or msg.get("action") != "remove-worker":
+            continue
+        for key in msg.get("processing-tasks") or ():
+            rec = keys.get(key)
+            if rec is not None and msg.get("worker") not in started.setdefault(rec, []):
+                started[rec].insert(0, msg.get("worker"))
+    return {rec: w for rec, w in started.items() if len(w) > 1}

@@ -27,7 +27,7 @@ from ..devices import (
     health_words,
     open_devices,
 )
-from ..interop import LslPublisher, assembly_record, calibration_record
+from ..interop import LslPublisher, assembly_record, calibration_record, listening_sockets
 from ..io import RecordingWriter
 from ..pipeline import AcquisitionReader, Pipeline
 from ..sim import SimulatedDevices, SimulatorError
@@ -180,6 +180,10 @@ def _record(args) -> int:
             pipeline = _pipeline_for(args, netft is not None)
             meta = _recording_meta(args, info, netft, pipeline)
             sinks = _sinks_for(args, meta, pipeline)
+            if sinks:  # what liblsl listens on (docs/interop.md, "What listens where")
+                where = listening_sockets()
+                print(f"publishing LSL streams {', '.join(sinks[0].names)}; listening on "
+                      f"{', '.join(where) if where else 'ports 16571-16604 (liblsl defaults)'}", file=sys.stderr, flush=True)
             writer = RecordingWriter(args.output, meta, flush_interval=args.flush_interval)
             acq = Acquisition(cube, netft, recorder=writer, buffer_seconds=10.0, reference_rate_hz=args.ati_rate,
                               meta={"simulated": info["simulated"]})

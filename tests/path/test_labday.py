@@ -240,7 +240,8 @@ def test_stream_read_by_an_lsl_inlet(day, tmp_path):
     py = sys.executable
     cmd = (f"set -e; ip link set lo up; {py} -c 'import sys; from pito_core.cli import main; sys.exit(main())' "
            f"stream --pito sim --ati sim --calibration {day['cal']} --duration 8 2> {tmp_path / 'stream.err'} & "
-           f"echo $! > {tmp_path / 'pid'}; (sleep 5; ss -lntupH > {tmp_path / 'ss'}) & "
+           f"echo $! > {tmp_path / 'pid'}; (until grep -q 'listening on' {tmp_path / 'stream.err'}; do sleep 0.2; done; "
+           f"ss -lntupH > {tmp_path / 'ss'}) & "
            f"{py} {Path(__file__).with_name('_lsl_count.py')} 3; wait")
     r = subprocess.run(["unshare", "-n", "bash", "-c", cmd], capture_output=True, text=True, timeout=180,
                        env=dict(os.environ, LSLAPICFG=str(cfg), PYTHONPATH=str(ROOT)))
