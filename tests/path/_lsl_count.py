@@ -38,7 +38,8 @@ def main(quiet: float) -> None:
         t = np.concatenate(parts) if parts else np.zeros(0)
         d = np.diff(t)
         out[name] = {"n": int(t.size), "channels": channels[name], "strictly_increasing": bool((d > 0).all()),
-                     "largest_step_s": float(d.max()) if d.size else None}
+                     "largest_step_s": float(d.max()) if d.size else None,
+                     "last": float(t[-1]) if t.size else None}
     print("RESULT " + json.dumps(out), flush=True)
 
 
