@@ -16,8 +16,9 @@ from ._bundle import LiveBundle, face_sums
 from ._pipeline import Pipeline
 from ._open import open_acquisition, open_reader
 from ._process import PipelineProcess, PipelineProcessError
-from ._readers import AcquisitionReader, NewSamples, RecordingReader, recording_samples
-from ._replay import replay_recording
+from ._readers import (AcquisitionReader, NewSamples, RecordingReader, device_time_base, recording_samples,
+                       recording_times)
+from ._replay import concatenate_bundles, replay_blocks, replay_recording
 from ._thread import PipelineThread
 
 __all__ = [
@@ -38,4 +39,8 @@ __all__ = [
     "open_reader",
     "recording_samples",
     "replay_recording",
+    "replay_blocks",
+    "concatenate_bundles",
+    "device_time_base",
+    "recording_times",
 ]

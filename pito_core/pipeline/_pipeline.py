@@ -292,6 +292,7 @@ class Pipeline:
             b.face_wrenches = rows["w"]
         if arrived is not None:
             b.arrived_time = arrived["time"]
+            b.arrived_tick = arrived.get("tick")
             W = arrived.get("w")
             if W is not None:
                 b.arrived_face_wrenches = W
