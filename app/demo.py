@@ -13,7 +13,10 @@ from pito_core.calibration import calibrate
 from pito_core.pipeline import PipelineProcess
 from pito_core.sim import SimulatedDevices, simulate_calibration
 
-__all__ = ["DemoDevices", "demo_calibration", "DEMO_METHOD"]
+__all__ = ["DemoDevices", "demo_calibration", "DEMO_METHOD", "DEMO_OBJECT_MASS"]
+
+#: The simulated object's mass, kg (``pito_core.sim.GraspLiveSource``'s): the live view's mass in the demo.
+DEMO_OBJECT_MASS = 0.3
 
 #: Method of the demo's startup calibration (every face calibrated on its own, all six loaded).
 DEMO_METHOD = "loaded_frame"

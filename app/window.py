@@ -16,7 +16,7 @@ from pito_core.pipeline import PipelineProcess, PipelineThread, RecordingReader
 from pito_core.sim import reference_pose
 
 from .filetypes import CALIBRATION_FILTER
-from .demo import DEMO_METHOD, DemoDevices, demo_calibration
+from .demo import DEMO_METHOD, DEMO_OBJECT_MASS, DemoDevices, demo_calibration
 from .live import LiveFeed, LiveView
 from .tasks import TaskBar, cancel_tasks, run_in_process, run_task
 from .objects import display_meshes, list_assemblies, load_assembly, weight
@@ -137,7 +137,9 @@ class MainWindow(QMainWindow):
         """The tabs', live view's and wizard's signals to this window's and the feed's handlers."""
         self.tabs.currentChanged.connect(self._tab_changed)
         self.wizard.pages["devices"].connect_requested.connect(self.connect_devices)
-        self.live.tare_requested.connect(lambda: self.feed.post(self.feed.tare))
+        self.live.tare_requested.connect(self._tare)
+        self.live.scenario_requested.connect(self._scenario_requested)
+        self.live.mass.valueChanged.connect(self._mass_changed)
         self.live.undo_tare_requested.connect(lambda: self.feed.post(self.feed.undo_tare))
         self.feed.tare_status.connect(self.live.set_tare_status)
         self.live.record_toggled.connect(self.toggle_recording)
@@ -157,11 +159,31 @@ class MainWindow(QMainWindow):
         self.wizard.pages["tare"].operator = lambda face: self.rig and self.rig.set_operator_face(face)
         self.wizard.pages["load"].operator = lambda face: self.rig and self.rig.set_operator_face(face)
 
+    def _tare(self) -> None:
+        """The live view's Tare: the object's mass and base face as the operator set them, to the feed's thread."""
+        support = self.live.tare_support()
+        self.feed.post(lambda: self.feed.tare(support))
+
+    def _mass_changed(self, mass: float) -> None:
+        """The operator's object mass: its weight in the equilibrium plot (the assembly's default without one)."""
+        self.live.equilibrium.set_weight(mass * 9.81 if mass > 0 else weight(self.assembly))
+
+    def _scenario_requested(self, name: str) -> None:
+        if self.rig is not None and self.tabs.currentWidget() is self.live:
+            self.rig.set_scenario(name)
+
+    def _live_scenario(self) -> str:
+        """The demo scenario the live view shows (its combo box)."""
+        return self.live.scenario.currentData() or "grasp"
+
     # ------------------------------------------------------------ demo
     def start_demo(self, k: int) -> None:
         """Open the simulated devices (pty + UDP) and, without a calibration, calibrate the virtual cube."""
         self.rig = DemoDevices(seed=self.seed, speed=self.demo_speed, period=self.demo_period)
-        self.rig.set_scenario("grasp")
+        self.rig.set_scenario(self._live_scenario())
+        self.live.scenario.setVisible(True)
+        if not (self.assembly is not None and self.assembly.mass):
+            self.live.mass.setValue(DEMO_OBJECT_MASS)  # the simulated object's
         source = self.rig.open_source()
         self.feed.post(lambda: self.feed.set_source(source))
         self.wizard.pages["devices"].set_connected(f"✔ SIMULATED: {self.rig.describe()}", True)
@@ -193,7 +215,7 @@ class MainWindow(QMainWindow):
             self.rig.set_scenario("calibration")
             self._mount_changed()
         else:
-            self.rig.set_scenario("grasp")
+            self.rig.set_scenario(self._live_scenario())
 
     def _mount_changed(self) -> None:
         self.model.T_core_ati = reference_pose(self.model.flange, self.model.connected_face, self.core)
@@ -283,7 +305,9 @@ class MainWindow(QMainWindow):
             self.statusBar().showMessage(f"assembly {name}: {exc}", 8000)
             self.assembly = None
         self.live.scene.set_patches(display_meshes(self.assembly))
-        self.live.equilibrium.set_weight(weight(self.assembly))
+        if self.assembly is not None and self.assembly.mass:
+            self.live.mass.setValue(self.assembly.mass)
+        self._mass_changed(self.live.mass.value())
         self._install_solver()
         if self.rig is not None:
             self.rig.set_assembly(self.assembly)

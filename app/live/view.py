@@ -25,11 +25,15 @@ from PySide6.QtWidgets import (
 )
 
 from pito_core.calibration import NOT_MEASURED_TEXT
+from pito_core.pipeline import TareSupport
 
 from ..scene import CubeScene
 from ..widgets.plots import EquilibriumPlot, FaceForcePlot
 
-__all__ = ["LiveView", "unmeasured_faces_text"]
+__all__ = ["LiveView", "unmeasured_faces_text", "DEMO_SCENARIOS"]
+
+#: The demo's scenarios in the live view: (shown, ``DemoWorld`` name).
+DEMO_SCENARIOS = (("Demo: grasp loop", "grasp"), ("Demo: at rest on the table", "rest"))
 
 
 def unmeasured_faces_text(measured, sums: bool = False) -> str:
@@ -64,6 +68,7 @@ class LiveView(QWidget):
     seek_requested = Signal(float)
     calibration_requested = Signal()
     assembly_requested = Signal(str)
+    scenario_requested = Signal(str)
 
     def __init__(self, core=None, assemblies=(), parent=None):
         super().__init__(parent)
@@ -96,11 +101,13 @@ class LiveView(QWidget):
         self.assembly.addItems(list(assemblies) or ["cube"])
         self.load_cal = QPushButton("Load calibration…")
         self.tare = QPushButton("Tare")
-        self.tare.setToolTip("Zero the cube on the last 0.5 s — only when it is still and nothing loads it "
-                             "(the wizard's checks); refused otherwise, with the reason")
+        self.tare.setToolTip("Zero the cube on the last 0.5 s — only when it is still and every load is known:\n"
+                             "nothing on it (in a stand), or at rest on the table on the base face below, which then\n"
+                             "reads the object's weight (its mass below); refused otherwise, with the load named")
         self.undo_tare = QPushButton("Undo tare")
         self.undo_tare.setEnabled(False)
-        self.tare_label = QLabel("Tare: the calibration's own zero")
+        self.tare_label = QLabel("Tare: none (no calibration)")
+        self.tare_label.setProperty("ok", False)
         self.tare_label.setObjectName("tareStatus")
         self.pause = QPushButton("Pause")
         self.pause.setCheckable(True)
@@ -110,8 +117,14 @@ class LiveView(QWidget):
         self.replay = QPushButton("Replay…")
         self.back_live = QPushButton("Back to live")
         self.back_live.setVisible(False)
+        self.scenario = QComboBox()  # demo only: what the simulated world does
+        for text, name in DEMO_SCENARIOS:
+            self.scenario.addItem(text, name)
+        self.scenario.setToolTip("SIMULATED: what the simulated hand does — the grasp loop, or the object at rest "
+                                 "on the table (hands off: try Tare and Undo tare)")
+        self.scenario.setVisible(False)
         for w in (QLabel("Object"), self.assembly, self.load_cal, self.tare, self.undo_tare, self.pause, self.record,
-                  self.replay, self.back_live):
+                  self.replay, self.back_live, self.scenario):
             bar.addWidget(w)
         bar.addStretch(1)
         self.readout = QLabel("")
@@ -174,6 +187,23 @@ class LiveView(QWidget):
         form.addRow("Torsion ring radius", self.torque_scale)
         form.addRow(self.show_torsion)
         form.addRow(self.show_uncertainty)
+        self.mass = QDoubleSpinBox()
+        self.mass.setRange(0.0, 50.0)
+        self.mass.setDecimals(3)
+        self.mass.setSingleStep(0.01)
+        self.mass.setSuffix(" kg")
+        self.mass.setSpecialValueText("unknown")
+        self.mass.setToolTip("The object's mass: its weight on the base face is the load a tare at rest on the table\n"
+                             "leaves on that face (unknown: a tare only with nothing on the cube)")
+        self.base_face = QComboBox()
+        self.base_face.addItems([f"face {i}" for i in range(1, 7)])
+        self.base_face.setCurrentIndex(5)
+        self.base_face.setToolTip("The face the object stands on when at rest on the table")
+        rest = QHBoxLayout()
+        rest.addWidget(self.mass)
+        rest.addWidget(QLabel("on"))
+        rest.addWidget(self.base_face)
+        form.addRow("Tare at rest: mass", rest)
         return opts
 
     def _lay_out(self, bar, status, opts, tl) -> None:
@@ -213,6 +243,7 @@ class LiveView(QWidget):
         self.back_live.clicked.connect(self.live_requested)
         self.load_cal.clicked.connect(self.calibration_requested)
         self.assembly.currentTextChanged.connect(self.assembly_requested)
+        self.scenario.currentIndexChanged.connect(lambda i: self.scenario_requested.emit(self.scenario.itemData(i)))
         self.timeline.sliderReleased.connect(self._seek)
 
     def _init_display_pacing(self) -> None:
@@ -236,6 +267,11 @@ class LiveView(QWidget):
         self._last_readout = -np.inf
         self._readout_text = ""
         self.scene.frame_contacts()
+
+    def tare_support(self):
+        """The object at rest as the operator describes it (mass, base face): a ``TareSupport``, or None (mass unknown)."""
+        m = self.mass.value()
+        return TareSupport(m, self.base_face.currentIndex() + 1) if m > 0 else None
 
     def set_notice(self, text: str | None) -> None:
         """Show ``text`` prominently above the view (``None`` or empty: hide it)."""
@@ -368,7 +404,7 @@ class LiveView(QWidget):
     def set_tare_status(self, text: str, can_undo: bool) -> None:
         """The tare in force (or why a tare was refused), and whether Undo tare has something to undo."""
         self.tare_label.setText(text)
-        self.tare_label.setProperty("ok", not text.startswith("✘"))
+        self.tare_label.setProperty("ok", text.startswith("Tare: taken") or text.startswith("Tare: the calibration"))
         self.tare_label.style().polish(self.tare_label)
         self.undo_tare.setEnabled(bool(can_undo))
 
