@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from PySide6.QtCore import Qt, Signal
@@ -16,7 +17,7 @@ from pito_core.pipeline import PipelineProcess, PipelineThread, RecordingReader
 from pito_core.sim import reference_pose
 
 from .filetypes import CALIBRATION_FILTER
-from .demo import DEMO_METHOD, DEMO_OBJECT_MASS, DemoDevices, demo_calibration
+from .demo import DEMO_METHOD, DEMO_OBJECT_MASS, DemoDevices, cached_demo_calibration, demo_cache_path, demo_calibration
 from .live import LiveFeed, LiveView
 from .tasks import TaskBar, cancel_tasks, run_in_process, run_task
 from .objects import display_meshes, list_assemblies, load_assembly, weight
@@ -64,6 +65,11 @@ class MainWindow(QMainWindow):
         self.demo = demo
         self.seed = seed
         self.demo_speed, self.demo_period = demo_speed, demo_period
+        # demo: the simulated devices' two processes boot (seconds of waiting) while the window is built
+        self._rig_boot = None
+        if demo:
+            self._rig_boot = ThreadPoolExecutor(1, thread_name_prefix="demo-boot")
+            self._rig_future = self._rig_boot.submit(DemoDevices, seed=seed, speed=demo_speed, period=demo_period)
         self.core = CubeCore()
         self.setWindowTitle("pito — Patched Intrinsic Tactile Object" + ("  [SIMULATED DEVICE]" if demo else ""))
         self._build_tabs(wizard_k if demo else 10000)
@@ -179,7 +185,14 @@ class MainWindow(QMainWindow):
     # ------------------------------------------------------------ demo
     def start_demo(self, k: int) -> None:
         """Open the simulated devices (pty + UDP) and, without a calibration, calibrate the virtual cube."""
-        self.rig = DemoDevices(seed=self.seed, speed=self.demo_speed, period=self.demo_period)
+        if self._rig_boot is not None:  # booted while the window was built
+            boot, self._rig_boot = self._rig_boot, None
+            try:
+                self.rig = self._rig_future.result()
+            finally:
+                boot.shutdown(wait=False)
+        else:
+            self.rig = DemoDevices(seed=self.seed, speed=self.demo_speed, period=self.demo_period)
         self.rig.set_scenario(self._live_scenario())
         self.live.scenario.setVisible(True)
         if not (self.assembly is not None and self.assembly.mass):
@@ -190,6 +203,14 @@ class MainWindow(QMainWindow):
         self.statusBar().showMessage(f"SIMULATED DEVICE: {self.rig.describe()}")
         if self.calibration is None and not self._loading_calibration:
             m = DEMO_METHOD
+            cached = cached_demo_calibration(k, self.seed)
+            if cached is not None:  # a previous start's, for today's code and simulator: forces at once
+                self.set_calibration(cached, f"virtual cube, calibrated with the simulator ({m}, k = {k}/face)")
+                self.statusBar().showMessage(
+                    f"SIMULATED DEVICE — no calibration file: the virtual cube's calibration with the simulator "
+                    f"({m}, k = {k} samples per face, 1/cond = {cached.inverse_condition_number:.1e}), "
+                    f"cached by an earlier start in {demo_cache_path(k, self.seed)}.")
+                return
             self.statusBar().showMessage(f"Calibrating the virtual cube (method '{m}', k = {k} per face)…")
             seed = self.seed
 
