@@ -346,6 +346,7 @@ class ResultsPage(WizardPage):
 
         def done(result):
             cal, ev, self.note, heldout, self.figures, images = result
+            self.forget_export()  # a report exported before describes the previous fit
             self._images_for = ev
             self._show_images(images)
             self.model.set_result(cal, ev, heldout)
@@ -353,6 +354,7 @@ class ResultsPage(WizardPage):
 
         def failed(message):
             self.note = message
+            self.forget_export()
             self.model.set_result(None, None)
             self.refresh()
 
@@ -520,6 +522,12 @@ class ResultsPage(WizardPage):
         self.export_task.ended.connect(self.refresh)
         self.refresh()
         return Path(folder) / "report.md"
+
+    def forget_export(self) -> None:
+        """No report exported for the calibration shown (a new fit replaced the one exported)."""
+        self.exported_path = None
+        self.exported_label.clear()
+        self.exported_label.setVisible(False)
 
     def show_exported(self, report_md: Path) -> None:
         """Say where the report went: its files, the folder's path and a link that opens it."""
