@@ -21,7 +21,7 @@ import numpy as np
 from PySide6.QtCore import Qt, QTimer, Signal
 from PySide6.QtWidgets import (
     QCheckBox, QComboBox, QDoubleSpinBox, QFormLayout, QGroupBox, QHBoxLayout, QLabel, QPushButton, QSizePolicy, QSlider,
-    QSplitter, QVBoxLayout, QWidget,
+    QSpinBox, QSplitter, QVBoxLayout, QWidget,
 )
 
 from pito_core.calibration import NOT_MEASURED_TEXT
@@ -92,6 +92,7 @@ class LiveView(QWidget):
         self.latency = float("nan")
         self.frames = 0  # display ticks that drew something
         self.scene.glyphs.force_scale = 0.0035  # m/N: 12 N (full scale) -> 4.2 cm
+        self.scene.glyphs.ellipsoid_scale = 10.0  # a firm touch's 2σ (~0.3 mm) is seen past the 3.5 mm sphere
         self.scene.frame_glyphs = True  # the camera holds full-scale arrows, for every object
 
     def _build_toolbar(self, assemblies) -> tuple[QHBoxLayout, QHBoxLayout]:
@@ -176,17 +177,31 @@ class LiveView(QWidget):
         self.torque_scale.setSingleStep(10)
         self.torque_scale.setSuffix(" mm per N·m")
         self.show_torsion = QCheckBox("torsion rings")
-        self.show_uncertainty = QCheckBox("uncertainty ellipsoids (2σ)")
+        self.show_uncertainty = QCheckBox("uncertainty ellipsoids (2σ), drawn ×")
         self.show_uncertainty.setToolTip(
             "The 2σ region of each contact point, from the calibration's own uncertainty (fit and gauge noise).\n"
             "Not drawn when wider than half the face (a light touch: the face cannot place it),\n"
             "nor when it fits inside the white sphere (a firm touch: the point is known better than the sphere).\n"
-            "A calibration without an uncertainty record shows none.")
+            "A calibration without an uncertainty record shows none. The line below says which, and why.")
+        self.ellipsoid_scale = QSpinBox()
+        self.ellipsoid_scale.setRange(1, 50)
+        self.ellipsoid_scale.setValue(10)
+        self.ellipsoid_scale.setToolTip("Magnification of the drawn ellipsoids: a firm touch places its point to "
+                                        "a fraction of a millimetre, inside the contact sphere at ×1")
+        self.ellipsoid_note = QLabel("")
+        self.ellipsoid_note.setObjectName("hint")
+        self.ellipsoid_note.setWordWrap(True)
+        self.ellipsoid_note.setVisible(False)
         form.addRow("Hide contacts under", self.threshold)
         form.addRow("Force arrows", self.force_scale)
         form.addRow("Torsion ring radius", self.torque_scale)
         form.addRow(self.show_torsion)
-        form.addRow(self.show_uncertainty)
+        unc = QHBoxLayout()
+        unc.addWidget(self.show_uncertainty)
+        unc.addWidget(self.ellipsoid_scale)
+        unc.addStretch(1)
+        form.addRow(unc)
+        form.addRow(self.ellipsoid_note)
         self.mass = QDoubleSpinBox()
         self.mass.setRange(0.0, 50.0)
         self.mass.setDecimals(3)
@@ -235,6 +250,7 @@ class LiveView(QWidget):
         self.torque_scale.valueChanged.connect(self._options_changed)
         self.show_torsion.toggled.connect(self._options_changed)
         self.show_uncertainty.toggled.connect(self._options_changed)
+        self.ellipsoid_scale.valueChanged.connect(self._options_changed)
         self.tare.clicked.connect(self.tare_requested)
         self.undo_tare.clicked.connect(self.undo_tare_requested)
         self.pause.toggled.connect(self._pause)
@@ -282,7 +298,8 @@ class LiveView(QWidget):
     def sync_options(self) -> None:
         """Glyph settings → widgets, signals blocked."""
         g = self.scene.glyphs
-        widgets = (self.threshold, self.force_scale, self.torque_scale, self.show_torsion, self.show_uncertainty)
+        widgets = (self.threshold, self.force_scale, self.torque_scale, self.show_torsion, self.show_uncertainty,
+                   self.ellipsoid_scale)
         for w in widgets:
             w.blockSignals(True)
         self.threshold.setValue(g.threshold)
@@ -290,6 +307,7 @@ class LiveView(QWidget):
         self.torque_scale.setValue(g.torque_scale * 1000)
         self.show_torsion.setChecked(g.show_torsion)
         self.show_uncertainty.setChecked(g.show_uncertainty)
+        self.ellipsoid_scale.setValue(int(round(g.ellipsoid_scale)))
         for w in widgets:
             w.blockSignals(False)
 
@@ -300,6 +318,9 @@ class LiveView(QWidget):
         g.torque_scale = self.torque_scale.value() / 1000
         g.show_torsion = self.show_torsion.isChecked()
         g.show_uncertainty = self.show_uncertainty.isChecked()
+        g.ellipsoid_scale = float(self.ellipsoid_scale.value())
+        if not g.show_uncertainty:
+            self.ellipsoid_note.setVisible(False)
         if self._last_contacts is not None:
             self._show_contacts(self._last_contacts, self.scene_time)
         if self.sender() is self.force_scale:
@@ -433,6 +454,10 @@ class LiveView(QWidget):
             self._last_readout = now
             if self._readout_text != self.readout.text():
                 self._set_readout(self._readout_text)
+            note = self.scene.glyphs.ellipsoid_note()
+            if note != self.ellipsoid_note.text():
+                self.ellipsoid_note.setText(note)
+                self.ellipsoid_note.setVisible(bool(note))
             rt = getattr(self, "_replay_text", None)
             if rt and self.timeline.isEnabled():
                 self.time_label.setText(rt)
