@@ -508,9 +508,10 @@ class ResultsPage(WizardPage):
             "simulated": m.simulated, "calibration file": m.saved_path or "(not saved)",
         }
         cal, ev = m.calibration, m.evaluation
+        rmse, figures = dict(getattr(self, "_rmse_options", None) or {}), getattr(self, "figures", None)
 
-        def work(progress):
-            return report.export_report(folder, cal, ev, info, progress=progress)
+        def work(progress):  # the page's words, intervals and reactions (rmse_options, the validation figures)
+            return report.export_report(folder, cal, ev, info, progress=progress, rmse=rmse, figures=figures)
 
         def done(path):
             self.exported_path = path
