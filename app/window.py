@@ -367,7 +367,9 @@ class MainWindow(QMainWindow):
             return
         self.recording_path = str(path)
         simulated = self.model.simulated or self.demo
-        self.feed.post(lambda: self.feed.start_recording(path, simulated))
+        # the object's mass as the operator gave it (the analysis's force residual needs it)
+        meta = {"mass_kg": self.live.mass.value()} if self.live.mass.value() > 0 else {}
+        self.feed.post(lambda: self.feed.start_recording(path, simulated, meta))
         self.statusBar().showMessage(f"Recording both devices to {path}" + (" (SIMULATED)" if simulated else ""))
 
     def _recording_closed(self, path: str, rows: int) -> None:

@@ -70,6 +70,9 @@ def test_live_tare_refuses_under_load_undoes_and_survives_a_replay(qtbot, styled
         process_for(1.0)
         with qtbot.waitSignal(window.recording_saved, timeout=15_000):
             window.toggle_recording(False)
+        from pito_core.io import Recording
+
+        assert Recording(path).meta["mass_kg"] == pytest.approx(0.3)  # the analysis's force residual needs it
         window.open_replay(str(path))
         assert wait_until(lambda: live.timeline.isEnabled(), timeout=20)
         assert wait_until(lambda: "replay" in live.tare_label.text(), timeout=10)
