@@ -6,6 +6,7 @@ import sys
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+import numpy as np
 from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import QFileDialog, QLabel, QMainWindow, QMessageBox, QTabWidget, QWidget, QHBoxLayout
 
@@ -328,6 +329,8 @@ class MainWindow(QMainWindow):
         self.live.scene.set_patches(display_meshes(self.assembly))
         if self.assembly is not None and self.assembly.mass:
             self.live.mass.setValue(self.assembly.mass)
+        cog = getattr(self.assembly, "center_of_gravity", None)
+        self.live.cog = np.zeros(3) if cog is None else np.asarray(cog, dtype=float)
         self._mass_changed(self.live.mass.value())
         self._install_solver()
         if self.rig is not None:

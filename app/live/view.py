@@ -30,10 +30,24 @@ from pito_core.pipeline import TareSupport
 from ..scene import CubeScene
 from ..widgets.plots import EquilibriumPlot, FaceForcePlot
 
-__all__ = ["LiveView", "unmeasured_faces_text", "DEMO_SCENARIOS"]
+__all__ = ["LiveView", "unmeasured_faces_text", "sample_sums", "DEMO_SCENARIOS"]
 
 #: The demo's scenarios in the live view: (shown, ``DemoWorld`` name).
 DEMO_SCENARIOS = (("Demo: grasp loop", "grasp"), ("Demo: at rest on the table", "rest"))
+
+
+def sample_sums(wrenches, core, cog=(0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
+    """‖ΣF‖ (N) and ‖ΣT‖ about ``cog`` (N·m), each ``(n,)``, of face wrenches ``(n, 6, 6)`` (face frames):
+    ``pito_core.pipeline``'s ``face_sums`` for every sample (faces with NaN left out)."""
+    W = np.asarray(wrenches, dtype=float)
+    T = core.face_poses()
+    R, p = T[:, :3, :3], T[:, :3, 3]
+    ok = np.isfinite(W).all(axis=2)  # (n, 6)
+    f = np.where(ok[..., None], np.einsum("kij,nkj->nki", R, np.nan_to_num(W[..., :3])), 0.0)
+    m = np.where(ok[..., None], np.einsum("kij,nkj->nki", R, np.nan_to_num(W[..., 3:])), 0.0) + np.cross(p, f)
+    F = f.sum(axis=1)
+    M = m.sum(axis=1) - np.cross(np.asarray(cog, dtype=float), F)
+    return np.linalg.norm(F, axis=1), np.linalg.norm(M, axis=1)
 
 
 def unmeasured_faces_text(measured, sums: bool = False) -> str:
@@ -87,11 +101,12 @@ class LiveView(QWidget):
         self.scene = CubeScene(core, threaded=True)  # drawn in a thread of its own (app/render_thread.py)
         self.scene.setMinimumSize(640, 480)
         self.force_plot = FaceForcePlot()
-        self.equilibrium = EquilibriumPlot()
+        self.equilibrium = EquilibriumPlot(rate=1000.0)  # every sample, as the face plot
         self.bundles_shown = 0
         self.latency = float("nan")
         self.frames = 0  # display ticks that drew something
         self.scene.glyphs.force_scale = 0.0035  # m/N: 12 N (full scale) -> 4.2 cm
+        self.cog = np.zeros(3)  # m, core frame: the object's centre of gravity (ΣT about it)
         self.scene.glyphs.ellipsoid_scale = 10.0  # a firm touch's 2σ (~0.3 mm) is seen past the 3.5 mm sphere
         self.scene.frame_glyphs = True  # the camera holds full-scale arrows, for every object
 
@@ -411,7 +426,8 @@ class LiveView(QWidget):
         """The bundle's samples into the plots' rings (no drawing)."""
         if b.wrenches is not None:
             fw = b.arrived_face_wrenches
-            if fw is not None and fw.shape[0] == arrived.size:
+            every = fw is not None and fw.shape[0] == arrived.size
+            if every:
                 # every sample as it arrives (its record, paired with the reference, comes later)
                 self.force_plot.append(arrived, np.linalg.norm(fw[:, :, :3], axis=2))
             else:
@@ -419,7 +435,10 @@ class LiveView(QWidget):
             if b.sum_force is not None:
                 self._sums = (float(np.linalg.norm(b.sum_force)), float(np.linalg.norm(b.sum_torque)))
                 if np.isfinite(self._sums[0]):  # NaN: the calibration does not measure the net load
-                    self.equilibrium.append(t, *self._sums)
+                    if every and arrived.size:  # every sample too: no break where the face plot has none
+                        self.equilibrium.append(arrived, *sample_sums(fw, self.scene.core, self.cog))
+                    else:
+                        self.equilibrium.append(t, *self._sums)
             self._measured = b.measured
 
     def set_tare_status(self, text: str, can_undo: bool) -> None:
