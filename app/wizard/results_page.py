@@ -348,6 +348,7 @@ class ResultsPage(WizardPage):
 
         def done(result):
             cal, ev, self.note, heldout, self.figures, images = result
+            self.forget_export()  # a report exported before describes the previous fit
             self._images_for = ev
             self._show_images(images)
             self.model.set_result(cal, ev, heldout)
@@ -355,6 +356,7 @@ class ResultsPage(WizardPage):
 
         def failed(message):
             self.note = message
+            self.forget_export()
             self.model.set_result(None, None)
             self.refresh()
 
@@ -508,9 +510,10 @@ class ResultsPage(WizardPage):
             "simulated": m.simulated, "calibration file": m.saved_path or "(not saved)",
         }
         cal, ev = m.calibration, m.evaluation
+        rmse, figures = dict(getattr(self, "_rmse_options", None) or {}), getattr(self, "figures", None)
 
-        def work(progress):
-            return report.export_report(folder, cal, ev, info, progress=progress)
+        def work(progress):  # the page's words, intervals and reactions (rmse_options, the validation figures)
+            return report.export_report(folder, cal, ev, info, progress=progress, rmse=rmse, figures=figures)
 
         def done(path):
             self.exported_path = path
@@ -522,6 +525,12 @@ class ResultsPage(WizardPage):
         self.export_task.ended.connect(self.refresh)
         self.refresh()
         return Path(folder) / "report.md"
+
+    def forget_export(self) -> None:
+        """No report exported for the calibration shown (a new fit replaced the one exported)."""
+        self.exported_path = None
+        self.exported_label.clear()
+        self.exported_label.setVisible(False)
 
     def show_exported(self, report_md: Path) -> None:
         """Say where the report went: its files, the folder's path and a link that opens it."""

@@ -8,6 +8,8 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from ..frames import FACE_COLORS
+
 __all__ = ["trial_figure", "save_trial_figures"]
 
 #: Most points drawn per curve (the series is decimated to this for the figure only).
@@ -50,7 +52,7 @@ def trial_figure(analysis, trial) -> Figure:
     for i in range(6):
         if g.on[m, i].any():
             role = " (base)" if i + 1 == analysis.settings.base_face else ""
-            ax.plot(t, np.where(g.on[m, i], g.f_n[m, i], np.nan), label=f"face {i + 1}{role}")
+            ax.plot(t, np.where(g.on[m, i], g.f_n[m, i], np.nan), label=f"face {i + 1}{role}", color=FACE_COLORS[i + 1])
     ax.set_ylabel("normal force (N)")
     ax.legend(fontsize=7, loc="upper right")
     ax = axes[2]
@@ -58,7 +60,7 @@ def trial_figure(analysis, trial) -> Figure:
         p = g.path[m, i]
         if np.isfinite(p).any():
             first = p[np.isfinite(p).all(axis=1)][0]
-            ax.plot(t, 1e3 * np.linalg.norm(p - first, axis=1), label=f"face {i + 1}")
+            ax.plot(t, 1e3 * np.linalg.norm(p - first, axis=1), label=f"face {i + 1}", color=FACE_COLORS[i + 1])
     ax.set_ylabel("contact displacement (mm)")
     ax.set_xlabel("time (s)")
     for ax in axes:

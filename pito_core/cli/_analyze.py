@@ -93,6 +93,7 @@ def register(sub) -> None:
                         f"(default {defaults.SINGLE_CONTACT_MIN_FRACTION})")
     p.add_argument("--nwb", action="store_true", help="also write the NWB export with intervals/grasp_phases")
     p.add_argument("--no-figures", action="store_true", help="tables only (faster)")
+    p.add_argument("--recover", action="store_true", help="analyse the intact part of an incomplete (killed) recording")
     add_study_options(p)
     p.set_defaults(func=run)
 
@@ -145,4 +146,5 @@ def run(args) -> int:
     analysis.require_pandas()  # before any recording is read: a missing extra is one line, exit 2
     settings = settings_from(args)
     return run_many(analysis.analyze_to_dir, args, out_root=args.out, calibration=args.calibration, assembly=args.object,
-                    settings=settings, nwb=args.nwb, figures=not args.no_figures, overwrite=args.overwrite)
+                    settings=settings, nwb=args.nwb, figures=not args.no_figures, overwrite=args.overwrite,
+                    recover=args.recover)

@@ -11,7 +11,7 @@ The app (devices: :class:`PipelineProcess`; a replay: :class:`PipelineThread`), 
 :mod:`pito_core.devices._clock` (docs/devices.md, "Pairing the cube and the reference").
 """
 
-from ..devices import PAIRING_RULE, TareCheck, TareRefused, check_tare
+from ..devices import PAIRING_RULE, TareCheck, TareRefused, TareSupport, check_tare
 from ._bundle import LiveBundle, face_sums
 from ._pipeline import Pipeline
 from ._open import open_acquisition, open_reader
@@ -24,6 +24,7 @@ from ._thread import PipelineThread
 __all__ = [
     "TareCheck",
     "TareRefused",
+    "TareSupport",
     "check_tare",
     "AcquisitionReader",
     "LiveBundle",

@@ -94,10 +94,13 @@ class GraspLiveSource(LiveSource):
         Patch assembly of ``pito_core.contact`` (e.g. "cube", "sphere", "pito_mixed") whose
         surfaces the fingers touch; default flat patches.
     reference : {"delta", "nano17"}
+    hold : float, optional
+        Loads held at this time of the loop, s (e.g. 0.5: the object at rest on the table, hands
+        off); the gauges' noise and drift still run with time.
     """
 
     def __init__(self, seed: int = 0, model: VirtualCube | None = None, *, n_fingers: int = 3, mass: float = 0.3,
-                 assembly: str | None = None, reference="delta"):
+                 assembly: str | None = None, reference="delta", hold: float | None = None):
         model = VirtualCube() if model is None else model
         super().__init__(model, seed, reference_pose("face", 6, model.core), reference)
         contacts = None
@@ -108,10 +111,14 @@ class GraspLiveSource(LiveSource):
             f" on {assembly!r}" if assembly else "")
         self.scenario = GraspScenario(mass=mass, n_fingers=n_fingers, seed=seed, core=model.core, contacts=contacts)
         self.period = 12.0
+        self.hold = None if hold is None else float(hold)
+        if self.hold is not None:
+            self.label += f", held at {self.hold:g} s of the loop"
 
     def truth_at(self, t) -> GraspState:
         """Loads, gravity and acceleration at times ``t (n,)`` s (see :class:`GraspState`)."""
-        return self.scenario.state(_times(t))
+        t = _times(t)
+        return self.scenario.state(t if self.hold is None else np.full_like(t, self.hold))
 
     def face_wrenches_at(self, t) -> np.ndarray:
         """True wrench on each face ``(n, 6, 6)``, face frames, N and N·m."""
@@ -144,12 +151,12 @@ class GraspLiveSource(LiveSource):
     def counts_at(self, t) -> np.ndarray:
         """Gauge counts ``(n, 36)`` int32 at times ``t (n,)`` s."""
         t = _times(t)
-        return self._counts(t, self.scenario.state(t).face_wrenches)
+        return self._counts(t, self.truth_at(t).face_wrenches)
 
     def reference_at(self, t) -> np.ndarray:
         """Reference reading ``(n, 6)`` (N, N·m, reference frame): the table's load on the object."""
         t = _times(t)
-        return self._reference(t, self.scenario.state(t).table_wrench)
+        return self._reference(t, self.truth_at(t).table_wrench)
 
 
 class CalibrationLiveSource(LiveSource):

@@ -20,8 +20,12 @@ from ._mount import check_mount
 
 __all__ = ["DemoWorld", "SwitchedLiveSource", "SCENARIOS"]
 
-#: Scenarios of :class:`DemoWorld`.
-SCENARIOS = ("grasp", "calibration")
+#: Scenarios of :class:`DemoWorld`: the grasp loop, the object at rest on the table (hands off:
+#: a tare at rest can be taken and undone), the cube on a calibration flange.
+SCENARIOS = ("grasp", "rest", "calibration")
+
+#: Loop time (s) the ``rest`` scenario holds: the object on the table before the fingers touch.
+REST_HOLD = 0.5
 
 
 class SwitchedLiveSource:
@@ -101,6 +105,7 @@ class DemoWorld:
         self.model = VirtualCube()
         self.assembly_name = None
         self.grasp = GraspLiveSource(seed=self.seed, model=self.model)
+        self.rest = GraspLiveSource(seed=self.seed, model=self.model, hold=REST_HOLD)
         self.flange, self.connected_face = "face", 6
         self.operator_face = None
         self._cal_sources: dict = {}
@@ -121,12 +126,15 @@ class DemoWorld:
             self._cal_sources[key] = src
         return self._cal_sources[key]
 
+    def _scenario_source(self, name: str):
+        return {"grasp": self.grasp, "rest": self.rest}.get(name, self.calibration)
+
     def set_scenario(self, name: str) -> None:
-        """``"grasp"`` or ``"calibration"``, from the current simulated time on."""
+        """One of :data:`SCENARIOS`, from the current simulated time on."""
         if name not in SCENARIOS:
             raise ValueError(f"scenario: expected one of {SCENARIOS}, got {name!r}")
         self.scenario = name
-        self.source.active = self.grasp if name == "grasp" else self.calibration
+        self.source.active = self._scenario_source(name)
 
     def set_mount(self, flange: str, connected_face: int) -> None:
         """The calibration mount: ``flange`` ('frame', 'frame_hole', 'face') on ``connected_face`` 1..6."""
@@ -157,9 +165,10 @@ class DemoWorld:
         if name == self.assembly_name:
             return
         self.grasp = GraspLiveSource(seed=self.seed, model=self.model, assembly=name)
+        self.rest = GraspLiveSource(seed=self.seed, model=self.model, assembly=name, hold=REST_HOLD)
         self.assembly_name = name
-        if self.scenario == "grasp":
-            self.source.active = self.grasp
+        if self.scenario in ("grasp", "rest"):
+            self.source.active = self._scenario_source(self.scenario)
 
     def state(self) -> dict:
         """What the world is doing (JSON-serialisable)."""

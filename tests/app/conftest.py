@@ -23,6 +23,14 @@ def pytest_collection_modifyitems(config, items):
 
 
 @pytest.fixture(autouse=True)
+def demo_cache(tmp_path, monkeypatch):
+    """Each test its own empty cache of the demo's calibration (app/demo.py): nothing shared between tests."""
+    path = tmp_path / "pito-cache"
+    monkeypatch.setenv("PITO_CACHE_DIR", str(path))
+    return path
+
+
+@pytest.fixture(autouse=True)
 def gc_in_gui_thread(request):
     """Garbage cycles (closed windows, pages, menus) freed in the GUI thread only, as in
     pito-app (app/gc_guard.py): a collection started by a worker thread could run a Qt

@@ -226,7 +226,7 @@ class CountingSource:
         self.log.append("set_assembly")
         self.assembly, self.wrench_cov = a, cov
 
-    def tare(self, duration, check):
+    def tare(self, duration, check, support=None):
         self.log.append("tare")
         self.tare_in_force = {"counts_offset": [1.0] * 36, "taken_at": 0.0}
         return dict(self.tare_in_force)
