@@ -168,6 +168,7 @@ class LiveView(QWidget):
         tl = QHBoxLayout()
         self.timeline = QSlider(Qt.Orientation.Horizontal)
         self.timeline.setRange(0, 1000)
+        self.timeline.setValue(self.timeline.maximum())  # live: the knob at the live end
         self.timeline.setEnabled(False)
         self.time_label = QLabel("live")
         self.time_label.setMinimumWidth(150)
@@ -362,6 +363,10 @@ class LiveView(QWidget):
         self.seek_requested.emit(self.timeline.value() / 1000 * float(dur))
 
     def set_replay_mode(self, on: bool, duration: float = 0.0) -> None:
+        """Replay (the timeline seekable from its start) or live (the knob at the live end, disabled)."""
+        self.timeline.blockSignals(True)
+        self.timeline.setValue(0 if on else self.timeline.maximum())
+        self.timeline.blockSignals(False)
         self.timeline.setEnabled(on)
         self.timeline.setProperty("duration", duration)
         self.back_live.setVisible(on)
