@@ -38,9 +38,10 @@ def fit_and_evaluate(sessions, method: str, holdout: float = 0.25, seed: int = 0
     ``sessions``: the main mount's session, or a list (the main mount's first; an extra mount's
     after it, fitted whole). ``validation``: fresh loads not used in the fit (a session), or None.
 
-    Returns ``(calibration, headline, note, heldout, figures)``: ``headline`` is the evaluation
+    Returns ``(calibration, headline, note, heldout, figures, completing)``: ``headline`` is the evaluation
     of the validation pass (the held-out split's without one), ``heldout`` that of the held-out
-    split of the main session, ``figures`` the validation's
+    split of the main session, ``completing`` that of the held-out split of the extra mount's
+    session (None without one: its connected face's only loads of its own), ``figures`` the validation's
     :class:`~pito_core.calibration.ValidationFigures` (None without a validation pass); ``note``
     says if a minimum-norm fit was needed. ``progress(fraction, text)``, if given, is called
     between the steps (and may raise to cancel).
@@ -51,7 +52,9 @@ def fit_and_evaluate(sessions, method: str, holdout: float = 0.25, seed: int = 0
     # blocks of 50 samples: every kept capture (a few hundred still samples) feeds both sides,
     # so the fit keeps every loaded direction and the held-out samples test it on new noise
     train, test = sessions[0].split(holdout=holdout, block=50, seed=seed)
-    train = [train, *sessions[1:]]
+    # the extra mount is split too: its held-out part is the only test of the connected face under loads of its own
+    extra = [s.split(holdout=holdout, block=50, seed=seed) for s in sessions[1:]]
+    train = [train, *(tr for tr, _ in extra)]
     n_fit = sum(s.counts.shape[0] for s in train)
     progress(0.1, f"fitting {method} on {n_fit} samples")
     # small blocks: LAPACK holds the GIL through each block's QR, and the GUI thread needs it
@@ -76,15 +79,17 @@ def fit_and_evaluate(sessions, method: str, holdout: float = 0.25, seed: int = 0
             figures = validation_figures(cal, validation, seed=seed)
     progress(0.8, f"evaluating on {test.counts.shape[0]} held-out samples")
     heldout = evaluate(cal, test)
+    completing = evaluate(cal, extra[0][1]) if extra else None
     headline = heldout if validation is None else evaluate(cal, validation)
     progress(1.0, "done")
-    return cal, headline, note, heldout, figures
+    return cal, headline, note, heldout, figures, completing
 
 
 def per_face_text(figures, heldout=None, reaction=None, completed=()) -> str:
     """Each face's validation RMSE (N, mN·m), one line each; a face the validation pass did not load
-    directly says what stands for it: the held-out part of the second mount's loads (``completed``
-    faces; optimistic: no fresh loads), or the reactions it carried on the main mount."""
+    directly says what stands for it: ``heldout``, the evaluation of the held-out part of the second
+    mount's loads, for its ``completed`` faces (optimistic: no fresh loads), or the reactions it
+    carried on the main mount."""
     lines = []
     hf = ht = None
     if heldout is not None:
@@ -105,12 +110,13 @@ def per_face_text(figures, heldout=None, reaction=None, completed=()) -> str:
 
 
 def fit_job(sessions, method: str, sizes: dict, validation=None, model: str = "auto", progress=None):
-    """Fit, evaluate and draw the figures (any process): ``(calibration, headline, note, heldout, figures, images)``."""
-    cal, ev, note, heldout, figures = fit_and_evaluate(sessions, method, progress=progress, validation=validation,
+    """Fit, evaluate and draw the figures (any process): ``(calibration, headline, note, heldout, figures, completing,
+    images)``."""
+    cal, ev, note, heldout, figures, completing = fit_and_evaluate(sessions, method, progress=progress, validation=validation,
                                                        model=model)
     if progress is not None:
         progress(0.9, "drawing the figures")
-    return cal, ev, note, heldout, figures, render_figures(ev, sizes, rmse_options(sessions, validation))
+    return cal, ev, note, heldout, figures, completing, render_figures(ev, sizes, rmse_options(sessions, validation))
 
 
 def rmse_options(sessions, validation) -> dict:
@@ -369,7 +375,7 @@ class ResultsPage(WizardPage):
         self.note = ""
 
         def done(result):
-            cal, ev, self.note, heldout, self.figures, images = result
+            cal, ev, self.note, heldout, self.figures, self.completing, images = result
             self.forget_export()  # a report exported before describes the previous fit
             self._images_for = ev
             self._show_images(images)
@@ -453,7 +459,7 @@ class ResultsPage(WizardPage):
             v["reactions"].setText(f"face {reaction}: {fig.reaction_force:.2f} N, {fig.reaction_torque * 1000:.1f} mN·m"
                                    if reaction else "—")
             completed = tuple(f for st in m.stages if st.kind == "completing" for f in st.faces)
-            v["per_face"].setText(per_face_text(fig, m.heldout, reaction, completed))
+            v["per_face"].setText(per_face_text(fig, getattr(self, "completing", None), reaction, completed))
             v["reactions"].setToolTip("The flange's face carried the reactions of the other faces' loads, never a "
                                       "load of its own; its error is shown apart, not as a loaded face.")
         else:
