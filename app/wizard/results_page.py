@@ -97,15 +97,15 @@ def per_face_text(figures, heldout=None, reaction=None, completed=()) -> str:
     for i in range(6):
         f, t = figures.rmse_force[i], figures.rmse_torque[i]
         if np.isfinite(f):
-            lines.append(f"face {i + 1}: {f:.3f} N, {t * 1000:.2f} mN·m")
+            lines.append(f"{i + 1}: {f:.3f} N, {t * 1000:.2f} mN·m")
         elif i + 1 in completed and hf is not None and np.isfinite(hf[i]):
-            lines.append(f"face {i + 1}: {hf[i]:.3f} N, {ht[i] * 1000:.2f} mN·m — second mount, held-out of its "
+            lines.append(f"{i + 1}: {hf[i]:.3f} N, {ht[i] * 1000:.2f} mN·m — second mount, held-out of its "
                          "captures (no fresh loads: optimistic)")
         elif i + 1 == reaction:
-            lines.append(f"face {i + 1}: reactions only, {figures.reaction_force:.3f} N, "
+            lines.append(f"{i + 1}: reactions only, {figures.reaction_force:.3f} N, "
                          f"{figures.reaction_torque * 1000:.2f} mN·m — not validated under a load of its own")
         else:
-            lines.append(f"face {i + 1}: not loaded in the validation pass")
+            lines.append(f"{i + 1}: not loaded in the validation pass")
     return "\n".join(lines)
 
 
@@ -250,7 +250,7 @@ class ResultsPage(WizardPage):
             ("samples", "Samples: fitted / validation"),
             ("force", "Worst face force RMSE (validation)"),
             ("torque", "Worst face torque RMSE (validation)"),
-            ("per_face", "Every face (validation)"),
+            ("per_face", "Every face: force, torque RMSE (validation)"),
             ("ident", "Face identification (validation)"),
             ("reactions", "Connected face on the main mount (reactions only)"),
             ("heldout", "Held-out split of the fit (secondary)"),
