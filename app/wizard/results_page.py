@@ -99,8 +99,11 @@ def per_face_text(figures, heldout=None, reaction=None, completed=()) -> str:
         if np.isfinite(f):
             lines.append(f"{i + 1}: {f:.3f} N, {t * 1000:.2f} mN·m")
         elif i + 1 in completed and hf is not None and np.isfinite(hf[i]):
+            worse = ""
+            if np.isfinite(figures.worst_force) and hf[i] > figures.worst_force:
+                worse = f" ⚠ less accurate than the validated faces (worst {figures.worst_force:.3f} N)"
             lines.append(f"{i + 1}: {hf[i]:.3f} N, {ht[i] * 1000:.2f} mN·m — second mount, held-out of its "
-                         "captures (no fresh loads: optimistic)")
+                         f"captures (no fresh loads: optimistic){worse}")
         elif i + 1 == reaction:
             lines.append(f"{i + 1}: reactions only, {figures.reaction_force:.3f} N, "
                          f"{figures.reaction_torque * 1000:.2f} mN·m — not validated under a load of its own")

@@ -83,5 +83,6 @@ def test_every_face_has_its_figure_or_says_what_stands_for_it():
     lines = text.splitlines()
     assert len(lines) == 6 and lines[0] == "1: 0.200 N, 1.00 mN·m"
     assert lines[5].startswith("6: 0.450 N, 4.00 mN·m — second mount") and "no fresh loads" in lines[5]
+    assert "less accurate than the validated faces (worst 0.300 N)" in lines[5]  # said, with the figure
     alone = per_face_text(fig, heldout, reaction=6).splitlines()[5]  # no second mount: the reactions
     assert alone.startswith("6: reactions only, 1.070 N") and "not validated" in alone
