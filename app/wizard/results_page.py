@@ -15,8 +15,8 @@ from PySide6.QtWidgets import (
     QTabWidget,
 )
 
-from pito_core.calibration import (CalibrationSession, RankDeficientError, calibrate, confirm_model, evaluate,
-                                   validation_figures)
+from pito_core.calibration import (NOT_MEASURED_TEXT, CalibrationSession, RankDeficientError, calibrate, confirm_model,
+                                   evaluate, validation_figures)
 
 from .. import report
 from ..filetypes import CALIBRATION_SAVE_FILTER, CALIBRATION_SUFFIX
@@ -85,18 +85,20 @@ def fit_and_evaluate(sessions, method: str, holdout: float = 0.25, seed: int = 0
     return cal, headline, note, heldout, figures, completing
 
 
-def per_face_text(figures, heldout=None, reaction=None, completed=()) -> str:
+def per_face_text(figures, heldout=None, reaction=None, completed=(), measured=None) -> str:
     """Each face's validation RMSE (N, mN·m), one line each; a face the validation pass did not load
     directly says what stands for it: ``heldout``, the evaluation of the held-out part of the second
     mount's loads, for its ``completed`` faces (optimistic: no fresh loads), or the reactions it
-    carried on the main mount."""
+    carried on the main mount; ``measured`` (6,) bool: the faces the calibration outputs (default all)."""
     lines = []
     hf = ht = None
     if heldout is not None:
         hf, ht = heldout.rmse_force(), heldout.rmse_torque()
     for i in range(6):
         f, t = figures.rmse_force[i], figures.rmse_torque[i]
-        if np.isfinite(f):
+        if measured is not None and not measured[i]:
+            lines.append(f"{i + 1}: {NOT_MEASURED_TEXT}")
+        elif np.isfinite(f):
             lines.append(f"{i + 1}: {f:.3f} N, {t * 1000:.2f} mN·m")
         elif i + 1 in completed and hf is not None and np.isfinite(hf[i]):
             worse = ""
@@ -462,7 +464,8 @@ class ResultsPage(WizardPage):
             v["reactions"].setText(f"face {reaction}: {fig.reaction_force:.2f} N, {fig.reaction_torque * 1000:.1f} mN·m"
                                    if reaction else "—")
             completed = tuple(f for st in m.stages if st.kind == "completing" for f in st.faces)
-            v["per_face"].setText(per_face_text(fig, getattr(self, "completing", None), reaction, completed))
+            v["per_face"].setText(per_face_text(fig, getattr(self, "completing", None), reaction, completed,
+                                                cal.has_output))
             v["reactions"].setToolTip("The flange's face carried the reactions of the other faces' loads, never a "
                                       "load of its own; its error is shown apart, not as a loaded face.")
         else:

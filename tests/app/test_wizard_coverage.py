@@ -72,12 +72,15 @@ def test_every_method_through_the_wizard_ends_complete_or_says_so(qapp, grasp, m
     kinds = [s.kind for s in model.stages]
     if "completing" in kinds:  # issue 45, point 2: the connected face's own loads are tested, and shown
         from app.wizard.results_page import per_face_text
+        from pito_core.calibration import NOT_MEASURED_TEXT
 
-        done = model.stages[2].faces
+        done = [f for f in model.stages[2].faces if cal.has_output[f - 1]]
         assert completing is not None and all(np.isfinite(completing.rmse_force()[f - 1]) for f in done)
-        text = per_face_text(figures, completing, 6 if MOUNTS[method] == "face" else None, done).splitlines()
+        text = per_face_text(figures, completing, 6 if MOUNTS[method] == "face" else None, done,
+                             cal.has_output).splitlines()
+        assert all(NOT_MEASURED_TEXT in text[i] for i in range(6) if not cal.has_output[i])
         assert all(text[f - 1].startswith(f"{f}: ") for f in done)
-        assert "second mount" in text[done[0] - 1] or np.isfinite(figures.rmse_force[done[0] - 1])
+        assert not done or "second mount" in text[done[0] - 1] or np.isfinite(figures.rmse_force[done[0] - 1])
     cov = cal.coverage
     if method in ("face_to_face", "quasi_total", "unloaded_frame"):  # their mount leaves readings unmeasured
         assert kinds == ["main", "validation", "completing"] and model.stages[2].why
