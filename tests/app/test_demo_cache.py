@@ -21,6 +21,7 @@ def test_the_demo_calibration_is_cached_by_its_parameters(demo_cache):
 
 
 @pytest.mark.needs_display
+@pytest.mark.slow
 def test_a_second_start_shows_forces_without_calibrating(qtbot, styled):
     from app.demo import demo_calibration
     from app.window import MainWindow
