@@ -23,7 +23,7 @@ from pito_core.io import FileFormatError
 from pito_core.pipeline import PipelineProcess
 from pito_core.sim import SimParams, SimulatedDevices, simulate_calibration
 
-__all__ = ["DemoDevices", "demo_calibration", "cached_demo_calibration", "demo_cache_path", "DEMO_METHOD",
+__all__ = ["DemoDevices", "demo_calibration", "cached_demo_calibration", "demo_cache_path", "cache_dir", "DEMO_METHOD",
            "DEMO_OBJECT_MASS"]
 
 #: The simulated object's mass, kg (``pito_core.sim.GraspLiveSource``'s): the live view's mass in the demo.
@@ -100,11 +100,17 @@ def _source_digest() -> str:
     return h.hexdigest()
 
 
+def cache_dir() -> Path:
+    """The app's cache: ``$PITO_CACHE_DIR``, default ``$XDG_CACHE_HOME/pito``, else ``~/.cache/pito``."""
+    return Path(os.environ.get("PITO_CACHE_DIR") or Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+                / "pito")
+
+
 def demo_cache_path(k: int = 1500, seed: int = 0) -> Path:
     """Where the demo calibration of ``(k, seed)`` is cached: ``$PITO_CACHE_DIR`` (default
     ``$XDG_CACHE_HOME/pito``, else ``~/.cache/pito``) ``/demo-<key>.pitocal``, the key a hash of
     everything that makes it."""
-    base = os.environ.get("PITO_CACHE_DIR") or Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "pito"
+    base = cache_dir()
     key = json.dumps({"method": DEMO_METHOD, "mount": DEMO_MOUNT, "k": int(k), "seed": int(seed),
                       "sim": SimParams().to_dict(), "source": _source_digest()}, sort_keys=True, default=str)
     return Path(base) / f"demo-{hashlib.sha256(key.encode()).hexdigest()[:16]}.pitocal"

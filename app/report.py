@@ -84,9 +84,8 @@ def rmse_figure(evaluation, fig: Figure | None = None, dark: bool = True, *, rea
             if okU.any():
                 ax.scatter(faces[okU], u[okU], marker="_", s=250, linewidths=2,
                            color=DARK["fg"] if dark else "black",
-                           label="— ± 95 % half-width, RMS over axes (may be short)"
-                           if getattr(evaluation, "uncertainty95_caveat", None) else
-                           "— ± 95 % half-width of the wrench, RMS over axes")
+                           label="± 95 % (may be short)" if getattr(evaluation, "uncertainty95_caveat", None)
+                           else "± 95 % of the wrench")
                 leg = ax.legend(fontsize=SMALL, loc="upper left", framealpha=0.6)
                 if dark:
                     leg.get_frame().set_facecolor(DARK["bg"])

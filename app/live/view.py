@@ -25,15 +25,38 @@ from PySide6.QtWidgets import (
 )
 
 from pito_core.calibration import NOT_MEASURED_TEXT
+from pito_core.contact import reason_names
 from pito_core.pipeline import TareSupport
 
 from ..scene import CubeScene
 from ..widgets.plots import EquilibriumPlot, FaceForcePlot
 
-__all__ = ["LiveView", "unmeasured_faces_text", "sample_sums", "DEMO_SCENARIOS"]
+__all__ = ["LiveView", "unmeasured_faces_text", "sample_sums", "flagged_text", "DEMO_SCENARIOS"]
 
 #: The demo's scenarios in the live view: (shown, ``DemoWorld`` name).
-DEMO_SCENARIOS = (("Demo: grasp loop", "grasp"), ("Demo: at rest on the table", "rest"))
+DEMO_SCENARIOS = (("Demo: grasp loop", "grasp"), ("Demo: at rest on the table", "rest"),
+                  ("Demo: two fingers on one patch", "two_fingers"))
+
+#: Why one fingertip cannot explain a contact, by ``SingleContactReason`` name (``pito_core.contact``).
+FLAG_WHY = {"outside": "its point falls off the patch", "pulling": "the force pulls",
+            "friction": "the sideways force exceeds a fingertip's friction",
+            "torsion": "the twist exceeds what a fingertip's friction gives",
+            "residual": "the wrench fits no single point", "no_solution": "no point of the patch explains it"}
+
+
+def flagged_text(contacts, shown) -> str:
+    """The red-pink contacts in words: which face and why one fingertip cannot explain its wrench ("" if none)."""
+    single = getattr(contacts, "single_contact", None)
+    if single is None:
+        return ""
+    faces = np.flatnonzero(np.asarray(shown, bool) & ~np.asarray(single, bool))
+    if not faces.size:
+        return ""
+    names = reason_names(contacts.single_contact_reason)
+    p = contacts.single_contact_p
+    parts = [f"face {k + 1}: {FLAG_WHY.get(names[k], names[k] or 'implausible')} (p = {p[k]:.2g})" for k in faces]
+    return ("● red-pink contact — one fingertip cannot produce this wrench (two fingers on one patch?): "
+            + "; ".join(parts))
 
 
 def sample_sums(wrenches, core, cog=(0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
@@ -152,6 +175,12 @@ class LiveView(QWidget):
         self.tare_label.setWordWrap(True)
         self.tare_label.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Preferred)
         status.addWidget(self.tare_label, 1)
+        self.flag_note = QLabel("")  # why a contact is red-pink (single_contact False)
+        self.flag_note.setObjectName("flagNote")
+        self.flag_note.setStyleSheet("QLabel#flagNote { color: #ff3b6b; font-weight: bold; }")
+        self.flag_note.setWordWrap(True)
+        self.flag_note.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Preferred)
+        status.addWidget(self.flag_note, 1)
         return bar, status
 
     def _build_notice(self) -> None:
@@ -168,6 +197,7 @@ class LiveView(QWidget):
         tl = QHBoxLayout()
         self.timeline = QSlider(Qt.Orientation.Horizontal)
         self.timeline.setRange(0, 1000)
+        self.timeline.setValue(self.timeline.maximum())  # live: the knob at the live end
         self.timeline.setEnabled(False)
         self.time_label = QLabel("live")
         self.time_label.setMinimumWidth(150)
@@ -362,6 +392,10 @@ class LiveView(QWidget):
         self.seek_requested.emit(self.timeline.value() / 1000 * float(dur))
 
     def set_replay_mode(self, on: bool, duration: float = 0.0) -> None:
+        """Replay (the timeline seekable from its start) or live (the knob at the live end, disabled)."""
+        self.timeline.blockSignals(True)
+        self.timeline.setValue(0 if on else self.timeline.maximum())
+        self.timeline.blockSignals(False)
         self.timeline.setEnabled(on)
         self.timeline.setProperty("duration", duration)
         self.back_live.setVisible(on)
@@ -473,6 +507,10 @@ class LiveView(QWidget):
             self._last_readout = now
             if self._readout_text != self.readout.text():
                 self._set_readout(self._readout_text)
+            flags = flagged_text(self._last_contacts, self.scene.glyphs.visible(self._last_contacts)) \
+                if self._last_contacts is not None else ""
+            if flags != self.flag_note.text():
+                self.flag_note.setText(flags)
             note = self.scene.glyphs.ellipsoid_note()
             if note != self.ellipsoid_note.text():
                 self.ellipsoid_note.setText(note)

@@ -14,15 +14,16 @@ import time
 
 import numpy as np
 
-from ._live import CalibrationLiveSource, GraspLiveSource
+from ._live import CalibrationLiveSource, GraspLiveSource, TwoFingerLiveSource
 from ._model import VirtualCube
 from ._mount import check_mount
 
 __all__ = ["DemoWorld", "SwitchedLiveSource", "SCENARIOS"]
 
 #: Scenarios of :class:`DemoWorld`: the grasp loop, the object at rest on the table (hands off:
-#: a tare at rest can be taken and undone), the cube on a calibration flange.
-SCENARIOS = ("grasp", "rest", "calibration")
+#: a tare at rest can be taken and undone), two fingers twisting on one patch (a contact one
+#: fingertip cannot explain: the single-contact flag), the cube on a calibration flange.
+SCENARIOS = ("grasp", "rest", "two_fingers", "calibration")
 
 #: Loop time (s) the ``rest`` scenario holds: the object on the table before the fingers touch.
 REST_HOLD = 0.5
@@ -106,6 +107,7 @@ class DemoWorld:
         self.assembly_name = None
         self.grasp = GraspLiveSource(seed=self.seed, model=self.model)
         self.rest = GraspLiveSource(seed=self.seed, model=self.model, hold=REST_HOLD)
+        self.two_fingers = TwoFingerLiveSource(seed=self.seed, model=self.model)
         self.flange, self.connected_face = "face", 6
         self.operator_face = None
         self._cal_sources: dict = {}
@@ -127,7 +129,7 @@ class DemoWorld:
         return self._cal_sources[key]
 
     def _scenario_source(self, name: str):
-        return {"grasp": self.grasp, "rest": self.rest}.get(name, self.calibration)
+        return {"grasp": self.grasp, "rest": self.rest, "two_fingers": self.two_fingers}.get(name, self.calibration)
 
     def set_scenario(self, name: str) -> None:
         """One of :data:`SCENARIOS`, from the current simulated time on."""

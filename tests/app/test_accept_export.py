@@ -66,6 +66,7 @@ def test_save_proposes_pitocal(window, fitted, monkeypatch, tmp_path):
     assert path.endswith(".pitocal") and (tmp_path / "mine.pitocal").exists()
 
 
+@pytest.mark.slow
 def test_a_refit_forgets_the_file_and_the_report_of_the_previous_fit(window, fitted, qtbot, tmp_path):
     """Issue 45, point 3: after "Use the papers' linear fit (refit)" the status no longer says saved
     nor exported — that file and that report hold the previous calibration."""

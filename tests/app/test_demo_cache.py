@@ -21,6 +21,7 @@ def test_the_demo_calibration_is_cached_by_its_parameters(demo_cache):
 
 
 @pytest.mark.needs_display
+@pytest.mark.slow
 def test_a_second_start_shows_forces_without_calibrating(qtbot, styled):
     from app.demo import demo_calibration
     from app.window import MainWindow
@@ -35,3 +36,19 @@ def test_a_second_start_shows_forces_without_calibrating(qtbot, styled):
     finally:
         window.shutdown()
         window.release_views()
+
+
+def test_decimated_patch_meshes_are_cached(demo_cache):
+    from app.objects import display_meshes, load_assembly
+    from app.scene import PATCH_DISPLAY_CELLS
+
+    a = load_assembly("pito_mixed")
+    first = display_meshes(a)
+    files = sorted(demo_cache.glob("patch-*.vtp"))
+    assert files and all(m.n_cells <= PATCH_DISPLAY_CELLS for m in first.values())
+    again = display_meshes(a)
+    for i in first:
+        np.testing.assert_allclose(np.asarray(again[i].points), np.asarray(first[i].points))
+    files[0].write_bytes(b"damaged")  # dropped and made again
+    display_meshes(a)
+    assert files[0].stat().st_size > 100

@@ -30,7 +30,7 @@ def test_value_labels_sit_above_the_interval_marks(fitted):
     fig = rmse_figure(ev, Figure(figsize=(6.4, 2.8), dpi=100), dark=False, kind="validation")
     fig.canvas.draw() if hasattr(fig.canvas, "draw") else None
     for ax in fig.axes:
-        marks = [c for c in ax.collections if c.get_label().startswith("— ± 95 %")]
+        marks = [c for c in ax.collections if c.get_label().startswith("± 95 %")]
         assert marks and ax.get_legend() is not None  # the marks have their legend
         ys = {round(float(x)): float(y) for x, y in marks[0].get_offsets()}
         for t in ax.texts:

@@ -119,7 +119,10 @@ def test_ellipsoid_axes_are_two_sigma():
 
 
 def test_face_numbers_stand_clear_of_the_patches(scene):
-    """A face's number is placed past its patch (not inside a dome, under its contact sphere)."""
+    """A face's number is placed past its patch (not inside a dome, under its contact sphere), and off the
+    face's normal (issue 45, point 10: an arrow pushing along the normal covered it)."""
+    from app.scene._scene import LABEL_SIDE
+
     from app.objects import display_meshes, load_assembly
 
     scene.set_patches(display_meshes(load_assembly("pito_mixed")))
@@ -130,7 +133,9 @@ def test_face_numbers_stand_clear_of_the_patches(scene):
         outer = max(0.5 * scene.core.edge, float((pts @ n).max()))
         pos = np.array(lab.GetPosition())
         assert pos @ n >= outer + scene.glyphs.radius * 2
-        assert np.allclose(pos - (pos @ n) * n, 0, atol=1e-12)
+        off = np.linalg.norm(pos - (pos @ n) * n)
+        assert off == pytest.approx(LABEL_SIDE * scene.core.edge)
+        assert off > 4 * scene.glyphs.radius  # clear of an arrow (and its sphere) along the normal
 
 
 def test_culled_back_faces_change_no_pixel(scene):
