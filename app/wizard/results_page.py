@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -15,8 +14,7 @@ from PySide6.QtWidgets import (
     QTabWidget,
 )
 
-from pito_core.calibration import (NOT_MEASURED_TEXT, CalibrationSession, RankDeficientError, calibrate, confirm_model,
-                                   evaluate, validation_figures)
+from pito_core.calibration import NOT_MEASURED_TEXT, fit_and_evaluate
 
 from .. import report
 from ..filetypes import CALIBRATION_SAVE_FILTER, CALIBRATION_SUFFIX
@@ -25,66 +23,10 @@ from .ident_why import identification_why
 from .model_choice import ModelChoiceBox
 from .page import WizardPage
 
-__all__ = ["ResultsPage", "fit_and_evaluate", "render_figures", "per_face_text"]
+__all__ = ["ResultsPage", "fit_job", "render_figures", "per_face_text"]
 
 #: samples per block of the streamed QR in the wizard's fit (keeps each GIL-holding LAPACK call short)
 FIT_BLOCK = 8192
-
-
-def fit_and_evaluate(sessions, method: str, holdout: float = 0.25, seed: int = 0, progress=None, validation=None,
-                     model: str = "auto"):
-    """Fit ``method`` on the training split of ``sessions``; evaluate on the held-out rest and the validation pass.
-
-    ``sessions``: the main mount's session, or a list (the main mount's first; an extra mount's
-    after it, fitted whole). ``validation``: fresh loads not used in the fit (a session), or None.
-
-    Returns ``(calibration, headline, note, heldout, figures, completing)``: ``headline`` is the evaluation
-    of the validation pass (the held-out split's without one), ``heldout`` that of the held-out
-    split of the main session, ``completing`` that of the held-out split of the extra mount's
-    session (None without one: its connected face's only loads of its own), ``figures`` the validation's
-    :class:`~pito_core.calibration.ValidationFigures` (None without a validation pass); ``note``
-    says if a minimum-norm fit was needed. ``progress(fraction, text)``, if given, is called
-    between the steps (and may raise to cancel).
-    """
-    sessions = [sessions] if isinstance(sessions, CalibrationSession) else list(sessions)
-    progress = progress or (lambda *_: None)
-    progress(0.0, "splitting the samples")
-    # blocks of 50 samples: every kept capture (a few hundred still samples) feeds both sides,
-    # so the fit keeps every loaded direction and the held-out samples test it on new noise
-    train, test = sessions[0].split(holdout=holdout, block=50, seed=seed)
-    # the extra mount is split too: its held-out part is the only test of the connected face under loads of its own
-    extra = [s.split(holdout=holdout, block=50, seed=seed) for s in sessions[1:]]
-    train = [train, *(tr for tr, _ in extra)]
-    n_fit = sum(s.counts.shape[0] for s in train)
-    progress(0.1, f"fitting {method} on {n_fit} samples")
-    # small blocks: LAPACK holds the GIL through each block's QR, and the GUI thread needs it
-    # every few ms; the fit's own progress is also where a cancel stops it
-    fit_options = {"block_size": FIT_BLOCK, "model": model,
-                   "progress": lambda done, total: progress(0.1 + 0.55 * done / max(total, 1),
-                                                            f"fitting {method}: {done} / {total} samples")}
-    note = ""
-    try:
-        cal = calibrate(train, method, **fit_options)
-    except RankDeficientError as exc:  # unexcited directions or dead channels: fit minimum-norm, say so
-        fit_options["allow_rank_deficient"] = True
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            cal = calibrate(train, method, **fit_options)
-        note = f"minimum-norm fit — {exc}"
-    figures = None
-    if validation is not None:
-        progress(0.7, f"validating on {validation.counts.shape[0]} fresh samples")
-        if model == "auto":  # a correction the validation pass does not confirm gives way to the linear fit
-            refit = {k: v for k, v in fit_options.items() if k != "progress"}  # the linear fit again, if it is used
-            cal, figures = confirm_model(cal, validation, seed=seed, sessions=train, fit_options=refit)
-        else:
-            figures = validation_figures(cal, validation, seed=seed)
-    progress(0.8, f"evaluating on {test.counts.shape[0]} held-out samples")
-    heldout = evaluate(cal, test)
-    completing = evaluate(cal, extra[0][1]) if extra else None
-    headline = heldout if validation is None else evaluate(cal, validation)
-    progress(1.0, "done")
-    return cal, headline, note, heldout, figures, completing
 
 
 def per_face_text(figures, heldout=None, reaction=None, completed=(), measured=None) -> str:
@@ -118,12 +60,22 @@ def per_face_text(figures, heldout=None, reaction=None, completed=(), measured=N
 
 def fit_job(sessions, method: str, sizes: dict, validation=None, model: str = "auto", progress=None):
     """Fit, evaluate and draw the figures (any process): ``(calibration, headline, note, heldout, figures, completing,
-    images)``."""
-    cal, ev, note, heldout, figures, completing = fit_and_evaluate(sessions, method, progress=progress, validation=validation,
-                                                       model=model)
+    images)``.
+
+    The one route of ``pito calibrate`` (:func:`pito_core.calibration.fit_and_evaluate`: the same split
+    and figures); ``heldout`` is over every session's held-out samples, ``completing`` over the second
+    mount's alone (None without one); a minimum-norm fit (directions the loads left unexcited) is said
+    in ``note``.
+    """
+    # small blocks: LAPACK holds the GIL through each block's QR, and the GUI thread needs it
+    # every few ms; the fit's own progress is also where a cancel stops it
+    fit = fit_and_evaluate(sessions, method, validation=validation, model=model, rank_deficient="fallback",
+                           block_size=FIT_BLOCK, progress=progress)
+    completing = fit.heldout_by_session[1] if len(fit.heldout_by_session) > 1 else None
     if progress is not None:
         progress(0.9, "drawing the figures")
-    return cal, ev, note, heldout, figures, completing, render_figures(ev, sizes, rmse_options(sessions, validation))
+    images = render_figures(fit.headline, sizes, rmse_options(sessions, validation))
+    return fit.calibration, fit.headline, fit.note, fit.heldout, fit.figures, completing, images
 
 
 def rmse_options(sessions, validation) -> dict:

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from ..io import CalibrationSession
 from ._calibration import Calibration
@@ -30,7 +30,10 @@ class FitResult:
     ----------
     calibration : Calibration
     heldout : Evaluation or None
-        On the samples held out of every session (None with ``holdout=0``).
+        On the samples held out of every session, pooled (None with ``holdout=0``).
+    heldout_by_session : list of Evaluation
+        On each session's held-out samples, in the order of ``sessions`` (empty with ``holdout=0``;
+        with one session, ``[heldout]``).
     validation : Evaluation or None
         On the validation pass (fresh loads, not fitted), if one was given.
     figures : ValidationFigures or None
@@ -48,6 +51,7 @@ class FitResult:
     note: str
     n_fit: int
     n_heldout: int
+    heldout_by_session: list = field(default_factory=list)
 
     @property
     def headline(self) -> Evaluation | None:
@@ -121,9 +125,10 @@ def fit_and_evaluate(sessions, method: str, *, holdout: float = HOLDOUT, block: 
         else:
             figures = validation_figures(cal, validation, seed=seed)
         checked = evaluate(cal, validation)
-    heldout = None
+    heldout, by_session = None, []
     if test:
         progress(0.8, f"evaluating on {sum(len(s) for s in test)} held-out samples")
         heldout = evaluate(cal, test)
+        by_session = [heldout] if len(test) == 1 else [evaluate(cal, s) for s in test]
     progress(1.0, "done")
-    return FitResult(cal, heldout, checked, figures, note, n_fit, sum(len(s) for s in test))
+    return FitResult(cal, heldout, checked, figures, note, n_fit, sum(len(s) for s in test), by_session)

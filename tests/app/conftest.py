@@ -84,9 +84,9 @@ def scene(qtbot):
 @pytest.fixture(scope="module")
 def fitted():
     """A SIMULATED ``loaded_frame`` calibration and its evaluation, fitted as the results page does (k = 150)."""
-    from app.wizard.results_page import fit_and_evaluate
+    from pito_core.calibration import fit_and_evaluate
     from pito_core.sim import simulate_calibration
 
     session = simulate_calibration("frame_hole", 6, k=150, seed=3)  # SIMULATED
-    cal, ev, *_ = fit_and_evaluate(session, "loaded_frame")
-    return cal, ev
+    fit = fit_and_evaluate(session, "loaded_frame")
+    return fit.calibration, fit.headline

@@ -73,10 +73,10 @@ def test_the_app_font_has_every_glyph_used(qapp, styled):
 
 @pytest.fixture(scope="module")
 def evaluation():
-    from app.wizard.results_page import fit_and_evaluate
+    from pito_core.calibration import fit_and_evaluate
     from pito_core.sim import simulate_calibration
 
-    return fit_and_evaluate(simulate_calibration("frame_hole", 6, k=150, seed=3), "loaded_frame")[1]  # SIMULATED
+    return fit_and_evaluate(simulate_calibration("frame_hole", 6, k=150, seed=3), "loaded_frame").headline  # SIMULATED
 
 
 @pytest.mark.parametrize("name", ["rmse", "ident", "comp"])

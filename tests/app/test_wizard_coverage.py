@@ -32,15 +32,16 @@ def grasp():
 
 def run_method(method, k=600):
     from app.wizard.model import WizardModel
-    from app.wizard.results_page import fit_and_evaluate
+    from pito_core.calibration import fit_and_evaluate
 
     model = WizardModel()
     model.set_mount(method=method, flange=MOUNTS[method], connected_face=6)
     model.set_k(k)
     run_wizard_model(model, CUBE, seed=1)
-    cal, headline, note, heldout, figures, completing = fit_and_evaluate(model.training_sessions(), method,
-                                                             validation=model.validation_session())
-    return model, cal, headline, heldout, figures, completing
+    fit = fit_and_evaluate(model.training_sessions(), method, validation=model.validation_session(),
+                           rank_deficient="fallback")  # as the results page fits (app.wizard.results_page.fit_job)
+    completing = fit.heldout_by_session[1] if len(fit.heldout_by_session) > 1 else None
+    return model, fit.calibration, fit.headline, fit.heldout, fit.figures, completing
 
 
 def face_forces_core(W, core):
