@@ -13,12 +13,14 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
+from pito_core.frames import WRENCH_COMPONENTS
+
 from .palette import FACE_COLORS
 from .wizard.model_choice import model_summary
 
 __all__ = ["rmse_figure", "identification_figure", "comparison_figure", "export_report", "style_figure", "SMALL", "SCREEN_DPI"]
 
-AXES = ("fx", "fy", "fz", "tx", "ty", "tz")
+AXES = WRENCH_COMPONENTS
 UNITS = ("N", "N", "N", "N·m", "N·m", "N·m")
 DARK = {"bg": "#252b32", "fg": "#d5dde5", "grid": "#3d4650"}
 #: pt: the smallest text in a figure (tick labels, annotations, legends): readable at screen DPI

@@ -37,6 +37,7 @@ import json
 import numpy as np
 
 from ..contact import SingleContactReason
+from ..frames import WRENCH_COMPONENTS
 from ._conventions import CORE_FRAME, FACE_FRAME
 from ._provenance import BULKY_RECORD_KEYS
 
@@ -47,7 +48,6 @@ BEHAVIOR_MODULE, MISC_MODULE = "behavior", "misc"
 #: ``/general/keywords`` of every export
 KEYWORDS = ("PITO", "tactile sensing", "force/torque", "grasp", "contact")
 
-_COMPONENTS = ("fx", "fy", "fz", "tx", "ty", "tz")
 #: Base64 characters per row of the ``calibration_file`` table.
 _FILE_CHUNK = 1 << 16
 
@@ -211,7 +211,7 @@ def _add_calibration(nwb, cal: dict) -> None:
 
     M = np.asarray(cal["matrix"], float)
     faces = [f for f in cal["output_faces"] for _ in range(6)]
-    comps = list(_COMPONENTS) * len(cal["output_faces"])
+    comps = list(WRENCH_COMPONENTS) * len(cal["output_faces"])
     units = ["N/count" if c[0] == "f" else "N*m/count" for c in comps]
     frame = "own face frame" if cal["output_frame"] == "face" else "reference frame S_A"
     mod = nwb.create_processing_module(MISC_MODULE, f"PITO calibration used ({cal['method']}, {cal['hash']})")
