@@ -16,7 +16,7 @@ from PySide6.QtWidgets import (
 
 from pito_core.calibration import NOT_MEASURED_TEXT, fit_and_evaluate
 
-from .. import report
+from pito_core import report
 from ..filetypes import CALIBRATION_SAVE_FILTER, CALIBRATION_SUFFIX
 from ..tasks import TaskBar, run_in_process, run_task
 from .ident_why import identification_why

@@ -1,6 +1,7 @@
 """The results page's model section: words for the model choice, and the switch to linear."""
 
-from app.wizard.model_choice import ModelChoiceBox, model_summary
+from app.wizard.model_choice import ModelChoiceBox
+from pito_core.report import model_summary
 from pito_core.calibration import ModelChoice
 
 

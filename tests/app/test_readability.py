@@ -84,7 +84,7 @@ def test_results_figures_text_is_readable_and_inside(evaluation, name, qapp, sty
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from app import report
+    from pito_core import report
 
     draw = {"rmse": report.rmse_figure, "ident": report.identification_figure, "comp": report.comparison_figure}[name]
     for dark, fig in ((True, Figure(figsize=(576 / 96, 270 / 96), dpi=report.SCREEN_DPI)), (False, None)):

@@ -5,7 +5,7 @@ import numpy as np
 
 
 def test_the_report_uses_the_pages_words_intervals_and_reactions(fitted, tmp_path):
-    from app.report import export_report
+    from pito_core.report import export_report
     from pito_core.calibration import validation_figures
     from pito_core.sim import simulate_calibration
 
@@ -24,7 +24,7 @@ def test_the_report_uses_the_pages_words_intervals_and_reactions(fitted, tmp_pat
 def test_value_labels_sit_above_the_interval_marks(fitted):
     from matplotlib.figure import Figure
 
-    from app.report import rmse_figure
+    from pito_core.report import rmse_figure
 
     _, ev = fitted
     fig = rmse_figure(ev, Figure(figsize=(6.4, 2.8), dpi=100), dark=False, kind="validation")

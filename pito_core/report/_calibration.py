@@ -1,4 +1,4 @@
-"""Calibration report: the results figures (matplotlib) and an exported folder (figures + numbers).
+"""The calibration report: the results figures (matplotlib) and an exported folder (figures + numbers).
 
 The same figure functions feed the wizard's results page and the exported report, so what
 the operator accepted is what the report shows.
@@ -10,18 +10,20 @@ import datetime as _dt
 import json
 from pathlib import Path
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-from matplotlib.figure import Figure
 
-from pito_core.frames import WRENCH_COMPONENTS
+from ..frames import FACE_COLORS, WRENCH_COMPONENTS, WRENCH_UNITS
 
-from .palette import FACE_COLORS
-from .wizard.model_choice import model_summary
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
-__all__ = ["rmse_figure", "identification_figure", "comparison_figure", "export_report", "style_figure", "SMALL", "SCREEN_DPI"]
+__all__ = ["rmse_figure", "identification_figure", "comparison_figure", "export_report", "style_figure", "model_summary",
+           "SMALL", "SCREEN_DPI"]
 
 AXES = WRENCH_COMPONENTS
-UNITS = ("N", "N", "N", "N·m", "N·m", "N·m")
+UNITS = WRENCH_UNITS
 DARK = {"bg": "#252b32", "fg": "#d5dde5", "grid": "#3d4650"}
 #: pt: the smallest text in a figure (tick labels, annotations, legends): readable at screen DPI
 SMALL = 9.0
@@ -29,6 +31,38 @@ SMALL = 9.0
 TITLE = 10.0
 #: dots per inch the app draws its figures at (a screen's; 9 pt = 12 px)
 SCREEN_DPI = 96
+
+
+def _figure(figsize, dpi):
+    """A new ``matplotlib.figure.Figure`` (no pyplot, no global state)."""
+    # deferred: matplotlib takes ~0.4 s to import and pito_core.report loads with `pito --help`
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=figsize, dpi=dpi)
+
+
+def model_summary(choice, output_faces=()) -> str:
+    """Words for a ``ModelChoice``: the model in use, why, and the cross-validated RMSE (N, N·m) of each
+    candidate, the one in use marked — the name and the figures beside it always agree."""
+    groups = choice.corrected(output_faces) if choice.name != "linear" else []
+    rms = choice.cv_rms()
+    if choice.name == "linear":
+        head, used = "the papers' linear fit (C = W S⁺)", "linear"
+    elif output_faces and not groups:
+        head, used = "the linear fit (the correction won on no output group)", "chosen" if "chosen" in rms else "poly"
+    elif output_faces:
+        head = (f"linear fit + polynomial correction on {len(groups)} of {2 * len(output_faces)} output groups: "
+                + ", ".join(f"face {f} {part}" for f, part in groups))
+        used = "chosen" if "chosen" in rms else "poly"
+    else:
+        head, used = "linear fit + polynomial correction", "chosen" if "chosen" in rms else "poly"
+    text = f"<b>In use: {head}</b> — {choice.reason}"
+    words = {"linear": "the linear fit everywhere", "poly": "the correction on every output group",
+             "chosen": "the correction only where it won"}
+    for key, (force, torque) in rms.items():
+        mark = " <b>(in use)</b>" if key == used else ""
+        text += f"<br>cross-validated RMSE, {words[key]}{mark}: forces {force:.3f} N, torques {torque * 1000:.2f} mN·m"
+    return text
 
 
 def style_figure(fig: Figure, dark: bool = True) -> None:
@@ -56,7 +90,7 @@ def rmse_figure(evaluation, fig: Figure | None = None, dark: bool = True, *, rea
     others' loads (its bar is hatched and labelled so); ``kind``: what the figures come from
     ("validation", "held-out"), in the titles.
     """
-    fig = fig or Figure(figsize=(6.4, 2.8), dpi=100)
+    fig = fig or _figure(figsize=(6.4, 2.8), dpi=100)
     fig.clear()
     axf, axt = fig.subplots(1, 2)
     faces = np.arange(1, 7)
@@ -113,7 +147,7 @@ def _interval_marks(evaluation, unit: str) -> np.ndarray:
 
 def identification_figure(evaluation, fig: Figure | None = None, dark: bool = True) -> Figure:
     """Face identification: mean ‖F‖ on every face (rows) when one face is loaded (columns)."""
-    fig = fig or Figure(figsize=(3.6, 3.0), dpi=100)
+    fig = fig or _figure(figsize=(3.6, 3.0), dpi=100)
     fig.clear()
     ax = fig.subplots()
     fn = np.asarray(evaluation.identified.get("force_norm", np.zeros((0, 6))), dtype=float)
@@ -145,7 +179,7 @@ def identification_figure(evaluation, fig: Figure | None = None, dark: bool = Tr
 
 def comparison_figure(evaluation, fig: Figure | None = None, dark: bool = True) -> Figure:
     """Calibrated total load against the reference, per axis (reference frame), held-out samples."""
-    fig = fig or Figure(figsize=(6.4, 3.4), dpi=100)
+    fig = fig or _figure(figsize=(6.4, 3.4), dpi=100)
     fig.clear()
     axes = fig.subplots(2, 3)
     pred = np.asarray(evaluation.comparison.get("predicted", np.zeros((0, 6))), dtype=float)
