@@ -87,8 +87,13 @@ def _run_live(quick: bool, threads: int, progress) -> dict:
     return json.loads(lines[-1])
 
 
+#: The calibration section's studies: the default fit against least squares on random cubes, the
+#: model choice on the simulator's and the bench's own cubes, the intervals' coverage on those cubes.
+CALIBRATION_STUDIES = ("random_cubes", "model_choice", "coverage_cubes")
+
+
 def run_bench(*, quick: bool = False, sections=SECTIONS, sizes=None, threads: int = 1, workdir=None,
-              contact_sizes=None, progress=None) -> dict:
+              contact_sizes=None, calibration_studies=None, progress=None) -> dict:
     """Run the benchmark sections; every measurement in a fresh subprocess.
 
     Parameters
@@ -105,6 +110,9 @@ def run_bench(*, quick: bool = False, sections=SECTIONS, sizes=None, threads: in
         Where the simulated session files go (default: a temporary directory, removed).
     contact_sizes : dict, optional
         ``n_speed``, ``n_acc``, ``n_scipy`` overrides for the contact section.
+    calibration_studies : sequence of str, optional
+        The calibration section's studies beside its speed and error rows: any of
+        :data:`CALIBRATION_STUDIES` (default all).
     progress : callable, optional
         ``progress(str)`` for status lines (default: silent).
 
@@ -125,9 +133,14 @@ def run_bench(*, quick: bool = False, sections=SECTIONS, sizes=None, threads: in
             ks = sizes if sizes is not None else (QUICK_SIZES if quick else FULL_SIZES)
             result["calibration"] = run_calibration(ks, workdir, quick=quick, threads=threads,
                                                     n_test=5_000 if quick else 20_000, progress=progress)
-            result["calibration"]["random_cubes"] = random_cube_ratios(quick=quick, threads=threads, progress=progress)
-            result["calibration"]["model_choice"] = model_choice_ratios(quick=quick, threads=threads, progress=progress)
-            result["calibration"]["coverage_cubes"] = coverage_cubes(quick=quick, threads=threads, progress=progress)
+            studies = CALIBRATION_STUDIES if calibration_studies is None else tuple(calibration_studies)
+            unknown = set(studies) - set(CALIBRATION_STUDIES)
+            if unknown:
+                raise ValueError(f"calibration_studies: expected some of {CALIBRATION_STUDIES}, got {sorted(unknown)}")
+            for name, study in (("random_cubes", random_cube_ratios), ("model_choice", model_choice_ratios),
+                                ("coverage_cubes", coverage_cubes)):
+                if name in studies:
+                    result["calibration"][name] = study(quick=quick, threads=threads, progress=progress)
         if "contact" in sections:
             result["contact"] = run_contact(quick=quick, threads=threads, progress=progress, **(contact_sizes or {}))
         if "pipeline" in sections:

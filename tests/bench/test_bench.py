@@ -22,6 +22,7 @@ def quick_result(tmp_path_factory):
         quick=True, sections=("calibration", "contact"), sizes=[1000, 2000],
         workdir=str(tmp_path_factory.mktemp("bench")),
         contact_sizes={"n_speed": 2000, "n_acc": 400, "n_scipy": 3, "n_single": 300, "n_two": 100},
+        calibration_studies=("random_cubes",),  # the model-choice and coverage studies: `pito bench`, not tests
     )
 
 
