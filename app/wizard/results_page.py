@@ -14,7 +14,7 @@ from PySide6.QtWidgets import (
     QTabWidget,
 )
 
-from pito_core.calibration import NOT_MEASURED_TEXT, fit_and_evaluate
+from pito_core.calibration import HOLDOUT, NOT_MEASURED_TEXT, fit_and_evaluate
 
 from pito_core import report
 from ..filetypes import CALIBRATION_SAVE_FILTER, CALIBRATION_SUFFIX
@@ -161,7 +161,7 @@ class FigureImage(QLabel):
 
 
 class ResultsPage(WizardPage):
-    """Wizard step 6: fit on 75 % of the kept samples, evaluate on the held-out rest, accept or redo.
+    """Wizard step 6: fit on 80 % of the kept samples (as ``pito calibrate``), evaluate on the rest and the validation pass.
 
     Figures of merit in N and N·m (RMSE per axis), inverse condition numbers (dimensionless).
 
@@ -172,7 +172,8 @@ class ResultsPage(WizardPage):
     parent : QWidget, optional
     """
     title = "6 · Results"
-    help = ("The calibration was fitted on 75 % of the kept samples; its figures come from the validation pass of "
+    help = (f"The calibration was fitted on {100 * (1 - HOLDOUT):.0f} % of the kept samples (as pito calibrate fits); "
+            "its figures come from the validation pass of "
             "fresh loads (the held-out rest is a secondary line). "
             "Accept it, or redo a face whose error is too high; then save the calibration and export the report.")
 
