@@ -31,9 +31,7 @@ from ._nlfit import PolyAccumulator, correction as poly_correction, mixed_offset
 from ._methods import MethodSpec, get_method
 from ..io import CalibrationSession
 from ._targets import MountGeometry, block_targets
-from ._reference_noise import reference_noise_at_rest
-from ._residuals import fit_error_model
-from ._uncertainty import CalibrationCovariance, CovarianceGroup
+from ._error import CalibrationCovariance, CovarianceGroup, fit_error_model, reference_noise_at_rest
 
 __all__ = ["calibrate", "Calibrator", "RankDeficientWarning", "RankDeficientError", "ExcitationError", "session_offsets", "AXES", "PRIORS",
            "NET_LOAD_MEASURED", "NET_LOAD_PRIOR", "NET_LOAD_UNIDENTIFIED"]
@@ -444,15 +442,9 @@ class Calibrator:
         cal = Calibration(spec.name, fit.matrix, out_faces, spec.output_frame, np.mean(fit.offsets, axis=0), s0.core,
                           s0.T_core_ati, meta, correction=corr_fit, model=choice,
                           linear_fit=linear_fit)
-        # pass 3: the error a sample brings itself (noise, what the linear model misses), against its load
-        poly_parts = st.poly.reference_parts if corr_fit is not None else []
-        coef, own_q, corr, poly_ref, error_frame, rest_bias = fit_error_model(
-            cal, sessions, mounts, fit.offsets, tare_means, spec, fit.groups, self.block_size, ref_covs, gauge_cov,
-            samples=subsample, ref_n=ref_n, poly_parts=poly_parts)
-        cal.covariance = CalibrationCovariance(
-            groups=fit.groups, gauge_cov=gauge_cov, n_tare=None, variance_coef=coef[0], residual_corr=corr,
-            poly_reference=poly_ref, error_frame=error_frame, rest_bias=rest_bias, own_variance_coef=coef[1],
-            own_q=own_q)
+        em = fit_error_model(cal, fit.groups, subsample, mounts, tare_means, ref_covs, gauge_cov)
+        cal.covariance = CalibrationCovariance(groups=fit.groups, gauge_cov=gauge_cov, variance_coef=em.variance_coef,
+                                               residual_corr=em.residual_corr, scale=em.scale)
         self.calibration_ = cal
         return self
 
