@@ -295,20 +295,25 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
     for g in groups:
         if g.inputs.size == 6:
             own[g.rows // 6] = True
-    E, Q, V, L = [], [], [], []
+    n = sum(len(b.counts) for blocks in subsample for b in blocks)
+    E, V = np.zeros((n, F, 6)), np.zeros((n, F, 6), dtype=np.float32)  # residuals, the reference's noise in them
+    q, L, at = np.zeros((n, F)), np.zeros(n, dtype=bool), 0
     for blocks, mount, off, rc in zip(subsample, mounts, offsets, ref_covs):
+        v = None if rc is None else np.einsum("fij,jk,fik->fi", mount.X_face_ati, rc, mount.X_face_ati)[idx]
         for b in blocks:
             T, carries, usable, _ = block_targets(np.asarray(b.reference, float), b.loaded, mount, "face")
-            if not usable.any():
-                continue
+            rows = slice(at, at + int(usable.sum()))
+            at = rows.stop
             W = cal.wrenches(np.asarray(b.counts, float)[usable], offset=off)[:, idx]
-            E.append(T[usable][:, idx] - W)
-            L.append(b.loaded[usable].any(axis=1))
-            Q.append(face_q(W))
-            v = np.zeros((6, 6)) if rc is None else np.einsum("fij,jk,fik->fi", mount.X_face_ati, rc, mount.X_face_ati)
-            V.append(carries[usable][:, idx, None] * v[idx][None])
-    E, V, L = np.concatenate(E), np.concatenate(V), np.concatenate(L)  # (n, F, 6), (n,)
-    phi = load_features(np.concatenate(Q))  # (n, F, 4)
+            E[rows] = T[usable][:, idx] - W
+            q[rows], L[rows] = face_q(W), b.loaded[usable].any(axis=1)
+            if v is not None:
+                V[rows] = carries[usable][:, idx, None] * v
+    E, V, L, phi = E[:at], V[:at], L[:at], load_features(q[:at])  # (n, F, 6), (n, F, 6), (n,), (n, F, 4)
+    del q
+    if at == 0:  # no usable sample in the subsample: the coefficients' term alone
+        return ErrorModel(variance_coef=np.zeros((6 * F, N_FEATURES)), residual_corr=np.broadcast_to(np.eye(6), (F, 6, 6)),
+                          scale=rho)
     A = cal._apply[idx]
     floor = np.einsum("fia,ab,fib->fi", A, gauge_cov, A)  # gauge noise through the matrix (F, 6)
     coef = np.zeros((F, 6, N_FEATURES))
@@ -317,26 +322,31 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
             y = E[:, f, a] ** 2 - V[:, f, a]
             c = _nnls(phi[:, f], y, np.ones(y.size))
             c[0] = max(c[0], floor[f, a])
-            w = 1.0 / np.maximum(phi[:, f] @ c + V[:, f, a], 1e-300) ** 2
-            c = _nnls(phi[:, f], y, w)
+            v = phi[:, f] @ c + V[:, f, a]
+            if v.max() > 0:  # weights 1 / variance², relative to the smallest variance's
+                v = np.maximum(v, v.max() * 1e-12)
+                c = _nnls(phi[:, f], y, (v.min() / v) ** 2)
             c[0] = max(c[0], floor[f, a])
             coef[f, a] = c
     var = np.einsum("nfk,fik->nfi", phi, coef)
-    sd = np.sqrt(np.maximum(var, 1e-300))
-    z = E / sd
-    corr = np.stack([np.corrcoef(z[:, f], rowvar=False) if z.shape[0] > 2 else np.eye(6) for f in range(F)])
-    corr = np.where(np.isfinite(corr), corr, np.eye(6))
-
-    El, Vl, varl = (E[L], V[L], var[L]) if L.any() else (E, V, var)
-
-    def short(s):  # coverage of the loaded training samples' residuals at scale s, less the nominal
-        return np.mean(El**2 <= Z_COVERAGE**2 * (s * s * varl + Vl)) - COVERAGE
-
+    del phi
+    corr = np.stack([np.corrcoef(E[:, f] / np.sqrt(np.maximum(var[:, f], 1e-300)), rowvar=False) for f in range(F)])
+    corr = np.where(np.isfinite(corr), corr, np.eye(6)) if E.shape[0] > 2 else np.broadcast_to(np.eye(6), (F, 6, 6))
+    # the scale: the 95 % quantile over the loaded residuals of each one's s², E² = Z² (s² var + V)
+    E **= 2
+    E /= Z_COVERAGE**2
+    E -= V
+    del V
+    zero = var <= 0
+    np.divide(E, var, out=E, where=~zero)
+    E[zero] = np.where(E[zero] > 0, np.inf, 0.0)
+    del var
+    t = E[L] if L.any() else E
     lo, hi = SCALE_BOUNDS
-    scale = lo if short(lo) >= 0 else hi if short(hi) <= 0 else scipy.optimize.brentq(short, lo, hi, xtol=1e-4)
+    scale = float(np.clip(np.sqrt(max(np.quantile(t, COVERAGE, overwrite_input=True), 0.0)), lo, hi))
     coef[..., :3] *= rho**2  # held out (own-row fits: not their crosstalk, which they never fitted)
     coef[~own, :, 3] *= rho**2
-    return ErrorModel(variance_coef=coef.reshape(6 * F, N_FEATURES), residual_corr=corr, scale=float(scale))
+    return ErrorModel(variance_coef=coef.reshape(6 * F, N_FEATURES), residual_corr=corr, scale=scale)
 
 
 class NoisyReferenceWarning(UserWarning):
