@@ -161,15 +161,14 @@ def _tare_moments(session: CalibrationSession, block_size: int = 65536):
 
 def _poly_zero(session: CalibrationSession, block_size: int, n: int = POLY_TARE_SAMPLES):
     """What the polynomial correction's pass needs before it starts, from the session's first samples:
-    ``(zero (36,) counts, scale_sq (36,) counts², rows, reference_varies)``.
+    ``(zero (36,) counts, scale_sq (36,) counts², rows)``.
 
     ``zero`` is the mean counts of the session's first stretch at rest (the tare it opens with; its
     first ``n`` samples); ``scale_sq`` and ``rows`` the sum of squares of the first block's counts
-    less ``zero`` and its rows (a provisional scale: ``PolyAccumulator`` rescales); ``reference_varies``: the reference moves over that stretch (it has
-    noise). Only the blocks up to the stretch's end are read. Raises ``ValueError`` if the session
+    less ``zero`` and its rows (a provisional scale: ``PolyAccumulator`` rescales). Only the blocks up to the stretch's end are read. Raises ``ValueError`` if the session
     has no sample at rest.
     """
-    counts, refs, got, first = [], [], 0, None
+    counts, got, first = [], 0, None
     for b in session.iter_blocks(block_size, counts_dtype=None):
         first = b.counts if first is None else first
         rest = ~b.loaded.any(axis=1)
@@ -182,7 +181,6 @@ def _poly_zero(session: CalibrationSession, block_size: int, n: int = POLY_TARE_
         stop = start + int(np.argmin(rest[start:])) if not rest[start:].all() else rest.size
         stop = min(stop, start + n - got)
         counts.append(b.counts[start:stop].astype(float))
-        refs.append(b.reference[start:stop])
         got += stop - start
         if got >= n or stop < rest.size:
             break
@@ -190,7 +188,7 @@ def _poly_zero(session: CalibrationSession, block_size: int, n: int = POLY_TARE_
         raise ValueError("loaded: the session has no unloaded samples (rows of all False) to take the offsets from")
     zero = np.concatenate(counts).mean(axis=0)
     d = first - zero
-    return zero, np.einsum("ij,ij->j", d, d), d.shape[0], bool(np.ptp(np.concatenate(refs), axis=0).any())
+    return zero, np.einsum("ij,ij->j", d, d), d.shape[0]
 
 
 def _rescale_groups(groups, residual, out_faces, E2, poly) -> None:
@@ -464,8 +462,7 @@ class Calibrator:
         if zeros is not None:  # a provisional scale (the first blocks' RMS about the zero; the fit's is the fitted rows')
             rms = np.sqrt(sum(z[1] for z in zeros) / max(sum(z[2] for z in zeros), 1))
             poly = PolyAccumulator(spec.inputs == "own", joint_faces, n_int, np.where(rms > 0, rms, 1.0),
-                                   {s.connected_face for s in sessions if s.flange == "face"}, [len(s) for s in sessions],
-                                   noisy_reference=any(z[3] for z in zeros))
+                                   {s.connected_face for s in sessions if s.flange == "face"}, [len(s) for s in sessions])
         total_samples = sum(len(s) for s in sessions)
         # the same provisional centres whatever the model, so model="auto" that keeps the linear
         # fit gives it bit for bit
