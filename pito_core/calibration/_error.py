@@ -8,26 +8,24 @@ One estimator (docs/calibration.md, "Uncertainty"). A prediction's error has two
   ``(x̃ᵀ P x̃) Σ_r``, mapped to each face's frame;
 * the error a sample brings itself (gauge noise, what the model misses): per face and axis, a
   variance ``c₀ + c₁ q + c₂ q² + c₃ q_other`` of the face's own load ``q = ‖ŵ_face / FULL_SCALE‖²``
-  and of the other faces' (the sum of their ``q``), fitted by non-negative least squares (weighted
-  by the inverse squared variance, one reweighting step) to the squared residuals of the training
-  subsample, each session tared on its samples at rest as the calibration is used, less the
-  reference's noise at rest where the face carries; ``c₀`` is at least the gauge noise through
-  the matrix. The six axes of a face share the residuals' correlation.
+  and of the other faces' (the sum of their ``q``), fitted by non-negative least squares to the
+  squared residuals of the training subsample (each session tared on its samples at rest, as the
+  calibration is used) less the reference's noise at rest where the face carries; ``c₀`` is at
+  least the gauge noise through the matrix. The six axes of a face share the residuals' correlation.
 
-The sum is multiplied by ``scale²``: the factor that puts 95 % of the loaded training residuals
+The sum is multiplied by ``scale²``, the factor that puts 95 % of the loaded training residuals
 within ``±1.96`` standard deviations (the reference's noise added where the face carries; the
-errors are not Gaussian), times the held-out factor: the median over outputs of the
-cross-validated RMSE of the chosen model over its in-sample RMSE (the fit's own folds,
-``ModelChoice.cv_rmse``; 1 where none ran). A face fitted on its own rows (``face_to_face``) never
-fitted its crosstalk: its ``c₃`` keeps the in-sample figure. After
+errors are not Gaussian). The sample's own term is also multiplied by the held-out factor²: the
+median over outputs of the chosen model's cross-validated RMSE over its in-sample RMSE (the
+fit's own folds, ``ModelChoice.cv_rmse``; 1 where none ran), except a ``face_to_face`` face's
+``c₃``: it never fitted its crosstalk, whose residuals are held out already. After
 :meth:`CalibrationCovariance.retared` on ``n`` samples the tare's gauge noise ``A Σ_g Aᵀ / n`` is added.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import warnings
+from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.optimize
@@ -243,14 +241,13 @@ class CalibrationCovariance:
         return out
 
 
-def _nnls(Phi: np.ndarray, y: np.ndarray, w: np.ndarray) -> np.ndarray:
-    """Non-negative ``c`` minimising ``Σ w (Φ c − y)²``, columns scaled to unit norm (``Φ (n, k)``)."""
-    A = Phi * np.sqrt(w)[:, None]
-    s = np.linalg.norm(A, axis=0)
+def _nnls(Phi: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Non-negative ``c`` minimising ``‖Φ c − y‖²``, columns scaled to unit norm (``Φ (n, k)``)."""
+    s = np.linalg.norm(Phi, axis=0)
     on = s > 0
     c = np.zeros(Phi.shape[1])
     if on.any():
-        c[on] = scipy.optimize.nnls(A[:, on] / s[on], y * np.sqrt(w))[0] / s[on]
+        c[on] = scipy.optimize.nnls(Phi[:, on] / s[on], y)[0] / s[on]
     return c
 
 
@@ -320,12 +317,7 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
     for f in range(F):
         for a in range(6):
             y = E[:, f, a] ** 2 - V[:, f, a]
-            c = _nnls(phi[:, f], y, np.ones(y.size))
-            c[0] = max(c[0], floor[f, a])
-            v = phi[:, f] @ c + V[:, f, a]
-            if v.max() > 0:  # weights 1 / variance², relative to the smallest variance's
-                v = np.maximum(v, v.max() * 1e-12)
-                c = _nnls(phi[:, f], y, (v.min() / v) ** 2)
+            c = _nnls(phi[:, f], y)
             c[0] = max(c[0], floor[f, a])
             coef[f, a] = c
     var = np.einsum("nfk,fik->nfi", phi, coef)
