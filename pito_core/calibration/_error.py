@@ -251,18 +251,21 @@ def _nnls(Phi: np.ndarray, y: np.ndarray) -> np.ndarray:
     return c
 
 
-def held_out_ratio(cal) -> float:
+def held_out_ratio(cal, noise=None) -> float:
     """The median over output rows of the chosen model's cross-validated RMSE over its in-sample RMSE
-    (``cal.model.cv_rmse["chosen"]`` over ``cal.meta["fit_residual_rms"]``), at least 1; 1 where no
+    (``cal.model.cv_rmse["chosen"]`` over ``cal.meta["fit_residual_rms"]``), each mean square less
+    ``noise (F, 6)``, the reference's mean noise variance in the row's targets (output frame; rows
+    where it is not below the in-sample mean square are left out); at least 1; 1 where no
     cross-validation ran (``model="linear"``)."""
     F = len(cal.output_faces)
     cv = np.asarray((cal.model.cv_rmse or {}).get("chosen") or [], dtype=float)
     fit = np.asarray(cal.meta.get("fit_residual_rms", np.full((6, 6), np.nan)), dtype=float)[np.asarray(cal.output_faces) - 1]
     if cv.size != 6 * F:
         return 1.0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        r = (cv.reshape(F, 6) / fit).ravel()
-    r = r[np.isfinite(r)]
+    v = np.zeros((F, 6)) if noise is None else noise
+    num, den = cv.reshape(F, 6) ** 2 - v, fit**2 - v
+    ok = np.isfinite(num) & np.isfinite(den) & (den > 0)
+    r = np.sqrt(np.maximum(num[ok], 0.0) / den[ok])
     return max(float(np.median(r)), 1.0) if r.size else 1.0
 
 
@@ -287,7 +290,6 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
     """
     idx = np.asarray(cal.output_faces) - 1
     F = idx.size
-    rho = held_out_ratio(cal)
     own = np.zeros(F, dtype=bool)  # faces fitted on their own rows (carrying or at rest) alone
     for g in groups:
         if g.inputs.size == 6:
@@ -295,8 +297,10 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
     n = sum(len(b.counts) for blocks in subsample for b in blocks)
     E, V = np.zeros((n, F, 6)), np.zeros((n, F, 6), dtype=np.float32)  # residuals, the reference's noise in them
     q, L, at = np.zeros((n, F)), np.zeros(n, dtype=bool), 0
+    v_out = np.zeros((F, 6))  # the reference's noise variance in the targets, output frame, summed
     for blocks, mount, off, rc in zip(subsample, mounts, offsets, ref_covs):
         v = None if rc is None else np.einsum("fij,jk,fik->fi", mount.X_face_ati, rc, mount.X_face_ati)[idx]
+        vo = None if rc is None else (np.broadcast_to(np.diag(rc), (F, 6)) if cal.output_frame == "reference" else v)
         for b in blocks:
             T, carries, usable, _ = block_targets(np.asarray(b.reference, float), b.loaded, mount, "face")
             rows = slice(at, at + int(usable.sum()))
@@ -306,8 +310,10 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
             q[rows], L[rows] = face_q(W), b.loaded[usable].any(axis=1)
             if v is not None:
                 V[rows] = carries[usable][:, idx, None] * v
+                v_out += carries[usable][:, idx].sum(axis=0)[:, None] * vo
     E, V, L, phi = E[:at], V[:at], L[:at], load_features(q[:at])  # (n, F, 6), (n, F, 6), (n,), (n, F, 4)
     del q
+    rho = held_out_ratio(cal, v_out / max(at, 1))
     if at == 0:  # no usable sample in the subsample: the coefficients' term alone
         return ErrorModel(variance_coef=np.zeros((6 * F, N_FEATURES)), residual_corr=np.broadcast_to(np.eye(6), (F, 6, 6)),
                           scale=rho)
