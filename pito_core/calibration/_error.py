@@ -48,6 +48,9 @@ COVERAGE = 0.95
 Z_COVERAGE = 1.959964
 #: Bounds of the coverage scale (a factor on standard deviations).
 SCALE_BOUNDS = (0.05, 50.0)
+#: A session's reference is above the tare's noise limits when its noise at rest is, less this many
+#: of its standard errors (:func:`reference_noise_at_rest`).
+NOISE_LIMIT_SE = 3.0
 
 
 def load_features(q: np.ndarray) -> np.ndarray:
@@ -251,6 +254,12 @@ def _nnls(Phi: np.ndarray, y: np.ndarray) -> np.ndarray:
     return c
 
 
+def _standardised(e: np.ndarray, var: np.ndarray) -> np.ndarray:
+    """``e / √var`` (0 where ``var`` is 0)."""
+    sd = np.sqrt(var)
+    return np.divide(e, sd, out=np.zeros_like(e), where=sd > 0)
+
+
 def held_out_ratio(cal, noise=None) -> float:
     """The median over output rows of the chosen model's cross-validated RMSE over its in-sample RMSE
     (``cal.model.cv_rmse["chosen"]`` over ``cal.meta["fit_residual_rms"]``), each mean square less
@@ -328,7 +337,7 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
             coef[f, a] = c
     var = np.einsum("nfk,fik->nfi", phi, coef)
     del phi
-    corr = np.stack([np.corrcoef(E[:, f] / np.sqrt(np.maximum(var[:, f], 1e-300)), rowvar=False) for f in range(F)])
+    corr = np.stack([np.corrcoef(_standardised(E[:, f], var[:, f]), rowvar=False) for f in range(F)])
     corr = np.where(np.isfinite(corr), corr, np.eye(6)) if E.shape[0] > 2 else np.broadcast_to(np.eye(6), (F, 6, 6))
     # the scale: the 95 % quantile over the loaded residuals of each one's s², E² = Z² (s² var + V)
     E **= 2
@@ -367,7 +376,7 @@ def reference_noise_at_rest(ref_covs, ref_n) -> dict:
     """
     sd = [np.sqrt(np.clip(np.diagonal(np.asarray(c, float)), 0.0, None)) for c in ref_covs]
     force, torque = [float(d[:3].max()) for d in sd], [float(d[3:].max()) for d in sd]
-    low = [1.0 - 3.0 / np.sqrt(2.0 * max(n - 1, 1)) for n in ref_n]  # the figures' lower bounds, relative
+    low = [1.0 - NOISE_LIMIT_SE / np.sqrt(2.0 * max(n - 1, 1)) for n in ref_n]  # the figures' lower bounds, relative
     over = [k for k, (f, t, a) in enumerate(zip(force, torque, low))
             if a * f >= TARE_STILL_FORCE_STD_N or a * t >= TARE_STILL_TORQUE_STD_NM]
     for k in over:
