@@ -13,7 +13,7 @@ demo: deps venv
 
 test: deps venv
 	$(BIN)/lint-imports
-	$(XVFB) $(BIN)/python -m pytest -q --durations=15 $(PYTEST_ARGS)
+	$(XVFB) $(BIN)/python -m pytest -q -n 2 --dist loadgroup --durations=15 $(PYTEST_ARGS)
 
 deps:
 	@bash scripts/install-system-deps.sh

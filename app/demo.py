@@ -4,16 +4,30 @@
 a pty, the Net F/T on loopback UDP), opens the real drivers and an acquisition on the
 addresses it announces, and steers the simulated world (scenario, mount, operator, object)
 over the child's control channel. :func:`demo_calibration` calibrates the virtual cube with
-the simulator at startup. No Qt here.
+the simulator; :func:`cached_demo_calibration` reads the one a previous start wrote to the
+user's cache, keyed by everything that makes it (method, mount, k, seed, the simulator's
+parameters, the source of ``pito_core`` ``calibration``, ``sim`` and ``io``), so a start
+after the first shows forces at once. No Qt here.
 """
 
 from __future__ import annotations
 
-from pito_core.calibration import calibrate
-from pito_core.pipeline import PipelineProcess
-from pito_core.sim import SimulatedDevices, simulate_calibration
+import hashlib
+import json
+import os
+from pathlib import Path
 
-__all__ = ["DemoDevices", "demo_calibration", "DEMO_METHOD"]
+import pito_core
+from pito_core.calibration import calibrate, load_calibration
+from pito_core.io import FileFormatError
+from pito_core.pipeline import PipelineProcess
+from pito_core.sim import SimParams, SimulatedDevices, simulate_calibration
+
+__all__ = ["DemoDevices", "demo_calibration", "cached_demo_calibration", "demo_cache_path", "cache_dir", "DEMO_METHOD",
+           "DEMO_OBJECT_MASS"]
+
+#: The simulated object's mass, kg (``pito_core.sim.GraspLiveSource``'s): the live view's mass in the demo.
+DEMO_OBJECT_MASS = 0.3
 
 #: Method of the demo's startup calibration (every face calibrated on its own, all six loaded).
 DEMO_METHOD = "loaded_frame"
@@ -71,8 +85,64 @@ class DemoDevices:
             self.sim.close()
 
 
-def demo_calibration(k: int = 1500, seed: int = 0):
+#: The demo calibration's mount: a flange with an access hole on face 6.
+DEMO_MOUNT = ("frame_hole", 6)
+
+
+def _source_digest() -> str:
+    """SHA-256 of the source of the packages that make the demo calibration (calibration, sim, io)."""
+    h = hashlib.sha256()
+    root = Path(pito_core.__file__).parent
+    for pkg in ("calibration", "sim", "io", "frames"):
+        for f in sorted((root / pkg).rglob("*.py")):
+            h.update(f.relative_to(root).as_posix().encode())
+            h.update(f.read_bytes())
+    return h.hexdigest()
+
+
+def cache_dir() -> Path:
+    """The app's cache: ``$PITO_CACHE_DIR``, default ``$XDG_CACHE_HOME/pito``, else ``~/.cache/pito``."""
+    return Path(os.environ.get("PITO_CACHE_DIR") or Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache")
+                / "pito")
+
+
+def demo_cache_path(k: int = 1500, seed: int = 0) -> Path:
+    """Where the demo calibration of ``(k, seed)`` is cached: ``$PITO_CACHE_DIR`` (default
+    ``$XDG_CACHE_HOME/pito``, else ``~/.cache/pito``) ``/demo-<key>.pitocal``, the key a hash of
+    everything that makes it."""
+    base = cache_dir()
+    key = json.dumps({"method": DEMO_METHOD, "mount": DEMO_MOUNT, "k": int(k), "seed": int(seed),
+                      "sim": SimParams().to_dict(), "source": _source_digest()}, sort_keys=True, default=str)
+    return Path(base) / f"demo-{hashlib.sha256(key.encode()).hexdigest()[:16]}.pitocal"
+
+
+def cached_demo_calibration(k: int = 1500, seed: int = 0):
+    """The demo calibration a previous start cached for ``(k, seed)`` and today's code, or None.
+
+    A cache file that cannot be read is removed (and None returned): the next start writes it again."""
+    path = demo_cache_path(k, seed)
+    if not path.is_file():
+        return None
+    try:
+        cal = load_calibration(path)
+    except FileFormatError:
+        path.unlink(missing_ok=True)
+        return None
+    return cal if cal.meta.get("simulated") else None
+
+
+def demo_calibration(k: int = 1500, seed: int = 0, cache: bool = True):
     """Calibrate the virtual cube with the simulator: method :data:`DEMO_METHOD` (flange with an
-    access hole on face 6, all six faces loaded, ``k`` samples each). SIMULATED data."""
-    session = simulate_calibration("frame_hole", 6, k=k, seed=seed)
-    return calibrate(session, DEMO_METHOD)
+    access hole on face 6, all six faces loaded, ``k`` samples each). SIMULATED data.
+
+    With ``cache`` the result is written to :func:`demo_cache_path` for the next start."""
+    session = simulate_calibration(*DEMO_MOUNT, k=k, seed=seed)
+    cal = calibrate(session, DEMO_METHOD)
+    if cache:
+        path = demo_cache_path(k, seed)
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            cal.save(path)
+        except OSError:  # a read-only home: no cache, the demo calibrates at every start as before
+            pass
+    return cal

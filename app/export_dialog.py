@@ -16,7 +16,8 @@ from PySide6.QtWidgets import (
 
 from pito_core.calibration import load_calibration
 from pito_core.interop import export_data, write_mcap, write_nwb
-from pito_core.io import export_recording_csv, export_recording_mat, read_recording
+from pito_core.io import export_recording_files, read_recording
+from pito_core.pipeline import recording_times
 
 from .file_menu import add_dialog_action
 from .filetypes import CALIBRATION_FILTER
@@ -43,13 +44,9 @@ def export_recording(recording, formats, out_prefix, calibration_path=None, subj
     prefix = str(out_prefix)
     if "csv" in formats or "mat" in formats:
         rec = read_recording(recording)
-        if "csv" in formats:
-            export_recording_csv(rec, prefix + "_pito.csv", "pito")
-            export_recording_csv(rec, prefix + "_ati.csv", "netft")
-            out += [prefix + "_pito.csv", prefix + "_ati.csv"]
-        if "mat" in formats:
-            export_recording_mat(rec, prefix + ".mat")
-            out.append(prefix + ".mat")
+        # the one time base of every export (device clock), as `pito export` writes it
+        out += export_recording_files(rec, prefix if "csv" in formats else None,
+                                      prefix + ".mat" if "mat" in formats else None, recording_times(rec))
         progress(0.05, "raw streams written")
     if "nwb" in formats or "mcap" in formats:
         cal = None

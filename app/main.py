@@ -17,7 +17,7 @@ import sys
 
 __all__ = ["main", "build_parser"]
 
-PAGES = ("live", "mount", "load", "results")
+PAGES = ("live", "first", "mount", "load", "results")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -30,6 +30,16 @@ def _prepare_live(window) -> None:
     wait_until(holding, timeout=60, step=0.02)
 
 
+def _prepare_first(window) -> None:
+    """The demo's first frame with forces: as soon as the live view has shown a calibrated bundle
+    (the start-up time, timed from outside: ``farm-bench -- pito-app --demo --screenshot f.png --page first``)."""
+    window.tabs.setCurrentWidget(window.live)
+    live = window.live
+    wait_until(lambda: window.calibration is not None and live._sums is not None, timeout=60, step=0.01)
+    n0 = live.frames
+    wait_until(lambda: live.frames > n0, timeout=10, step=0.01)  # drawn
+
+
 def _prepare_mount(window) -> None:
     window.tabs.setCurrentWidget(window.wizard)
     window.model.set_mount(method="loaded_frame", flange="frame_hole", connected_face=6)
@@ -49,16 +59,17 @@ def _prepare_results(window) -> None:
     run_to_page(window, "results", k=600)
 
 
-PREPARE = {"live": _prepare_live, "mount": _prepare_mount, "load": _prepare_load, "results": _prepare_results}
+PREPARE = {"first": _prepare_first, "live": _prepare_live, "mount": _prepare_mount, "load": _prepare_load, "results": _prepare_results}
 
 
 def take_screenshot(window, page: str, path, size=(1440, 900)) -> bool:
     """Show ``window`` at ``size`` (px), bring ``page`` up, grab the whole window to ``path``."""
     window.resize(*size)
     window.show()
-    process_for(0.5)
+    if page != "first":
+        process_for(0.5)
     PREPARE[page](window)
-    if page != "live":
+    if page not in ("live", "first"):
         process_for(0.3)
     QApplication.processEvents()
     img = grab_window(window)  # the 3D views are native GL windows: painted in

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import sys
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
+import numpy as np
 from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import QFileDialog, QLabel, QMainWindow, QMessageBox, QTabWidget, QWidget, QHBoxLayout
 
@@ -16,7 +18,7 @@ from pito_core.pipeline import PipelineProcess, PipelineThread, RecordingReader
 from pito_core.sim import reference_pose
 
 from .filetypes import CALIBRATION_FILTER
-from .demo import DEMO_METHOD, DemoDevices, demo_calibration
+from .demo import DEMO_METHOD, DEMO_OBJECT_MASS, DemoDevices, cached_demo_calibration, demo_cache_path, demo_calibration
 from .live import LiveFeed, LiveView
 from .tasks import TaskBar, cancel_tasks, run_in_process, run_task
 from .objects import display_meshes, list_assemblies, load_assembly, weight
@@ -64,6 +66,11 @@ class MainWindow(QMainWindow):
         self.demo = demo
         self.seed = seed
         self.demo_speed, self.demo_period = demo_speed, demo_period
+        # demo: the simulated devices' two processes boot (seconds of waiting) while the window is built
+        self._rig_boot = None
+        if demo:
+            self._rig_boot = ThreadPoolExecutor(1, thread_name_prefix="demo-boot")
+            self._rig_future = self._rig_boot.submit(DemoDevices, seed=seed, speed=demo_speed, period=demo_period)
         self.core = CubeCore()
         self.setWindowTitle("pito — Patched Intrinsic Tactile Object" + ("  [SIMULATED DEVICE]" if demo else ""))
         self._build_tabs(wizard_k if demo else 10000)
@@ -137,7 +144,9 @@ class MainWindow(QMainWindow):
         """The tabs', live view's and wizard's signals to this window's and the feed's handlers."""
         self.tabs.currentChanged.connect(self._tab_changed)
         self.wizard.pages["devices"].connect_requested.connect(self.connect_devices)
-        self.live.tare_requested.connect(lambda: self.feed.post(self.feed.tare))
+        self.live.tare_requested.connect(self._tare)
+        self.live.scenario_requested.connect(self._scenario_requested)
+        self.live.mass.valueChanged.connect(self._mass_changed)
         self.live.undo_tare_requested.connect(lambda: self.feed.post(self.feed.undo_tare))
         self.feed.tare_status.connect(self.live.set_tare_status)
         self.live.record_toggled.connect(self.toggle_recording)
@@ -157,17 +166,52 @@ class MainWindow(QMainWindow):
         self.wizard.pages["tare"].operator = lambda face: self.rig and self.rig.set_operator_face(face)
         self.wizard.pages["load"].operator = lambda face: self.rig and self.rig.set_operator_face(face)
 
+    def _tare(self) -> None:
+        """The live view's Tare: the object's mass and base face as the operator set them, to the feed's thread."""
+        support = self.live.tare_support()
+        self.feed.post(lambda: self.feed.tare(support))
+
+    def _mass_changed(self, mass: float) -> None:
+        """The operator's object mass: its weight in the equilibrium plot (the assembly's default without one)."""
+        self.live.equilibrium.set_weight(mass * 9.81 if mass > 0 else weight(self.assembly))
+
+    def _scenario_requested(self, name: str) -> None:
+        if self.rig is not None and self.tabs.currentWidget() is self.live:
+            self.rig.set_scenario(name)
+
+    def _live_scenario(self) -> str:
+        """The demo scenario the live view shows (its combo box)."""
+        return self.live.scenario.currentData() or "grasp"
+
     # ------------------------------------------------------------ demo
     def start_demo(self, k: int) -> None:
         """Open the simulated devices (pty + UDP) and, without a calibration, calibrate the virtual cube."""
-        self.rig = DemoDevices(seed=self.seed, speed=self.demo_speed, period=self.demo_period)
-        self.rig.set_scenario("grasp")
+        if self._rig_boot is not None:  # booted while the window was built
+            boot, self._rig_boot = self._rig_boot, None
+            try:
+                self.rig = self._rig_future.result()
+            finally:
+                boot.shutdown(wait=False)
+        else:
+            self.rig = DemoDevices(seed=self.seed, speed=self.demo_speed, period=self.demo_period)
+        self.rig.set_scenario(self._live_scenario())
+        self.live.scenario.setVisible(True)
+        if not (self.assembly is not None and self.assembly.mass):
+            self.live.mass.setValue(DEMO_OBJECT_MASS)  # the simulated object's
         source = self.rig.open_source()
         self.feed.post(lambda: self.feed.set_source(source))
         self.wizard.pages["devices"].set_connected(f"✔ SIMULATED: {self.rig.describe()}", True)
         self.statusBar().showMessage(f"SIMULATED DEVICE: {self.rig.describe()}")
         if self.calibration is None and not self._loading_calibration:
             m = DEMO_METHOD
+            cached = cached_demo_calibration(k, self.seed)
+            if cached is not None:  # a previous start's, for today's code and simulator: forces at once
+                self.set_calibration(cached, f"virtual cube, calibrated with the simulator ({m}, k = {k}/face)")
+                self.statusBar().showMessage(
+                    f"SIMULATED DEVICE — no calibration file: the virtual cube's calibration with the simulator "
+                    f"({m}, k = {k} samples per face, 1/cond = {cached.inverse_condition_number:.1e}), "
+                    f"cached by an earlier start in {demo_cache_path(k, self.seed)}.")
+                return
             self.statusBar().showMessage(f"Calibrating the virtual cube (method '{m}', k = {k} per face)…")
             seed = self.seed
 
@@ -193,7 +237,7 @@ class MainWindow(QMainWindow):
             self.rig.set_scenario("calibration")
             self._mount_changed()
         else:
-            self.rig.set_scenario("grasp")
+            self.rig.set_scenario(self._live_scenario())
 
     def _mount_changed(self) -> None:
         self.model.T_core_ati = reference_pose(self.model.flange, self.model.connected_face, self.core)
@@ -283,7 +327,11 @@ class MainWindow(QMainWindow):
             self.statusBar().showMessage(f"assembly {name}: {exc}", 8000)
             self.assembly = None
         self.live.scene.set_patches(display_meshes(self.assembly))
-        self.live.equilibrium.set_weight(weight(self.assembly))
+        if self.assembly is not None and self.assembly.mass:
+            self.live.mass.setValue(self.assembly.mass)
+        cog = getattr(self.assembly, "center_of_gravity", None)
+        self.live.cog = np.zeros(3) if cog is None else np.asarray(cog, dtype=float)
+        self._mass_changed(self.live.mass.value())
         self._install_solver()
         if self.rig is not None:
             self.rig.set_assembly(self.assembly)
@@ -322,7 +370,9 @@ class MainWindow(QMainWindow):
             return
         self.recording_path = str(path)
         simulated = self.model.simulated or self.demo
-        self.feed.post(lambda: self.feed.start_recording(path, simulated))
+        # the object's mass as the operator gave it (the analysis's force residual needs it)
+        meta = {"mass_kg": self.live.mass.value()} if self.live.mass.value() > 0 else {}
+        self.feed.post(lambda: self.feed.start_recording(path, simulated, meta))
         self.statusBar().showMessage(f"Recording both devices to {path}" + (" (SIMULATED)" if simulated else ""))
 
     def _recording_closed(self, path: str, rows: int) -> None:

@@ -18,7 +18,7 @@ from threadpoolctl import threadpool_limits
 from pito_core.calibration import get_method
 from pito_core.frames import invert_pose, wrench_adjoint
 
-__all__ = ["plain_affine_lstsq"]
+__all__ = ["plain_affine_lstsq", "plain_contact"]
 
 
 def _targets(session, output_frame):
@@ -113,3 +113,53 @@ def plain_affine_lstsq(session, method, output_faces):
         return W
 
     return predict
+
+
+# ---------------------------------------------------------------- contact: the plain closed form
+def plain_contact(kind, f, m, *, point=None, normal=None, center=None, semi_axes=None, rotation=None):
+    """The soft-finger model's closed form in plain numpy, written apart from ``pito_core.contact``.
+
+    ``m = c × f + τ n(c)``, finger pushing (``f · n < 0``). Plane ``n · x = n · point``:
+    ``c = (n × m + d f) / (n · f)``. Ellipsoid ``c = center + R diag(a) q``, ``|q| = 1``
+    (a sphere: ``a = (r, r, r)``, ``R = I``): in principal axes ``μ = q × g + κ q`` with
+    ``g = Rᵀf / a``, ``μ = a ⊙ Rᵀ(m − center × f) / (a1 a2 a3)``; ``q ∝ v (g × μ) − √v (α μ + v g)``
+    with ``α = g · μ`` and ``v`` the non-negative root of ``v² − (|g|² − |μ|²) v − α² = 0``.
+
+    Parameters
+    ----------
+    kind : {"plane", "sphere", "ellipsoid"}
+    f, m : ndarray, shape (N, 3)
+        Force (N) and moment about the frame origin (N·m).
+
+    Returns
+    -------
+    c : ndarray, shape (N, 3)
+        Contact point, m.
+    n : ndarray, shape (N, 3)
+        Outward unit normal.
+    tau : ndarray, shape (N,)
+        Torsion about ``n``, N·m.
+    ok : ndarray of bool, shape (N,)
+        A pushing contact exists.
+    """
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if kind == "plane":
+            nrm = np.asarray(normal, float)
+            fn = f @ nrm
+            c = (np.cross(nrm, m) + (np.asarray(point, float) @ nrm) * f) / fn[:, None]
+            return c, np.broadcast_to(nrm, f.shape), np.sum(f * m, axis=1) / fn, fn < 0
+        a = np.asarray(semi_axes, float)
+        R = np.eye(3) if rotation is None else np.asarray(rotation, float)
+        c0 = np.asarray(center, float)
+        g = (f @ R) / a
+        mu = ((m - np.cross(c0, f)) @ R) * a / np.prod(a)
+        gg, alpha = np.sum(g * g, axis=1), np.sum(g * mu, axis=1)
+        B = gg - np.sum(mu * mu, axis=1)
+        v = 0.5 * (B + np.sqrt(B * B + 4 * alpha * alpha))
+        q = v[:, None] * np.cross(g, mu) - np.sqrt(v)[:, None] * (alpha[:, None] * mu + v[:, None] * g)
+        q /= np.linalg.norm(q, axis=1, keepdims=True)
+        ok = np.sum(g * q, axis=1) < 0
+        n = (q / a) @ R.T
+        n /= np.linalg.norm(n, axis=1, keepdims=True)
+        c = c0 + (q * a) @ R.T
+        return c, n, np.sum(n * (m - np.cross(c, f)), axis=1), ok

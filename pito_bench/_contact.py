@@ -16,8 +16,12 @@ docs/contact.md), with a 95 % percentile-bootstrap interval over the samples. Si
 ``scipy.optimize.least_squares`` (unknowns: chart coordinates of the point on the patch,
 the force, the torsion; whitened residual; Levenberg–Marquardt from the patch apex, with
 restarts when that does not end on a pushing contact) on a
-subset of the same samples (no baseline on the mesh: it has no smooth chart). Speeds are on batches of ``n_speed`` wrenches, one thread; the solver rows
-run without the single-contact test (``single_contact=False``), whose cost has its own row.
+subset of the same samples (no baseline on the mesh: it has no smooth chart). Speeds are on batches of ``n_speed`` wrenches, one thread, every mode once per round
+(best of the rounds, CPU time of the one-thread worker); the solver rows run without the single-contact test
+(``single_contact=False``), whose cost has its own row (the test with its default noise:
+its cost does not depend on the noise) and its ratio to the bare solve's. On the analytic
+surfaces the yardstick is the same model's closed form in plain numpy
+(``pito_bench._baseline.plain_contact``, on the same wrench array): ``speed_ratio_plain``.
 """
 
 from __future__ import annotations
@@ -30,6 +34,7 @@ from scipy.spatial.transform import Rotation
 
 from pito_core.contact import Ellipsoid, MeshSurface, Plane, Sphere, contact_crb, reason_names, solve
 
+from ._baseline import plain_contact
 from ._contact_bounds import facet_of, mesh_exact_solutions, normal_snr_split, plane_second_order_ratio, ratio_ci
 from ._timing import best_time, run_worker
 
@@ -39,6 +44,8 @@ __all__ = ["NOISE_LEVELS", "SCENARIOS", "SURFACES", "make_surface", "sample_cont
 NOISE_LEVELS = {"low": (0.005, 5e-5), "mid": (0.02, 2e-4), "high": (0.1, 1e-3)}
 SCENARIOS = ("soft", "near_tangent", "point")
 SURFACES = ("plane", "sphere", "ellipsoid", "mesh")
+#: the speed rows' yardstick (pito_bench._baseline.plain_contact)
+_PLAIN = "plain numpy closed form (soft finger)"
 
 
 def _bump_mesh(n: int = 50, half: float = 0.025):
@@ -200,13 +207,20 @@ def _speed_rows(kind, surface, n_speed, n_scipy, repeat, rng) -> list[dict]:
         "closed form (soft finger)": dict(single_contact=False),
         "point contact (weighted LS)": dict(point_contact=True, wrench_cov=cov, single_contact=False),
         "soft finger + CRB covariance": dict(wrench_cov=cov, single_contact=False),
-        "soft finger + single-contact test": dict(wrench_cov=cov),
+        "soft finger + single-contact test": dict(single_contact=True),
     }
-    rates = {}
-    for name, kw in modes.items():
-        nb = n_speed if kind != "mesh" and "point" not in name else max(1000, n_speed // 10)
-        dt, _ = best_time(lambda: solve(surface, W[:nb], **kw), repeat, budget=10.0)
-        rates[name] = nb / dt
+    sizes = {name: n_speed if kind != "mesh" and "point" not in name else max(1000, n_speed // 10) for name in modes}
+    calls = {name: (lambda kw=kw, nb=sizes[name]: solve(surface, W[:nb], **kw)) for name, kw in modes.items()}
+    if kind != "mesh":  # the yardstick: the same model's closed form in plain numpy (_baseline)
+        geo = (dict(point=surface.point, normal=surface.normal) if kind == "plane" else
+               dict(center=surface.center, semi_axes=surface.semi_axes, rotation=surface.rotation))
+        sizes[_PLAIN] = n_speed
+        calls[_PLAIN] = lambda: plain_contact(kind, W[:, :3], W[:, 3:], **geo)
+    best = dict.fromkeys(calls, float("inf"))
+    for _ in range(max(1, repeat)):  # side by side: every mode once per round, the best round each
+        for name, call in calls.items():
+            best[name] = min(best[name], best_time(call, 1, clock=time.process_time)[0])
+    rates = {name: sizes[name] / best[name] for name in calls}
     if kind != "mesh":
         ns = max(5, n_scipy // 4)
         t0 = time.perf_counter()
@@ -215,12 +229,17 @@ def _speed_rows(kind, surface, n_speed, n_scipy, repeat, rng) -> list[dict]:
         t0 = time.perf_counter()
         scipy_solve(surface, W[:ns], cov, point_contact=True)
         rates["scipy least_squares (point contact)"] = ns / (time.perf_counter() - t0)
+    solve_s = best["closed form (soft finger)"] / sizes["closed form (soft finger)"]  # s per solve, test off
+    test_s = best["soft finger + single-contact test"] / sizes["soft finger + single-contact test"]
     for name, r in rates.items():
         model = "point contact" if "point" in name else "soft finger"
         base = rates.get(f"scipy least_squares ({model})", float("nan"))
-        rows.append({"surface": kind, "solver": name, "solves_per_s": r,
-                           "speed_ratio_scipy": r / base,
-                           "batch": n_speed if kind != "mesh" and "point" not in name else max(1000, n_speed // 10)})
+        row = {"surface": kind, "solver": name, "solves_per_s": r, "speed_ratio_scipy": r / base,
+               "speed_ratio_plain": r / rates.get(_PLAIN, float("nan")),
+               "batch": sizes.get(name, max(5, n_scipy // 4))}
+        if name == "soft finger + single-contact test":
+            row["test_cost_ratio"] = (test_s - solve_s) / solve_s  # the test's own cost over the bare solve's
+        rows.append(row)
     return rows
 
 

@@ -46,6 +46,7 @@ def targets(result: dict) -> list[dict]:
     """The issue's targets against this run: ``target``, ``measured``, ``met`` (bool or None)."""
     pipe = result.get("pipeline")
     return (_calibration_targets(result.get("calibration")) + _contact_targets(result.get("contact"))
+            + _analysis_targets(result.get("analysis"))
             + _pipeline_targets(pipe) + _live_targets(result.get("live"), pipe))
 
 
@@ -75,6 +76,16 @@ def _calibration_targets(cal: dict | None) -> list[dict]:
     return out
 
 
+def _analysis_targets(an: dict | None) -> list[dict]:
+    """Issue 44, point 2: ≥ 2·10⁵ samples/s per core without figures, figures adding ≤ 20 %."""
+    if not an:
+        return []
+    r = an["analyze_recording_samples_per_s"]
+    return [{"target": "analysis ≥ 2·10⁵ samples/s per core without figures; figures add ≤ 20 %",
+             "measured": f"{r:.3g} samples/s; figures +{100 * an['figures_share']:.0f} %",
+             "met": r >= 2e5 and an["figures_share"] <= 0.2}]
+
+
 def _contact_targets(con: dict | None) -> list[dict]:
     """Solves per second per surface, error against the CRB, the single-contact test's rates."""
     out = []
@@ -86,6 +97,18 @@ def _contact_targets(con: dict | None) -> list[dict]:
         if v is not None:
             out.append({"target": f"contact {kind} ≥ {goal:.0e} solves/s (one core)", "measured": f"{v:.3g} solves/s",
                         "met": v >= goal})
+    for kind in ("plane", "sphere", "ellipsoid"):  # issue 44: against the plain closed form, the test's cost
+        bare = next((s for s in con["speed"] if s["surface"] == kind and s["solver"] == "closed form (soft finger)"), None)
+        test = next((s for s in con["speed"] if s["surface"] == kind and "single-contact" in s["solver"]), None)
+        if bare is None or test is None or "speed_ratio_plain" not in bare:
+            continue
+        goal = 5e5 if kind == "ellipsoid" else 1e6
+        out.append({"target": f"contact {kind}: solve ≥ 1 × a plain numpy closed form; with the test ≥ {goal:.0e} "
+                              "solves/s",
+                    "measured": f"{bare['speed_ratio_plain']:.2f} ×; {test['solves_per_s']:.3g} solves/s",
+                    "met": bare["speed_ratio_plain"] >= 1 and test["solves_per_s"] >= goal})
+        out.append({"target": f"contact {kind}: the single-contact test ≤ 0.5 × the solve's own cost",
+                    "measured": f"{test['test_cost_ratio']:.2f} ×", "met": test["test_cost_ratio"] <= 0.5})
     acc = [a for a in con["accuracy"] if math.isfinite(_n(a["crb_ratio"]))]
     if acc:
         worst = max(acc, key=lambda a: a["crb_ratio"])
@@ -148,7 +171,7 @@ def format_report(result: dict) -> str:
                  f"{', QUICK' if m.get('quick') else ''}")
     parts.append("Times are best of repeats; ratios are against baselines measured in the same process and run.")
     for key, tables in (("calibration", _calibration_tables), ("contact", _contact_tables),
-                        ("pipeline", _pipeline_tables), ("live", _live_window_tables)):
+                        ("pipeline", _pipeline_tables), ("analysis", _analysis_tables), ("live", _live_window_tables)):
         if result.get(key):
             parts += tables(result[key])
     tg = result.get("targets")
@@ -156,6 +179,19 @@ def format_report(result: dict) -> str:
         parts.append(text_table("Targets", ["target", "measured", "met"],
                                 [[t["target"], t["measured"], {True: "yes", False: "NO", None: "—"}[t["met"]]] for t in tg]))
     return "\n\n".join(p for p in parts if p) + "\n"
+
+
+def _analysis_tables(an: dict) -> list[str]:
+    """The analysis section's table: every stage's rate beside the bare read of the same file."""
+    rows = [[r["stage"], _f(r["s"] * 1e3), _f(r["samples_per_s"]), _f(r["ratio_read"])] for r in an["rows"]]
+    rows.append(["analyze_recording (end to end, no figures)", _f(an["analyze_recording_s"] * 1e3),
+                 _f(an["analyze_recording_samples_per_s"]),
+                 _f(an["samples"] / an["read_samples_per_s"] / an["analyze_recording_s"])])
+    return [text_table(f"Analysis, stage by stage ({an['data']}; {an['samples']:,} samples, {an['trials']} trials; "
+                       f"CPU time of a one-thread worker, best of repeats; figures add "
+                       f"{100 * an['figures_share']:.0f} % to the analysis; worker peak RSS "
+                       f"{_f(an.get('peak_rss_mb'))} MB)",
+                       ["stage", "time (ms)", "samples/s", "× the bare read's rate"], rows)]
 
 
 def _calibration_tables(cal: dict) -> list[str]:
@@ -220,10 +256,12 @@ def _calibration_tables(cal: dict) -> list[str]:
 def _contact_tables(con: dict) -> list[str]:
     """The contact section's tables: speed, accuracy against the CRB, the single-contact flag, Pareto."""
     parts = []
-    rows = [[s["surface"], s["solver"], _f(s["solves_per_s"]), _f(s["speed_ratio_scipy"]), f"{s['batch']:,}"]
+    rows = [[s["surface"], s["solver"], _f(s["solves_per_s"]), _f(s.get("speed_ratio_plain")),
+             _f(s.get("test_cost_ratio")), _f(s["speed_ratio_scipy"]), f"{s['batch']:,}"]
             for s in con["speed"]]
-    parts.append(text_table(f"Contact speed (one thread; batch of wrenches, mid noise)",
-                            ["surface", "solver", "solves/s", "ratio scipy (same model)", "batch"], rows))
+    parts.append(text_table("Contact speed (one thread; batch of wrenches, mid noise; modes side by side)",
+                            ["surface", "solver", "solves/s", "× plain numpy closed form", "test cost / solve",
+                             "× scipy (same model)", "batch"], rows))
     rows = []
     for a in con["accuracy"]:
         rows.append([a["surface"], a["scenario"], f"{a['noise']} ({a['sigma_force_N']:g} N, {a['sigma_moment_Nm']:g} N·m)",

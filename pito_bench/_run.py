@@ -18,6 +18,7 @@ import scipy
 
 from pito_core import __version__
 
+from ._analysis import run_analysis
 from ._calibration import coverage_cubes, random_cube_ratios, run_calibration
 from ._model_choice import model_choice_ratios
 from ._contact import run_contact
@@ -29,7 +30,7 @@ from ._timing import thread_env
 __all__ = ["SECTIONS", "FULL_SIZES", "QUICK_SIZES", "run_bench", "live_available", "json_safe"]
 
 #: Sections in run order; ``live`` needs the app extras (PySide6, pyvista).
-SECTIONS = ("calibration", "contact", "pipeline", "live")
+SECTIONS = ("calibration", "contact", "pipeline", "analysis", "live")
 #: Sections run only when named (long): ``soak`` = 10 min recording by pito-app --demo (1 min with --quick).
 EXTRA_SECTIONS = ("soak",)
 #: Calibration sizes k (samples per session) of a full and of a quick run.
@@ -131,6 +132,8 @@ def run_bench(*, quick: bool = False, sections=SECTIONS, sizes=None, threads: in
             result["contact"] = run_contact(quick=quick, threads=threads, progress=progress, **(contact_sizes or {}))
         if "pipeline" in sections:
             result["pipeline"] = run_pipeline(quick=quick, threads=threads, progress=progress)
+        if "analysis" in sections:
+            result["analysis"] = run_analysis(quick=quick, threads=threads, progress=progress)
         if "live" in sections:
             result["live"] = _run_live(quick, threads, progress)
         if "soak" in sections:

@@ -24,6 +24,7 @@ TASKS = {
     "contact": ("_contact", "task_contact"),
     "contact_single": ("_single_contact", "task_single_contact"),
     "pipeline": ("_pipeline", "task_pipeline"),
+    "analysis": ("_analysis", "task_analysis"),
 }
 
 

@@ -33,7 +33,15 @@ Measure what pito exists for and print tables with units.
                bootstrap interval over the samples. The single-contact test:
                false alarms (%) on simulated single touches and detection (%) of
                two-finger touches by separation D (σ), the share no method can tell
-               from one touch (D ≤ 0), per patch kind.
+               from one touch (D ≤ 0), per patch kind. Side by side in one run: the
+               same model's closed form in plain numpy (pito_bench._baseline), the
+               solver's ratio to it and the single-contact test's cost over the
+               bare solve's.
+  analysis     pito analyze stage by stage on a simulated lift recording: samples/s
+               of the read, pairing, calibration, contacts, single-contact test,
+               metrics, figures and CSV writing, each beside a bare read of the same
+               file (CPU time of a one-thread worker), the whole analyze_recording,
+               and the figures' cost as a share of it.
   pipeline     serial frames decoded per second (× real time at 1 kHz); cost per
                display tick (ms) of finding the new samples by copying the ring windows
                vs by write cursor, and of the whole pipeline step; latency (ms) from a
@@ -55,7 +63,7 @@ generated and fitted); --quick takes under a minute on an idle 2-core machine.
 
 
 def register(sub) -> None:
-    p = sub.add_parser("bench", help="benchmark calibration, contact sensing and the live pipeline",
+    p = sub.add_parser("bench", help="benchmark calibration, contact sensing, the analysis and the live pipeline",
                        description=HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--quick", action="store_true", help="small sizes (k ≤ 10⁵ samples, short live runs)")
     p.add_argument("--json", action="store_true", help="print the results as JSON instead of tables (SI units, s, MB)")

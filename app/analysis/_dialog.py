@@ -16,11 +16,10 @@ from PySide6.QtWidgets import (
 from pito_core.calibration import load_calibration
 from pito_core.analysis import analyze_recording, trial_figure, write_analysis
 
-from ..file_menu import add_dialog_action
 from ..tasks import TaskBar, run_task
 from ._table import DataFrameModel
 
-__all__ = ["AnalysisDialog", "AnalysisResult", "install_analysis_menu", "run_analysis"]
+__all__ = ["AnalysisDialog", "AnalysisResult", "run_analysis"]
 
 
 @dataclass
@@ -169,6 +168,4 @@ class AnalysisDialog(QDialog):
         return written
 
 
-def install_analysis_menu(window):
-    """Add File → Analyse recording… to ``window``'s menu bar (creating the File menu if absent)."""
-    return add_dialog_action(window, "Analyse recording… (trials, grasp metrics)", AnalysisDialog, "analysis")
+

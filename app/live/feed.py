@@ -213,12 +213,13 @@ class LiveFeed(QObject):
         if self.replaying:
             self.source.seek(t)
 
-    def tare(self) -> None:
-        """Zero the face wrenches and the reference on the last 0.5 s — only if still and unloaded.
+    def tare(self, support=None) -> None:
+        """Zero the face wrenches and the reference on the last 0.5 s — only if still and every load is known.
 
         Checked and taken where the samples are (the source's pipeline: the wizard's checks,
-        :func:`pito_core.pipeline.check_tare`), recorded there when recording; a refusal is
-        reported with its reason on ``tare_status``. The tare is kept as the live tare.
+        :func:`pito_core.pipeline.check_tare`): unloaded, or with ``support`` (a ``TareSupport``: the
+        object's mass and base face) at rest on the table; recorded there when recording. A refusal
+        is reported with its reason on ``tare_status``. The tare is kept as the live tare.
         """
         if self.replaying:
             self.tare_status.emit("✘ Tare: not during a replay (the recording's own tares apply)", False)
@@ -226,8 +227,11 @@ class LiveFeed(QObject):
         if self.source is None:
             self.tare_status.emit("✘ Tare refused: no devices", False)
             return
+        if self.calibration is None:
+            self.tare_status.emit("✘ Tare refused: no calibration — load one (or calibrate) first", False)
+            return
         try:
-            self.source.tare(0.5, True)
+            self.source.tare(0.5, True, support)
         except ValueError as exc:  # TareRefused (reason), or nothing seen yet
             reason = exc.check.reason if isinstance(exc, TareRefused) else str(exc).removeprefix("tare refused: ")
             self.tare_status.emit(f"✘ Tare refused: {reason}", self.tare_in_force is not None)
@@ -253,9 +257,14 @@ class LiveFeed(QObject):
             return "Tare: as recorded (replay)"
         ev = self.tare_in_force
         if ev is None:
-            return "Tare: the calibration's own zero"
+            return "Tare: the calibration's own zero" if self.calibration is not None else "Tare: none (no calibration)"
         when = time.strftime("%H:%M:%S", time.localtime(ev.get("taken_at", time.time())))
-        return f"Tare: taken {when} ({ev.get('duration', 0.5):g} s, still and unloaded)"
+        state = ev.get("state", "unloaded")
+        if ev.get("known_load") is not None:
+            W = np.asarray(ev["known_load"], dtype=float)
+            j = int(np.argmax(np.linalg.norm(W[:, :3], axis=1)))
+            state += f": face {j + 1} reads its weight, {np.linalg.norm(W[j, :3]):.2f} N"
+        return f"Tare: taken {when} ({ev.get('duration', 0.5):g} s, still, {state})"
 
     def contacts(self, wrenches):
         """Contacts (``ContactEstimate``, frame "core") of face wrenches ``(n, 6, 6)`` on the object shown, each sample

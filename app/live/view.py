@@ -21,15 +21,56 @@ import numpy as np
 from PySide6.QtCore import Qt, QTimer, Signal
 from PySide6.QtWidgets import (
     QCheckBox, QComboBox, QDoubleSpinBox, QFormLayout, QGroupBox, QHBoxLayout, QLabel, QPushButton, QSizePolicy, QSlider,
-    QSplitter, QVBoxLayout, QWidget,
+    QSpinBox, QSplitter, QVBoxLayout, QWidget,
 )
 
 from pito_core.calibration import NOT_MEASURED_TEXT
+from pito_core.contact import reason_names
+from pito_core.pipeline import TareSupport
 
 from ..scene import CubeScene
 from ..widgets.plots import EquilibriumPlot, FaceForcePlot
 
-__all__ = ["LiveView", "unmeasured_faces_text"]
+__all__ = ["LiveView", "unmeasured_faces_text", "sample_sums", "flagged_text", "DEMO_SCENARIOS"]
+
+#: The demo's scenarios in the live view: (shown, ``DemoWorld`` name).
+DEMO_SCENARIOS = (("Demo: grasp loop", "grasp"), ("Demo: at rest on the table", "rest"),
+                  ("Demo: two fingers on one patch", "two_fingers"))
+
+#: Why one fingertip cannot explain a contact, by ``SingleContactReason`` name (``pito_core.contact``).
+FLAG_WHY = {"outside": "its point falls off the patch", "pulling": "the force pulls",
+            "friction": "the sideways force exceeds a fingertip's friction",
+            "torsion": "the twist exceeds what a fingertip's friction gives",
+            "residual": "the wrench fits no single point", "no_solution": "no point of the patch explains it"}
+
+
+def flagged_text(contacts, shown) -> str:
+    """The red-pink contacts in words: which face and why one fingertip cannot explain its wrench ("" if none)."""
+    single = getattr(contacts, "single_contact", None)
+    if single is None:
+        return ""
+    faces = np.flatnonzero(np.asarray(shown, bool) & ~np.asarray(single, bool))
+    if not faces.size:
+        return ""
+    names = reason_names(contacts.single_contact_reason)
+    p = contacts.single_contact_p
+    parts = [f"face {k + 1}: {FLAG_WHY.get(names[k], names[k] or 'implausible')} (p = {p[k]:.2g})" for k in faces]
+    return ("● red-pink contact — one fingertip cannot produce this wrench (two fingers on one patch?): "
+            + "; ".join(parts))
+
+
+def sample_sums(wrenches, core, cog=(0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:
+    """‖ΣF‖ (N) and ‖ΣT‖ about ``cog`` (N·m), each ``(n,)``, of face wrenches ``(n, 6, 6)`` (face frames):
+    ``pito_core.pipeline``'s ``face_sums`` for every sample (faces with NaN left out)."""
+    W = np.asarray(wrenches, dtype=float)
+    T = core.face_poses()
+    R, p = T[:, :3, :3], T[:, :3, 3]
+    ok = np.isfinite(W).all(axis=2)  # (n, 6)
+    f = np.where(ok[..., None], np.einsum("kij,nkj->nki", R, np.nan_to_num(W[..., :3])), 0.0)
+    m = np.where(ok[..., None], np.einsum("kij,nkj->nki", R, np.nan_to_num(W[..., 3:])), 0.0) + np.cross(p, f)
+    F = f.sum(axis=1)
+    M = m.sum(axis=1) - np.cross(np.asarray(cog, dtype=float), F)
+    return np.linalg.norm(F, axis=1), np.linalg.norm(M, axis=1)
 
 
 def unmeasured_faces_text(measured, sums: bool = False) -> str:
@@ -64,6 +105,7 @@ class LiveView(QWidget):
     seek_requested = Signal(float)
     calibration_requested = Signal()
     assembly_requested = Signal(str)
+    scenario_requested = Signal(str)
 
     def __init__(self, core=None, assemblies=(), parent=None):
         super().__init__(parent)
@@ -82,11 +124,13 @@ class LiveView(QWidget):
         self.scene = CubeScene(core, threaded=True)  # drawn in a thread of its own (app/render_thread.py)
         self.scene.setMinimumSize(640, 480)
         self.force_plot = FaceForcePlot()
-        self.equilibrium = EquilibriumPlot()
+        self.equilibrium = EquilibriumPlot(rate=1000.0)  # every sample, as the face plot
         self.bundles_shown = 0
         self.latency = float("nan")
         self.frames = 0  # display ticks that drew something
         self.scene.glyphs.force_scale = 0.0035  # m/N: 12 N (full scale) -> 4.2 cm
+        self.cog = np.zeros(3)  # m, core frame: the object's centre of gravity (ΣT about it)
+        self.scene.glyphs.ellipsoid_scale = 10.0  # a firm touch's 2σ (~0.3 mm) is seen past the 3.5 mm sphere
         self.scene.frame_glyphs = True  # the camera holds full-scale arrows, for every object
 
     def _build_toolbar(self, assemblies) -> tuple[QHBoxLayout, QHBoxLayout]:
@@ -96,11 +140,13 @@ class LiveView(QWidget):
         self.assembly.addItems(list(assemblies) or ["cube"])
         self.load_cal = QPushButton("Load calibration…")
         self.tare = QPushButton("Tare")
-        self.tare.setToolTip("Zero the cube on the last 0.5 s — only when it is still and nothing loads it "
-                             "(the wizard's checks); refused otherwise, with the reason")
+        self.tare.setToolTip("Zero the cube on the last 0.5 s — only when it is still and every load is known:\n"
+                             "nothing on it (in a stand), or at rest on the table on the base face below, which then\n"
+                             "reads the object's weight (its mass below); refused otherwise, with the load named")
         self.undo_tare = QPushButton("Undo tare")
         self.undo_tare.setEnabled(False)
-        self.tare_label = QLabel("Tare: the calibration's own zero")
+        self.tare_label = QLabel("Tare: none (no calibration)")
+        self.tare_label.setProperty("ok", False)
         self.tare_label.setObjectName("tareStatus")
         self.pause = QPushButton("Pause")
         self.pause.setCheckable(True)
@@ -110,8 +156,14 @@ class LiveView(QWidget):
         self.replay = QPushButton("Replay…")
         self.back_live = QPushButton("Back to live")
         self.back_live.setVisible(False)
+        self.scenario = QComboBox()  # demo only: what the simulated world does
+        for text, name in DEMO_SCENARIOS:
+            self.scenario.addItem(text, name)
+        self.scenario.setToolTip("SIMULATED: what the simulated hand does — the grasp loop, or the object at rest "
+                                 "on the table (hands off: try Tare and Undo tare)")
+        self.scenario.setVisible(False)
         for w in (QLabel("Object"), self.assembly, self.load_cal, self.tare, self.undo_tare, self.pause, self.record,
-                  self.replay, self.back_live):
+                  self.replay, self.back_live, self.scenario):
             bar.addWidget(w)
         bar.addStretch(1)
         self.readout = QLabel("")
@@ -123,6 +175,12 @@ class LiveView(QWidget):
         self.tare_label.setWordWrap(True)
         self.tare_label.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Preferred)
         status.addWidget(self.tare_label, 1)
+        self.flag_note = QLabel("")  # why a contact is red-pink (single_contact False)
+        self.flag_note.setObjectName("flagNote")
+        self.flag_note.setStyleSheet("QLabel#flagNote { color: #ff3b6b; font-weight: bold; }")
+        self.flag_note.setWordWrap(True)
+        self.flag_note.setSizePolicy(QSizePolicy.Policy.Ignored, QSizePolicy.Policy.Preferred)
+        status.addWidget(self.flag_note, 1)
         return bar, status
 
     def _build_notice(self) -> None:
@@ -139,6 +197,7 @@ class LiveView(QWidget):
         tl = QHBoxLayout()
         self.timeline = QSlider(Qt.Orientation.Horizontal)
         self.timeline.setRange(0, 1000)
+        self.timeline.setValue(self.timeline.maximum())  # live: the knob at the live end
         self.timeline.setEnabled(False)
         self.time_label = QLabel("live")
         self.time_label.setMinimumWidth(150)
@@ -163,17 +222,48 @@ class LiveView(QWidget):
         self.torque_scale.setSingleStep(10)
         self.torque_scale.setSuffix(" mm per N·m")
         self.show_torsion = QCheckBox("torsion rings")
-        self.show_uncertainty = QCheckBox("uncertainty ellipsoids (2σ)")
+        self.show_uncertainty = QCheckBox("uncertainty ellipsoids (2σ), drawn ×")
         self.show_uncertainty.setToolTip(
             "The 2σ region of each contact point, from the calibration's own uncertainty (fit and gauge noise).\n"
             "Not drawn when wider than half the face (a light touch: the face cannot place it),\n"
             "nor when it fits inside the white sphere (a firm touch: the point is known better than the sphere).\n"
-            "A calibration without an uncertainty record shows none.")
+            "A calibration without an uncertainty record shows none. The line below says which, and why.")
+        self.ellipsoid_scale = QSpinBox()
+        self.ellipsoid_scale.setRange(1, 50)
+        self.ellipsoid_scale.setValue(10)
+        self.ellipsoid_scale.setToolTip("Magnification of the drawn ellipsoids: a firm touch places its point to "
+                                        "a fraction of a millimetre, inside the contact sphere at ×1")
+        self.ellipsoid_note = QLabel("")
+        self.ellipsoid_note.setObjectName("hint")
+        self.ellipsoid_note.setWordWrap(True)
+        self.ellipsoid_note.setVisible(False)
         form.addRow("Hide contacts under", self.threshold)
         form.addRow("Force arrows", self.force_scale)
         form.addRow("Torsion ring radius", self.torque_scale)
         form.addRow(self.show_torsion)
-        form.addRow(self.show_uncertainty)
+        unc = QHBoxLayout()
+        unc.addWidget(self.show_uncertainty)
+        unc.addWidget(self.ellipsoid_scale)
+        unc.addStretch(1)
+        form.addRow(unc)
+        form.addRow(self.ellipsoid_note)
+        self.mass = QDoubleSpinBox()
+        self.mass.setRange(0.0, 50.0)
+        self.mass.setDecimals(3)
+        self.mass.setSingleStep(0.01)
+        self.mass.setSuffix(" kg")
+        self.mass.setSpecialValueText("unknown")
+        self.mass.setToolTip("The object's mass: its weight on the base face is the load a tare at rest on the table\n"
+                             "leaves on that face (unknown: a tare only with nothing on the cube)")
+        self.base_face = QComboBox()
+        self.base_face.addItems([f"face {i}" for i in range(1, 7)])
+        self.base_face.setCurrentIndex(5)
+        self.base_face.setToolTip("The face the object stands on when at rest on the table")
+        rest = QHBoxLayout()
+        rest.addWidget(self.mass)
+        rest.addWidget(QLabel("on"))
+        rest.addWidget(self.base_face)
+        form.addRow("Tare at rest: mass", rest)
         return opts
 
     def _lay_out(self, bar, status, opts, tl) -> None:
@@ -205,6 +295,7 @@ class LiveView(QWidget):
         self.torque_scale.valueChanged.connect(self._options_changed)
         self.show_torsion.toggled.connect(self._options_changed)
         self.show_uncertainty.toggled.connect(self._options_changed)
+        self.ellipsoid_scale.valueChanged.connect(self._options_changed)
         self.tare.clicked.connect(self.tare_requested)
         self.undo_tare.clicked.connect(self.undo_tare_requested)
         self.pause.toggled.connect(self._pause)
@@ -213,6 +304,7 @@ class LiveView(QWidget):
         self.back_live.clicked.connect(self.live_requested)
         self.load_cal.clicked.connect(self.calibration_requested)
         self.assembly.currentTextChanged.connect(self.assembly_requested)
+        self.scenario.currentIndexChanged.connect(lambda i: self.scenario_requested.emit(self.scenario.itemData(i)))
         self.timeline.sliderReleased.connect(self._seek)
 
     def _init_display_pacing(self) -> None:
@@ -237,6 +329,11 @@ class LiveView(QWidget):
         self._readout_text = ""
         self.scene.frame_contacts()
 
+    def tare_support(self):
+        """The object at rest as the operator describes it (mass, base face): a ``TareSupport``, or None (mass unknown)."""
+        m = self.mass.value()
+        return TareSupport(m, self.base_face.currentIndex() + 1) if m > 0 else None
+
     def set_notice(self, text: str | None) -> None:
         """Show ``text`` prominently above the view (``None`` or empty: hide it)."""
         self.notice.setText(text or "")
@@ -246,7 +343,8 @@ class LiveView(QWidget):
     def sync_options(self) -> None:
         """Glyph settings → widgets, signals blocked."""
         g = self.scene.glyphs
-        widgets = (self.threshold, self.force_scale, self.torque_scale, self.show_torsion, self.show_uncertainty)
+        widgets = (self.threshold, self.force_scale, self.torque_scale, self.show_torsion, self.show_uncertainty,
+                   self.ellipsoid_scale)
         for w in widgets:
             w.blockSignals(True)
         self.threshold.setValue(g.threshold)
@@ -254,6 +352,7 @@ class LiveView(QWidget):
         self.torque_scale.setValue(g.torque_scale * 1000)
         self.show_torsion.setChecked(g.show_torsion)
         self.show_uncertainty.setChecked(g.show_uncertainty)
+        self.ellipsoid_scale.setValue(int(round(g.ellipsoid_scale)))
         for w in widgets:
             w.blockSignals(False)
 
@@ -264,6 +363,9 @@ class LiveView(QWidget):
         g.torque_scale = self.torque_scale.value() / 1000
         g.show_torsion = self.show_torsion.isChecked()
         g.show_uncertainty = self.show_uncertainty.isChecked()
+        g.ellipsoid_scale = float(self.ellipsoid_scale.value())
+        if not g.show_uncertainty:
+            self.ellipsoid_note.setVisible(False)
         if self._last_contacts is not None:
             self._show_contacts(self._last_contacts, self.scene_time)
         if self.sender() is self.force_scale:
@@ -290,6 +392,10 @@ class LiveView(QWidget):
         self.seek_requested.emit(self.timeline.value() / 1000 * float(dur))
 
     def set_replay_mode(self, on: bool, duration: float = 0.0) -> None:
+        """Replay (the timeline seekable from its start) or live (the knob at the live end, disabled)."""
+        self.timeline.blockSignals(True)
+        self.timeline.setValue(0 if on else self.timeline.maximum())
+        self.timeline.blockSignals(False)
         self.timeline.setEnabled(on)
         self.timeline.setProperty("duration", duration)
         self.back_live.setVisible(on)
@@ -354,7 +460,8 @@ class LiveView(QWidget):
         """The bundle's samples into the plots' rings (no drawing)."""
         if b.wrenches is not None:
             fw = b.arrived_face_wrenches
-            if fw is not None and fw.shape[0] == arrived.size:
+            every = fw is not None and fw.shape[0] == arrived.size
+            if every:
                 # every sample as it arrives (its record, paired with the reference, comes later)
                 self.force_plot.append(arrived, np.linalg.norm(fw[:, :, :3], axis=2))
             else:
@@ -362,13 +469,16 @@ class LiveView(QWidget):
             if b.sum_force is not None:
                 self._sums = (float(np.linalg.norm(b.sum_force)), float(np.linalg.norm(b.sum_torque)))
                 if np.isfinite(self._sums[0]):  # NaN: the calibration does not measure the net load
-                    self.equilibrium.append(t, *self._sums)
+                    if every and arrived.size:  # every sample too: no break where the face plot has none
+                        self.equilibrium.append(arrived, *sample_sums(fw, self.scene.core, self.cog))
+                    else:
+                        self.equilibrium.append(t, *self._sums)
             self._measured = b.measured
 
     def set_tare_status(self, text: str, can_undo: bool) -> None:
         """The tare in force (or why a tare was refused), and whether Undo tare has something to undo."""
         self.tare_label.setText(text)
-        self.tare_label.setProperty("ok", not text.startswith("✘"))
+        self.tare_label.setProperty("ok", text.startswith("Tare: taken") or text.startswith("Tare: the calibration"))
         self.tare_label.style().polish(self.tare_label)
         self.undo_tare.setEnabled(bool(can_undo))
 
@@ -397,6 +507,14 @@ class LiveView(QWidget):
             self._last_readout = now
             if self._readout_text != self.readout.text():
                 self._set_readout(self._readout_text)
+            flags = flagged_text(self._last_contacts, self.scene.glyphs.visible(self._last_contacts)) \
+                if self._last_contacts is not None else ""
+            if flags != self.flag_note.text():
+                self.flag_note.setText(flags)
+            note = self.scene.glyphs.ellipsoid_note()
+            if note != self.ellipsoid_note.text():
+                self.ellipsoid_note.setText(note)
+                self.ellipsoid_note.setVisible(bool(note))
             rt = getattr(self, "_replay_text", None)
             if rt and self.timeline.isEnabled():
                 self.time_label.setText(rt)

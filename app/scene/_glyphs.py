@@ -39,7 +39,10 @@ class ContactGlyphs:
     solver, m²). It is drawn only where it says something: not when its largest semi-axis is
     over ``max_ellipsoid`` (half the cube's edge: a light touch whose point the face cannot
     place), nor when it fits inside the contact sphere (a firm touch: the point is known
-    better than the sphere's radius). :attr:`ellipsoid_state` tells which, per face.
+    better than the sphere's radius). :attr:`ellipsoid_scale` magnifies the drawn ellipsoid
+    (its size on screen is ``ellipsoid_scale`` × 2σ; the "too wide" rule is on the true 2σ).
+    :attr:`ellipsoid_state` tells which, per face, and :attr:`ellipsoid_size` the true largest
+    2σ semi-axis (m, NaN: none); :meth:`ellipsoid_note` says it in words.
 
     A contact that one fingertip cannot explain (``single_contact`` False: two fingers on
     one patch, or a load beyond a fingertip's friction; docs/contact.md) gets a red-pink
@@ -67,6 +70,7 @@ class ContactGlyphs:
         self.show_uncertainty = False
         self.radius = 0.07 * edge  # m, contact sphere
         self.max_ellipsoid = 0.5 * edge  # m: largest ellipsoid semi-axis drawn (see the class docstring)
+        self.ellipsoid_scale = 1.0  # drawn size / true 2σ size
         self.lift = 0.04 * edge  # m, torsion rings above the surface
         unit_arrow = pv.Arrow(start=(0, 0, 0), direction=(1, 0, 0), tip_length=0.25, tip_radius=2.2, shaft_radius=1.0, scale=1.0)
         # pv.Arrow scales radii by `scale` (=1): radii are in "width" units, length is 1
@@ -93,6 +97,7 @@ class ContactGlyphs:
         self.flagged = np.zeros(6, dtype=bool)
         #: per face (1..6): "drawn", "inside sphere", "too wide", or "" (no covariance / not shown)
         self.ellipsoid_state = {i: "" for i in FACES}
+        self.ellipsoid_size = {i: float("nan") for i in FACES}
         self._contact_colors: dict[int, str] = {}  # face -> sphere colour (the state hook)
         self._sphere_color: dict[int, str] = {i: CONTACT_COLOR for i in FACES}
         self.updates = 0
@@ -124,9 +129,28 @@ class ContactGlyphs:
 
     def _ellipsoid_rule(self, covariance) -> str:
         if covariance is None or not np.isfinite(covariance).all():
-            return ""
+            return "no covariance"
         top = float(self.ellipsoid_axes(covariance)[-1])
-        return "too wide" if top > self.max_ellipsoid else "inside sphere" if top < self.radius else "drawn"
+        return ("too wide" if top > self.max_ellipsoid else
+                "inside sphere" if top * self.ellipsoid_scale < self.radius else "drawn")
+
+    def ellipsoid_note(self) -> str:
+        """Why the ellipsoids of the last update are drawn or not, in one line ("" when not asked for)."""
+        if not self.show_uncertainty:
+            return ""
+        states = [self.ellipsoid_state[i] for i in FACES if self.shown[i - 1]]
+        if not states:
+            return "ellipsoids: no contact shown"
+        if all(s == "no covariance" for s in states):
+            return ("ellipsoids: none — the contacts carry no covariance (this calibration has no uncertainty "
+                    "record)")
+        sizes = [self.ellipsoid_size[i] * 1000 for i in FACES if self.shown[i - 1] and np.isfinite(self.ellipsoid_size[i])]
+        parts = [f"{states.count(k)} {w}" for k, w in (
+            ("drawn", f"drawn ×{self.ellipsoid_scale:g}"),
+            ("inside sphere", f"inside the {self.radius * 1000:.1f} mm spheres at ×{self.ellipsoid_scale:g}"),
+            ("too wide", f"wider than {self.max_ellipsoid * 1000:.0f} mm (the face cannot place the point)"))
+            if states.count(k)]
+        return f"2σ of the contact points {min(sizes):.2f}–{max(sizes):.2f} mm: " + ", ".join(parts)
 
     def hide(self) -> None:
         for a in self.actors:
@@ -170,8 +194,12 @@ class ContactGlyphs:
             tor = float(torsions[k]) if on else np.nan
             ring_on = bool(on and self.show_torsion and np.isfinite(tor) and abs(tor) * self.torque_scale > 1e-4)
             self.rings[i].SetVisibility(ring_on)
-            state = self._ellipsoid_rule(covariances[k]) if on and self.show_uncertainty and covariances is not None else ""
+            state = ""
+            if on and self.show_uncertainty:
+                state = self._ellipsoid_rule(None if covariances is None else covariances[k])
             self.ellipsoid_state[i] = state
+            self.ellipsoid_size[i] = (float(self.ellipsoid_axes(covariances[k])[-1])
+                                      if state not in ("", "no covariance") else float("nan"))
             cov_on = state == "drawn"
             self.ellipsoids[i].SetVisibility(cov_on)
             if on:
@@ -179,7 +207,7 @@ class ContactGlyphs:
             if ring_on:
                 self._move_ring(i, points[k], normals[k], tor)
             if cov_on:
-                self.ellipsoids[i].user_matrix = ellipsoid_matrix(points[k], covariances[k])
+                self.ellipsoids[i].user_matrix = ellipsoid_matrix(points[k], covariances[k], 2.0 * self.ellipsoid_scale)
         self.shown = shown
         self.clamped = clamped
         self.flagged = flagged

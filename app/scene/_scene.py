@@ -81,6 +81,10 @@ def _face_label(text: str, position) -> vtkBillboardTextActor3D:
     return lab
 
 
+#: How far a face's number sits off the face's normal, in cube edges (clear of an arrow along it).
+LABEL_SIDE = 0.4
+
+
 class CubeScene(QWidget):
     """A 3D view of the PITO cube (pyvista in a native VTK widget): face plates, mount, patches, contact glyphs.
 
@@ -322,9 +326,13 @@ class CubeScene(QWidget):
         return reach + 0.3 * self.core.edge
 
     def _place_labels(self) -> None:
+        """Each face's number past its patch, and off its normal towards the face's (−x, +y) corner: a
+        push on the face comes along the normal, and its arrow would cover a number placed there."""
         for i, lab in self.face_labels.items():
-            c = np.asarray(self.core.face_pose(i)[:3, 3], dtype=float)
-            lab.SetPosition(*(c / np.linalg.norm(c) * self.label_offset(i)))
+            T = self.core.face_pose(i)
+            c = np.asarray(T[:3, 3], dtype=float)
+            side = (T[:3, 1] - T[:3, 0]) / np.sqrt(2.0)  # in the face's plane, towards its (−x, +y) corner
+            lab.SetPosition(*(c / np.linalg.norm(c) * self.label_offset(i) + LABEL_SIDE * self.core.edge * side))
 
     def close_scene(self) -> None:
         """Release the GL resources now (not at some later garbage collection, which may fall

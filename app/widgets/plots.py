@@ -342,7 +342,7 @@ class EquilibriumPlot(_TimelinePlot, QWidget):
     def __init__(self, weight: float = 0.0, window: float = 10.0, rate: float = 120.0, parent=None):
         super().__init__(parent)
         self.window = float(window)
-        self.buffer = TimeRing(int(window * rate * 1.25), 3)  # t, |ΣF|, |ΣT|
+        self.buffer = TimeRing(int(window * rate * 1.25), 3)  # t, |ΣF|, |ΣT| (every sample, as the face plot)
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
         layout.setSpacing(2)
@@ -377,8 +377,10 @@ class EquilibriumPlot(_TimelinePlot, QWidget):
         self._fy.top = max(self._fy.top, self._fy.floor)
         self.force_plot.setYRange(0, self._fy.top, padding=0)
 
-    def append(self, t: float, sum_force: float, sum_torque: float) -> None:
-        self.buffer.append([t, sum_force, sum_torque])
+    def append(self, t, sum_force, sum_torque) -> None:
+        """New samples: times ``t`` s, ‖ΣF‖ N and ‖ΣT‖ N·m, each ``(n,)`` (or one of each)."""
+        t = np.atleast_1d(np.asarray(t, dtype=float))
+        self.buffer.append(np.column_stack([t, np.broadcast_to(sum_force, t.shape), np.broadcast_to(sum_torque, t.shape)]))
 
     def _curves(self) -> list:
         return [self.force_curve, self.torque_curve]

@@ -212,6 +212,10 @@ class LoadPage(WizardPage):
         self.set_ready(m.all_faces_done)
 
     # ------------------------------------------------------------ actions
+    def showEvent(self, event):  # noqa: N802 - Qt's name
+        super().showEvent(event)
+        self.scene.frame_contacts()  # the view's aspect is known now: the probe's full-scale arrow on any face stays in view
+
     def enter(self) -> None:
         self._on_face(self.model.current_face)
         if self.operator is not None:

@@ -282,10 +282,12 @@ class WizardModel(QObject):
         return self.stage_session(st)
 
     def set_result(self, calibration, evaluation, heldout=None) -> None:
+        """A new fit (or none): not accepted, and not saved — a file saved before holds another calibration."""
         self.calibration = calibration
         self.evaluation = evaluation
         self.heldout = heldout
         self.accepted = False
+        self.saved_path = None
         self.result_changed.emit()
 
 

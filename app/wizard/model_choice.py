@@ -5,22 +5,9 @@ from __future__ import annotations
 from PySide6.QtCore import Signal
 from PySide6.QtWidgets import QCheckBox, QGroupBox, QLabel, QVBoxLayout
 
-__all__ = ["ModelChoiceBox", "model_summary"]
+from pito_core.report import model_summary
 
-
-def model_summary(choice, output_faces=()) -> str:
-    """Words for a ``ModelChoice``: the model, why, where the correction is used, and the cross-validated
-    RMSE of both candidates and of the chosen mix (N, N·m)."""
-    words = {"linear": "the papers' linear fit (C = W S⁺)", "poly": "linear fit + polynomial correction",
-             "chosen": "the chosen mix (the correction only where it won)"}
-    text = f"<b>{words.get(choice.name, choice.name)}</b> — {choice.reason}"
-    groups = choice.corrected(output_faces)
-    if choice.name != "linear" and output_faces:
-        text += (f"<br>correction used on {len(groups)} of {2 * len(output_faces)} output groups: "
-                 + ", ".join(f"face {f} {part}" for f, part in groups))
-    for key, (force, torque) in choice.cv_rms().items():
-        text += f"<br>cross-validated RMSE, {words[key]}: forces {force:.3f} N, torques {torque * 1000:.2f} mN·m"
-    return text
+__all__ = ["ModelChoiceBox"]
 
 
 class ModelChoiceBox(QGroupBox):

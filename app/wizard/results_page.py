@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import warnings
 from pathlib import Path
 
 import numpy as np
@@ -15,81 +14,68 @@ from PySide6.QtWidgets import (
     QTabWidget,
 )
 
-from pito_core.calibration import (CalibrationSession, RankDeficientError, calibrate, confirm_model, evaluate,
-                                   validation_figures)
+from pito_core.calibration import NOT_MEASURED_TEXT, fit_and_evaluate
 
-from .. import report
+from pito_core import report
 from ..filetypes import CALIBRATION_SAVE_FILTER, CALIBRATION_SUFFIX
 from ..tasks import TaskBar, run_in_process, run_task
 from .ident_why import identification_why
 from .model_choice import ModelChoiceBox
 from .page import WizardPage
 
-__all__ = ["ResultsPage", "fit_and_evaluate", "render_figures"]
+__all__ = ["ResultsPage", "fit_job", "render_figures", "per_face_text"]
 
 #: samples per block of the streamed QR in the wizard's fit (keeps each GIL-holding LAPACK call short)
 FIT_BLOCK = 8192
 
 
-def fit_and_evaluate(sessions, method: str, holdout: float = 0.25, seed: int = 0, progress=None, validation=None,
-                     model: str = "auto"):
-    """Fit ``method`` on the training split of ``sessions``; evaluate on the held-out rest and the validation pass.
-
-    ``sessions``: the main mount's session, or a list (the main mount's first; an extra mount's
-    after it, fitted whole). ``validation``: fresh loads not used in the fit (a session), or None.
-
-    Returns ``(calibration, headline, note, heldout, figures)``: ``headline`` is the evaluation
-    of the validation pass (the held-out split's without one), ``heldout`` that of the held-out
-    split of the main session, ``figures`` the validation's
-    :class:`~pito_core.calibration.ValidationFigures` (None without a validation pass); ``note``
-    says if a minimum-norm fit was needed. ``progress(fraction, text)``, if given, is called
-    between the steps (and may raise to cancel).
-    """
-    sessions = [sessions] if isinstance(sessions, CalibrationSession) else list(sessions)
-    progress = progress or (lambda *_: None)
-    progress(0.0, "splitting the samples")
-    # blocks of 50 samples: every kept capture (a few hundred still samples) feeds both sides,
-    # so the fit keeps every loaded direction and the held-out samples test it on new noise
-    train, test = sessions[0].split(holdout=holdout, block=50, seed=seed)
-    train = [train, *sessions[1:]]
-    n_fit = sum(s.counts.shape[0] for s in train)
-    progress(0.1, f"fitting {method} on {n_fit} samples")
-    # small blocks: LAPACK holds the GIL through each block's QR, and the GUI thread needs it
-    # every few ms; the fit's own progress is also where a cancel stops it
-    fit_options = {"block_size": FIT_BLOCK, "model": model,
-                   "progress": lambda done, total: progress(0.1 + 0.55 * done / max(total, 1),
-                                                            f"fitting {method}: {done} / {total} samples")}
-    note = ""
-    try:
-        cal = calibrate(train, method, **fit_options)
-    except RankDeficientError as exc:  # unexcited directions or dead channels: fit minimum-norm, say so
-        fit_options["allow_rank_deficient"] = True
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            cal = calibrate(train, method, **fit_options)
-        note = f"minimum-norm fit — {exc}"
-    figures = None
-    if validation is not None:
-        progress(0.7, f"validating on {validation.counts.shape[0]} fresh samples")
-        if model == "auto":  # a correction the validation pass does not confirm gives way to the linear fit
-            refit = {k: v for k, v in fit_options.items() if k != "progress"}  # the linear fit again, if it is used
-            cal, figures = confirm_model(cal, validation, seed=seed, sessions=train, fit_options=refit)
+def per_face_text(figures, heldout=None, reaction=None, completed=(), measured=None) -> str:
+    """Each face's validation RMSE (N, mN·m), one line each; a face the validation pass did not load
+    directly says what stands for it: ``heldout``, the evaluation of the held-out part of the second
+    mount's loads, for its ``completed`` faces (optimistic: no fresh loads), or the reactions it
+    carried on the main mount; ``measured`` (6,) bool: the faces the calibration outputs (default all)."""
+    lines = []
+    hf = ht = None
+    if heldout is not None:
+        hf, ht = heldout.rmse_force(), heldout.rmse_torque()
+    for i in range(6):
+        f, t = figures.rmse_force[i], figures.rmse_torque[i]
+        if measured is not None and not measured[i]:
+            lines.append(f"{i + 1}: {NOT_MEASURED_TEXT}")
+        elif np.isfinite(f):
+            lines.append(f"{i + 1}: {f:.3f} N, {t * 1000:.2f} mN·m")
+        elif i + 1 in completed and hf is not None and np.isfinite(hf[i]):
+            worse = ""
+            if np.isfinite(figures.worst_force) and hf[i] > figures.worst_force:
+                worse = f" ⚠ less accurate than the validated faces (worst {figures.worst_force:.3f} N)"
+            lines.append(f"{i + 1}: {hf[i]:.3f} N, {ht[i] * 1000:.2f} mN·m — second mount, held-out of its "
+                         f"captures (no fresh loads: optimistic){worse}")
+        elif i + 1 == reaction:
+            lines.append(f"{i + 1}: reactions only, {figures.reaction_force:.3f} N, "
+                         f"{figures.reaction_torque * 1000:.2f} mN·m — not validated under a load of its own")
         else:
-            figures = validation_figures(cal, validation, seed=seed)
-    progress(0.8, f"evaluating on {test.counts.shape[0]} held-out samples")
-    heldout = evaluate(cal, test)
-    headline = heldout if validation is None else evaluate(cal, validation)
-    progress(1.0, "done")
-    return cal, headline, note, heldout, figures
+            lines.append(f"{i + 1}: not loaded in the validation pass")
+    return "\n".join(lines)
 
 
 def fit_job(sessions, method: str, sizes: dict, validation=None, model: str = "auto", progress=None):
-    """Fit, evaluate and draw the figures (any process): ``(calibration, headline, note, heldout, figures, images)``."""
-    cal, ev, note, heldout, figures = fit_and_evaluate(sessions, method, progress=progress, validation=validation,
-                                                       model=model)
+    """Fit, evaluate and draw the figures (any process): ``(calibration, headline, note, heldout, figures, completing,
+    images)``.
+
+    The one route of ``pito calibrate`` (:func:`pito_core.calibration.fit_and_evaluate`: the same split
+    and figures); ``heldout`` is over every session's held-out samples, ``completing`` over the second
+    mount's alone (None without one); a minimum-norm fit (directions the loads left unexcited) is said
+    in ``note``.
+    """
+    # small blocks: LAPACK holds the GIL through each block's QR, and the GUI thread needs it
+    # every few ms; the fit's own progress is also where a cancel stops it
+    fit = fit_and_evaluate(sessions, method, validation=validation, model=model, rank_deficient="fallback",
+                           block_size=FIT_BLOCK, progress=progress)
+    completing = fit.heldout_by_session[1] if len(fit.heldout_by_session) > 1 else None
     if progress is not None:
         progress(0.9, "drawing the figures")
-    return cal, ev, note, heldout, figures, render_figures(ev, sizes, rmse_options(sessions, validation))
+    images = render_figures(fit.headline, sizes, rmse_options(sessions, validation))
+    return fit.calibration, fit.headline, fit.note, fit.heldout, fit.figures, completing, images
 
 
 def rmse_options(sessions, validation) -> dict:
@@ -223,8 +209,9 @@ class ResultsPage(WizardPage):
             ("samples", "Samples: fitted / validation"),
             ("force", "Worst face force RMSE (validation)"),
             ("torque", "Worst face torque RMSE (validation)"),
+            ("per_face", "Every face: force, torque RMSE (validation)"),
             ("ident", "Face identification (validation)"),
-            ("reactions", "Connected face (reactions only)"),
+            ("reactions", "Connected face on the main mount (reactions only)"),
             ("heldout", "Held-out split of the fit (secondary)"),
             ("coverage", "Measures"),
             ("status", "Status"),
@@ -347,7 +334,8 @@ class ResultsPage(WizardPage):
         self.note = ""
 
         def done(result):
-            cal, ev, self.note, heldout, self.figures, images = result
+            cal, ev, self.note, heldout, self.figures, self.completing, images = result
+            self.forget_export()  # a report exported before describes the previous fit
             self._images_for = ev
             self._show_images(images)
             self.model.set_result(cal, ev, heldout)
@@ -355,6 +343,7 @@ class ResultsPage(WizardPage):
 
         def failed(message):
             self.note = message
+            self.forget_export()
             self.model.set_result(None, None)
             self.refresh()
 
@@ -428,11 +417,15 @@ class ResultsPage(WizardPage):
                                 f"{fig.worst_torque_ci[0] * 1000:.2f}–{fig.worst_torque_ci[1] * 1000:.2f}")
             v["reactions"].setText(f"face {reaction}: {fig.reaction_force:.2f} N, {fig.reaction_torque * 1000:.1f} mN·m"
                                    if reaction else "—")
+            completed = tuple(f for st in m.stages if st.kind == "completing" for f in st.faces)
+            v["per_face"].setText(per_face_text(fig, getattr(self, "completing", None), reaction, completed,
+                                                cal.has_output))
             v["reactions"].setToolTip("The flange's face carried the reactions of the other faces' loads, never a "
                                       "load of its own; its error is shown apart, not as a loaded face.")
         else:
             v["force"].setText("n/a (no validation pass)")
             v["torque"].setText("n/a (no validation pass)")
+            v["per_face"].setText("n/a (no validation pass)")
             v["reactions"].setText("—")
         head = ev.identification_headline()  # the papers' rule: single by force, squeeze by torque
         v["ident"].setText("; ".join(h["text"] for h in head) if head else "n/a")
@@ -508,9 +501,10 @@ class ResultsPage(WizardPage):
             "simulated": m.simulated, "calibration file": m.saved_path or "(not saved)",
         }
         cal, ev = m.calibration, m.evaluation
+        rmse, figures = dict(getattr(self, "_rmse_options", None) or {}), getattr(self, "figures", None)
 
-        def work(progress):
-            return report.export_report(folder, cal, ev, info, progress=progress)
+        def work(progress):  # the page's words, intervals and reactions (rmse_options, the validation figures)
+            return report.export_report(folder, cal, ev, info, progress=progress, rmse=rmse, figures=figures)
 
         def done(path):
             self.exported_path = path
@@ -522,6 +516,12 @@ class ResultsPage(WizardPage):
         self.export_task.ended.connect(self.refresh)
         self.refresh()
         return Path(folder) / "report.md"
+
+    def forget_export(self) -> None:
+        """No report exported for the calibration shown (a new fit replaced the one exported)."""
+        self.exported_path = None
+        self.exported_label.clear()
+        self.exported_label.setVisible(False)
 
     def show_exported(self, report_md: Path) -> None:
         """Say where the report went: its files, the folder's path and a link that opens it."""

@@ -71,6 +71,13 @@ def grasp_decomposition(point, force, active, cog=(0.0, 0.0, 0.0)):
     f_manip, f_internal : ndarray, shape (N, 6, 3)
         ``G⁺ G f`` and ``(I − G⁺ G) f`` per contact, N (module docstring).
     """
+    busy = active.any(axis=1)
+    if not busy.all():  # samples without contact: G = 0, so both parts are 0 (no SVD to run)
+        f_manip = np.zeros(point.shape)
+        f_int = np.zeros(point.shape)
+        if busy.any():
+            f_manip[busy], f_int[busy] = grasp_decomposition(point[busy], force[busy], active[busy], cog)
+        return f_manip, f_int
     if point.shape[0] > _BLOCK:  # bounded memory: the (n, 6, 18) matrices block by block
         parts = [grasp_decomposition(point[a:a + _BLOCK], force[a:a + _BLOCK], active[a:a + _BLOCK], cog)
                  for a in range(0, point.shape[0], _BLOCK)]

@@ -75,7 +75,12 @@ def _plausible(frac: float, s: AnalysisSettings):
 
 def phase_rows(g, trials: list[Trial], s: AnalysisSettings, mass: float | None = None):
     """``(phase rows, patch rows)`` of the :class:`GraspSeries` ``g``: lists of dicts with
-    :data:`PHASE_COLUMNS` / :data:`PATCH_COLUMNS` keys."""
+    :data:`PHASE_COLUMNS` / :data:`PATCH_COLUMNS` keys.
+
+    A phase ``[a, b)`` (the trial's last: ``[a, b]``) is a range of samples of the increasing
+    times, found by bisection; every mean is over a contiguous copy of its samples, as the
+    boolean selection ``x[(t >= a) & (t < b)]`` gives them (the same numbers, bit for bit).
+    """
     fingers = np.array([i + 1 != s.base_face for i in range(6)])
     man, inn = np.linalg.norm(g.f_manip, axis=2), np.linalg.norm(g.f_int, axis=2)
     net = np.linalg.norm(g.net_force, axis=1)
@@ -84,43 +89,49 @@ def phase_rows(g, trials: list[Trial], s: AnalysisSettings, mass: float | None =
         names = list(tr.phases)
         for name in names:
             a, b = tr.phases[name]
-            m = (g.time >= a) & ((g.time < b) | ((g.time <= b) & (name == names[-1])))
-            if not m.any():
+            lo = int(np.searchsorted(g.time, a, "left"))
+            hi = int(np.searchsorted(g.time, b, "right" if name == names[-1] else "left"))
+            if hi <= lo:
                 continue
+            m = slice(lo, hi)
             on = g.on[m]
             faces = [i for i in range(6) if on[:, i].any()]
             rows = [_patch_row(g, tr, name, m, i, s, man, inn) for i in faces]
-            total_n = g.f_n[m].sum(axis=1).mean()
+            f_n = np.ascontiguousarray(g.f_n[m])
+            total_n = f_n.sum(axis=1).mean()
             for r in rows:
-                r["share_pct"] = 100.0 * r.pop("_fn_sum") / m.sum() / total_n if total_n > 0 else float("nan")
+                r["share_pct"] = 100.0 * r.pop("_fn_sum") / (hi - lo) / total_n if total_n > 0 else float("nan")
             fracs = [r["single_contact_frac"] for r in rows]
             frac = float(min(fracs)) if fracs and np.isfinite(fracs).all() else float("nan")
-            grip = float((g.f_n[m] * fingers).sum(axis=1).mean())
-            load = float((g.f_t[m] * fingers).sum(axis=1).mean())
-            base = g.f_n[m, s.base_face - 1].mean() if s.base_face else 0.0
+            grip = float((f_n * fingers).sum(axis=1).mean())
+            load = float((np.ascontiguousarray(g.f_t[m]) * fingers).sum(axis=1).mean())
+            base = np.ascontiguousarray(f_n[:, s.base_face - 1]).mean() if s.base_face else 0.0
+            net_m = np.ascontiguousarray(net[m])
             phases.append({
                 "trial": tr.index, "phase": name, "start_s": a, "stop_s": b, "duration_s": b - a,
-                "n_samples": int(m.sum()), "contacts": " ".join(str(i + 1) for i in faces),
+                "n_samples": hi - lo, "contacts": " ".join(str(i + 1) for i in faces),
                 "grip_force_N": grip, "load_force_N": load,
                 "grip_load_ratio": grip / load if load > 0 else float("nan"), "support_force_N": float(base),
-                "net_force_N": float(net[m].mean()), "manipulation_force_N": float(man[m].sum(axis=1).mean()),
-                "internal_force_N": float(inn[m].sum(axis=1).mean()),
-                "residual_force_N": float(np.abs(net[m] - mass * _G).mean()) if mass else float("nan"),
-                "residual_moment_Nmm": float(1e3 * np.linalg.norm(g.net_moment[m], axis=1).mean()),
+                "net_force_N": float(net_m.mean()),
+                "manipulation_force_N": float(np.ascontiguousarray(man[m]).sum(axis=1).mean()),
+                "internal_force_N": float(np.ascontiguousarray(inn[m]).sum(axis=1).mean()),
+                "residual_force_N": float(np.abs(net_m - mass * _G).mean()) if mass else float("nan"),
+                "residual_moment_Nmm": float(1e3 * np.linalg.norm(np.ascontiguousarray(g.net_moment[m]), axis=1).mean()),
                 "single_contact_frac": frac, "plausible": _plausible(frac, s)})
             patches += rows
     return phases, patches
 
 
-def _patch_row(g, tr: Trial, name, m, i, s, man, inn) -> dict:
-    """The row of face ``i + 1`` (0-based ``i``) in the phase of samples ``m``."""
-    on = g.on[:, i] & m
-    length, spread = _path(g.path[on, i])
-    frac = _mean(g.single[:, i], on) if g.single is not None else float("nan")
+def _patch_row(g, tr: Trial, name, m: slice, i, s, man, inn) -> dict:
+    """The row of face ``i + 1`` (0-based ``i``) in the phase of samples ``m`` (a slice)."""
+    on = g.on[m, i]
+    n = m.stop - m.start
+    length, spread = _path(g.path[m, i][on])
+    frac = _mean(g.single[m, i], on) if g.single is not None else float("nan")
     return {"trial": tr.index, "phase": name, "face": i + 1, "role": "base" if i + 1 == s.base_face else "finger",
-            "onset_s": tr.onset.get(i + 1, float("nan")), "contact_frac": float(on.sum() / m.sum()),
-            "normal_force_N": _mean(g.f_n[:, i], on), "tangential_force_N": _mean(g.f_t[:, i], on),
-            "_fn_sum": float(g.f_n[m, i].sum()),
-            "manipulation_force_N": _mean(man[:, i], on), "internal_force_N": _mean(inn[:, i], on),
+            "onset_s": tr.onset.get(i + 1, float("nan")), "contact_frac": float(on.sum() / n),
+            "normal_force_N": _mean(g.f_n[m, i], on), "tangential_force_N": _mean(g.f_t[m, i], on),
+            "_fn_sum": float(np.ascontiguousarray(g.f_n[m, i]).sum()),
+            "manipulation_force_N": _mean(man[m, i], on), "internal_force_N": _mean(inn[m, i], on),
             "path_length_mm": length, "spread_mm": spread, "single_contact_frac": frac,
             "plausible": _plausible(frac, s)}

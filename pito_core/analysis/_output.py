@@ -107,8 +107,10 @@ def _load_calibration(calibration):
 
 
 def analyze_to_dir(recording, out_root, *, calibration=None, assembly=None, settings: AnalysisSettings | None = None,
-                   nwb: bool = False, figures: bool = True, overwrite: bool = False) -> dict:
+                   nwb: bool = False, figures: bool = True, overwrite: bool = False, recover: bool = False) -> dict:
     """Analyse ``recording`` into ``output_dir(recording, out_root)`` atomically; skip it if done.
+
+    ``recover``: read an incomplete (killed) recording's intact part.
 
     A pure function of its arguments (a Dask task): ``calibration`` is a file path (or a
     Calibration, or None for the recording's own). Returns ``{"recording", "status"
@@ -123,10 +125,10 @@ def analyze_to_dir(recording, out_root, *, calibration=None, assembly=None, sett
     cal = _load_calibration(calibration)
     source = str(calibration) if isinstance(calibration, (str, os.PathLike)) else None
     if nwb:  # one pipeline run for the analysis and the NWB export
-        data = export_data(recording, cal, assembly, calibration_source=source)
+        data = export_data(recording, cal, assembly, calibration_source=source, recover=recover)
         analysis = analyze_data(data, settings, source=recording)
     else:
-        analysis = analyze_recording(recording, cal, assembly, settings, calibration_source=source)
+        analysis = analyze_recording(recording, cal, assembly, settings, calibration_source=source, recover=recover)
     if overwrite and target.exists():
         shutil.rmtree(target)
     out = atomic_dir(target)

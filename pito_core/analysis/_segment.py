@@ -14,7 +14,9 @@ release   touch-down → last finger contact ends
 ========  =====================================================================
 
 Without a base patch (``base_face = 0``) or when the base never leaves the table, the whole
-trial is one phase, ``hold`` or ``load`` respectively.
+trial is one phase, ``hold`` or ``load`` respectively — or ``release`` for a trial the recording
+catches already under way (fingers on at its first sample) on an object resting on its base: only
+the letting go is seen.
 """
 
 from __future__ import annotations
@@ -173,6 +175,8 @@ def trials_from_contacts(time, on, settings: AnalysisSettings | None = None) -> 
             if k.size:
                 tr.onset[i + 1] = float(t[a + k[0]])
         _phases(tr, t[a:b], on[a:b, s.base_face - 1] if s.base_face else None, s)
+        if a == 0 and list(tr.phases) == ["load"]:  # caught mid-release: resting, the fingers only let go
+            tr.phases = {"release": tr.phases["load"]}
         trials.append(tr)
     return trials
 

@@ -33,8 +33,13 @@ from ..io import (  # the session format and its one builder (io), re-exported
     DEFAULT_COUNTS_RANGE, FLANGES, CalibrationSession, SessionBlock, saturated_samples, session_from_arrays,
 )
 from ._validation import ValidationFigures, confirm_model, validation_figures
+from ._fit_and_evaluate import HOLDOUT, HOLDOUT_BLOCK, FitResult, fit_and_evaluate
 
 __all__ = [
+    "FitResult",
+    "HOLDOUT",
+    "HOLDOUT_BLOCK",
+    "fit_and_evaluate",
     "ValidationFigures",
     "confirm_model",
     "validation_figures",

@@ -58,6 +58,27 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+#: Optional dependencies → (the distribution to install, the extra of ``pito`` that brings it).
+OPTIONAL = {
+    "pylsl": ("pylsl", "interop"), "pynwb": ("pynwb", "interop"), "hdmf": ("pynwb", "interop"),
+    "mcap": ("mcap", "interop"), "mcap_ros2": ("mcap-ros2-support", "interop"),
+    "nwbinspector": ("nwbinspector", "interop"),
+    "pandas": ("pandas", "analysis"), "dask": ("dask[distributed]", "analysis"),
+    "distributed": ("dask[distributed]", "analysis"), "bokeh": ("bokeh", "analysis"),
+}
+
+
+def missing_dependency(exc: ImportError) -> str | None:
+    """One line naming the package and the extra to install for a missing optional dependency (None: not one)."""
+    name = (getattr(exc, "name", None) or "").split(".")[0]
+    if name in OPTIONAL:
+        package, extra = OPTIONAL[name]
+        return f"this needs {package}, an optional dependency: pip install 'pito[{extra}]'"
+    if "pip install 'pito[" in str(exc):  # pito's own ImportError already says which extra
+        return str(exc)
+    return None
+
+
 def _one_line(default):
     """A ``warnings.showwarning`` that prints pito's own warnings as one line on stderr, like its errors, and
     hands the others to ``default``."""
@@ -84,6 +105,12 @@ def main(argv=None) -> int:
     except (ValueError, FileNotFoundError) as exc:  # user errors: one clear line, no traceback
         print(f"pito: error: {exc}", file=sys.stderr)
         return 1
+    except ImportError as exc:  # a missing optional dependency: one line naming the extra, exit 2
+        line = missing_dependency(exc)
+        if line is None:
+            raise
+        print(f"pito: error: {line}", file=sys.stderr)
+        return 2
     except BrokenPipeError:  # output piped into `head` and the like
         sys.stderr.close()
         return 0

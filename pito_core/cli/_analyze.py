@@ -49,7 +49,10 @@ Both tables carry `simulated` (the recording came from simulated devices).
 Many recordings run on Dask, one task per recording: a local cluster on 127.0.0.1 by
 default (--workers, default 2; its dashboard with --dashboard), or an existing cluster with
 --scheduler tcp://HOST:PORT. One recording and no --scheduler runs in this process
-(--workers 0 forces the single-process path for any number).
+(--workers 0 forces the single-process path for any number). On Dask, paths are resolved
+here (relative ones against this directory; the workers must reach the recordings by that
+path), and the results come back from the workers and are written here, atomically; a
+worker lost during the run and the recordings rerun because of it are listed at the end.
 """
 
 
@@ -90,6 +93,7 @@ def register(sub) -> None:
                         f"(default {defaults.SINGLE_CONTACT_MIN_FRACTION})")
     p.add_argument("--nwb", action="store_true", help="also write the NWB export with intervals/grasp_phases")
     p.add_argument("--no-figures", action="store_true", help="tables only (faster)")
+    p.add_argument("--recover", action="store_true", help="analyse the intact part of an incomplete (killed) recording")
     add_study_options(p)
     p.set_defaults(func=run)
 
@@ -118,6 +122,8 @@ def run_many(task, args, **kwargs) -> int:
     if workers is not None and workers < 0:
         raise ValueError(f"--workers: expected >= 0, got {workers}")
     serial = workers == 0 or (workers is None and args.scheduler is None and len(args.files) == 1)
+    if not serial:  # before any recording is read: a missing extra is one line, exit 2
+        analysis.require_distributed()
     if serial:
         res = analysis.run_serial(task, args.files, progress=progress, **kwargs)
     else:
@@ -126,12 +132,19 @@ def run_many(task, args, **kwargs) -> int:
     where = "in process" if serial else f"on Dask ({res.workers} worker{'s' if res.workers != 1 else ''})"
     print(f"{len(res.results)} recordings {where}, {len(res.failed)} failed: {res.samples} samples in "
           f"{res.compute_seconds:.1f} s ({res.samples_per_s:.0f} samples/s; wall {res.seconds:.1f} s)")
+    if res.lost_workers:
+        print(f"lost {len(res.lost_workers)} worker{'s' if len(res.lost_workers) != 1 else ''} during the run: "
+              f"{', '.join(res.lost_workers)}")
+    for rec, workers in res.rerun.items():
+        print(f"rerun: {rec} (started on {', '.join(w or '?' for w in workers)})")
     for rec, err in res.failed.items():
         print(f"failed: {rec}: {err}", file=sys.stderr)
     return 1 if res.failed else 0
 
 
 def run(args) -> int:
+    analysis.require_pandas()  # before any recording is read: a missing extra is one line, exit 2
     settings = settings_from(args)
     return run_many(analysis.analyze_to_dir, args, out_root=args.out, calibration=args.calibration, assembly=args.object,
-                    settings=settings, nwb=args.nwb, figures=not args.no_figures, overwrite=args.overwrite)
+                    settings=settings, nwb=args.nwb, figures=not args.no_figures, overwrite=args.overwrite,
+                    recover=args.recover)

@@ -6,7 +6,7 @@ import argparse
 import sys
 import time
 
-from ..calibration import METHODS, calibrate, evaluate
+from ..calibration import HOLDOUT, HOLDOUT_BLOCK, METHODS, fit_and_evaluate
 from ..io import calibration_hash, short_hash
 from ._evaluate import print_evaluation
 from ._sessions import load_sessions
@@ -17,7 +17,7 @@ Fit a calibration matrix (counts → wrench on each face) from calibration sessi
 
 Sessions are pito session files (HDF5, written by `pito simulate`, `pito record` or
 CalibrationSession.save) or CSV files (then give --flange and --connected-face).
-By default a random 20 % of the samples (in blocks of 200) is held out and the
+By default a random 20 % of each session's samples (in blocks of 50) is held out and the
 calibration's validation figures (RMSE per face and axis, N and N·m; face
 identification) are computed on it and stored in the file. Use --holdout 0 to fit on
 everything and evaluate later on separate sessions with `pito evaluate`.
@@ -45,8 +45,9 @@ def register(sub) -> None:
     p.add_argument("sessions", nargs="+", metavar="SESSION", help="session files (.h5 or .csv)")
     p.add_argument("--method", "-m", required=True, choices=sorted(METHODS), help="calibration method")
     p.add_argument("-o", "--output", required=True, metavar="CAL", help="calibration file to write (HDF5)")
-    p.add_argument("--holdout", type=float, default=0.2,
-                   help="fraction of samples held out for validation, 0 to use all (default 0.2)")
+    p.add_argument("--holdout", type=float, default=HOLDOUT,
+                   help=f"fraction of each session held out for validation, in blocks of {HOLDOUT_BLOCK} samples; "
+                        f"0 to fit everything (default {HOLDOUT})")
     p.add_argument("--seed", type=int, default=0, help="seed of the hold-out split (default 0)")
     p.add_argument("--allow-rank-deficient", action="store_true",
                    help="fit a minimum-norm matrix (with a warning) when a face's loads miss some directions")
@@ -64,33 +65,26 @@ def register(sub) -> None:
 
 def run(args) -> int:
     sessions = load_sessions(args.sessions, args.flange, args.connected_face)
-    if args.holdout:
-        pairs = [s.split(args.holdout, seed=args.seed) for s in sessions]
-        train, test = [p[0] for p in pairs], [p[1] for p in pairs]
-    else:
-        train, test = sessions, []
-    n = sum(len(s) for s in train)
     t0 = time.perf_counter()
 
-    def progress(done, total):
+    def progress(fraction, text):
         if sys.stderr.isatty():
-            print(f"\rfitting: {done}/{total} samples ({100 * done / max(total, 1):.0f} %)", end="", file=sys.stderr)
+            print(f"\r{text} ({100 * fraction:.0f} %)\033[K", end="", file=sys.stderr)
 
-    prior = None if args.prior == "none" else args.prior
-    cal = calibrate(train, args.method, allow_rank_deficient=args.allow_rank_deficient, progress=progress, prior=prior,
-                    model=args.model)
+    fit = fit_and_evaluate(sessions, args.method, holdout=args.holdout, seed=args.seed, model=args.model,
+                           rank_deficient="allow" if args.allow_rank_deficient else "raise",
+                           prior=None if args.prior == "none" else args.prior, progress=progress)
     if sys.stderr.isatty():
         print(file=sys.stderr)
-    dt = time.perf_counter() - t0
-    print(f"{cal.method}: {cal.matrix.shape[0]}×36 matrix from {n} samples in {dt:.2f} s; "
+    cal, dt = fit.calibration, time.perf_counter() - t0
+    print(f"{cal.method}: {cal.matrix.shape[0]}×36 matrix from {fit.n_fit} samples in {dt:.2f} s; "
           f"inverse condition number {cal.inverse_condition_number:.3e}")
     print_model(cal.model, cal.output_faces)
-    if test:
-        ev = evaluate(cal, test)
-        cal.meta["validation"] = ev.to_dict()
+    if fit.heldout is not None:
+        cal.meta["validation"] = fit.heldout.to_dict()
         cal.meta["validation"]["holdout"] = args.holdout
-        print(f"validation on the held-out {100 * args.holdout:.0f} % ({sum(len(s) for s in test)} samples):")
-        print_evaluation(ev, cal)
+        print(f"validation on the held-out {100 * args.holdout:.0f} % ({fit.n_heldout} samples):")
+        print_evaluation(fit.heldout, cal)
     else:
         print(f"net force/torque of a free grasp: {cal.meta['net_load']}")
     cal.save(args.output)

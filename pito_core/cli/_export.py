@@ -10,6 +10,7 @@ from .. import analysis
 from ..calibration import load_calibration
 from ..interop import export_data, missing_metadata, write_mcap, write_nwb
 from ..io import export_recording_files, read_recording
+from ..pipeline import recording_times
 from ._analyze import add_study_options, run_many
 
 HELP = """\
@@ -70,6 +71,15 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
+def _require_writers(nwb: bool, mcap: bool) -> None:
+    """Import the writers' optional dependencies now, before the pipeline runs (a missing one: ImportError)."""
+    import importlib
+
+    for wanted, module in ((nwb, "pynwb"), (mcap, "mcap_ros2.writer")):
+        if wanted:
+            importlib.import_module(module)
+
+
 def run_study_export(args) -> int:
     """``--out DIR``: every recording into DIR, one Dask task each (:func:`pito_core.analysis.export_to_dir`)."""
     if args.nwb or args.mcap or args.csv or args.mat:
@@ -77,6 +87,7 @@ def run_study_export(args) -> int:
     formats = tuple(f.strip() for f in args.formats.split(",") if f.strip())
     if not formats or set(formats) - {"nwb", "mcap"}:
         raise ValueError(f"--formats: expected some of nwb, mcap, got {args.formats!r}")
+    _require_writers(nwb="nwb" in formats, mcap="mcap" in formats)
     # analysis.export_to_dir loads on first use (PEP 562): `pito --help` does not load it
     return run_many(analysis.export_to_dir, args, out_root=args.out, formats=formats, calibration=args.calibration,
                     assembly=args.object, contacts=not args.no_contacts, overwrite=args.overwrite)
@@ -90,9 +101,10 @@ def run(args) -> int:
     args.file = args.files[0]
     if not (args.nwb or args.mcap or args.csv or args.mat):
         raise ValueError("output: give at least one of --nwb, --mcap, --csv, --mat")
+    _require_writers(nwb=bool(args.nwb), mcap=bool(args.mcap))
     if args.csv or args.mat:
         rec = read_recording(args.file, recover=args.recover)
-        for written in export_recording_files(rec, args.csv, args.mat):
+        for written in export_recording_files(rec, args.csv, args.mat, recording_times(rec)):
             print(f"wrote {written}")
     if not (args.nwb or args.mcap):
         return 0

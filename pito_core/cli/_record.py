@@ -27,7 +27,7 @@ from ..devices import (
     health_words,
     open_devices,
 )
-from ..interop import LslPublisher, assembly_record, calibration_record
+from ..interop import LslPublisher, assembly_record, calibration_record, listening_sockets
 from ..io import RecordingWriter
 from ..pipeline import AcquisitionReader, Pipeline
 from ..sim import SimulatedDevices, SimulatorError
@@ -81,8 +81,8 @@ def register(sub) -> None:
     p.add_argument("--simulated", action="store_true",
                    help="label the recording simulated (devices of `pito sim-devices` given by address)")
     p.add_argument("--calibration", metavar="FILE",
-                   help="calibration file: computed live, and embedded in the recording (matrix, offset, method, "
-                        "date, sha256 hash) so exports know how wrenches were computed (docs/interop.md)")
+                   help="calibration file: computed live, and embedded in the recording (the file's exact bytes: "
+                        "the whole model, under its content hash) so exports compute with it (docs/interop.md)")
     p.add_argument("--object", metavar="NAME", help="patch assembly (library name or .json) for contacts; embedded too")
     p.add_argument("--lsl", action="store_true",
                    help="also publish the LSL streams pito-wrenches and pito-contacts while recording "
@@ -92,10 +92,11 @@ def register(sub) -> None:
     p.set_defaults(func=run)
 
 
-def _line(elapsed, stats) -> str:
+def _line(elapsed, stats, closed: bool = False) -> str:
+    """One progress line; ``closed``: the final one, after pito closed the devices itself."""
     p = stats["pito"]
     s = f"{elapsed:7.1f} s  cube {p['frames']} frames, dropped {p['dropped']}, crc errors {p['crc_errors']}"
-    if not p["connected"]:
+    if not p["connected"] and not closed:
         s += " (disconnected)"
     if stats["netft"] is not None:
         f = stats["netft"]
@@ -179,6 +180,10 @@ def _record(args) -> int:
             pipeline = _pipeline_for(args, netft is not None)
             meta = _recording_meta(args, info, netft, pipeline)
             sinks = _sinks_for(args, meta, pipeline)
+            if sinks:  # what liblsl listens on (docs/interop.md, "What listens where")
+                where = listening_sockets()
+                print(f"publishing LSL streams {', '.join(sinks[0].names)}; listening on "
+                      f"{', '.join(where) if where else 'ports 16571-16604 (liblsl defaults)'}", file=sys.stderr, flush=True)
             writer = RecordingWriter(args.output, meta, flush_interval=args.flush_interval)
             acq = Acquisition(cube, netft, recorder=writer, buffer_seconds=10.0, reference_rate_hz=args.ati_rate,
                               meta={"simulated": info["simulated"]})
@@ -191,15 +196,36 @@ def _record(args) -> int:
                 pass
             finally:
                 acq.stop()
+                for device in (cube, netft):  # no frame after this: every frame received is collected next
+                    if device is not None:
+                        device.close()
+                acq.stop()  # collects what arrived until the devices closed
                 writer.close()
             stats = acq.stats()
-            print(_line(time.monotonic() - t0, stats), file=sys.stderr)
+            print(_line(time.monotonic() - t0, stats, closed=True), file=sys.stderr)
             rows = writer.rows_written
             label = " (simulated)" if info["simulated"] else ""
             print(f"wrote {args.output}: {rows['pito']} cube samples, {rows['netft']} reference samples{label}")
+            lost = _lost_at_handoff(stats, rows)
+            if lost:
+                print(f"pito: error: {lost}", file=sys.stderr)
+                return 1
     finally:
         signal.signal(signal.SIGTERM, old)
     return 0
+
+
+def _lost_at_handoff(stats: dict, rows: dict) -> str:
+    """A sentence naming the stream whose frames received by the driver did not all reach the file ('' if none)."""
+    lost = []
+    got = int(stats["pito"]["frames"])
+    if got != rows["pito"]:
+        lost.append(f"cube: {got} frames received, {rows['pito']} recorded")
+    if stats.get("netft") is not None:
+        got = int(stats["netft"]["records"])
+        if got != rows["netft"]:
+            lost.append(f"reference: {got} records received, {rows['netft']} recorded")
+    return "; ".join(lost)
 
 
 def _record_loop(args, acq, reader, pipeline, sinks, writer, stop: dict, t0: float) -> None:

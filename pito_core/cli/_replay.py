@@ -12,7 +12,7 @@ from ..calibration import load_calibration
 from ..devices import STATUS_SATURATION
 from ..interop import recording_calibration
 from ..io import Recording, export_recording_files
-from ..pipeline import Pipeline, RecordingReader
+from ..pipeline import Pipeline, RecordingReader, recording_times, replay_blocks
 
 HELP = """\
 Replay a pito recording (written by `pito record`), print its content, or export it.
@@ -22,8 +22,9 @@ Without options the recording is replayed at real speed (--speed 2 is twice as f
 paired to the cube samples by the device clocks, the recorded tare applied), printing each
 second of recording: cube samples, and the paired reference's mean force magnitude (N);
 with --calibration FILE also the largest force on each face (N). --csv PREFIX writes PREFIX_pito.csv
-(host_time s, seq, time_us µs, counts_1..36) and PREFIX_ati.csv (host_time s, rdt_seq,
-ft_seq, status, fx fy fz N, tx ty tz N·m); --mat FILE writes a MATLAB file (variables
+(time s, host_time s, seq, time_us µs, counts_1..36) and PREFIX_ati.csv (time s, host_time s,
+rdt_seq, ft_seq, status, fx fy fz N, tx ty tz N·m); `time` is the one time base of every
+export: the cube's device clock, unwrapped, from the first sample, strictly increasing; --mat FILE writes a MATLAB file (variables
 listed in docs/devices.md). A recording whose recorder was killed is incomplete: add
 --recover to read every intact chunk.
 """
@@ -66,7 +67,7 @@ def run(args) -> int:
     rec = Recording(args.file, recover=args.recover)
     print(_summary(rec))
     if args.csv or args.mat:
-        for written in export_recording_files(rec, args.csv, args.mat):
+        for written in export_recording_files(rec, args.csv, args.mat, recording_times(rec)):
             print(f"wrote {written}")
         return 0
     if args.info:
@@ -80,10 +81,7 @@ def run(args) -> int:
     reader = RecordingReader(rec, speed=args.speed, loop=False)
     pipe = Pipeline(calibration, has_reference=reader.has_reference)
     t_next, n, force, faces = 1.0, 0, [], []
-    while True:
-        samples = reader.read()
-        done = reader.finished
-        b = pipe.feed(samples, flush=done)
+    for b, pos, done in _bundles(reader, pipe, args.speed):
         n += len(b)
         if len(b):
             ok = np.isfinite(b.reference).all(axis=1)
@@ -91,16 +89,33 @@ def run(args) -> int:
                 force.append(np.linalg.norm(b.reference[ok, :3], axis=1))
             if b.face_wrenches is not None:
                 faces.append(np.nanmax(np.linalg.norm(b.face_wrenches[:, :, :3], axis=2), axis=0))
-        pos = reader.stats()["position"]
         if pos >= t_next - 1e-9 or (done and n):
             f = f", mean |F| {np.concatenate(force).mean():.3f} N" if force else ""
             if faces:
                 f += "; max face |F| " + " ".join(f"{x:.2f}" for x in np.nanmax(faces, axis=0)) + " N"
             print(f"{pos:7.1f} s  cube {n} samples{f}", file=sys.stderr, flush=True)
             t_next, n, force, faces = t_next + 1.0, 0, [], []
-        if done:
-            break
-        if not np.isinf(args.speed):
-            time.sleep(0.02)
     print("replay done")
     return 0
+
+
+def _bundles(reader, pipe, speed: float):
+    """``(bundle, position s, last)`` of the replay: paced reads at a finite ``speed`` (position on the
+    recording's host clock), else one second of samples at a time (position on the cube's device clock),
+    so the pipeline's reference history always covers what it pairs."""
+    if np.isinf(speed):
+        tick0 = int(reader.cube["tick"][0])
+        blocks = replay_blocks(reader, pipe)
+        b = next(blocks)
+        for nxt in blocks:
+            yield b, (int(b.tick[-1]) - tick0) * 1e-6 if len(b) else 0.0, False
+            b = nxt
+        yield b, (int(reader.cube["tick"][-1]) - tick0) * 1e-6, True
+        return
+    while True:
+        samples = reader.read()
+        done = reader.finished
+        yield pipe.feed(samples, flush=done), reader.stats()["position"], done
+        if done:
+            return
+        time.sleep(0.02)

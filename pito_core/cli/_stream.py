@@ -4,32 +4,43 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import os
 import signal
 import sys
 import time
 
 from ..calibration import load_calibration
 from ..devices import DEFAULT_BAUDRATE, Acquisition, DeviceError, open_devices
-from ..interop import LslPublisher, calibration_record, machine_only_config
+from ..interop import (
+    CONTACT_CHANNEL_COUNT,
+    WRENCH_CHANNELS,
+    LslPublisher,
+    calibration_record,
+    listening_sockets,
+    machine_only_config,
+)
 from ..pipeline import AcquisitionReader, Pipeline
 from ..sim import SimulatorError
 from ._record import _addresses
 
-HELP = """\
+HELP = f"""\
 Publish the cube's face wrenches and contacts as Lab Streaming Layer streams, live,
 without recording (`pito record ... --lsl` publishes while it records):
 
-  pito-wrenches  type Force, 36 channels (face i: fx fy fz in N, tx ty tz in N*m, own frame)
-  pito-contacts  type Contact, 66 channels (face i: point xyz m, normal xyz, force xyz N in the
-                 core frame, torsion N*m, valid 0/1)
+  pito-wrenches  type Force, {6 * len(WRENCH_CHANNELS)} channels (face i: fx fy fz in N, tx ty tz in N*m, own frame)
+  pito-contacts  type Contact, {CONTACT_CHANNEL_COUNT} channels (face i: point xyz m, normal xyz, force xyz N in the
+                 core frame, torsion N*m, valid 0/1, single 0/1: one fingertip can produce the wrench)
 
-at the cube's rate, time-stamped on the LSL clock at acquisition (device clock mapped by the
-pairing rule), with channel metadata and the calibration's identity (method, date, sha256
+at the cube's rate, time-stamped on the LSL clock at acquisition (the cube's device clock,
+strictly increasing, placed on the LSL clock at the first sample), with channel metadata and the calibration's identity (method, date, sha256
 hash) and the patch assembly in the stream description. docs/interop.md gives the layout.
 
 LSL finds peers by multicast on the local network unless configured: set LSLAPICFG to a
-machine-only config (`pito stream --write-machine-config FILE` writes one) when the streams
-must not leave this computer.
+machine-only config (`pito stream --write-machine-config FILE` writes one) so discovery stays
+on 127.0.0.1. liblsl still binds each outlet's TCP and UDP data ports (16572, 16573, ...)
+to every interface (it has no setting for their address): the first line printed says
+exactly what this process listens on; a firewall (or a private network namespace) keeps
+other computers out.
 
 Addresses as `pito record`: --pito PORT or `sim`, --ati HOST[:PORT] or `sim` (or omitted).
 """
@@ -79,8 +90,13 @@ def run(args) -> int:
             acq = Acquisition(cube, netft, buffer_seconds=10.0, reference_rate_hz=args.ati_rate,
                               meta={"simulated": info["simulated"]})
             reader = AcquisitionReader(acq, simulated=info["simulated"], history=0.0)
-            print(f"publishing LSL streams {pub.names[0]} (Force, 36 ch) and {pub.names[1]} (Contact, 66 ch)"
-                  f"{' (simulated devices)' if info['simulated'] else ''}; Ctrl-C stops", file=sys.stderr, flush=True)
+            where = listening_sockets()
+            print(f"publishing LSL streams {pub.names[0]} (Force, {6 * len(WRENCH_CHANNELS)} ch) and {pub.names[1]} "
+                  f"(Contact, {CONTACT_CHANNEL_COUNT} ch)"
+                  f"{' (simulated devices)' if info['simulated'] else ''}; listening on "
+                  f"{', '.join(where) if where else 'ports 16571-16604 (liblsl defaults; address not readable here)'}"
+                  f" (LSLAPICFG={os.environ.get('LSLAPICFG') or 'not set: multicast discovery on the network'}); "
+                  "Ctrl-C stops", file=sys.stderr, flush=True)
             t0 = time.monotonic()
             try:
                 acq.start()

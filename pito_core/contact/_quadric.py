@@ -44,13 +44,26 @@ def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _norm(x: np.ndarray) -> np.ndarray:
-    """``|x|`` of rows ``x (N, 3)`` as ``(N, 1)``: ``np.linalg.norm(x, axis=1, keepdims=True)``'s arithmetic, without its call overhead."""
-    return np.sqrt((x * x).sum(axis=1, keepdims=True))
+    """``|x|`` of rows ``x (N, 3)`` as ``(N, 1)`` (a sum of three squares; no small-axis reduction)."""
+    return np.sqrt(np.einsum("ij,ij->i", x, x))[:, None]
 
 
 def _mat(x: np.ndarray, M: np.ndarray) -> np.ndarray:
-    """``x @ M`` for ``x (N, 3)`` and a small matrix ``M`` (einsum: BLAS is slow here)."""
+    """``x @ M`` for ``x (N, 3)`` and a small matrix ``M (3, K)`` (einsum: BLAS is slow here)."""
     return np.einsum("ij,jk->ik", x, M)
+
+
+def _mat3(x: np.ndarray, M: np.ndarray) -> np.ndarray:
+    """``x @ M`` for ``x (N, 3)`` and a ``(3, 3)`` matrix ``M``, column by column (no BLAS: the same
+    rounding whatever ``N``; faster than einsum here)."""
+    out = np.empty((len(x), 3))
+    x0, x1, x2 = x[:, 0], x[:, 1], x[:, 2]
+    for k in range(3):
+        o = out[:, k]
+        np.multiply(x0, M[0, k], out=o)
+        o += x1 * M[1, k]
+        o += x2 * M[2, k]
+    return out
 
 
 def solve_plane(f, m, point, normal):
@@ -58,14 +71,27 @@ def solve_plane(f, m, point, normal):
 
     Returns ``c, n, tau, ok`` (see module docstring); ``ok`` is ``f · n < 0``.
     """
-    fn = np.einsum("ij,j->i", f, normal)
+    fn = f[:, 0] * normal[0]
+    fn += f[:, 1] * normal[1]
+    fn += f[:, 2] * normal[2]
     d = float(point @ normal)
     ok = fn < 0
     with np.errstate(divide="ignore", invalid="ignore"):
         inv = 1.0 / fn
-        c = _cross(normal, m)
-        c += d * f
-        c *= inv[:, None]
+        c = np.empty_like(f)
+        for i, (j, k) in enumerate(((1, 2), (2, 0), (0, 1))):  # c_i = ((n × m)_i + d f_i) / (n · f)
+            col = c[:, i]
+            if normal[j] != 0.0:  # (n × m)_i = n_j m_k − n_k m_j, the zero terms of a constant normal left out
+                np.multiply(normal[j], m[:, k], out=col)
+                if normal[k] != 0.0:
+                    col -= normal[k] * m[:, j]
+            elif normal[k] != 0.0:
+                np.multiply(-normal[k], m[:, j], out=col)
+            else:
+                col[:] = 0.0
+            if d != 0.0:
+                col += d * f[:, i]
+            col *= inv
         tau = _dot(f, m) * inv
     n = np.empty_like(f)
     n[:] = normal
@@ -123,9 +149,9 @@ def solve_ellipsoid(f, m, center, semi_axes, rotation):
     a = np.asarray(semi_axes, dtype=float)
     R = np.asarray(rotation, dtype=float)
     mp = m - _cross(center, f) if center.any() else m
-    g = _mat(f, R)  # components in the principal frame
+    g = _mat3(f, R)  # components in the principal frame
     g /= a
-    mu = _mat(mp, R)
+    mu = _mat3(mp, R)
     mu *= a / (a[0] * a[1] * a[2])
     P, Q, den = _unit_sphere_terms(g, mu)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -135,8 +161,8 @@ def solve_ellipsoid(f, m, center, semi_axes, rotation):
         q /= _norm(q)
         n_e = q / a
         n_e /= _norm(n_e)
-    c = _mat(q * a, R.T)
+    c = _mat3(q * a, R.T)
     c += center
-    n = _mat(n_e, R.T)
+    n = _mat3(n_e, R.T)
     tau = _dot(n, m - _cross(c, f))
     return c, n, tau, ok

@@ -15,10 +15,10 @@ from ._plausibility import (
     SingleContactReason,
     param_variance,
     single_contact_test,
-    soft_finger_variance,
 )
 from ._pointcontact import DEFAULT_WRENCH_COV, refine_point_contact
 from ._quadric import solve_ellipsoid, solve_plane, solve_sphere
+from ._soft_test import soft_finger_test
 from ._surfaces import Ellipsoid, MeshSurface, Plane, Sphere, Surface, check_positive
 
 __all__ = ["solve", "contact_crb", "DEFAULT_FORCE_THRESHOLD"]
@@ -115,7 +115,8 @@ def solve(
         uses ``wrench_cov`` (or ``DEFAULT_WRENCH_COV`` if None) as the wrench's noise.
     single_contact : bool
         Run the single-contact test (default). False leaves the three ``single_contact*``
-        fields None (the bare solver, ~6× faster on analytic surfaces).
+        fields None (the bare solver: no Jacobian is built unless ``wrench_cov`` asks for
+        the covariances).
 
     Returns
     -------
@@ -140,7 +141,7 @@ def solve(
     return out._reshape(lead)
 
 
-def _solve_patches(patches, blocks, force_threshold, covs, point_contact) -> ContactEstimate:
+def _solve_patches(patches, blocks, force_threshold, covs, point_contact, single_contact=True) -> ContactEstimate:
     """``solve(patch, w, force_threshold, point_contact=…, wrench_cov=S)`` of several patches in one pass.
 
     For ``solve_object``: ``blocks`` are each patch's rows ``w (N_k, 6)`` and ``covs`` their
@@ -160,7 +161,7 @@ def _solve_patches(patches, blocks, force_threshold, covs, point_contact) -> Con
         else:
             S = np.concatenate([np.broadcast_to(c, (len(b), 6, 6)) for c, b in zip(covs, blocks)])
     return _solve_checked(parts, w, _check_threshold(force_threshold), S, point_contact=point_contact,
-                          single_contact=True, alpha=SINGLE_CONTACT_ALPHA)
+                          single_contact=single_contact, alpha=SINGLE_CONTACT_ALPHA)
 
 
 def _solve_checked(parts, w, thr, S, *, point_contact, single_contact, alpha):
@@ -217,16 +218,17 @@ def _solve_rows(surfaces, f, m, ws, Sn, *, with_cov, point_contact, single_conta
     """
     e = torsion_radius
     blocks = [b for b in surfaces if b[2].stop > b[2].start]  # the blocks with rows to solve
+    force = np.array(f, order="C")  # ours: the kernels read it, the point-contact refinement writes it
+    mc = np.ascontiguousarray(m) if mesh else m  # the closed forms take strided moments
     if len(surfaces) == 1:
-        c, n, tau, ok, facet = _solve_surface(surfaces[0][0], np.ascontiguousarray(f), np.ascontiguousarray(m))
+        c, n, tau, ok, facet = _solve_surface(surfaces[0][0], force, mc)
     else:
-        solved = [_solve_surface(s, np.ascontiguousarray(f[sl]), np.ascontiguousarray(m[sl])) for s, _, sl in blocks]
+        solved = [_solve_surface(s, force[sl], mc[sl]) for s, _, sl in blocks]
         c, n, tau, ok = (np.concatenate([r[k] for r in solved]) for k in range(4))
         facet = np.full(len(c), -1, np.intp) if mesh else None
         for r, (_, _, sl) in zip(solved, blocks):
             if r[4] is not None:
                 facet[sl] = r[4]
-    force = f.copy()
     W = np.linalg.inv(Sn) if point_contact else None
     if point_contact and len(c):
         for surface, _, sl in blocks:
@@ -234,32 +236,37 @@ def _solve_rows(surfaces, f, m, ws, Sn, *, with_cov, point_contact, single_conta
             if len(sel):
                 _refine(surface, c, n, force, ok, sel, ws[sel], W if W.ndim == 2 else W[sel])
         tau = np.zeros(len(c))
-    ok &= np.isfinite(c).all(axis=1)
+    ok &= np.isfinite(np.einsum("ij,j->i", c, _ZERO3))  # isfinite(c).all(axis=1): 0 · ±inf and 0 · NaN are NaN
 
-    with np.errstate(invalid="ignore", divide="ignore"):  # NaN rows stay NaN
-        if len(surfaces) == 1:
-            shape = surfaces[0][0]._shape_operator(c, n)
-        else:
-            shape = np.concatenate([s._shape_operator(c[sl], n[sl]) for s, _, sl in blocks])
-        J, T = wrench_jacobian(c, n, shape, force, tau, point_contact=point_contact)
-        test = None
-        if single_contact:
-            if point_contact:
+    test = cov = None
+    if single_contact and not point_contact:  # the soft finger's test in closed form (_soft_test)
+        test = soft_finger_test(c, n, force, tau, Sn, blocks, mu, e, alpha)
+    elif single_contact or with_cov:
+        with np.errstate(invalid="ignore", divide="ignore"):  # NaN rows stay NaN
+            shape = _shape(surfaces, blocks, c, n)
+            J, T = wrench_jacobian(c, n, shape, force, tau, point_contact=point_contact)
+            if single_contact:  # point contact: the parameters' covariance, and the χ² residual
                 variance = param_variance(covariance_from_jacobian(J, T, Sn).param_cov)
-            else:
-                variance = soft_finger_variance(J, c, Sn)
-            boundary = surfaces[0][1] if len(surfaces) == 1 else [(b, sl) for _, b, sl in blocks]
-            test = single_contact_test(c, n, force, tau, ws, variance, T, shape, W, boundary=boundary, mu=mu,
-                                       torsion_radius=e, alpha=alpha, point_contact=point_contact)
+                boundary = surfaces[0][1] if len(surfaces) == 1 else [(b, sl) for _, b, sl in blocks]
+                test = single_contact_test(c, n, force, tau, ws, variance, T, shape, W, boundary=boundary, mu=mu,
+                                           torsion_radius=e, alpha=alpha, point_contact=point_contact)
     for _, boundary, sl in blocks:
         if boundary is not None:
             ok[sl] &= boundary._contains(c[sl])
-    cov = None
     if with_cov:
+        if single_contact and not point_contact:
+            with np.errstate(invalid="ignore", divide="ignore"):
+                J, T = wrench_jacobian(c, n, _shape(surfaces, blocks, c, n), force, tau, point_contact=point_contact)
         J[~ok] = np.nan
         cov = covariance_from_jacobian(J, T, Sn)
-
     return c, n, force, tau, ok, facet, cov, test
+
+
+def _shape(surfaces, blocks, c, n):
+    """Shape operators ``(n, 3, 3)`` of the solved rows, block by block."""
+    if len(surfaces) == 1:
+        return surfaces[0][0]._shape_operator(c, n)
+    return np.concatenate([s._shape_operator(c[sl], n[sl]) for s, _, sl in blocks])
 
 
 def _refine(surface, c, n, force, ok, sel, ws, Wn):
@@ -289,13 +296,15 @@ def _check_alpha(alpha) -> float:
 #: ``c, n, force, tau`` of no rows; a :class:`ContactCovariance` of no rows
 _NO_ROWS = (np.empty((0, 3)), np.empty((0, 3)), np.empty((0, 3)), np.empty(0))
 _NO_COV = (np.empty((0, 3, 3)), np.empty((0, 3, 3)), np.empty(0), np.empty((0, 6, 6)), np.empty((0, 3, 2)))
+#: zeros (3,): ``x @ _ZERO3`` is finite exactly where the row x is
+_ZERO3 = np.zeros(3)
 #: a single-contact test of no rows
 _NO_TEST = (np.empty(0, bool), np.empty(0), np.empty(0, np.int8))
 
 
 def _assemble(N, strong, all_strong, c, n, force, tau, ok, facet, cov, test) -> ContactEstimate:
-    bad = ~ok
-    any_bad = bool(bad.any())
+    bad = np.flatnonzero(~ok)
+    any_bad = len(bad) > 0
 
     def full(x, fill=np.nan, dtype=float):
         if any_bad:
@@ -309,7 +318,7 @@ def _assemble(N, strong, all_strong, c, n, force, tau, ok, facet, cov, test) -> 
     est = ContactEstimate(
         point=full(c),
         normal=full(n),
-        force=full(np.array(force, dtype=float)),
+        force=full(force),
         torsion=full(np.asarray(tau, dtype=float)),
         valid=full(ok, False, bool),
     )

@@ -5,7 +5,7 @@ loopback UDP); ``devices`` never imports ``sim``.
 """
 
 from ._acquisition import Acquisition
-from ._tare import TareCheck, TareRefused, check_tare, tare_event
+from ._tare import TareCheck, TareRefused, TareSupport, check_tare, resting_load, tare_event
 from ._clock import PAIRING_RULE, StreamClock, TickUnwrapper, pair_reference
 from ._atical import DIST_UNITS, AtiCalibration, load_ati_calibration
 from ._capture import Capture, CaptureRules, FaceCaptures, is_still, scaled
@@ -52,6 +52,8 @@ __all__ = [
     "scaled",
     "TareCheck",
     "TareRefused",
+    "TareSupport",
+    "resting_load",
     "check_tare",
     "tare_event",
     "Acquisition",

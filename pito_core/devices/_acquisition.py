@@ -1,9 +1,9 @@
-"""Acquisition: both streams with host timestamps, ring buffers, live tare, calibration sessions.
+"""Acquisition: both streams with host timestamps, ring buffers, calibration sessions.
 
 Typical use (the desktop wizard does the same, from its worker thread)::
 
     with Acquisition(PitoSerial(port), NetFT(host)) as acq:
-        time.sleep(1.0); acq.tare()                  # unloaded: offsets of both
+        time.sleep(1.0); acq.apply_tare(event)       # a tare taken by the pipeline (Pipeline.tare)
         t0 = acq.now(); ...apply loads on face 2...; t1 = acq.now()
         session = acq.to_session(t0, t1, loaded=2, flange="frame", connected_face=6,
                                  T_core_ati=T)
@@ -17,8 +17,9 @@ smallest recent transport delay). Readers take new rows by their write cursor
 
 :class:`Acquisition` owns the devices, the state and the collecting thread's lifecycle; each job
 lives in its own module: the rings and reading them (:mod:`._ring`), collecting
-(:mod:`._collector`), recording (:mod:`._recorder`), the live tare (:mod:`._live_tare`) and
-calibration sessions (:mod:`._session`).
+(:mod:`._collector`), recording (:mod:`._recorder`) and calibration sessions (:mod:`._session`).
+A tare is taken by the one pipeline (``pito_core.pipeline.Pipeline.tare``, its checks in
+:mod:`._tare`); :meth:`Acquisition.apply_tare` only applies its event to the sessions built here.
 """
 
 from __future__ import annotations
@@ -31,7 +32,6 @@ import numpy as np
 from ..frames import N_GAUGES
 from ._clock import StreamClock, TickUnwrapper
 from ._collector import Collector
-from ._live_tare import LiveTare
 from ._netft import NetFTBatch
 from ._recorder import Recorder
 from ._ring import NETFT_ROWS, PITO_ROWS, Ring, RingReader
@@ -41,7 +41,7 @@ from ._session import SessionBuilder
 __all__ = ["Acquisition"]
 
 
-class Acquisition(RingReader, Collector, Recorder, LiveTare, SessionBuilder):
+class Acquisition(RingReader, Collector, Recorder, SessionBuilder):
     """Collect the cube and the reference in a thread, with host timestamps.
 
     Parameters
@@ -140,25 +140,38 @@ class Acquisition(RingReader, Collector, Recorder, LiveTare, SessionBuilder):
         self.close()
 
     # ------------------------------------------------------------------ views
-    def latest(self, n: int | None = None, *, tared: bool = False):
-        """The last ``n`` samples of each stream (all buffered if None).
+    def apply_tare(self, event: dict) -> None:
+        """Use a tare event (made by ``Pipeline.tare``) for the sessions built from now on.
+
+        Sets :attr:`counts_offset` ``(36,)`` (counts; the event's None: zeros) and
+        :attr:`reference_bias` ``(6,)`` (N, N·m), and records the event in the recorder if any.
+        """
+        off = event.get("counts_offset")
+        bias = np.asarray(event["reference_bias"], dtype=float)
+        if bias.shape != (6,):
+            raise ValueError(f"reference_bias: expected 6 values (N, N·m), got shape {bias.shape}")
+        offset = np.zeros(N_GAUGES) if off is None else np.asarray(off, dtype=float)
+        if offset.shape != (N_GAUGES,):
+            raise ValueError(f"counts_offset: expected {N_GAUGES} counts, got shape {offset.shape}")
+        self.counts_offset, self.reference_bias, self.tared_at = offset, bias, self.now()
+        if self.recorder is not None:
+            self.recorder.append_event(dict(event))
+
+    def latest(self, n: int | None = None):
+        """The last ``n`` samples of each stream (all buffered if None), raw.
 
         Returns
         -------
         (PitoBatch, NetFTBatch or None)
-            Counts (n, 36) and wrench (m, 6) in N, N·m, with host times. With
-            ``tared=True`` the counts are float, minus :attr:`counts_offset`, and the
-            wrench is minus :attr:`reference_bias`.
+            Counts (n, 36) and wrench (m, 6) in N, N·m, with host times.
         """
         with self._lock:
             p = self._pito_ring.last(n)
             f = self._ft_ring.last(n) if self.netft is not None else None
-        counts = p["counts"] - self.counts_offset if tared else p["counts"]
-        pb = PitoBatch(p["seq"], p["time_us"], counts, p["host_time"])
+        pb = PitoBatch(p["seq"], p["time_us"], p["counts"], p["host_time"])
         if f is None:
             return pb, None
-        wrench = f["wrench"] - self.reference_bias if tared else f["wrench"]
-        return pb, NetFTBatch(f["rdt_seq"], f["ft_seq"], f["status"], wrench, f["host_time"], f["saturated"])
+        return pb, NetFTBatch(f["rdt_seq"], f["ft_seq"], f["status"], f["wrench"], f["host_time"], f["saturated"])
 
     def stats(self) -> dict:
         """``{"pito": PitoSerial.stats(), "netft": NetFT.stats() or None, "buffered": {...}}``."""

@@ -1,6 +1,7 @@
 """Poses, wrench transforms and the cube's geometry (imports nothing of ours)."""
 
 from ._checks import ROTATION_TOL, check_face, check_pose, check_vectors
+from ._colors import FACE_COLORS
 from ._cube import CUBE_ADC_LIMIT, DEFAULT_EDGE, FACE_NORMALS, FACES, N_GAUGES, OPPOSITE_FACE, CubeCore
 from ._transforms import (
     WRENCH_COMPONENTS,
@@ -17,6 +18,7 @@ from ._transforms import (
 )
 
 __all__ = [
+    "FACE_COLORS",
     "CUBE_ADC_LIMIT",
     "CubeCore",
     "DEFAULT_EDGE",

@@ -9,6 +9,7 @@ imported only by the functions that need them.
 """
 
 from ._conventions import (
+    CONTACT_CHANNEL_COUNT,
     CONTACT_CHANNELS,
     CONTACT_STREAM,
     CONTACT_TYPE,
@@ -20,12 +21,23 @@ from ._conventions import (
     WRENCH_TYPE,
 )
 from ._data import ExportData, export_data
-from ._lsl import LslPublisher, contact_samples, lsl_stream_infos, machine_only_config, wrench_samples
+from ._lsl import (
+    LslPublisher,
+    contact_samples,
+    listening_sockets,
+    lsl_stream_infos,
+    machine_only_config,
+    wrench_samples,
+)
 from ._mcap import write_mcap
 from ._nwb import BEHAVIOR_MODULE, MISC_MODULE, missing_metadata, write_nwb
 from ._nwb_trials import GRASP_PHASES_TABLE, append_grasp_phases
 from ._provenance import (
+    BULKY_RECORD_KEYS,
     assembly_record,
+    calibration_file_bytes,
+    calibration_from_bytes,
+    record_file_bytes,
     calibration_from_record,
     calibration_hash,
     calibration_record,
@@ -35,6 +47,7 @@ from ._provenance import (
 
 __all__ = [
     "BEHAVIOR_MODULE", "MISC_MODULE", "missing_metadata",
+    "CONTACT_CHANNEL_COUNT",
     "CONTACT_CHANNELS",
     "CONTACT_STREAM",
     "CONTACT_TYPE",
@@ -48,11 +61,16 @@ __all__ = [
     "GRASP_PHASES_TABLE",
     "append_grasp_phases",
     "LslPublisher",
+    "BULKY_RECORD_KEYS",
     "assembly_record",
+    "calibration_file_bytes",
+    "calibration_from_bytes",
+    "record_file_bytes",
     "calibration_from_record",
     "calibration_hash",
     "calibration_record",
     "contact_samples",
+    "listening_sockets",
     "export_data",
     "lsl_stream_infos",
     "machine_only_config",

@@ -12,10 +12,12 @@
   (manufacturer, model), ``reference_frame``, ``calibration`` (method, date, hash, source),
   ``assembly`` (name, patch per face), ``simulated``.
 
-Timestamps: each sample's time from the pairing rule (device clock mapped onto the host's
-``time.monotonic``; :mod:`pito_core.devices._clock`) plus the offset ``local_clock() −
-time.monotonic()`` (measured when the publisher starts; both are CLOCK_MONOTONIC on Linux,
-so it is ~0): LSL time of the sample's *acquisition*, not of its push.
+Timestamps: the cube's device clock (``time_us``, unwrapped; the one time base of pito's
+exports), strictly increasing, a dropped frame a gap, placed on the LSL clock once: the first
+sample published gets its pairing-rule time (device clock mapped onto the host's
+``time.monotonic``, :mod:`pito_core.devices._clock`) plus ``local_clock() − time.monotonic()``
+(both CLOCK_MONOTONIC on Linux, so ~0), every later one that plus its device time since: LSL
+time of the sample's *acquisition*, not of its push.
 
 Inside a network namespace with loopback only, liblsl logs "No local network interface
 addresses found": expected there (its streams still resolve on 127.0.0.1).
@@ -26,6 +28,8 @@ Safety: liblsl multicasts to find peers unless configured; run under a machine-o
 
 from __future__ import annotations
 
+import ipaddress
+import os
 import time
 from pathlib import Path
 
@@ -45,7 +49,7 @@ from ._conventions import (
 from ._provenance import assembly_record as _asm, calibration_record as _cal
 
 __all__ = ["LslPublisher", "lsl_stream_infos", "wrench_samples", "contact_samples", "machine_only_config",
-           "MACHINE_ONLY_CONFIG"]
+           "MACHINE_ONLY_CONFIG", "listening_sockets"]
 
 #: liblsl configuration that keeps every packet on this machine (write it to a file, point LSLAPICFG at it).
 MACHINE_ONLY_CONFIG = """\
@@ -73,6 +77,51 @@ def machine_only_config(path) -> str:
     """Write :data:`MACHINE_ONLY_CONFIG` to ``path``; returns the path (for ``LSLAPICFG``)."""
     Path(path).write_text(MACHINE_ONLY_CONFIG)
     return str(Path(path).resolve())
+
+
+def listening_sockets() -> list[str] | None:
+    """This process's listening TCP and bound UDP sockets, e.g. ``["TCP 0.0.0.0:16572", "UDP 127.0.0.1:16571"]``.
+
+    Read from ``/proc`` (Linux: the socket inodes of ``/proc/self/fd`` matched in ``/proc/self/net``);
+    None where that is not available. With pito's machine-only config liblsl answers discovery on
+    127.0.0.1 only, but binds each outlet's TCP and UDP data ports to every interface (liblsl has
+    no setting for their address): this says exactly what listens where.
+    """
+    fd_dir, net = Path("/proc/self/fd"), Path("/proc/self/net")
+    if not fd_dir.is_dir() or not net.is_dir():
+        return None
+    inodes = set()
+    for fd in fd_dir.iterdir():
+        try:
+            target = os.readlink(fd)
+        except OSError:
+            continue
+        if target.startswith("socket:["):
+            inodes.add(target[8:-1])
+    found = []
+    for proto, kind, listen_state in (("tcp", "TCP", "0A"), ("udp", "UDP", "07"), ("tcp6", "TCP", "0A"),
+                                      ("udp6", "UDP", "07")):
+        try:
+            lines = (net / proto).read_text().splitlines()[1:]
+        except OSError:
+            continue
+        for line in lines:
+            f = line.split()
+            if len(f) > 9 and f[9] in inodes and f[3] == listen_state:
+                found.append(f"{kind} {_address(f[1])}")
+    return sorted(set(found))
+
+
+def _address(hex_addr: str) -> str:
+    """``0100007F:407C`` (``/proc/net/tcp``, little-endian IPv4 or IPv6) → ``127.0.0.1:16508``."""
+    host, port = hex_addr.split(":")
+    raw = bytes.fromhex(host)
+    if len(raw) == 4:
+        ip = ".".join(str(b) for b in raw[::-1])
+    else:
+        words = [raw[k:k + 4][::-1] for k in range(0, 16, 4)]
+        ip = "[" + ipaddress.IPv6Address(b"".join(words)).compressed + "]"
+    return f"{ip}:{int(port, 16)}"
 
 
 def wrench_samples(face_wrenches) -> np.ndarray:
@@ -182,6 +231,7 @@ class LslPublisher:
         self.clock_offset = pylsl.local_clock() - time.monotonic()
         self.pushed = 0
         self.names = (WRENCH_STREAM, CONTACT_STREAM)
+        self.time_base = None  # (LSL time s, device tick µs) of the first sample published
 
     def __call__(self, bundle) -> None:
         # each cube sample once, as it arrives (its face wrenches do not wait for the reference);
@@ -189,7 +239,13 @@ class LslPublisher:
         W, t = bundle.arrived_face_wrenches, bundle.arrived_time
         if W is None or t is None or len(t) == 0 or len(W) != len(t):
             return
-        ts = (np.asarray(t, float) + self.clock_offset).tolist()
+        tick = bundle.arrived_tick
+        if tick is None or len(tick) != len(t):
+            ts = (np.asarray(t, float) + self.clock_offset).tolist()
+        else:
+            if self.time_base is None:
+                self.time_base = (float(t[0]) + self.clock_offset, int(tick[0]))
+            ts = (self.time_base[0] + (np.asarray(tick, np.int64) - self.time_base[1]) * 1e-6).tolist()
         self.wrench_outlet.push_chunk(wrench_samples(W), ts)
         self.contact_outlet.push_chunk(contact_samples(self.pipeline.contacts(np.asarray(W))), ts)
         self.pushed += len(ts)

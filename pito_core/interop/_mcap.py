@@ -1,6 +1,7 @@
 """ROS 2 MCAP export (``mcap`` + ``mcap-ros2-support``; no ROS install): docs/interop.md, "MCAP".
 
-Topics (profile ``ros2``, encoding ``cdr``; stamps = recording start (UNIX) + sample time):
+Topics (profile ``ros2``, encoding ``cdr``; log time = header stamp = recording start (UNIX) +
+sample time on the cube's device clock, ``ExportData.time``: strictly increasing, gaps kept):
 
 - ``/pito/face_{i}/wrench`` — ``geometry_msgs/msg/WrenchStamped``, ``frame_id`` ``pito_face_{i}``:
   the wrench on face i in its own frame (N, N·m), every cube sample with a finite value (with a calibration).
@@ -11,12 +12,14 @@ Topics (profile ``ros2``, encoding ``cdr``; stamps = recording start (UNIX) + sa
   ``/pito/face_{i}/contact/single_contact`` — ``std_msgs/msg/Float64MultiArray``, at the same
   samples: ``[single (1/0), p (0..1), reason code]`` of the single-contact test
   (``ContactEstimate.single_contact``; reason codes ``pito_core.contact.SingleContactReason``).
-- ``/pito/reference/wrench`` — ``WrenchStamped``, frame ``pito_reference`` (S_A), tared; only at
-  samples with a reference value (no message carries NaN).
+- ``/pito/reference/wrench`` — ``WrenchStamped``, frame ``pito_reference`` (S_A), tared: every
+  reference record of the recording, at its own time (``ExportData.reference_time``).
 - ``/tf_static`` — ``tf2_msgs/msg/TFMessage``: ``pito_core`` → ``pito_face_{i}`` (i = 1..6).
 - ``/pito/raw_counts`` — ``std_msgs/msg/Int32MultiArray`` (36 counts) every sample.
-- metadata record ``pito_provenance`` (calibration method/date/hash, assembly, note) and the
-  attachment ``calibration.json`` (the full record: matrix, offset).
+- metadata record ``pito_provenance`` (calibration method/date/hash, assembly, note), the
+  attachment ``calibration.json`` (the full record of :func:`~pito_core.interop.calibration_record`)
+  and the attachment ``calibration.pitocal``: the calibration file's exact bytes (the whole
+  model, correction and covariance), whose content hash is the record's ``hash``.
 
 The fixed-layout messages are CDR-encoded in bulk with numpy (the generic encoder of
 ``mcap_ros2`` costs ~30 µs a message); the tests decode them with ``mcap_ros2``'s decoder.
@@ -31,6 +34,7 @@ from scipy.spatial.transform import Rotation
 
 from ..frames import CubeCore
 from ._conventions import ROS_CORE_FRAME, ROS_FACE_FRAME
+from ._provenance import BULKY_RECORD_KEYS, record_file_bytes
 
 __all__ = ["write_mcap", "MSGDEFS"]
 
@@ -171,11 +175,13 @@ def _write_provenance(w, data, stamp: np.ndarray) -> None:
     meta = {"note": data.note, "simulated": json.dumps(data.simulated),
             "assembly": json.dumps(data.assembly), "calibration": json.dumps(
                 None if data.calibration is None else
-                {k: v for k, v in data.calibration.items() if k not in ("matrix", "offset")}, default=str)}
+                {k: v for k, v in data.calibration.items() if k not in BULKY_RECORD_KEYS}, default=str)}
     w.add_metadata("pito_provenance", meta)
     if data.calibration is not None:
-        w.add_attachment(0, int(stamp[0]) if stamp.size else 0, "calibration.json", "application/json",
-                         json.dumps(data.calibration, default=str).encode())
+        t = int(stamp[0]) if stamp.size else 0
+        w.add_attachment(0, t, "calibration.json", "application/json", json.dumps(data.calibration, default=str).encode())
+        if "file" in data.calibration:
+            w.add_attachment(0, t, "calibration.pitocal", "application/x-hdf5", record_file_bytes(data.calibration))
 
 
 def _write_tf_static(topics: _Topics, data, stamp: np.ndarray) -> None:
@@ -200,11 +206,11 @@ def _write_series(topics: _Topics, data, stamp: np.ndarray, raw_counts: bool, ad
     if raw_counts:
         topics.put("/pito/raw_counts", "std_msgs/msg/Int32MultiArray", stamp, _int32_array(data.counts))
     advance("mcap: counts")
-    if data.reference is not None:
-        # only samples with a reference value (a cube sample before the first reference packet has none)
-        ok = np.isfinite(np.asarray(data.reference, float)).all(axis=1)
-        topics.put("/pito/reference/wrench", "geometry_msgs/msg/WrenchStamped", stamp[ok],
-                   _stamped(stamp[ok], "pito_reference", np.asarray(data.reference, float)[ok]))
+    m = np.size(data.reference_time)
+    if m:  # every reference record, at its own time (the cube's clock), tared
+        rstamp = (np.round((data.start_unix + np.asarray(data.reference_time, float)) * 1e9)).astype(np.int64)
+        topics.put("/pito/reference/wrench", "geometry_msgs/msg/WrenchStamped", rstamp,
+                   _stamped(rstamp, "pito_reference", np.asarray(data.reference_wrench, float)))
     advance("mcap: reference")
     if data.face_wrenches is not None:
         for i in range(1, 7):

@@ -1,10 +1,13 @@
 """NWB export (pynwb): one recording → one ``.nwb`` file (docs/interop.md, "NWB").
 
-Layout (all series share the cube's timestamps, s from ``session_start_time``):
+Layout (the cube's series share its timestamps: its device clock, s from ``session_start_time``,
+strictly increasing, ``ExportData.time``; the reference has its own, on the same clock):
 
 - ``acquisition/pito_raw_counts`` — ``TimeSeries`` (n, 36), unit ``counts``, the 36 gauges.
-- ``acquisition/reference_force`` / ``reference_torque`` — ``TimeSeries`` (n, 3), N / N·m,
-  the reference sensor paired with the cube, frame S_A (only with a reference).
+- ``acquisition/reference_force`` / ``reference_torque`` — ``TimeSeries`` (m, 3), N / N·m,
+  every record of the reference sensor at its own time, tared, frame S_A (only with a reference).
+- ``acquisition/pito_host_time`` — ``TimeSeries`` (n,), s: when each cube sample reached the
+  host (``time.monotonic``; samples arrive in batches), on the cube's timestamps.
 - ``processing/behavior/face_{i}_force`` / ``face_{i}_torque`` — ``TimeSeries`` (n, 3),
   N / N·m, ``[x, y, z]`` in face i's own frame (one unit per series).
 - ``processing/behavior/contact_face_{i}`` — ``Position`` holding ``SpatialSeries``
@@ -15,8 +18,10 @@ Layout (all series share the cube's timestamps, s from ``session_start_time``):
   description).
 - ``processing/misc/calibration_matrix`` — ``DynamicTable``, one row per matrix
   row: ``face``, ``component``, ``unit``, ``coefficients`` (36, N or N·m per count),
-  ``offset_counts`` as its own table; the full provenance record (method, date, hash,
-  assembly) as JSON in the table's description and in ``nwbfile.notes``.
+  ``offset_counts`` as its own table; ``calibration_file`` (column ``content_base64``, parts in row order; the
+  description gives ``content_hash``, ``sha256``, ``size_bytes``): the calibration file's exact bytes, the whole
+  model (correction, covariance); the provenance record (method, date, hash, assembly) as JSON
+  in the table's description and in ``nwbfile.notes``.
 
 Module names are the NWB schema's own (``behavior``: what the hand did to the object;
 ``misc``: the calibration), as nwbinspector's ``check_processing_module_name`` asks.
@@ -32,7 +37,9 @@ import json
 import numpy as np
 
 from ..contact import SingleContactReason
+from ..frames import WRENCH_COMPONENTS
 from ._conventions import CORE_FRAME, FACE_FRAME
+from ._provenance import BULKY_RECORD_KEYS
 
 __all__ = ["write_nwb", "missing_metadata", "KEYWORDS", "BEHAVIOR_MODULE", "MISC_MODULE"]
 
@@ -41,7 +48,8 @@ BEHAVIOR_MODULE, MISC_MODULE = "behavior", "misc"
 #: ``/general/keywords`` of every export
 KEYWORDS = ("PITO", "tactile sensing", "force/torque", "grasp", "contact")
 
-_COMPONENTS = ("fx", "fy", "fz", "tx", "ty", "tz")
+#: Base64 characters per row of the ``calibration_file`` table.
+_FILE_CHUNK = 1 << 16
 
 
 def write_nwb(data, path, *, subject_id: str | None = None, species: str | None = None, sex: str | None = None,
@@ -66,7 +74,7 @@ def write_nwb(data, path, *, subject_id: str | None = None, species: str | None 
     _add_subject(nwb, subject_id=subject_id, species=species, sex=sex, age=age)
     counts = _add_acquisition(nwb, data)
     report(0.75, "nwb: wrenches")
-    _add_behavior(nwb, data, counts)
+    _add_behavior(nwb, data, _timing(data.time, counts))
     if data.calibration is not None:
         _add_calibration(nwb, data.calibration)
     report(0.85, "nwb: writing")
@@ -81,7 +89,7 @@ def _nwb_file(data, *, experimenter, session_description, institution, lab, iden
 
     start = _dt.datetime.fromtimestamp(data.start_unix or 0.0, tz=_dt.timezone.utc)
     prov = {"calibration": None if data.calibration is None else
-            {k: v for k, v in data.calibration.items() if k not in ("matrix", "offset")},
+            {k: v for k, v in data.calibration.items() if k not in BULKY_RECORD_KEYS},
             "assembly": data.assembly, "note": data.note, "simulated": data.simulated,
             "recording_meta": {k: v for k, v in data.meta.items() if k not in ("calibration", "assembly")}}
     desc = session_description or ("PITO grasp recording" + (" (SIMULATED devices)" if data.simulated else ""))
@@ -115,25 +123,44 @@ def _add_subject(nwb, *, subject_id, species, sex, age) -> None:
                               else "participant handling the PITO object")
 
 
+def _timing(t, link=None) -> dict:
+    """TimeSeries timing of sample times ``t`` (s): ``starting_time`` and ``rate`` (Hz) when they are evenly
+    spaced (to 1 ns: no dropped sample), else ``timestamps`` (``link``: a series whose timestamps to share)."""
+    t = np.asarray(t, float)
+    d = np.diff(t)
+    if d.size and float(d.max() - d.min()) <= 1e-9:
+        return {"starting_time": float(t[0]), "rate": float(np.round(1.0 / d.mean(), 6))}
+    return {"timestamps": t if link is None else link}
+
+
 def _add_acquisition(nwb, data):
     """The raw counts (and the reference's force and torque) as acquisition; returns the counts series."""
     from pynwb import TimeSeries  # deferred: optional dependency (extra "interop"), over 1 s to load
 
     t = np.asarray(data.time, float)
     counts = TimeSeries(name="pito_raw_counts", data=np.asarray(data.counts, np.int32), unit="counts",
-                        timestamps=t, description="PITO cube raw gauge counts, 36 channels (6 per face, face-major)",
+                        **_timing(t), description="PITO cube raw gauge counts, 36 channels (6 per face, face-major)",
                         comments="channel 6(i-1)+g = face i gauge g (1..6)")
     nwb.add_acquisition(counts)
-    if data.reference is not None:
+    if data.host_time is not None:
+        nwb.add_acquisition(TimeSeries(name="pito_host_time", data=np.asarray(data.host_time, float), unit="s",
+                                       **_timing(t, counts), description="host clock (time.monotonic) when each cube "
+                                       "sample reached the computer; samples arrive in batches"))
+    if np.size(data.reference_time):
+        rt = np.asarray(data.reference_time, float)
+        first = None
         for name, cols, unit in (("reference_force", slice(0, 3), "N"), ("reference_torque", slice(3, 6), "N*m")):
-            nwb.add_acquisition(TimeSeries(name=name, data=np.asarray(data.reference[:, cols]), unit=unit,
-                                           timestamps=counts, description=f"reference sensor (ATI Net F/T) {name.split('_')[1]} "
-                                           "[x, y, z] in the reference frame S_A, paired with the cube samples, tared"))
+            ts = TimeSeries(name=name, data=np.asarray(data.reference_wrench[:, cols]), unit=unit,
+                            **_timing(rt, first),
+                            description=f"reference sensor (ATI Net F/T) {name.split('_')[1]} [x, y, z] in the "
+                                        "reference frame S_A, every record at its own time (the cube's clock), tared")
+            nwb.add_acquisition(ts)
+            first = first or ts
     return counts
 
 
-def _add_behavior(nwb, data, counts) -> None:
-    """The ``behavior`` module: face wrenches and contacts, on the timestamps of ``counts``."""
+def _add_behavior(nwb, data, timing: dict) -> None:
+    """The ``behavior`` module: face wrenches and contacts, with the cube's ``timing`` (:func:`_timing`)."""
     from pynwb import TimeSeries  # deferred: optional dependency (extra "interop"), over 1 s to load
 
     if data.face_wrenches is None and data.contacts is None:
@@ -146,36 +173,36 @@ def _add_behavior(nwb, data, counts) -> None:
     if data.face_wrenches is not None:
         for i in range(1, 7):
             w = data.face_wrenches[:, i - 1]
-            mod.add(TimeSeries(name=f"face_{i}_force", data=w[:, :3], unit="N", timestamps=counts,
+            mod.add(TimeSeries(name=f"face_{i}_force", data=w[:, :3], unit="N", **timing,
                                description=f"force on face {i}, [fx, fy, fz] in {FACE_FRAME.format(i=i)}"))
-            mod.add(TimeSeries(name=f"face_{i}_torque", data=w[:, 3:], unit="N*m", timestamps=counts,
+            mod.add(TimeSeries(name=f"face_{i}_torque", data=w[:, 3:], unit="N*m", **timing,
                                description=f"torque on face {i} about its frame origin, [tx, ty, tz] in {FACE_FRAME.format(i=i)}"))
     if data.contacts is not None:
         for i in range(1, 7):
-            _add_contact(mod, data.contacts, i, counts)
+            _add_contact(mod, data.contacts, i, timing)
 
 
-def _add_contact(mod, c, i, timestamps) -> None:
+def _add_contact(mod, c, i, timing) -> None:
     """Face ``i``'s contact (``ContactEstimate``): point, normal, force, torsion, valid, single-contact test."""
     from pynwb import TimeSeries  # deferred: optional dependency (extra "interop"), over 1 s to load
     from pynwb.behavior import Position, SpatialSeries
 
     k = i - 1
     pos = Position(name=f"contact_face_{i}")
-    pos.add_spatial_series(SpatialSeries(name="point", data=c.point[:, k], timestamps=timestamps, unit="meters",
+    pos.add_spatial_series(SpatialSeries(name="point", data=c.point[:, k], **timing, unit="meters",
                                          reference_frame=CORE_FRAME,
                                          description=f"contact point on face {i}'s patch, m, core frame"))
     mod.add(pos)
-    mod.add(TimeSeries(name=f"contact_face_{i}_normal", data=c.normal[:, k], unit="1", timestamps=timestamps,
+    mod.add(TimeSeries(name=f"contact_face_{i}_normal", data=c.normal[:, k], unit="1", **timing,
                        description="outward unit normal at the contact point, core frame"))
-    mod.add(TimeSeries(name=f"contact_face_{i}_force", data=c.force[:, k], unit="N", timestamps=timestamps,
+    mod.add(TimeSeries(name=f"contact_face_{i}_force", data=c.force[:, k], unit="N", **timing,
                        description="finger force [x, y, z] at the contact point, core frame"))
-    mod.add(TimeSeries(name=f"contact_face_{i}_torsion", data=c.torsion[:, k], unit="N*m", timestamps=timestamps,
+    mod.add(TimeSeries(name=f"contact_face_{i}_torsion", data=c.torsion[:, k], unit="N*m", **timing,
                        description="torsion about the normal"))
     mod.add(TimeSeries(name=f"contact_face_{i}_valid", data=c.valid[:, k].astype(np.uint8), unit="1",
-                       timestamps=timestamps, description="1 where the face carries a contact, else 0"))
+                       **timing, description="1 where the face carries a contact, else 0"))
     if getattr(c, "single_contact", None) is not None:
-        _add_single_contact(mod, c, i, timestamps)
+        _add_single_contact(mod, c, i, timing)
 
 
 def _add_calibration(nwb, cal: dict) -> None:
@@ -184,12 +211,12 @@ def _add_calibration(nwb, cal: dict) -> None:
 
     M = np.asarray(cal["matrix"], float)
     faces = [f for f in cal["output_faces"] for _ in range(6)]
-    comps = list(_COMPONENTS) * len(cal["output_faces"])
+    comps = list(WRENCH_COMPONENTS) * len(cal["output_faces"])
     units = ["N/count" if c[0] == "f" else "N*m/count" for c in comps]
     frame = "own face frame" if cal["output_frame"] == "face" else "reference frame S_A"
     mod = nwb.create_processing_module(MISC_MODULE, f"PITO calibration used ({cal['method']}, {cal['hash']})")
     mod.add(DynamicTable(name="calibration_matrix", description=json.dumps(
-        {k: v for k, v in cal.items() if k not in ("matrix", "offset")}, default=str), columns=[
+        {k: v for k, v in cal.items() if k not in BULKY_RECORD_KEYS}, default=str), columns=[
         VectorData(name="face", description="output face 1..6", data=faces),
         VectorData(name="component", description=f"wrench component, in the face's {frame}", data=comps),
         VectorData(name="unit", description="unit of the coefficients", data=units),
@@ -198,6 +225,16 @@ def _add_calibration(nwb, cal: dict) -> None:
     mod.add(DynamicTable(name="calibration_offset", description="unloaded counts subtracted before the matrix", columns=[
         VectorData(name="channel", description="gauge channel 1..36", data=list(range(1, 37))),
         VectorData(name="offset_counts", description="counts", data=np.asarray(cal["offset"], float))]))
+    f = cal.get("file")
+    if f:  # the whole model (correction, covariance): the calibration file's bytes, as embedded in the recording
+        text = f["content"]
+        size = max(1, min(_FILE_CHUNK, -(-len(text) // 2)))  # at least two rows (a one-row table is a finding)
+        parts = [text[k:k + size] for k in range(0, len(text), size)]
+        mod.add(DynamicTable(name="calibration_file", description=json.dumps(
+            {"what": "the calibration file (pito-calibration, HDF5) the wrenches were computed with: the rows' "
+                     "content_base64 joined in order, base64-decoded", "content_hash": cal["hash"],
+             "sha256": f["sha256"], "size_bytes": int(f["size_bytes"])}), columns=[
+            VectorData(name="content_base64", description="base64 text of the file, in parts (row order)", data=parts)]))
 
 
 def missing_metadata(*, subject_id=None, species=None, sex=None, age=None, experimenter=None, institution=None) -> list[str]:
@@ -212,17 +249,17 @@ def missing_metadata(*, subject_id=None, species=None, sex=None, age=None, exper
     return [name for name, value in given.items() if not value]
 
 
-def _add_single_contact(mod, c, i, timestamps) -> None:
+def _add_single_contact(mod, c, i, timing) -> None:
     """The single-contact test of face ``i`` (``ContactEstimate.single_contact*``) as three series."""
     from pynwb import TimeSeries  # deferred: optional dependency (extra "interop"), over 1 s to load
 
     k = i - 1
     names = ", ".join(f"{r.value} {r.name.lower()}" for r in SingleContactReason)
     mod.add(TimeSeries(name=f"contact_face_{i}_single_contact", data=c.single_contact[:, k].astype(np.uint8),
-                       unit="1", timestamps=timestamps,
+                       unit="1", **timing,
                        description="1 where one fingertip on the patch can produce the face's wrench within its "
                                    "noise, 0 where not (a valid contact with 0 is flagged) or no force"))
     mod.add(TimeSeries(name=f"contact_face_{i}_single_contact_p", data=c.single_contact_p[:, k], unit="1",
-                       timestamps=timestamps, description="p-value of the single-contact test (0..1; NaN: no force)"))
+                       **timing, description="p-value of the single-contact test (0..1; NaN: no force)"))
     mod.add(TimeSeries(name=f"contact_face_{i}_single_contact_reason", data=c.single_contact_reason[:, k],
-                       unit="1", timestamps=timestamps, description=f"why the test fails: {names}"))
+                       unit="1", **timing, description=f"why the test fails: {names}"))

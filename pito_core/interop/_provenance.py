@@ -4,37 +4,50 @@ Every recording (header ``meta["calibration"]``, ``meta["assembly"]``) and every
 (NWB, MCAP, LSL ``desc``) embeds the same JSON record, so a file always says how its
 wrenches were computed:
 
-- :func:`calibration_record` — method, date, content hash, the matrix ``(6·F, 36)``
-  (counts → ``[fx, fy, fz, tx, ty, tz]`` N, N·m per output face), the offset ``(36,)``
-  counts, output faces/frame, ``T_core_ati`` and the core's edge (m), plus the fit's
-  metadata. The fit's covariance is not embedded (it stays in the calibration file).
+- :func:`calibration_record` — the calibration file itself (``file``: its exact bytes,
+  base64, with their SHA-256: the whole model, correction and covariance included, in whatever
+  layout the calibration file has), and for a reader without pito: method, date, content hash,
+  the matrix ``(6·F, 36)`` (counts → ``[fx, fy, fz, tx, ty, tz]`` N, N·m per output face, the
+  linear part), the offset ``(36,)`` counts, output faces/frame, ``T_core_ati``, the core's
+  edge (m) and the fit's metadata.
 - :func:`calibration_hash` — ``"sha256:" +`` :func:`pito_core.io.calibration_hash` (the one
   calibration identity of pito: matrix, offset, ``T_core_ati``, method, output frame/faces, core
-  edge, metadata). Two files with the same hash compute the same wrenches from the same counts
-  (the offset may be replaced by a tare).
-- :func:`calibration_from_record` rebuilds a :class:`~pito_core.calibration.Calibration`.
+  edge, correction, metadata). Two files with the same hash compute the same wrenches from the
+  same counts (the offset may be replaced by a tare).
+- :func:`calibration_from_record` rebuilds the :class:`~pito_core.calibration.Calibration` from
+  the embedded file with the calibration file's own reader (so a new file layout is carried
+  without a change here), and checks it against the record's hash.
 """
 
 from __future__ import annotations
 
+import base64
+import hashlib
+import os
+import tempfile
+from pathlib import Path
+
 import numpy as np
 
-from ..calibration import Calibration
+from ..calibration import Calibration, load_calibration
 from ..contact import load_assembly
 from ..frames import CubeCore
-from ..io import calibration_hash as content_hash
+from ..io import FileFormatError, calibration_hash as content_hash
 
 __all__ = [
     "PROVENANCE_VERSION",
     "calibration_hash",
     "calibration_record",
     "calibration_from_record",
+    "calibration_file_bytes",
+    "calibration_from_bytes",
     "assembly_record",
     "recording_calibration",
     "provenance_meta",
 ]
 
-PROVENANCE_VERSION = 1
+#: 2: the record carries the calibration file (``file``); 1: the linear part only (no correction, no covariance).
+PROVENANCE_VERSION = 2
 
 
 def calibration_hash(calibration) -> str:
@@ -47,32 +60,107 @@ def calibration_hash(calibration) -> str:
     return "sha256:" + content_hash(calibration)
 
 
-def calibration_record(calibration, source: str | None = None) -> dict:
-    """JSON-serialisable record of ``calibration`` (see the module docstring); ``source`` e.g. its file name."""
+def calibration_file_bytes(calibration, source=None) -> bytes:
+    """The exact bytes of ``calibration``'s file.
+
+    ``source``'s bytes when it names a file holding this very calibration (same content hash),
+    else the bytes :meth:`Calibration.save` writes for it now (a calibration fitted in memory).
+    """
+    if source is not None and os.path.isfile(os.fspath(source)):
+        data = Path(os.fspath(source)).read_bytes()
+        try:
+            if calibration_hash(calibration_from_bytes(data)) == calibration_hash(calibration):
+                return data
+        except (ValueError, OSError):  # not a calibration file (or not this one): write it afresh
+            pass
+    with tempfile.TemporaryDirectory(prefix="pito-cal-") as d:
+        p = Path(d) / "calibration.pitocal"
+        calibration.save(p)
+        return p.read_bytes()
+
+
+def calibration_from_bytes(data: bytes, what: str = "calibration file"):
+    """The :class:`~pito_core.calibration.Calibration` in the bytes of a calibration file (its own reader).
+
+    Raises ``ValueError`` (``FileFormatError``) naming ``what`` when the bytes are not a readable calibration file.
+    """
+    with tempfile.TemporaryDirectory(prefix="pito-cal-") as d:
+        p = Path(d) / "calibration.pitocal"
+        p.write_bytes(bytes(data))
+        try:
+            return load_calibration(p)
+        except FileFormatError as exc:
+            raise FileFormatError(f"{what}: {str(exc).replace(str(p), 'embedded file')}") from None
+
+
+def calibration_record(calibration, source: str | None = None, *, file_bytes: bytes | None = None) -> dict:
+    """JSON-serialisable record of ``calibration`` (see the module docstring); ``source`` e.g. its file name.
+
+    ``file_bytes``: the calibration file's bytes when already read (default: :func:`calibration_file_bytes`).
+    """
+    data = calibration_file_bytes(calibration, source) if file_bytes is None else bytes(file_bytes)
     return {
         "provenance_version": PROVENANCE_VERSION,
         "method": calibration.method,
         "date": calibration.meta.get("date"),
         "hash": calibration_hash(calibration),
-        "source": source,
+        "source": None if source is None else str(source),
+        "model": "poly" if getattr(calibration, "correction", None) is not None else "linear",
         "matrix": np.asarray(calibration.matrix, float).tolist(),
-        "matrix_layout": "rows 6k..6k+5 = [fx, fy, fz, tx, ty, tz] (N, N·m) of output_faces[k] from counts − offset",
+        "matrix_layout": "rows 6k..6k+5 = [fx, fy, fz, tx, ty, tz] (N, N·m) of output_faces[k] from counts − offset"
+                         + (" (the linear part: the file holds the polynomial correction too)"
+                            if getattr(calibration, "correction", None) is not None else ""),
         "offset": np.asarray(calibration.offset, float).tolist(),
         "output_faces": list(calibration.output_faces),
         "output_frame": calibration.output_frame,
         "T_core_ati": np.asarray(calibration.T_core_ati, float).tolist(),
         "core_edge_m": float(calibration.core.edge),
         "meta": calibration.meta,
+        "file": {"encoding": "base64", "sha256": hashlib.sha256(data).hexdigest(), "size_bytes": len(data),
+                 "content": base64.b64encode(data).decode("ascii")},
     }
 
 
-def calibration_from_record(record: dict):
-    """The :class:`~pito_core.calibration.Calibration` of a :func:`calibration_record` (no covariance).
+#: Record keys left out where a record is shown in a line or a table (the file, the big arrays).
+BULKY_RECORD_KEYS = ("matrix", "offset", "file")
 
-    Raises ``ValueError`` naming the field when the record is incomplete or its hash does not match.
+
+def record_file_bytes(record: dict) -> bytes:
+    """The calibration file's bytes embedded in ``record`` (checked against their SHA-256)."""
+    f = record.get("file")
+    if not isinstance(f, dict) or "content" not in f:
+        raise ValueError("calibration record: file: missing (a record written before pito embedded the file)")
+    try:
+        data = base64.b64decode(f["content"], validate=True)
+    except (ValueError, TypeError) as exc:
+        raise ValueError(f"calibration record: file: content is not base64 ({exc})") from None
+    got = hashlib.sha256(data).hexdigest()
+    if f.get("sha256") != got:
+        raise ValueError(f"calibration record: file: stored sha256 {f.get('sha256')} does not match its bytes' {got}")
+    return data
+
+
+def calibration_from_record(record: dict):
+    """The :class:`~pito_core.calibration.Calibration` of a :func:`calibration_record`.
+
+    From the embedded calibration file (the whole model: correction and covariance too), read
+    by the calibration file's own reader; a record of provenance version 1 (no file) gives the
+    linear part. Raises ``ValueError`` naming the field when the record is incomplete, its file
+    damaged, or its hash or summary does not match the file's content.
     """
     if not isinstance(record, dict):
         raise ValueError(f"calibration record: expected an object, got {type(record).__name__}")
+    if "file" in record:
+        cal = calibration_from_bytes(record_file_bytes(record), "calibration record: file")
+        if record.get("hash") and calibration_hash(cal) != record["hash"]:
+            raise ValueError(f"calibration record: hash: stored {record['hash']} does not match its file's content "
+                             f"{calibration_hash(cal)}")
+        for key, value in (("matrix", cal.matrix), ("offset", cal.offset), ("T_core_ati", cal.T_core_ati)):
+            if key in record and not np.array_equal(np.asarray(record[key], float), np.asarray(value, float)):
+                raise ValueError(f"calibration record: {key}: differs from the embedded file's (altered record)")
+        if "method" in record and record["method"] != cal.method:
+            raise ValueError(f"calibration record: method: {record['method']!r}, the embedded file's is {cal.method!r}")
+        return cal
     missing = [k for k in ("method", "matrix", "offset", "output_faces", "output_frame", "T_core_ati", "core_edge_m")
                if k not in record]
     if missing:
@@ -81,7 +169,8 @@ def calibration_from_record(record: dict):
                       record["offset"], CubeCore(record["core_edge_m"]), record["T_core_ati"], meta=record.get("meta"))
     if record.get("hash") and calibration_hash(cal) != record["hash"]:
         raise ValueError(f"calibration record: hash: stored {record['hash']} does not match its content "
-                         f"{calibration_hash(cal)}")
+                         f"{calibration_hash(cal)} (a record without the calibration file holds the linear part "
+                         "only: re-export with --calibration FILE)")
     return cal
 
 

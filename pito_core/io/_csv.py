@@ -11,12 +11,12 @@ import csv
 
 import numpy as np
 
-from ..frames import N_GAUGES
+from ..frames import N_GAUGES, WRENCH_COMPONENTS
 
 __all__ = ["read_session_csv_fields", "write_session_csv", "CSV_COUNTS", "CSV_REFERENCE", "CSV_LOADED"]
 
 CSV_COUNTS = [f"counts_{j}" for j in range(1, N_GAUGES + 1)]
-CSV_REFERENCE = ["fx", "fy", "fz", "tx", "ty", "tz"]
+CSV_REFERENCE = list(WRENCH_COMPONENTS)
 CSV_LOADED = [f"loaded_{i}" for i in range(1, 7)]
 
 

@@ -11,18 +11,20 @@ The app (devices: :class:`PipelineProcess`; a replay: :class:`PipelineThread`), 
 :mod:`pito_core.devices._clock` (docs/devices.md, "Pairing the cube and the reference").
 """
 
-from ..devices import PAIRING_RULE, TareCheck, TareRefused, check_tare
+from ..devices import PAIRING_RULE, TareCheck, TareRefused, TareSupport, check_tare
 from ._bundle import LiveBundle, face_sums
 from ._pipeline import Pipeline
 from ._open import open_acquisition, open_reader
 from ._process import PipelineProcess, PipelineProcessError
-from ._readers import AcquisitionReader, NewSamples, RecordingReader, recording_samples
-from ._replay import replay_recording
+from ._readers import (AcquisitionReader, NewSamples, RecordingReader, device_time_base, recording_samples,
+                       recording_times)
+from ._replay import concatenate_bundles, replay_blocks, replay_recording
 from ._thread import PipelineThread
 
 __all__ = [
     "TareCheck",
     "TareRefused",
+    "TareSupport",
     "check_tare",
     "AcquisitionReader",
     "LiveBundle",
@@ -38,4 +40,8 @@ __all__ = [
     "open_reader",
     "recording_samples",
     "replay_recording",
+    "replay_blocks",
+    "concatenate_bundles",
+    "device_time_base",
+    "recording_times",
 ]

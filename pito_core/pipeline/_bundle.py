@@ -58,6 +58,8 @@ class LiveBundle:
         each cube sample arrives exactly once.
     arrived_face_wrenches : ndarray, shape (m, 6, 6) or None
         Face wrenches of the arrived samples (the same values their records will carry).
+    arrived_tick : ndarray of int64, shape (m,) or None
+        The arrived samples' device clock, µs (unwrapped): the time base of the live streams.
     contacts_time : float
         Time of the newest sample behind ``wrenches``, ``contacts`` and the sums, s (NaN when
         the bundle has none).
@@ -78,6 +80,7 @@ class LiveBundle:
     face_wrenches: np.ndarray | None = None
     arrived_time: np.ndarray | None = None
     arrived_face_wrenches: np.ndarray | None = None
+    arrived_tick: np.ndarray | None = None
     contacts_time: float = float("nan")
     measured: np.ndarray | None = None
 
@@ -111,7 +114,8 @@ class LiveBundle:
                          replay_duration=newer.replay_duration, tick=cat(self.tick, newer.tick),
                          face_wrenches=cat(self.face_wrenches, newer.face_wrenches),
                          arrived_time=_cat_arrived(self.arrived_time, newer.arrived_time),
-                         arrived_face_wrenches=_cat_arrived(self.arrived_face_wrenches, newer.arrived_face_wrenches))
+                         arrived_face_wrenches=_cat_arrived(self.arrived_face_wrenches, newer.arrived_face_wrenches),
+                         arrived_tick=_cat_arrived(self.arrived_tick, newer.arrived_tick))
         src = newer if newer.wrenches is not None else self
         out.wrenches, out.contacts, out.contacts_time = src.wrenches, src.contacts, src.contacts_time
         out.sum_force, out.sum_torque = src.sum_force, src.sum_torque

@@ -29,11 +29,12 @@ class PipelineControls:
         """:meth:`Pipeline.set_assembly`, between two reads (a library assembly goes by name)."""
         self._call("set_assembly", assembly, wrench_cov)
 
-    def tare(self, duration: float = 0.5, check: bool = False) -> dict:
+    def tare(self, duration: float = 0.5, check: bool = False, support=None) -> dict:
         """:meth:`Pipeline.tare` (recorded when recording); returns the event.
 
-        A refused tare (``check``) raises ``TareRefused`` (a ``ValueError``) with the reason."""
-        return self._call("tare", float(duration), bool(check))
+        ``support`` (a :class:`~pito_core.devices.TareSupport`, pickled to a child): the object may rest
+        on its base face. A refused tare (``check``) raises ``TareRefused`` (a ``ValueError``) with the reason."""
+        return self._call("tare", float(duration), bool(check), support)
 
     def undo_tare(self) -> dict:
         """:meth:`Pipeline.undo_tare` (recorded when recording); returns the event."""

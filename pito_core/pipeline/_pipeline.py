@@ -146,7 +146,7 @@ class Pipeline:
         self.cog = np.zeros(3) if c is None else np.asarray(c, dtype=float)
 
     # ------------------------------------------------------------ tare
-    def tare(self, duration: float = 0.5, *, check: bool = False) -> dict:
+    def tare(self, duration: float = 0.5, *, check: bool = False, support=None) -> dict:
         """Zero the face wrenches and the reference on the last ``duration`` s of processed samples.
 
         Returns the tare as an event for a recording (``type`` "tare", ``counts_offset``
@@ -155,13 +155,14 @@ class Pipeline:
         :meth:`undo_tare` brings it back.
 
         With ``check`` (the live view's Tare), the window must pass
-        :func:`~pito_core.devices.check_tare` — still, and no face loaded from the
-        calibration's own zero — the wizard's tare checks.
+        :func:`~pito_core.devices.check_tare` — still, and loaded only as known: unloaded, or with
+        a ``support`` (:class:`~pito_core.devices.TareSupport`: mass, base face) at rest on its
+        base face, which then reads the object's weight after the tare (``known_load`` in the event).
 
         Raises
         ------
         TareRefused
-            ``check`` and the window is not still or not unloaded (``.check.reason`` says which).
+            ``check`` and the window is not still or carries a load not known (``.check.reason`` says which).
         ValueError
             No sample processed yet, or ``duration`` not > 0.
         """
@@ -171,15 +172,16 @@ class Pipeline:
         if tail["time"].size == 0:
             raise ValueError("tare: no sample processed yet")
         sel = tail["time"] >= tail["time"][-1] - duration
-        extra = {}
+        extra, expected = {}, None
         if check:
-            verdict = check_tare(tail["counts"][sel], tail["reference"][sel], self.calibration)
+            verdict = check_tare(tail["counts"][sel], tail["reference"][sel], self.calibration, support, self.core)
             if not verdict.ok:
                 raise TareRefused(verdict)
-            extra["checked"] = True
+            extra.update(checked=True, state=verdict.state)
+            expected = verdict.expected
         extra["taken_at"] = time.time()  # wall clock, s: for the operator's "tare taken at"
         event = tare_event(tail["counts"][sel], tail["reference"][sel], duration=duration,
-                           previous_bias=self.reference_bias,
+                           previous_bias=self.reference_bias, calibration=self.calibration, expected=expected,
                            from_tick=None if self.last_tick is None else self.last_tick + 1, **extra)
         self.apply_tare(event)
         return event
@@ -292,6 +294,7 @@ class Pipeline:
             b.face_wrenches = rows["w"]
         if arrived is not None:
             b.arrived_time = arrived["time"]
+            b.arrived_tick = arrived.get("tick")
             W = arrived.get("w")
             if W is not None:
                 b.arrived_face_wrenches = W

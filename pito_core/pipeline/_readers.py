@@ -18,7 +18,8 @@ from ..devices import StreamClock, TickUnwrapper
 from ..frames import CUBE_ADC_LIMIT
 from ..io import read_recording
 
-__all__ = ["NewSamples", "AcquisitionReader", "RecordingReader", "recording_samples"]
+__all__ = ["NewSamples", "AcquisitionReader", "RecordingReader", "recording_samples", "device_time_base",
+           "recording_times"]
 
 
 @dataclass
@@ -138,7 +139,8 @@ def recording_samples(recording) -> tuple[dict, dict]:
     """Both streams of a recording with their sample times by the pairing rule.
 
     Returns ``(cube, reference)`` dicts: cube ``time, tick, counts (float), host_time, seq``;
-    reference ``time, tick, wrench, host_time, rdt_seq``. The same clock as the live
+    reference ``time, tick, wrench, host_time, rdt_seq``; each with ``device_time`` (s, the
+    device's own clock: cube ``tick`` · 10⁻⁶, reference ``tick`` / RDT rate). The same clock as the live
     acquisition: continued from the state it had when the recording began (the recording's
     ``clock`` event), or started at the recording's first row (recordings without one).
     """
@@ -155,13 +157,47 @@ def recording_samples(recording) -> tuple[dict, dict]:
     tick = unwrap(p["time_us"])
     cube = {"tick": tick, "time": clock(tick * 1e-6, p["host_time"], unwrap.restarts),
             "counts": np.asarray(p["counts"], dtype=np.float64), "host_time": np.asarray(p["host_time"]),
-            "seq": np.asarray(p["seq"])}
+            "seq": np.asarray(p["seq"]), "device_time": tick * 1e-6}
     unwrap, clock = clocks("netft")
     rtick = unwrap(a["rdt_seq"])
     ref = {"tick": rtick, "time": clock(rtick / rate, a["host_time"], unwrap.restarts),
            "wrench": np.asarray(a["wrench"], dtype=np.float64), "host_time": np.asarray(a["host_time"]),
-           "rdt_seq": np.asarray(a["rdt_seq"])}
+           "rdt_seq": np.asarray(a["rdt_seq"]), "device_time": rtick / rate}
     return cube, ref
+
+
+def device_time_base(cube: dict, reference: dict | None) -> tuple[np.ndarray, np.ndarray]:
+    """The one time base of a recording's exports: the cube's device clock, s from its first sample.
+
+    Parameters
+    ----------
+    cube, reference : dict
+        As :func:`recording_samples` gives them (``time`` by the pairing rule, ``device_time`` s).
+
+    Returns
+    -------
+    cube_time : ndarray, shape (n,)
+        The cube's clock (``time_us``, unwrapped), s from the first sample of either stream,
+        strictly increasing; a dropped frame leaves a gap, never a repeated time.
+    reference_time : ndarray, shape (m,)
+        The reference's own clock (``rdt_sequence`` / RDT rate, unwrapped) on the same base: shifted
+        by one offset per recording, the median over the reference samples of the offset the
+        pairing rule gives them against the cube's clock. Strictly increasing too (a relative
+        drift of the two device clocks within the recording is not followed here; the pairing is).
+    """
+    dev_c = np.asarray(cube["device_time"], np.float64)
+    if dev_c.size == 0:
+        return np.zeros(0), np.zeros(0)
+    if reference is None or np.size(reference["time"]) == 0:
+        return dev_c - dev_c[0], np.zeros(0)
+    tau_c = np.asarray(cube["time"], np.float64)
+    tau_r = np.asarray(reference["time"], np.float64)
+    k = np.clip(np.searchsorted(tau_c, tau_r, side="right") - 1, 0, dev_c.size - 1)
+    dev_r = np.asarray(reference["device_time"], np.float64)
+    offset = float(np.median(tau_r - (tau_c[k] - dev_c[k]) - dev_r))
+    t_r = dev_r + offset
+    zero = min(dev_c[0], t_r[0])
+    return dev_c - zero, t_r - zero
 
 
 class RecordingReader:
@@ -257,3 +293,12 @@ class RecordingReader:
 
     def close(self) -> None:
         pass
+
+
+def recording_times(recording) -> tuple[np.ndarray, np.ndarray]:
+    """``(cube times (n,), reference times (m,))`` s of a :class:`~pito_core.io.Recording`, row for row.
+
+    The one time base of every export (:func:`device_time_base`): CSV/MAT ``time``, NWB, MCAP, analysis.
+    """
+    cube, ref = recording_samples(recording)
+    return device_time_base(cube, ref if ref["time"].size else None)

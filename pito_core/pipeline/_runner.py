@@ -43,9 +43,9 @@ class PipelineRunner:
     def set_assembly(self, assembly, wrench_cov=None) -> None:
         self.pipeline.set_assembly(assembly, wrench_cov)
 
-    def tare(self, duration: float = 0.5, check: bool = False) -> dict:
+    def tare(self, duration: float = 0.5, check: bool = False, support=None) -> dict:
         """:meth:`Pipeline.tare`; the event is recorded when recording. Refused: ``TareRefused`` (a ValueError)."""
-        event = self.pipeline.tare(duration, check=bool(check))
+        event = self.pipeline.tare(duration, check=bool(check), support=support)
         self.record_event(event)
         return event
 

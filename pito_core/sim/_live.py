@@ -19,7 +19,7 @@ from ._patches import contacts_on_assembly
 from ._reference import ReferenceSensor, reference_pose
 from ._signals import hashed_normal, hashed_uniform, smoothstep
 
-__all__ = ["LiveSource", "GraspLiveSource", "CalibrationLiveSource", "default_live_source"]
+__all__ = ["LiveSource", "GraspLiveSource", "CalibrationLiveSource", "TwoFingerLiveSource", "default_live_source"]
 
 
 def _times(t) -> np.ndarray:
@@ -94,10 +94,13 @@ class GraspLiveSource(LiveSource):
         Patch assembly of ``pito_core.contact`` (e.g. "cube", "sphere", "pito_mixed") whose
         surfaces the fingers touch; default flat patches.
     reference : {"delta", "nano17"}
+    hold : float, optional
+        Loads held at this time of the loop, s (e.g. 0.5: the object at rest on the table, hands
+        off); the gauges' noise and drift still run with time.
     """
 
     def __init__(self, seed: int = 0, model: VirtualCube | None = None, *, n_fingers: int = 3, mass: float = 0.3,
-                 assembly: str | None = None, reference="delta"):
+                 assembly: str | None = None, reference="delta", hold: float | None = None):
         model = VirtualCube() if model is None else model
         super().__init__(model, seed, reference_pose("face", 6, model.core), reference)
         contacts = None
@@ -108,10 +111,14 @@ class GraspLiveSource(LiveSource):
             f" on {assembly!r}" if assembly else "")
         self.scenario = GraspScenario(mass=mass, n_fingers=n_fingers, seed=seed, core=model.core, contacts=contacts)
         self.period = 12.0
+        self.hold = None if hold is None else float(hold)
+        if self.hold is not None:
+            self.label += f", held at {self.hold:g} s of the loop"
 
     def truth_at(self, t) -> GraspState:
         """Loads, gravity and acceleration at times ``t (n,)`` s (see :class:`GraspState`)."""
-        return self.scenario.state(_times(t))
+        t = _times(t)
+        return self.scenario.state(t if self.hold is None else np.full_like(t, self.hold))
 
     def face_wrenches_at(self, t) -> np.ndarray:
         """True wrench on each face ``(n, 6, 6)``, face frames, N and N·m."""
@@ -144,12 +151,12 @@ class GraspLiveSource(LiveSource):
     def counts_at(self, t) -> np.ndarray:
         """Gauge counts ``(n, 36)`` int32 at times ``t (n,)`` s."""
         t = _times(t)
-        return self._counts(t, self.scenario.state(t).face_wrenches)
+        return self._counts(t, self.truth_at(t).face_wrenches)
 
     def reference_at(self, t) -> np.ndarray:
         """Reference reading ``(n, 6)`` (N, N·m, reference frame): the table's load on the object."""
         t = _times(t)
-        return self._reference(t, self.scenario.state(t).table_wrench)
+        return self._reference(t, self.truth_at(t).table_wrench)
 
 
 class CalibrationLiveSource(LiveSource):
@@ -305,3 +312,57 @@ def default_live_source(seed: int = 0) -> GraspLiveSource:
     return GraspLiveSource(seed=seed)
 
 
+
+
+class TwoFingerLiveSource(LiveSource):
+    """Two fingers on one patch, twisting, for a demo of the single-contact flag (SIMULATED).
+
+    The object (``mass`` kg, centre of gravity at the core centre) rests on a table on face 6;
+    two fingers touch face 1's patch 30 mm apart (face 1's y, the core's vertical), each
+    pushing ``push`` N in and ``shear`` N along face 1's x, in opposite directions — a twist
+    of ``2 · 0.015 · shear`` N·m about face 1's normal, beyond what one fingertip's friction
+    gives (``|τ| ≤ μ e f_n``, ``pito_core.contact``); a thumb on face 3 pushes back ``2 · push`` N.
+    The table (under face 6, where the reference sensor reads it) balances the rest. The loads
+    swell in and out over ``period`` s (between 40 % and 100 %).
+    """
+
+    def __init__(self, seed: int = 0, model: VirtualCube | None = None, *, mass: float = 0.3, push: float = 2.5,
+                 shear: float = 1.5, period: float = 6.0, reference="delta"):
+        model = VirtualCube() if model is None else model
+        super().__init__(model, seed, reference_pose("face", 6, model.core), reference)
+        self.label = "simulated cube (pito_core.sim): two fingers twisting on face 1's patch"
+        self.mass, self.period = float(mass), float(period)
+        h = 0.003  # m: the flat patch's surface above the face
+        pts = np.array([[0.0, 0.015, h], [0.0, -0.015, h]])  # face 1's frame
+        fs = np.array([[shear, 0.0, -push], [-shear, 0.0, -push]])
+        W = np.zeros((6, 6))
+        W[0] = np.r_[fs.sum(axis=0), np.cross(pts, fs).sum(axis=0)]
+        W[2] = np.r_[0.0, 0.0, -2 * push, 0.0, 0.0, 0.0]  # the thumb at face 3's centre
+        X = core_from_face_adjoints(model.core)
+        self._unit = W
+        self._X_face6 = np.linalg.inv(X[5])
+        self._X = X
+
+    def face_wrenches_at(self, t) -> np.ndarray:
+        """True wrench on each face ``(n, 6, 6)``, face frames, N and N·m."""
+        return self._loads(_times(t))[0]
+
+    def _loads(self, t):
+        s = 0.7 + 0.3 * np.cos(2 * np.pi * t / self.period)  # (n,) 0.4..1.0
+        W = s[:, None, None] * self._unit  # fingers and thumb, face frames
+        core = np.einsum("kij,nkj->ni", self._X, W)  # their sum in the core frame, about the core centre
+        gravity = np.r_[0.0, 0.0, -9.81 * self.mass, 0.0, 0.0, 0.0]
+        table = -(core + gravity)  # (n, 6) the table's load on the object, core frame
+        W = W.copy()
+        W[:, 5] = table @ self._X_face6.T
+        return W, table
+
+    def counts_at(self, t) -> np.ndarray:
+        """Gauge counts ``(n, 36)`` int32 at times ``t (n,)`` s."""
+        t = _times(t)
+        return self._counts(t, self._loads(t)[0])
+
+    def reference_at(self, t) -> np.ndarray:
+        """Reference reading ``(n, 6)`` (N, N·m, reference frame): the table's load on the object."""
+        t = _times(t)
+        return self._reference(t, self._loads(t)[1])

@@ -17,7 +17,7 @@ Control channel (``control``: TCP on 127.0.0.1, JSON lines)
     ``{"ok": true, ...}`` or ``{"ok": false, "error": "..."}``. Requests (``cmd``):
 
     - ``{"cmd": "state"}`` → ``state``: scenario, mount, operator face, assembly, ``sim_time`` (s).
-    - ``{"cmd": "set_scenario", "name": "grasp" | "calibration"}``
+    - ``{"cmd": "set_scenario", "name": "grasp" | "rest" | "two_fingers" | "calibration"}``
     - ``{"cmd": "set_mount", "flange": "frame" | "frame_hole" | "face", "connected_face": 1..6}``
     - ``{"cmd": "set_operator_face", "face": 1..6 | null}`` (null: hands off)
     - ``{"cmd": "set_assembly", "name": "pito_mixed" | … | null}`` (patches the grasp's fingers touch)
@@ -142,7 +142,7 @@ def run_devices(*, seed: int = 0, speed: float = 1.0, period: float = 1.5, scena
     ----------
     seed, speed, period
         As :class:`DemoWorld` (``speed``: simulated seconds per wall second).
-    scenario : {"grasp", "calibration"}
+    scenario : {"grasp", "rest", "two_fingers", "calibration"}
     assembly : str, optional
         Library assembly whose patches the grasp's fingers touch.
     rate_hz : float

@@ -14,14 +14,19 @@ import time
 
 import numpy as np
 
-from ._live import CalibrationLiveSource, GraspLiveSource
+from ._live import CalibrationLiveSource, GraspLiveSource, TwoFingerLiveSource
 from ._model import VirtualCube
 from ._mount import check_mount
 
 __all__ = ["DemoWorld", "SwitchedLiveSource", "SCENARIOS"]
 
-#: Scenarios of :class:`DemoWorld`.
-SCENARIOS = ("grasp", "calibration")
+#: Scenarios of :class:`DemoWorld`: the grasp loop, the object at rest on the table (hands off:
+#: a tare at rest can be taken and undone), two fingers twisting on one patch (a contact one
+#: fingertip cannot explain: the single-contact flag), the cube on a calibration flange.
+SCENARIOS = ("grasp", "rest", "two_fingers", "calibration")
+
+#: Loop time (s) the ``rest`` scenario holds: the object on the table before the fingers touch.
+REST_HOLD = 0.5
 
 
 class SwitchedLiveSource:
@@ -101,6 +106,8 @@ class DemoWorld:
         self.model = VirtualCube()
         self.assembly_name = None
         self.grasp = GraspLiveSource(seed=self.seed, model=self.model)
+        self.rest = GraspLiveSource(seed=self.seed, model=self.model, hold=REST_HOLD)
+        self.two_fingers = TwoFingerLiveSource(seed=self.seed, model=self.model)
         self.flange, self.connected_face = "face", 6
         self.operator_face = None
         self._cal_sources: dict = {}
@@ -121,12 +128,15 @@ class DemoWorld:
             self._cal_sources[key] = src
         return self._cal_sources[key]
 
+    def _scenario_source(self, name: str):
+        return {"grasp": self.grasp, "rest": self.rest, "two_fingers": self.two_fingers}.get(name, self.calibration)
+
     def set_scenario(self, name: str) -> None:
-        """``"grasp"`` or ``"calibration"``, from the current simulated time on."""
+        """One of :data:`SCENARIOS`, from the current simulated time on."""
         if name not in SCENARIOS:
             raise ValueError(f"scenario: expected one of {SCENARIOS}, got {name!r}")
         self.scenario = name
-        self.source.active = self.grasp if name == "grasp" else self.calibration
+        self.source.active = self._scenario_source(name)
 
     def set_mount(self, flange: str, connected_face: int) -> None:
         """The calibration mount: ``flange`` ('frame', 'frame_hole', 'face') on ``connected_face`` 1..6."""
@@ -157,9 +167,10 @@ class DemoWorld:
         if name == self.assembly_name:
             return
         self.grasp = GraspLiveSource(seed=self.seed, model=self.model, assembly=name)
+        self.rest = GraspLiveSource(seed=self.seed, model=self.model, assembly=name, hold=REST_HOLD)
         self.assembly_name = name
-        if self.scenario == "grasp":
-            self.source.active = self.grasp
+        if self.scenario in ("grasp", "rest"):
+            self.source.active = self._scenario_source(self.scenario)
 
     def state(self) -> dict:
         """What the world is doing (JSON-serialisable)."""

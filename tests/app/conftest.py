@@ -23,6 +23,14 @@ def pytest_collection_modifyitems(config, items):
 
 
 @pytest.fixture(autouse=True)
+def demo_cache(tmp_path, monkeypatch):
+    """Each test its own empty cache of the demo's calibration (app/demo.py): nothing shared between tests."""
+    path = tmp_path / "pito-cache"
+    monkeypatch.setenv("PITO_CACHE_DIR", str(path))
+    return path
+
+
+@pytest.fixture(autouse=True)
 def gc_in_gui_thread(request):
     """Garbage cycles (closed windows, pages, menus) freed in the GUI thread only, as in
     pito-app (app/gc_guard.py): a collection started by a worker thread could run a Qt
@@ -76,9 +84,9 @@ def scene(qtbot):
 @pytest.fixture(scope="module")
 def fitted():
     """A SIMULATED ``loaded_frame`` calibration and its evaluation, fitted as the results page does (k = 150)."""
-    from app.wizard.results_page import fit_and_evaluate
+    from pito_core.calibration import fit_and_evaluate
     from pito_core.sim import simulate_calibration
 
     session = simulate_calibration("frame_hole", 6, k=150, seed=3)  # SIMULATED
-    cal, ev, *_ = fit_and_evaluate(session, "loaded_frame")
-    return cal, ev
+    fit = fit_and_evaluate(session, "loaded_frame")
+    return fit.calibration, fit.headline

@@ -64,3 +64,32 @@ def test_save_proposes_pitocal(window, fitted, monkeypatch, tmp_path):
     path = page.save()
     assert seen["name"].endswith(".pitocal") and "*.pitocal" in seen["filter"]
     assert path.endswith(".pitocal") and (tmp_path / "mine.pitocal").exists()
+
+
+@pytest.mark.slow
+def test_a_refit_forgets_the_file_and_the_report_of_the_previous_fit(window, fitted, qtbot, tmp_path):
+    """Issue 45, point 3: after "Use the papers' linear fit (refit)" the status no longer says saved
+    nor exported — that file and that report hold the previous calibration."""
+    from pito_core.sim import simulate_calibration
+
+    cal, ev = fitted
+    page = window.wizard.pages["results"]
+    window.model.set_mount(method="loaded_frame", flange="frame_hole", connected_face=6)
+    window.model.set_result(cal, ev)
+    page.accept()
+    page.save(tmp_path / "first.pitocal")
+    page.export(tmp_path / "report")
+    qtbot.waitUntil(lambda: not page.exporting, timeout=60000)
+    status = page.values["status"].text()
+    assert "saved to first.pitocal" in status and "report exported to" in status
+    session = simulate_calibration("frame_hole", 6, k=150, seed=3)  # SIMULATED
+    page.model_box.linear.blockSignals(True)
+    page.model_box.linear.setChecked(True)  # the refit's model, fitted on the given session
+    page.model_box.linear.blockSignals(False)
+    page.compute(session)
+    qtbot.waitUntil(lambda: not page.fitting and window.model.calibration is not cal, timeout=120000)
+    status = page.values["status"].text()
+    assert window.model.calibration.model.name == "linear"
+    assert "saved" not in status and "exported" not in status, status
+    assert "awaiting your decision" in status and not page.exported_label.isVisibleTo(page)
+    assert window.model.saved_path is None

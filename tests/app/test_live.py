@@ -226,7 +226,7 @@ class CountingSource:
         self.log.append("set_assembly")
         self.assembly, self.wrench_cov = a, cov
 
-    def tare(self, duration, check):
+    def tare(self, duration, check, support=None):
         self.log.append("tare")
         self.tare_in_force = {"counts_offset": [1.0] * 36, "taken_at": 0.0}
         return dict(self.tare_in_force)
@@ -436,3 +436,29 @@ def test_the_feeds_per_sample_contacts_are_the_pipelines(qtbot):
         assert mine.valid[1:, 0].all() and not mine.valid[0, 0]
     finally:
         feed.stop()
+
+
+def test_no_calibration_no_green_tare_and_the_knob_back_at_the_live_end(qtbot):
+    """Issue 45, point 10: no green "Tare: the calibration's own zero" without a calibration; after
+    Back to live the timeline's knob is at its live end, not where the replay left it."""
+    from app.live import LiveView
+
+    feed = LiveFeed()
+    view = LiveView()
+    qtbot.addWidget(view)
+    try:
+        assert view.tare_label.text() == "Tare: none (no calibration)" and view.tare_label.property("ok") is False
+        assert feed.tare_text() == "Tare: none (no calibration)"
+        view.set_tare_status(feed.tare_text(), False)
+        assert view.tare_label.property("ok") is False
+        feed.set_calibration(FakeCalibration())
+        view.set_tare_status(feed.tare_text(), False)
+        assert feed.tare_text() == "Tare: the calibration's own zero" and view.tare_label.property("ok") is True
+        assert view.timeline.value() == view.timeline.maximum()
+        view.set_replay_mode(True, 20.0)
+        view.timeline.setValue(480)  # the replay went on to 9.6 s
+        view.set_replay_mode(False)
+        assert view.timeline.value() == view.timeline.maximum() and not view.timeline.isEnabled()
+    finally:
+        feed.stop()
+        view.scene.close_scene()

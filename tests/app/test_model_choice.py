@@ -1,6 +1,7 @@
 """The results page's model section: words for the model choice, and the switch to linear."""
 
-from app.wizard.model_choice import ModelChoiceBox, model_summary
+from app.wizard.model_choice import ModelChoiceBox
+from pito_core.report import model_summary
 from pito_core.calibration import ModelChoice
 
 
@@ -8,7 +9,7 @@ def test_model_section_says_which_and_why_and_switches(qtbot):
     choice = ModelChoice(name="poly", requested="auto", alpha=1e-4, reason="held-out error 0.2× the affine fit's",
                          cv_rmse={"linear": [0.5] * 3 + [0.004] * 3, "poly": [0.1] * 3 + [0.001] * 3})
     text = model_summary(choice)
-    assert "polynomial correction" in text and "0.2×" in text
+    assert "polynomial correction" in text and "0.2×" in text and "(in use)" in text
     assert "forces 0.500 N" in text and "torques 1.00 mN·m" in text
     box = ModelChoiceBox()
     qtbot.addWidget(box)
@@ -23,4 +24,20 @@ def test_model_section_names_the_corrected_groups():
     rows = [1e-3] * 3 + [None] * 3 + [None] * 6 + [None] * 3 + [2e-3] * 3  # faces 2, 4, 5 in that order
     choice = ModelChoice(name="poly", requested="auto", alpha=2e-3, reason="r", row_alpha=rows)
     text = model_summary(choice, (2, 4, 5))
-    assert "correction used on 2 of 6 output groups: face 2 forces, face 5 torques" in text
+    assert "polynomial correction on 2 of 6 output groups: face 2 forces, face 5 torques" in text
+
+
+def test_the_model_in_use_is_named_beside_its_own_figure():
+    """Issue 45, point 4: the correction won nowhere that matters (1.00×) and is worse everywhere:
+    the text must not call the model in use "polynomial correction" beside the correction's 1.588 N."""
+    import re
+
+    rows = [None] * 36
+    choice = ModelChoice(name="poly", requested="auto", alpha=1e-3, reason="held-out error 1.00× the affine fit's",
+                         row_alpha=rows, cv_rmse={"linear": [0.728] * 3 + [0.01] * 3, "poly": [1.588] * 3 + [0.02] * 3,
+                                                  "chosen": [0.728] * 3 + [0.01] * 3})
+    text = model_summary(choice, (1, 2, 3, 4, 5, 6))
+    assert "In use: the linear fit" in text and "polynomial correction on" not in text
+    used = re.search(r"\(in use\)</b>: forces ([\d.]+) N", text)
+    assert used and used.group(1) == "0.728", text
+    assert re.search(r"on every output group: forces 1\.588 N", text)  # the candidate not used, named as such

@@ -120,3 +120,46 @@ def test_resume_after_pause_shows_the_samples_measured_meanwhile(qtbot, styled):
         assert np.isfinite(y).sum() >= 95 and x.min() <= -9.8 and not np.isnan(y).any()
     finally:
         view.scene.close_scene()
+
+
+def test_sample_sums_are_the_pipelines_face_sums_of_each_sample():
+    """Issue 45, point 10: ‖ΣF‖, ‖ΣT‖ of every sample, as the pipeline's ``face_sums`` of one."""
+    from app.live.view import sample_sums
+    from pito_core.frames import CubeCore
+    from pito_core.pipeline._bundle import face_sums
+
+    rng = np.random.default_rng(5)
+    W = rng.normal(size=(7, 6, 6))
+    W[3, 2] = np.nan  # a face without output on one sample: left out
+    cog = (0.002, -0.001, -0.003)
+    F, T = sample_sums(W, CubeCore(), cog)
+    for k in range(7):
+        f, m = face_sums(W[k], CubeCore(), cog)
+        assert F[k] == pytest.approx(np.linalg.norm(f)) and T[k] == pytest.approx(np.linalg.norm(m))
+
+
+def test_a_display_stall_breaks_neither_the_face_nor_the_sum_plots(qtbot):
+    """Bundles 0.8 s apart (a stall) with every sample in them: both plots continuous, no break."""
+    from types import SimpleNamespace
+
+    from app.live import LiveView
+    from app.widgets.plots import GAP
+
+    view = LiveView()
+    qtbot.addWidget(view)
+    try:
+        for k in range(3):
+            arrived = 0.8 * k + np.arange(800) / 1000.0
+            fw = np.zeros((800, 6, 6))
+            fw[:, 5, 2] = -2.94  # the object at rest on face 6
+            b = SimpleNamespace(replay_position=None, replay_duration=None, arrived_time=arrived, time=arrived,
+                                contacts_time=arrived[-1], latest_time=arrived[-1], wrenches=fw[-1],
+                                arrived_face_wrenches=fw, sum_force=np.r_[0, 0, 2.94], sum_torque=np.zeros(3),
+                                measured=np.ones((6, 6), bool), contacts=None, recorded=0)
+            view.on_bundle(b)
+        for ring in (view.force_plot.buffer, view.equilibrium.buffer):
+            t = ring.ring.last(copy=True)["rows"][:, 0]
+            assert t.size == 2400 and np.diff(t).max() < GAP
+        assert view.equilibrium.buffer.ring.last(copy=True)["rows"][:, 1] == pytest.approx(2.94)
+    finally:
+        view.scene.close_scene()

@@ -73,10 +73,10 @@ def test_the_app_font_has_every_glyph_used(qapp, styled):
 
 @pytest.fixture(scope="module")
 def evaluation():
-    from app.wizard.results_page import fit_and_evaluate
+    from pito_core.calibration import fit_and_evaluate
     from pito_core.sim import simulate_calibration
 
-    return fit_and_evaluate(simulate_calibration("frame_hole", 6, k=150, seed=3), "loaded_frame")[1]  # SIMULATED
+    return fit_and_evaluate(simulate_calibration("frame_hole", 6, k=150, seed=3), "loaded_frame").headline  # SIMULATED
 
 
 @pytest.mark.parametrize("name", ["rmse", "ident", "comp"])
@@ -84,7 +84,7 @@ def test_results_figures_text_is_readable_and_inside(evaluation, name, qapp, sty
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    from app import report
+    from pito_core import report
 
     draw = {"rmse": report.rmse_figure, "ident": report.identification_figure, "comp": report.comparison_figure}[name]
     for dark, fig in ((True, Figure(figsize=(576 / 96, 270 / 96), dpi=report.SCREEN_DPI)), (False, None)):

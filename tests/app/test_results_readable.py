@@ -62,3 +62,27 @@ def test_figures_of_merit_rows_are_never_clipped(page, qtbot):
     for key, lab in page.values.items():
         need = lab.heightForWidth(lab.width())
         assert lab.height() >= need, f"{key}: {lab.height()} px tall, its text needs {need} px"
+
+
+def test_every_face_has_its_figure_or_says_what_stands_for_it():
+    """Issue 45, point 2: the results page gives every face's validation figure; the connected face
+    of a face flange, completed by the second mount, says it was not validated on fresh loads."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from app.wizard.results_page import per_face_text
+    from pito_core.calibration import ValidationFigures
+
+    nan = float("nan")
+    fig = ValidationFigures(np.array([0.2, 0.3, 0.25, 0.22, 0.21, nan]), np.array([1e-3] * 5 + [nan]),
+                            (0.2, 0.35), (1e-3, 2e-3), (1.07, 0.03), 1000, 30)
+    heldout = SimpleNamespace(rmse_force=lambda: np.array([0.1] * 5 + [0.45]),
+                              rmse_torque=lambda: np.array([1e-3] * 5 + [4e-3]))
+    text = per_face_text(fig, heldout, reaction=6, completed=(6,))
+    lines = text.splitlines()
+    assert len(lines) == 6 and lines[0] == "1: 0.200 N, 1.00 mN·m"
+    assert lines[5].startswith("6: 0.450 N, 4.00 mN·m — second mount") and "no fresh loads" in lines[5]
+    assert "less accurate than the validated faces (worst 0.300 N)" in lines[5]  # said, with the figure
+    alone = per_face_text(fig, heldout, reaction=6).splitlines()[5]  # no second mount: the reactions
+    assert alone.startswith("6: reactions only, 1.070 N") and "not validated" in alone

@@ -119,7 +119,10 @@ def test_ellipsoid_axes_are_two_sigma():
 
 
 def test_face_numbers_stand_clear_of_the_patches(scene):
-    """A face's number is placed past its patch (not inside a dome, under its contact sphere)."""
+    """A face's number is placed past its patch (not inside a dome, under its contact sphere), and off the
+    face's normal (issue 45, point 10: an arrow pushing along the normal covered it)."""
+    from app.scene._scene import LABEL_SIDE
+
     from app.objects import display_meshes, load_assembly
 
     scene.set_patches(display_meshes(load_assembly("pito_mixed")))
@@ -130,7 +133,9 @@ def test_face_numbers_stand_clear_of_the_patches(scene):
         outer = max(0.5 * scene.core.edge, float((pts @ n).max()))
         pos = np.array(lab.GetPosition())
         assert pos @ n >= outer + scene.glyphs.radius * 2
-        assert np.allclose(pos - (pos @ n) * n, 0, atol=1e-12)
+        off = np.linalg.norm(pos - (pos @ n) * n)
+        assert off == pytest.approx(LABEL_SIDE * scene.core.edge)
+        assert off > 4 * scene.glyphs.radius  # clear of an arrow (and its sphere) along the normal
 
 
 def test_culled_back_faces_change_no_pixel(scene):
@@ -246,3 +251,25 @@ def test_a_translucent_object_draws_the_glyphs_with_it(scene):
     scene.set_mount("face", 6)
     frame(scene)
     assert bd.glyph_renderer.GetViewProps().IsItemPresent(g.spheres[1])
+
+
+def test_a_firm_touch_ellipsoid_shows_magnified_and_the_note_says_why(scene):
+    """Issue 45, point 5: a firm touch's 2σ (0.3 mm) hides inside the 3.5 mm contact sphere at ×1
+    — the note says so; at ×10 (the live view's) it is drawn, and seen on screen."""
+    g = scene.glyphs
+    g.show_uncertainty = False
+    g.update(contact_on(1, 8.0))
+    without = pixels(scene)
+    assert g.ellipsoid_note() == ""
+    g.show_uncertainty = True
+    cov = np.diag([1.0, 1.0, 0.3]) * 0.3e-3 ** 2 / 4  # σ 0.15 mm: 2σ 0.3 mm
+    g.ellipsoid_scale = 1.0
+    g.update(contact_on(1, 8.0, cov))
+    assert g.ellipsoid_state[1] == "inside sphere" and (changed(pixels(scene), without).sum() == 0)
+    assert "0.30–0.30 mm: 1 inside the 3.5 mm spheres at ×1" in g.ellipsoid_note(), g.ellipsoid_note()
+    g.ellipsoid_scale = 20.0
+    g.update(contact_on(1, 8.0, cov))
+    assert g.ellipsoid_state[1] == "drawn" and "1 drawn ×20" in g.ellipsoid_note()
+    assert changed(pixels(scene), without).sum() > 20
+    g.update(contact_on(1, 8.0))  # no covariance at all: said so
+    assert "no covariance" in g.ellipsoid_note()

@@ -32,15 +32,16 @@ def grasp():
 
 def run_method(method, k=600):
     from app.wizard.model import WizardModel
-    from app.wizard.results_page import fit_and_evaluate
+    from pito_core.calibration import fit_and_evaluate
 
     model = WizardModel()
     model.set_mount(method=method, flange=MOUNTS[method], connected_face=6)
     model.set_k(k)
     run_wizard_model(model, CUBE, seed=1)
-    cal, headline, note, heldout, figures = fit_and_evaluate(model.training_sessions(), method,
-                                                             validation=model.validation_session())
-    return model, cal, headline, heldout, figures
+    fit = fit_and_evaluate(model.training_sessions(), method, validation=model.validation_session(),
+                           rank_deficient="fallback")  # as the results page fits (app.wizard.results_page.fit_job)
+    completing = fit.heldout_by_session[1] if len(fit.heldout_by_session) > 1 else None
+    return model, fit.calibration, fit.headline, fit.heldout, fit.figures, completing
 
 
 def face_forces_core(W, core):
@@ -68,8 +69,19 @@ def live_errors(cal, grasp, rows):
 
 @pytest.mark.parametrize("method", sorted(MOUNTS))
 def test_every_method_through_the_wizard_ends_complete_or_says_so(qapp, grasp, method):
-    model, cal, headline, heldout, figures = run_method(method)
+    model, cal, headline, heldout, figures, completing = run_method(method)
     kinds = [s.kind for s in model.stages]
+    if "completing" in kinds:  # issue 45, point 2: the connected face's own loads are tested, and shown
+        from app.wizard.results_page import per_face_text
+        from pito_core.calibration import NOT_MEASURED_TEXT
+
+        done = [f for f in model.stages[2].faces if cal.has_output[f - 1]]
+        assert completing is not None and all(np.isfinite(completing.rmse_force()[f - 1]) for f in done)
+        text = per_face_text(figures, completing, 6 if MOUNTS[method] == "face" else None, done,
+                             cal.has_output).splitlines()
+        assert all(NOT_MEASURED_TEXT in text[i] for i in range(6) if not cal.has_output[i])
+        assert all(text[f - 1].startswith(f"{f}: ") for f in done)
+        assert not done or "second mount" in text[done[0] - 1] or np.isfinite(figures.rmse_force[done[0] - 1])
     cov = cal.coverage
     if method in ("face_to_face", "quasi_total", "unloaded_frame"):  # their mount leaves readings unmeasured
         assert kinds == ["main", "validation", "completing"] and model.stages[2].why
@@ -103,7 +115,7 @@ def test_every_method_through_the_wizard_ends_complete_or_says_so(qapp, grasp, m
 
 
 def test_validation_headline_agrees_with_evaluate_on_a_new_session(qapp):
-    model, cal, headline, heldout, figures = run_method("unloaded_frame")
+    model, cal, headline, heldout, figures, _ = run_method("unloaded_frame")
     # what `pito evaluate` reports for the saved file on a new simulated session of the main mount
     new = simulate_calibration("face", 6, k=2000, seed=31, model=CUBE, faces=model.stages[0].faces, t0=100.0)
     ev = evaluate(cal, new)

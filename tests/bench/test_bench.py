@@ -272,3 +272,37 @@ def _draw_test_window(dpy):
     _x.XFreeGC(dpy, gc)
     _x.XSync(dpy, 0)
     return win
+
+
+@pytest.mark.parametrize("kind", ["plane", "sphere", "ellipsoid"])
+def test_plain_closed_form_baseline_is_the_solvers_model(kind):
+    from pito_bench._baseline import plain_contact
+    from pito_core.contact import solve
+
+    surface = make_surface(kind)
+    c, n, f, tau = sample_contacts(surface, 200, "soft", np.random.default_rng(2))
+    w = np.c_[f, np.cross(c, f) + tau[:, None] * n]
+    geo = (dict(point=surface.point, normal=surface.normal) if kind == "plane" else
+           dict(center=surface.center, semi_axes=surface.semi_axes, rotation=surface.rotation))
+    cb, nb, taub, okb = plain_contact(kind, w[:, :3], w[:, 3:], **geo)
+    est = solve(surface, w, single_contact=False)
+    assert okb.all() and est.valid.all()
+    np.testing.assert_allclose(cb, c, atol=1e-12)
+    np.testing.assert_allclose(cb, est.point, atol=1e-12)
+    np.testing.assert_allclose(nb, est.normal, atol=1e-12)
+    np.testing.assert_allclose(taub, est.torsion, atol=1e-12)
+
+
+def test_analysis_section_times_every_stage_of_a_simulated_recording():
+    from pito_bench._analysis import task_analysis
+
+    r = task_analysis(n_trials=1, repeat=1)
+    assert r["samples"] == 6000 and r["trials"] == 1
+    stages = [row["stage"] for row in r["rows"]]
+    assert stages == ["read", "pair", "calibrate", "contacts", "single-contact test", "contacts with the test", "metrics",
+                      "figures", "write"]
+    assert all(row["samples_per_s"] > 0 for row in r["rows"] if row["stage"] not in ("calibrate", "single-contact test"))
+    assert r["rows"][0]["ratio_read"] == 1.0
+    assert r["analyze_recording_samples_per_s"] > 0 and r["figures_share"] > 0
+    text = "\n".join(_report._analysis_tables({**r, "data": "SIMULATED", "threads": 1}))
+    assert "samples/s" in text and "single-contact test" in text

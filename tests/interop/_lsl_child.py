@@ -19,7 +19,7 @@ def open_inlet(name: str, timeout: float):
     found = pylsl.resolve_byprop("name", name, timeout=timeout)
     if not found:
         raise SystemExit(f"stream {name} not resolved")
-    return pylsl.StreamInlet(found[0], max_buflen=60, processing_flags=0)
+    return pylsl.StreamInlet(found[0], max_buflen=360, processing_flags=0)  # s at the nominal rate: a whole recording pushed at once
 
 
 def main(rec_path: str, cal_path: str, assembly: str) -> None:
@@ -61,9 +61,10 @@ def main(rec_path: str, cal_path: str, assembly: str) -> None:
         first = False
         if len(b):
             pub(b)
-            times.append(np.asarray(b.time))
+            times.append(np.asarray(b.arrived_tick))
             W.append(np.asarray(b.face_wrenches))
-    sent_t = np.concatenate(times) + pub.clock_offset
+    # the cube's device clock (µs), placed on the LSL clock at the first sample published
+    sent_t = pub.time_base[0] + (np.concatenate(times) - pub.time_base[1]) * 1e-6
     sent_w = np.concatenate(W).reshape(-1, 36)
     got = {}
     for name, inlet in inlets.items():

@@ -5,6 +5,7 @@ No LSL traffic here: the toggle is driven with a recording sink in place of the 
 """
 
 
+import numpy as np
 import pytest
 
 pytest.importorskip("PySide6")
@@ -36,6 +37,14 @@ def test_export_dialog_writes_every_format_in_the_background(qtbot, interop_file
     with pynwb.NWBHDF5IO(str(tmp_path / "out.nwb"), "r") as io:
         f = io.read()
         assert f.subject.subject_id == "S07" and "behavior" in f.processing
+    # the CSV files as `pito export` writes them: every sample, on the device clock's time base
+    from pito_core.io import read_recording, read_recording_csv
+    from pito_core.pipeline import recording_times
+
+    recording = read_recording(rec)
+    for name, stream, t in zip(("out_pito.csv", "out_ati.csv"), ("pito", "netft"), recording_times(recording)):
+        cols = read_recording_csv(tmp_path / name, stream)
+        assert "time" in cols and np.allclose(cols["time"], t, rtol=0, atol=1e-9), name
     assert dlg.export_button.isEnabled()
     assert seen and all(0 <= f <= 1 for f in seen) and seen == sorted(seen)  # the bar only moves forward
 

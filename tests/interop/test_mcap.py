@@ -11,6 +11,7 @@ from mcap.reader import make_reader  # noqa: E402
 from mcap_ros2.decoder import DecoderFactory  # noqa: E402
 
 from pito_core.frames import CubeCore  # noqa: E402
+from pito_core.io import read_recording  # noqa: E402
 from pito_core.interop import export_data  # noqa: E402
 
 from .conftest import pito  # noqa: E402
@@ -21,7 +22,7 @@ def mcap_file(interop_files):
     d, _, rec, _ = interop_files
     out = d / "grasp.mcap"
     pito("export", rec, "--mcap", out)
-    return out, export_data(rec)
+    return out, export_data(rec), rec
 
 
 def read_all(path):
@@ -37,7 +38,7 @@ def read_all(path):
 
 
 def test_mcap_round_trip(mcap_file):
-    path, data = mcap_file
+    path, data, rec = mcap_file
     msgs, summary, meta, atts = read_all(path)
     stamps = np.round((data.start_unix + data.time) * 1e9).astype(np.int64)
     for i in range(1, 7):
@@ -70,12 +71,15 @@ def test_mcap_round_trip(mcap_file):
     raw = msgs["/pito/raw_counts"]
     np.testing.assert_array_equal(np.array([list(m.data) for _, _, m in raw]), data.counts)
     ref = msgs["/pito/reference/wrench"]
-    has_ref = np.isfinite(data.reference).all(axis=1)
-    assert len(ref) == int(has_ref.sum()) and ref[0][2].header.frame_id == "pito_reference"
+    # every reference record of the recording, at its own time on the cube's clock
+    assert len(ref) == data.reference_time.size == read_recording(rec).netft.size
+    assert ref[0][2].header.frame_id == "pito_reference"
     got = np.array([[m.wrench.force.x, m.wrench.force.y, m.wrench.force.z,
                      m.wrench.torque.x, m.wrench.torque.y, m.wrench.torque.z] for _, _, m in ref])
-    np.testing.assert_array_equal(got, data.reference[has_ref])
-    np.testing.assert_array_equal([t for _, t, _ in ref], stamps[has_ref])
+    np.testing.assert_array_equal(got, data.reference_wrench)
+    rstamps = np.round((data.start_unix + data.reference_time) * 1e9).astype(np.int64)
+    np.testing.assert_array_equal([t for _, t, _ in ref], rstamps)
+    assert (np.diff(stamps) > 0).all() and (np.diff(rstamps) > 0).all()  # one clock, never a repeated time
     (schema, _, tf), = msgs["/tf_static"]
     assert schema == "tf2_msgs/msg/TFMessage" and len(tf.transforms) == 6
     core = CubeCore(data.assembly["core_edge_m"])
@@ -93,6 +97,11 @@ def test_mcap_round_trip(mcap_file):
     assert json.loads(prov["assembly"])["name"] == "pito_mixed"
     full = json.loads(atts["calibration.json"])
     np.testing.assert_array_equal(full["matrix"], data.calibration["matrix"])
+    # the calibration file itself, the same bytes as the recording embeds, the same content hash
+    from pito_core.interop import calibration_from_bytes, calibration_hash, record_file_bytes
+
+    assert atts["calibration.pitocal"] == record_file_bytes(read_recording(rec).meta["calibration"])
+    assert calibration_hash(calibration_from_bytes(atts["calibration.pitocal"])) == data.calibration["hash"]
     assert summary.statistics.message_count == sum(len(v) for v in msgs.values())
 
 
@@ -108,7 +117,7 @@ def test_mcap_counts_only_without_calibration(interop_files, tmp_path):
 
 def test_no_mcap_message_carries_nan(mcap_file):
     """A cube sample before the first reference packet has no reference: no message for it (not a NaN one)."""
-    path, data = mcap_file
+    path, data, _ = mcap_file
     msgs, *_ = read_all(path)
     for topic, rows in msgs.items():
         for _, _, m in rows:
@@ -118,21 +127,3 @@ def test_no_mcap_message_carries_nan(mcap_file):
                 assert np.isfinite(v).all(), f"{topic}: a message carries NaN"
 
 
-def test_mcap_skips_samples_without_reference(mcap_file, tmp_path):
-    """Independent of the recording: NaN reference rows written to MCAP are left out, the rest kept in order."""
-    from dataclasses import replace
-
-    from pito_core.interop import write_mcap
-
-    _, data = mcap_file
-    ref = np.array(data.reference, float)
-    rng = np.random.default_rng(3)
-    holes = rng.choice(data.n, size=7, replace=False)
-    ref[holes] = np.nan
-    ref[0] = np.nan
-    counts = write_mcap(replace(data, reference=ref), tmp_path / "holes.mcap", raw_counts=False)
-    keep = np.isfinite(ref).all(axis=1)
-    assert counts["/pito/reference/wrench"] == int(keep.sum())
-    msgs, *_ = read_all(tmp_path / "holes.mcap")
-    got = np.array([[m.wrench.force.x, m.wrench.torque.z] for _, _, m in msgs["/pito/reference/wrench"]])
-    np.testing.assert_array_equal(got, ref[keep][:, [0, 5]])

@@ -1,5 +1,7 @@
 """NWB export round trip: written by `pito export --nwb`, read back with pynwb (and nwbinspector when installed)."""
 
+import json
+
 import numpy as np
 import pytest
 
@@ -32,16 +34,21 @@ def test_nwb_round_trip(nwb_file):
         counts = f.acquisition["pito_raw_counts"]
         assert counts.unit == "counts" and counts.data.shape == (data.n, 36)
         np.testing.assert_array_equal(counts.data[:], data.counts)
-        np.testing.assert_allclose(counts.timestamps[:], data.time)
-        assert np.all(np.diff(counts.timestamps[:]) >= 0)
+        np.testing.assert_allclose(series_times(counts), data.time, rtol=0, atol=1e-9)
+        assert np.all(np.diff(series_times(counts)) > 0)  # the cube's clock: never a repeated time
         assert f.acquisition["reference_force"].unit == "N" and f.acquisition["reference_torque"].unit == "N*m"
+        rf = f.acquisition["reference_force"]
+        assert rf.data.shape == (data.reference_time.size, 3) and np.isfinite(rf.data[:]).all()
+        np.testing.assert_array_equal(rf.data[:], data.reference_wrench[:, :3])
+        np.testing.assert_allclose(series_times(rf), data.reference_time, rtol=0, atol=1e-9)
+        assert np.all(np.diff(series_times(rf)) > 0) and series_times(rf)[0] >= 0
         w = f.processing["behavior"]
         for i in range(1, 7):
             F, T = w[f"face_{i}_force"], w[f"face_{i}_torque"]
             assert F.unit == "N" and T.unit == "N*m" and f"face {i}" in F.description
             np.testing.assert_allclose(F.data[:], data.face_wrenches[:, i - 1, :3])
             np.testing.assert_allclose(T.data[:], data.face_wrenches[:, i - 1, 3:])
-            np.testing.assert_allclose(F.timestamps[:], data.time)  # linked to the counts' timestamps
+            np.testing.assert_allclose(series_times(F), data.time, rtol=0, atol=1e-9)
         c = f.processing["behavior"]
         valid_any = False
         for i in range(1, 7):
@@ -62,6 +69,9 @@ def test_nwb_round_trip(nwb_file):
         off = f.processing["misc"]["calibration_offset"].to_dataframe()
         np.testing.assert_allclose(off["offset_counts"], data.calibration["offset"])
         assert data.calibration["hash"] in f.notes and "pito_mixed" in f.notes
+        cf = f.processing["misc"]["calibration_file"]
+        assert "".join(cf["content_base64"][:]) == data.calibration["file"]["content"]
+        assert json.loads(cf.description)["content_hash"] == data.calibration["hash"]
 
 
 def test_nwb_without_calibration_has_counts_and_reference_only(interop_files, tmp_path):
@@ -70,8 +80,15 @@ def test_nwb_without_calibration_has_counts_and_reference_only(interop_files, tm
     write_nwb(data, tmp_path / "raw.nwb")
     with pynwb.NWBHDF5IO(str(tmp_path / "raw.nwb"), "r") as io:
         f = io.read()
-        assert set(f.acquisition) == {"pito_raw_counts", "reference_force", "reference_torque"}
+        assert set(f.acquisition) == {"pito_raw_counts", "pito_host_time", "reference_force", "reference_torque"}
         assert len(f.processing) == 0
+
+
+def series_times(ts) -> np.ndarray:
+    """A TimeSeries' sample times, s (its timestamps, or starting_time + k / rate)."""
+    if ts.timestamps is not None:
+        return np.asarray(ts.timestamps[:], float)
+    return ts.starting_time + np.arange(ts.data.shape[0]) / ts.rate
 
 
 def _inspect(path):

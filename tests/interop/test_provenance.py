@@ -39,9 +39,22 @@ def test_record_round_trip_and_tamper_check():
     np.testing.assert_array_equal(back.matrix, cal.matrix)
     np.testing.assert_array_equal(back.offset, cal.offset)
     assert calibration_hash(back) == rec["hash"] and back.method == "ideal"
-    rec["matrix"][0][0] += 1.0
+    import copy
+
+    bad = copy.deepcopy(rec)
+    bad["matrix"][0][0] += 1.0
+    with pytest.raises(ValueError, match="matrix"):
+        calibration_from_record(bad)
+    bad = dict(rec, hash="sha256:" + "0" * 64)
     with pytest.raises(ValueError, match="hash"):
-        calibration_from_record(rec)
+        calibration_from_record(bad)
+    bad = dict(rec, file=dict(rec["file"], content=rec["file"]["content"][:-8] + "AAAAAAAA"))
+    with pytest.raises(ValueError, match="file: stored sha256"):
+        calibration_from_record(bad)
+    legacy = {k: v for k, v in rec.items() if k != "file"}  # provenance version 1: the linear part only
+    legacy["matrix"][0][0] += 1.0
+    with pytest.raises(ValueError, match="hash"):
+        calibration_from_record(legacy)
     with pytest.raises(ValueError, match="missing field"):
         calibration_from_record({"method": "ideal"})
 

@@ -1,4 +1,4 @@
-"""Calibration report: the results figures (matplotlib) and an exported folder (figures + numbers).
+"""The calibration report: the results figures (matplotlib) and an exported folder (figures + numbers).
 
 The same figure functions feed the wizard's results page and the exported report, so what
 the operator accepted is what the report shows.
@@ -10,15 +10,20 @@ import datetime as _dt
 import json
 from pathlib import Path
 
+from typing import TYPE_CHECKING
+
 import numpy as np
-from matplotlib.figure import Figure
 
-from .palette import FACE_COLORS
+from ..frames import FACE_COLORS, WRENCH_COMPONENTS, WRENCH_UNITS
 
-__all__ = ["rmse_figure", "identification_figure", "comparison_figure", "export_report", "style_figure", "SMALL", "SCREEN_DPI"]
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
-AXES = ("fx", "fy", "fz", "tx", "ty", "tz")
-UNITS = ("N", "N", "N", "N·m", "N·m", "N·m")
+__all__ = ["rmse_figure", "identification_figure", "comparison_figure", "export_report", "style_figure", "model_summary",
+           "SMALL", "SCREEN_DPI"]
+
+AXES = WRENCH_COMPONENTS
+UNITS = WRENCH_UNITS
 DARK = {"bg": "#252b32", "fg": "#d5dde5", "grid": "#3d4650"}
 #: pt: the smallest text in a figure (tick labels, annotations, legends): readable at screen DPI
 SMALL = 9.0
@@ -26,6 +31,38 @@ SMALL = 9.0
 TITLE = 10.0
 #: dots per inch the app draws its figures at (a screen's; 9 pt = 12 px)
 SCREEN_DPI = 96
+
+
+def _figure(figsize, dpi):
+    """A new ``matplotlib.figure.Figure`` (no pyplot, no global state)."""
+    # deferred: matplotlib takes ~0.4 s to import and pito_core.report loads with `pito --help`
+    from matplotlib.figure import Figure
+
+    return Figure(figsize=figsize, dpi=dpi)
+
+
+def model_summary(choice, output_faces=()) -> str:
+    """Words for a ``ModelChoice``: the model in use, why, and the cross-validated RMSE (N, N·m) of each
+    candidate, the one in use marked — the name and the figures beside it always agree."""
+    groups = choice.corrected(output_faces) if choice.name != "linear" else []
+    rms = choice.cv_rms()
+    if choice.name == "linear":
+        head, used = "the papers' linear fit (C = W S⁺)", "linear"
+    elif output_faces and not groups:
+        head, used = "the linear fit (the correction won on no output group)", "chosen" if "chosen" in rms else "poly"
+    elif output_faces:
+        head = (f"linear fit + polynomial correction on {len(groups)} of {2 * len(output_faces)} output groups: "
+                + ", ".join(f"face {f} {part}" for f, part in groups))
+        used = "chosen" if "chosen" in rms else "poly"
+    else:
+        head, used = "linear fit + polynomial correction", "chosen" if "chosen" in rms else "poly"
+    text = f"<b>In use: {head}</b> — {choice.reason}"
+    words = {"linear": "the linear fit everywhere", "poly": "the correction on every output group",
+             "chosen": "the correction only where it won"}
+    for key, (force, torque) in rms.items():
+        mark = " <b>(in use)</b>" if key == used else ""
+        text += f"<br>cross-validated RMSE, {words[key]}{mark}: forces {force:.3f} N, torques {torque * 1000:.2f} mN·m"
+    return text
 
 
 def style_figure(fig: Figure, dark: bool = True) -> None:
@@ -53,7 +90,7 @@ def rmse_figure(evaluation, fig: Figure | None = None, dark: bool = True, *, rea
     others' loads (its bar is hatched and labelled so); ``kind``: what the figures come from
     ("validation", "held-out"), in the titles.
     """
-    fig = fig or Figure(figsize=(6.4, 2.8), dpi=100)
+    fig = fig or _figure(figsize=(6.4, 2.8), dpi=100)
     fig.clear()
     axf, axt = fig.subplots(1, 2)
     faces = np.arange(1, 7)
@@ -63,9 +100,12 @@ def rmse_figure(evaluation, fig: Figure | None = None, dark: bool = True, *, rea
     for ax, v, title, unit in ((axf, f, "force RMSE", "N"), (axt, t, "torque RMSE", "mN·m")):
         ok = np.isfinite(v)
         ax.bar(faces[ok], v[ok], color=np.array(colors)[ok], width=0.7)
+        u = _interval_marks(evaluation, unit)
         for x, y in zip(faces[ok], v[ok]):
-            ax.annotate(f"{y:.3g}", (x, y), ha="center", va="bottom", fontsize=SMALL,
-                        color=DARK["fg"] if dark else "black")
+            # the value above its bar and above the ± mark, never struck through by it
+            above = max(y, u[x - 1]) if np.isfinite(u[x - 1]) else y
+            ax.annotate(f"{y:.3g}", (x, above), xytext=(0, 3), textcoords="offset points", ha="center", va="bottom",
+                        fontsize=SMALL, color=DARK["fg"] if dark else "black")
         for x in faces[~ok]:
             ax.annotate("n/a", (x, 0), ha="center", va="bottom", fontsize=SMALL, color="#888888")
         ax.set_xticks(faces, [f"{i}\nreactions" if i == reactions else str(i) for i in faces])
@@ -75,17 +115,13 @@ def rmse_figure(evaluation, fig: Figure | None = None, dark: bool = True, *, rea
         ax.set_ylabel(f"{title} ({unit})", fontsize=SMALL)
         ax.set_title(f"{kind} {title} ({unit})", fontsize=TITLE)
         top = np.nanmax(v) if ok.any() else 1.0
-        unc = getattr(evaluation, "uncertainty95", None)  # (6, 6) half-widths of the 95 % intervals, or None
-        if unc is not None:
-            u = np.asarray(unc, dtype=float)[:, :3] if unit == "N" else np.asarray(unc, dtype=float)[:, 3:] * 1000
-            with np.errstate(invalid="ignore"):
-                u = np.sqrt(np.nanmean(u**2, axis=1))
+        if np.isfinite(u).any():
             okU = np.isfinite(u)
             if okU.any():
                 ax.scatter(faces[okU], u[okU], marker="_", s=250, linewidths=2,
                            color=DARK["fg"] if dark else "black",
                            label="± 95 % (may be short)" if getattr(evaluation, "uncertainty95_caveat", None)
-                           else "± 95 % of the true wrench")
+                           else "± 95 % of the wrench")
                 leg = ax.legend(fontsize=SMALL, loc="upper left", framealpha=0.6)
                 if dark:
                     leg.get_frame().set_facecolor(DARK["bg"])
@@ -99,9 +135,19 @@ def rmse_figure(evaluation, fig: Figure | None = None, dark: bool = True, *, rea
     return fig
 
 
+def _interval_marks(evaluation, unit: str) -> np.ndarray:
+    """(6,) the ± 95 % half-width per face, RMS over its force (N) or torque (mN·m) axes; NaN without one."""
+    unc = getattr(evaluation, "uncertainty95", None)  # (6, 6) half-widths of the 95 % intervals, or None
+    if unc is None:
+        return np.full(6, np.nan)
+    u = np.asarray(unc, dtype=float)[:, :3] if unit == "N" else np.asarray(unc, dtype=float)[:, 3:] * 1000
+    with np.errstate(invalid="ignore"):
+        return np.sqrt(np.nanmean(u**2, axis=1))
+
+
 def identification_figure(evaluation, fig: Figure | None = None, dark: bool = True) -> Figure:
     """Face identification: mean ‖F‖ on every face (rows) when one face is loaded (columns)."""
-    fig = fig or Figure(figsize=(3.6, 3.0), dpi=100)
+    fig = fig or _figure(figsize=(3.6, 3.0), dpi=100)
     fig.clear()
     ax = fig.subplots()
     fn = np.asarray(evaluation.identified.get("force_norm", np.zeros((0, 6))), dtype=float)
@@ -133,7 +179,7 @@ def identification_figure(evaluation, fig: Figure | None = None, dark: bool = Tr
 
 def comparison_figure(evaluation, fig: Figure | None = None, dark: bool = True) -> Figure:
     """Calibrated total load against the reference, per axis (reference frame), held-out samples."""
-    fig = fig or Figure(figsize=(6.4, 3.4), dpi=100)
+    fig = fig or _figure(figsize=(6.4, 3.4), dpi=100)
     fig.clear()
     axes = fig.subplots(2, 3)
     pred = np.asarray(evaluation.comparison.get("predicted", np.zeros((0, 6))), dtype=float)
@@ -165,7 +211,8 @@ def comparison_figure(evaluation, fig: Figure | None = None, dark: bool = True) 
     return fig
 
 
-def export_report(folder, calibration, evaluation, info: dict | None = None, progress=None) -> Path:
+def export_report(folder, calibration, evaluation, info: dict | None = None, progress=None, *, rmse: dict | None = None,
+                  figures=None) -> Path:
     """Write ``folder/``: ``report.md``, ``numbers.json`` and the three figures as PNG.
 
     Parameters
@@ -178,6 +225,11 @@ def export_report(folder, calibration, evaluation, info: dict | None = None, pro
         Extra facts for the report (mount, devices, samples, simulated).
     progress : callable, optional
         ``progress(fraction 0..1, text)`` after each file written.
+    rmse : dict, optional
+        The results page's RMSE options (``reactions``: the flange's face, ``kind``: "validation"
+        or "held-out"): the report says and draws what the page does.
+    figures : ValidationFigures, optional
+        The page's headline (worst face, 95 % intervals, the reactions' face).
 
     Returns
     -------
@@ -191,7 +243,9 @@ def export_report(folder, calibration, evaluation, info: dict | None = None, pro
         if progress is not None:
             progress(k / 5, text)
 
-    draw = {"rmse.png": rmse_figure, "identification.png": identification_figure, "comparison.png": comparison_figure}
+    rmse = dict(rmse or {})
+    draw = {"rmse.png": lambda ev, dark: rmse_figure(ev, dark=dark, **rmse),
+            "identification.png": identification_figure, "comparison.png": comparison_figure}
     for k, (name, figure) in enumerate(draw.items()):
         step(k, f"drawing {folder / name}")
         figure(evaluation, dark=False).savefig(folder / name, dpi=150, bbox_inches="tight", pad_inches=0.1)
@@ -200,7 +254,7 @@ def export_report(folder, calibration, evaluation, info: dict | None = None, pro
     (folder / "numbers.json").write_text(json.dumps(numbers, indent=2, default=_json_default))
     path = folder / "report.md"
     step(4, f"writing {path}")
-    path.write_text("\n".join(_report_lines(calibration, evaluation, info, numbers["generated"])))
+    path.write_text("\n".join(_report_lines(calibration, evaluation, info, numbers["generated"], rmse, figures)))
     step(5, f"report written to {folder}")
     return path
 
@@ -222,10 +276,16 @@ def _numbers(calibration, evaluation, info: dict) -> dict:
     }
 
 
-def _report_lines(calibration, evaluation, info: dict, generated: str) -> list[str]:
-    """The lines of ``report.md`` (Markdown): the facts, RMSE per face, identification, the figures."""
+def _report_lines(calibration, evaluation, info: dict, generated: str, rmse: dict | None = None,
+                  figures=None) -> list[str]:
+    """The lines of ``report.md`` (Markdown): the facts, RMSE per face (the results page's words: validation
+    or held-out, 95 % intervals, the flange's face as reactions), identification, the figures."""
+    rmse = rmse or {}
+    kind = rmse.get("kind", "held-out")
+    reaction = rmse.get("reactions")
     f = evaluation.rmse_force()
     t = evaluation.rmse_torque()
+    uf, ut = _interval_marks(evaluation, "N"), _interval_marks(evaluation, "mN·m")
     lines = [
         f"# PITO calibration report — {calibration.method}",
         "",
@@ -236,34 +296,51 @@ def _report_lines(calibration, evaluation, info: dict, generated: str) -> list[s
     ]
     for k, v in info.items():
         lines.append(f"| {k} | {v} |")
+    model = model_summary(calibration.model, calibration.output_faces).replace("<b>", "**").replace("</b>", "**")
     lines += [
         f"| inverse condition number σmin/σmax | {calibration.inverse_condition_number:.3e} |",
-        f"| calibration model | {calibration.model.name}: {calibration.model.reason} |",
-    ] + [
-        f"| cross-validated RMSE, {key} model | forces {force:.4f} N, torques {torque * 1000:.3f} mN·m |"
-        for key, (force, torque) in calibration.model.cv_rms().items()
-    ] + [
-        f"| held-out single-face samples | {evaluation.n_single} |",
-    ] + [
+        f"| calibration model | {model.split('<br>')[0]} |",
+    ] + [f"| | {line} |" for line in model.split("<br>")[1:]] + [
+        f"| {kind} single-face samples | {evaluation.n_single} |",
+    ]
+    if figures is not None and np.isfinite(figures.worst_force):
+        wf = int(np.nanargmax(figures.rmse_force)) + 1
+        wt = int(np.nanargmax(figures.rmse_torque)) + 1
+        lines += [
+            f"| worst {kind} force RMSE | {figures.worst_force:.4f} N (face {wf}), 95 %: "
+            f"{figures.worst_force_ci[0]:.4f}–{figures.worst_force_ci[1]:.4f} N |",
+            f"| worst {kind} torque RMSE | {figures.worst_torque * 1000:.3f} mN·m (face {wt}), 95 %: "
+            f"{figures.worst_torque_ci[0] * 1000:.3f}–{figures.worst_torque_ci[1] * 1000:.3f} mN·m |",
+        ]
+        if reaction:
+            lines.append(f"| reactions (face {reaction}) | {figures.reaction_force:.3f} N, "
+                         f"{figures.reaction_torque * 1000:.2f} mN·m — carried only the others' reactions |")
+    lines += [
         f"| 95 % intervals | **may be short**: {caveat} |"
         for caveat in [getattr(evaluation, "uncertainty95_caveat", None)] if caveat
     ] + [
         "",
-        "## Held-out RMSE per loaded face",
+        f"## {kind.capitalize()} RMSE per loaded face",
         "",
-        "| face | force RMSE (N) | torque RMSE (mN·m) |",
-        "| --- | --- | --- |",
+        "± 95 %: half-width of the wrench's 95 % interval, RMS over the face's axes (the marks in rmse.png).",
+        "",
+        "| face | force RMSE (N) | ± 95 % (N) | torque RMSE (mN·m) | ± 95 % (mN·m) |",
+        "| --- | --- | --- | --- | --- |",
     ]
+
+    def num(x, fmt):
+        return format(x, fmt) if np.isfinite(x) else "n/a"
+
     for i in range(6):
-        fs = f"{f[i]:.4f}" if np.isfinite(f[i]) else "n/a"
-        ts = f"{t[i] * 1000:.4f}" if np.isfinite(t[i]) else "n/a"
-        lines.append(f"| {i + 1} | {fs} | {ts} |")
+        name = f"{i + 1} (reactions only)" if reaction == i + 1 else str(i + 1)
+        lines.append(f"| {name} | {num(f[i], '.4f')} | {num(uf[i], '.4f')} | {num(t[i] * 1000, '.4f')} | "
+                     f"{num(ut[i], '.4f')} |")
     head = evaluation.identification_headline()  # single-face loads by force, squeeze loads by torque
     lines += [
         "",
         ("Face identification (the papers' rule): " + "; ".join(h["text"] for h in head) + ".") if head else "",
         "",
-        "![RMSE per face](rmse.png)",
+        f"![{kind} RMSE per face](rmse.png)",
         "",
         "![Face identification](identification.png)",
         "",

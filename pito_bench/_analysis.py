@@ -1,0 +1,106 @@
+"""Analysis benchmark: where the time of ``pito analyze`` goes, stage by stage, beside a bare read.
+
+One SIMULATED lift-hold-replace recording (``pito_core.sim.write_lift_recording``, the ideal
+calibration embedded, 6 s and 6,000 samples per trial) is analysed stage by stage in a
+one-thread worker, each stage timed alone (best of ``repeat``, CPU time of the worker):
+
+- ``read``: the bare read pass (``read_recording``: file → arrays), the baseline;
+- ``pair``: the recording through the one pipeline without a calibration (pairing, clocks);
+- ``calibrate``: the same with the embedded calibration, less ``pair``;
+- ``contacts``: ``solve_object`` of the face wrenches without the single-contact test;
+- ``single-contact test``: ``solve_object`` with it, less ``contacts``;
+- ``metrics``: ``analyze_contacts`` (series, trials, phase metrics, tables);
+- ``figures``: ``save_trial_figures`` (one PNG per trial);
+- ``write``: ``write_analysis`` without figures (CSV tables, summary).
+
+Every stage is given in samples per second and as a share of the bare read's rate; the
+whole ``analyze_recording`` (no figures) is timed end to end beside them, and the figures'
+cost as a share of it. Peak resident memory of the worker is reported with the section.
+"""
+
+from __future__ import annotations
+
+import shutil
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ._timing import best_time, run_worker
+
+__all__ = ["task_analysis", "run_analysis"]
+
+
+def _recording(directory: Path, n_trials: int, seed: int = 0) -> Path:
+    from pito_core.calibration import Calibration
+    from pito_core.interop import assembly_record, calibration_record
+    from pito_core.sim import LiftTask, VirtualCube, write_lift_recording
+
+    cube = VirtualCube()
+    cal = Calibration("ideal", cube.ideal_calibration(), range(1, 7), "face", cube.offset, cube.core, np.eye(4),
+                      meta={"simulated": True})
+    meta = {"calibration": calibration_record(cal, "ideal"), "assembly": assembly_record("cube")}
+    path = directory / f"lift{n_trials}.pitorec"
+    write_lift_recording(path, LiftTask(n_trials, seed=seed), seed=seed, meta=meta)
+    return path
+
+
+def task_analysis(n_trials: int = 5, repeat: int = 3, seed: int = 0) -> dict:
+    """Seconds and samples/s of every stage of the analysis of one simulated lift recording."""
+    from pito_core.analysis import (analyze_contacts, analyze_recording, recording_contacts, save_trial_figures,
+                                    write_analysis)
+    from pito_core.contact import solve_object
+    from pito_core.interop import recording_calibration
+    from pito_core.io import read_recording
+    from pito_core.pipeline import replay_recording
+
+    tmp = Path(tempfile.mkdtemp(prefix="pito-bench-analysis-"))
+    try:
+        path = _recording(tmp, n_trials, seed)
+        clock = time.process_time
+        t = {}
+        t["read"], rec = best_time(lambda: read_recording(path), repeat, clock=clock)
+        cal, _ = recording_calibration(dict(rec.meta), None, None)
+        t["pair"], _ = best_time(lambda: replay_recording(rec, None, "cube"), repeat, clock=clock)
+        t_cal, (bundle, pipe) = best_time(lambda: replay_recording(rec, cal, "cube"), repeat, clock=clock)
+        t["calibrate"] = t_cal - t["pair"]
+        W = np.asarray(bundle.face_wrenches, float)
+        n = len(W)
+        t_test, _ = best_time(lambda: solve_object(pipe.assembly or "cube", W, pipe.force_threshold), repeat,
+                              clock=clock)
+        try:
+            t["contacts"], _ = best_time(lambda: solve_object(pipe.assembly or "cube", W, pipe.force_threshold,
+                                                              single_contact=False), repeat, clock=clock)
+        except TypeError:  # a pito_core before solve_object(single_contact=...): the two together
+            t["contacts"] = float("nan")
+        t["single-contact test"] = t_test - t["contacts"]
+        time_s, contacts, meta = recording_contacts(path)
+        cog = meta["cog_m"] if meta["cog_m"] is not None else (0.0, 0.0, 0.0)
+        t["metrics"], analysis = best_time(lambda: analyze_contacts(time_s, contacts, cog=cog, mass=meta["mass_kg"],
+                                                                    meta=meta), repeat, clock=clock)
+        out = tmp / "out"
+        out.mkdir()
+        t["figures"], _ = best_time(lambda: save_trial_figures(analysis, out), repeat, clock=clock)
+        t["write"], _ = best_time(lambda: write_analysis(analysis, out, figures=False), repeat, clock=clock)
+        t_all, a2 = best_time(lambda: analyze_recording(path), repeat, clock=clock)
+        assert a2.meta["n_samples"] == n, "samples in = samples out"
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    rows = [{"stage": k, "s": v, "samples_per_s": n / v if v > 0 else float("inf"),
+             "ratio_read": (t["read"] / v) if v > 0 else float("inf")} for k, v in t.items()]
+    rows.insert(5, {"stage": "contacts with the test", "s": t_test, "samples_per_s": n / t_test,
+                    "ratio_read": t["read"] / t_test})
+    return {"samples": n, "trials": n_trials, "rows": rows, "analyze_recording_s": t_all,
+            "analyze_recording_samples_per_s": n / t_all, "figures_share": t["figures"] / t_all,
+            "read_samples_per_s": n / t["read"]}
+
+
+def run_analysis(*, quick: bool = False, threads: int = 1, progress=print) -> dict:
+    """Run the analysis benchmark in a one-thread subprocess; returns the JSON section."""
+    params = {"n_trials": 5 if quick else 20, "repeat": 2 if quick else 3}
+    progress(f"analysis: where the time goes, stage by stage ({params['n_trials']} simulated lift trials)")
+    r = run_worker("analysis", params, threads=threads)
+    r["data"] = "SIMULATED lift-hold-replace recording (pito_core.sim), ideal calibration embedded"
+    r["threads"] = threads
+    return r

@@ -1,0 +1,54 @@
+"""Issue 45, point 9: the demo's start-up calibration cached, keyed by what makes it (SIMULATED)."""
+
+import numpy as np
+import pytest
+
+
+def test_the_demo_calibration_is_cached_by_its_parameters(demo_cache):
+    from app.demo import cached_demo_calibration, demo_cache_path, demo_calibration
+
+    assert cached_demo_calibration(200, 0) is None  # nothing yet
+    cal = demo_calibration(200, 0)
+    path = demo_cache_path(200, 0)
+    assert path.is_file() and path.parent == demo_cache
+    again = cached_demo_calibration(200, 0)
+    assert again is not None and again.meta["simulated"] is True
+    np.testing.assert_array_equal(again.matrix, cal.matrix)
+    assert demo_cache_path(200, 1) != path and cached_demo_calibration(200, 1) is None  # another seed
+    assert demo_cache_path(300, 0) != path
+    path.write_bytes(b"not a calibration")  # a damaged cache is dropped, not used
+    assert cached_demo_calibration(200, 0) is None and not path.exists()
+
+
+@pytest.mark.needs_display
+@pytest.mark.slow
+def test_a_second_start_shows_forces_without_calibrating(qtbot, styled):
+    from app.demo import demo_calibration
+    from app.window import MainWindow
+
+    demo_calibration(300, 0)  # what the first start leaves
+    window = MainWindow(demo=True, demo_k=300)
+    qtbot.addWidget(window)
+    try:
+        assert window.calibration is not None and window.calibration_task is None
+        assert "virtual cube" in window.cal_label.text()
+        assert "cached by an earlier start" in window.statusBar().currentMessage()
+    finally:
+        window.shutdown()
+        window.release_views()
+
+
+def test_decimated_patch_meshes_are_cached(demo_cache):
+    from app.objects import display_meshes, load_assembly
+    from app.scene import PATCH_DISPLAY_CELLS
+
+    a = load_assembly("pito_mixed")
+    first = display_meshes(a)
+    files = sorted(demo_cache.glob("patch-*.vtp"))
+    assert files and all(m.n_cells <= PATCH_DISPLAY_CELLS for m in first.values())
+    again = display_meshes(a)
+    for i in first:
+        np.testing.assert_allclose(np.asarray(again[i].points), np.asarray(first[i].points))
+    files[0].write_bytes(b"damaged")  # dropped and made again
+    display_meshes(a)
+    assert files[0].stat().st_size > 100
