@@ -17,7 +17,7 @@ Layout (docs/file-formats.md)::
         g{k}_residual_cov (q, q) float64 residual covariance (N², N²·m, N²·m²), attrs: dof
         g{k}_center       (m,) float64 counts
         g{k}_weights      (n_int,) float64
-        variance_coef     (6F, 3) float64: each face axis's error variance on [1, q, q_other] (face frames)
+        variance_coef     (6F, 4) float64: each face axis's error variance on [1, q, q², q_other] (face frames)
         residual_corr     (F, 6, 6) float64: residual correlation between a face's six axes
     /correction   group (model "poly" only): the polynomial correction
         scale             (36,) float64 counts per unit of u = (counts − offset) / scale
