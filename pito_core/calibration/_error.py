@@ -337,7 +337,8 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
             coef[f, a] = c
     var = np.einsum("nfk,fik->nfi", phi, coef)
     del phi
-    corr = np.stack([np.corrcoef(_standardised(E[:, f], var[:, f]), rowvar=False) for f in range(F)])
+    with np.errstate(divide="ignore", invalid="ignore"):  # an axis without error: NaN, replaced below
+        corr = np.stack([np.corrcoef(_standardised(E[:, f], var[:, f]), rowvar=False) for f in range(F)])
     corr = np.where(np.isfinite(corr), corr, np.eye(6)) if E.shape[0] > 2 else np.broadcast_to(np.eye(6), (F, 6, 6))
     # the scale: the 95 % quantile over the loaded residuals of each one's s², E² = Z² (s² var + V)
     E **= 2
