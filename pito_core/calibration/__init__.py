@@ -22,8 +22,7 @@ from ._fit import (
     calibrate,
     session_offsets,
 )
-from ._uncertainty import CalibrationCovariance, CovarianceGroup
-from ._reference_noise import NoisyReferenceWarning
+from ._error import CalibrationCovariance, CovarianceGroup, NoisyReferenceWarning
 from ._lstsq import GRAM_KAPPA_MAX, GramQR, LstsqResult, StreamedQR
 from ._cv import MODELS, ModelChoice, segment_ids
 from ._poly import PolyCorrection

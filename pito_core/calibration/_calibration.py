@@ -9,7 +9,7 @@ from ..io import FileFormatError, read_calibration_fields, write_calibration
 from ._coverage import Coverage
 from ._cv import ModelChoice
 from ._poly import PolyCorrection
-from ._uncertainty import CalibrationCovariance, CovarianceGroup, PolyReferenceBlock
+from ._error import CalibrationCovariance, CovarianceGroup
 
 __all__ = ["Calibration", "load_calibration"]
 
@@ -86,13 +86,6 @@ class Calibration:
                 raise ValueError(f"correction: expected {matrix.shape[0]} rows over 36 gauges, got "
                                  f"{correction.coef.shape[0]} rows over {correction.scale.size}")
         self.correction = correction
-        if covariance is not None and covariance.poly_reference:
-            if correction is None:
-                raise ValueError("covariance: a term of the correction's coefficients without a correction")
-            n_z = correction.scale.size + correction.n_features
-            if any(b.block >= len(output_faces) or b.cols.size and b.cols.max() >= n_z for b in covariance.poly_reference):
-                raise ValueError(f"covariance: poly_reference: expected blocks of the {len(output_faces)} output faces "
-                                 f"over the correction's {n_z} inputs and features")
         if model is None:
             model = ModelChoice(name="linear" if correction is None else "poly", requested="linear",
                                 reason="no model choice recorded (a calibration from before pito chose models)")
@@ -209,18 +202,14 @@ class Calibration:
         if self.covariance is None:
             raise ValueError("return_cov: this calibration has no covariance (written by an older pito, "
                              "format version 1); fit it again to get one")
-        z = None
-        if self.covariance.poly_reference:  # the correction's coefficients' share of the reference's noise
-            z = np.concatenate([x / self.correction.scale, self.correction.features(x)], axis=1)
-        cov = self.covariance.face_covariances(c2, off, self._apply, self._face_from_output, self.output_faces,
-                                               explicit_offset=offset is not None, poly_z=z)
+        cov = self.covariance.face_covariances(c2, off, W, self._apply, self._face_from_output, self.output_faces,
+                                               explicit_offset=offset is not None)
         return (W[0], cov[0]) if single else (W, cov)
 
     def linear_alternative(self) -> "Calibration":
         """The papers' linear fit of the same data (``self`` if that is the model in use).
 
-        Its covariance is this calibration's (its residual part is that of the chosen model), without
-        the correction's coefficients' term.
+        Its covariance is this calibration's (its error model is that of the chosen model).
         Raises ``ValueError`` for a ``poly`` calibration saved without it.
         """
         if self.correction is None:
@@ -232,7 +221,7 @@ class Calibration:
                         reason="the papers' linear fit of the same data (switched from the polynomial model)")
         return Calibration(self.method, self.linear_fit[0], self.output_faces, self.output_frame, self.linear_fit[1],
                            self.core, self.T_core_ati, dict(self.meta, model="linear"),
-                           covariance=None if self.covariance is None else self.covariance.linear(), model=m)
+                           covariance=self.covariance, model=m)
 
     def tare(self, counts_unloaded) -> "Calibration":
         """A copy whose offset is the mean of ``counts_unloaded (N, 36)`` (N ≥ 1).
@@ -276,7 +265,7 @@ class Calibration:
 
     # ------------------------------------------------------------------ files
     def save(self, path) -> None:
-        """Write exactly ``path`` (HDF5, format ``pito-calibration`` v5; docs/file-formats.md)."""
+        """Write exactly ``path`` (HDF5, format ``pito-calibration`` v6; docs/file-formats.md)."""
         write_calibration(path, self)
 
     @classmethod
@@ -305,12 +294,9 @@ def load_calibration(path) -> Calibration:
         raise FileFormatError(f"{path}: model: {exc}") from None
     try:
         if cov is not None:
-            groups = [CovarianceGroup(**g) for g in cov["groups"]]
-            poly = [PolyReferenceBlock(**b) for b in cov.get("poly_reference", [])]
-            cov = CalibrationCovariance(
-                groups=groups, gauge_cov=cov["gauge_cov"], n_tare=cov["n_tare"], variance_coef=cov["variance_coef"],
-                residual_corr=cov["residual_corr"], poly_reference=poly, error_frame=cov.get("error_frame", "output"),
-                rest_bias=cov.get("rest_bias"), own_variance_coef=cov.get("own_variance_coef"), own_q=cov.get("own_q"))
+            cov = CalibrationCovariance(groups=[CovarianceGroup(**g) for g in cov["groups"]], gauge_cov=cov["gauge_cov"],
+                                        variance_coef=cov["variance_coef"], residual_corr=cov["residual_corr"],
+                                        scale=cov["scale"], n_tare=cov["n_tare"])
     except ValueError as exc:
         raise FileFormatError(f"{path}: covariance: {exc}") from None
     try:

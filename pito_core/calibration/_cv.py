@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["N_FOLDS", "ALPHAS", "FoldedGram", "Problem", "segment_ids", "fold_of_segments", "cross_validate",
-           "solve_problem", "solution_operator", "fold_bounds"]
+           "solve_problem", "fold_bounds"]
 
 #: Folds of the cross-validation.
 N_FOLDS = 5
@@ -242,25 +242,6 @@ def cross_validate(folded: FoldedGram, problems, alphas=ALPHAS) -> dict:
 def solve_problem(folded: FoldedGram, prob: Problem, alphas) -> list[np.ndarray]:
     """``(na + nb, ny)`` solutions of ``prob`` on every fold for each of ``alphas`` (``inf``: affine)."""
     return _paths(folded.total(), folded.p, [prob], np.atleast_1d(np.asarray(alphas, dtype=float)))[0]
-
-
-def solution_operator(G: np.ndarray, pr: Problem, alpha: float) -> np.ndarray:
-    """``M (na + nb, na + nb)``: the linear map from ``Zᵀy`` (the design's products with a target
-    column) to the solution of ``pr`` at ridge ``alpha`` (finite), as :func:`solve_problem` solves
-    it from the Gram ``G``: ``X = M G[x, y]``. With noise of covariance ``D`` in the targets, the
-    solution's covariance is ``M (Zᵀ D Z) M``; the fit's hat matrix is ``Z M Zᵀ``.
-
-    From the elimination of ``a`` (``P = Gaa⁺``) and the ridge inverse ``R = (S_bb + α λ₀ I)⁻¹``
-    of the Schur complement: ``M = [[P + P G_ab R G_ba P, −P G_ab R], [−R G_ba P, R]]``.
-    """
-    P, S = _eliminate(G, pr.a, pr.rank_a)
-    s2, U = np.linalg.eigh(S[np.ix_(pr.b, pr.b)])
-    s2 = np.clip(s2, 0.0, None)
-    lam0 = float(np.mean(s2)) if s2.size and s2[-1] > 0 else 1.0
-    R = (U / (s2 + alpha * lam0)) @ U.T
-    PGab = P @ G[np.ix_(pr.a, pr.b)]
-    RGbaP = R @ PGab.T
-    return np.block([[P + PGab @ RGbaP, -RGbaP.T], [-RGbaP, R]])
 
 
 #: The one-standard-error rule (Hastie et al.): the simplest candidate whose mean held-out score

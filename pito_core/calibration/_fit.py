@@ -31,9 +31,7 @@ from ._nlfit import PolyAccumulator, correction as poly_correction, mixed_offset
 from ._methods import MethodSpec, get_method
 from ..io import CalibrationSession
 from ._targets import MountGeometry, block_targets
-from ._reference_noise import reference_noise_at_rest
-from ._residuals import fit_error_model
-from ._uncertainty import CalibrationCovariance, CovarianceGroup
+from ._error import CalibrationCovariance, CovarianceGroup, fit_error_model, reference_noise_at_rest
 
 __all__ = ["calibrate", "Calibrator", "RankDeficientWarning", "RankDeficientError", "ExcitationError", "session_offsets", "AXES", "PRIORS",
            "NET_LOAD_MEASURED", "NET_LOAD_PRIOR", "NET_LOAD_UNIDENTIFIED"]
@@ -163,15 +161,14 @@ def _tare_moments(session: CalibrationSession, block_size: int = 65536):
 
 def _poly_zero(session: CalibrationSession, block_size: int, n: int = POLY_TARE_SAMPLES):
     """What the polynomial correction's pass needs before it starts, from the session's first samples:
-    ``(zero (36,) counts, scale_sq (36,) counts², rows, reference_varies)``.
+    ``(zero (36,) counts, scale_sq (36,) counts², rows)``.
 
     ``zero`` is the mean counts of the session's first stretch at rest (the tare it opens with; its
     first ``n`` samples); ``scale_sq`` and ``rows`` the sum of squares of the first block's counts
-    less ``zero`` and its rows (a provisional scale: ``PolyAccumulator`` rescales); ``reference_varies``: the reference moves over that stretch (it has
-    noise). Only the blocks up to the stretch's end are read. Raises ``ValueError`` if the session
+    less ``zero`` and its rows (a provisional scale: ``PolyAccumulator`` rescales). Only the blocks up to the stretch's end are read. Raises ``ValueError`` if the session
     has no sample at rest.
     """
-    counts, refs, got, first = [], [], 0, None
+    counts, got, first = [], 0, None
     for b in session.iter_blocks(block_size, counts_dtype=None):
         first = b.counts if first is None else first
         rest = ~b.loaded.any(axis=1)
@@ -184,7 +181,6 @@ def _poly_zero(session: CalibrationSession, block_size: int, n: int = POLY_TARE_
         stop = start + int(np.argmin(rest[start:])) if not rest[start:].all() else rest.size
         stop = min(stop, start + n - got)
         counts.append(b.counts[start:stop].astype(float))
-        refs.append(b.reference[start:stop])
         got += stop - start
         if got >= n or stop < rest.size:
             break
@@ -192,7 +188,7 @@ def _poly_zero(session: CalibrationSession, block_size: int, n: int = POLY_TARE_
         raise ValueError("loaded: the session has no unloaded samples (rows of all False) to take the offsets from")
     zero = np.concatenate(counts).mean(axis=0)
     d = first - zero
-    return zero, np.einsum("ij,ij->j", d, d), d.shape[0], bool(np.ptp(np.concatenate(refs), axis=0).any())
+    return zero, np.einsum("ij,ij->j", d, d), d.shape[0]
 
 
 def _rescale_groups(groups, residual, out_faces, E2, poly) -> None:
@@ -444,15 +440,9 @@ class Calibrator:
         cal = Calibration(spec.name, fit.matrix, out_faces, spec.output_frame, np.mean(fit.offsets, axis=0), s0.core,
                           s0.T_core_ati, meta, correction=corr_fit, model=choice,
                           linear_fit=linear_fit)
-        # pass 3: the error a sample brings itself (noise, what the linear model misses), against its load
-        poly_parts = st.poly.reference_parts if corr_fit is not None else []
-        coef, own_q, corr, poly_ref, error_frame, rest_bias = fit_error_model(
-            cal, sessions, mounts, fit.offsets, tare_means, spec, fit.groups, self.block_size, ref_covs, gauge_cov,
-            samples=subsample, ref_n=ref_n, poly_parts=poly_parts)
-        cal.covariance = CalibrationCovariance(
-            groups=fit.groups, gauge_cov=gauge_cov, n_tare=None, variance_coef=coef[0], residual_corr=corr,
-            poly_reference=poly_ref, error_frame=error_frame, rest_bias=rest_bias, own_variance_coef=coef[1],
-            own_q=own_q)
+        em = fit_error_model(cal, fit.groups, subsample, mounts, tare_means, ref_covs, gauge_cov)
+        cal.covariance = CalibrationCovariance(groups=fit.groups, gauge_cov=gauge_cov, variance_coef=em.variance_coef,
+                                               residual_corr=em.residual_corr, scale=em.scale)
         self.calibration_ = cal
         return self
 
@@ -472,8 +462,7 @@ class Calibrator:
         if zeros is not None:  # a provisional scale (the first blocks' RMS about the zero; the fit's is the fitted rows')
             rms = np.sqrt(sum(z[1] for z in zeros) / max(sum(z[2] for z in zeros), 1))
             poly = PolyAccumulator(spec.inputs == "own", joint_faces, n_int, np.where(rms > 0, rms, 1.0),
-                                   {s.connected_face for s in sessions if s.flange == "face"}, [len(s) for s in sessions],
-                                   noisy_reference=any(z[3] for z in zeros))
+                                   {s.connected_face for s in sessions if s.flange == "face"}, [len(s) for s in sessions])
         total_samples = sum(len(s) for s in sessions)
         # the same provisional centres whatever the model, so model="auto" that keeps the linear
         # fit gives it bit for bit

@@ -32,7 +32,7 @@ import scipy.linalg.blas
 
 from ..io import SessionBlock, few_indices as _few
 from ._lstsq import GramQR
-from ._residuals import ERROR_MODEL_SAMPLES
+from ._error import ERROR_MODEL_SAMPLES
 from ._targets import block_targets
 
 __all__ = ["GramPass", "check_block", "check_connected"]

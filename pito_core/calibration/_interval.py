@@ -13,7 +13,7 @@ __all__ = ["calibration_uncertainty", "interval_caveat", "UNCERTAINTY_WORDS"]
 
 #: What :attr:`Evaluation.uncertainty95` is, in words (CLI, app, JSON).
 UNCERTAINTY_WORDS = ("± = 95 % interval (1.96 σ) of each face's true wrench from the calibration's own covariance "
-                     "(fit residuals and design, gauge noise; the reference's noise, measured in the tare, taken out), "
+                     "(fit residuals and design, the error against load; the reference's noise, measured in the tare, taken out), "
                      "median over the held-out single-face loads where the face carries (the RMSE's samples), with "
                      "the offset the RMSE uses (by default each session's own tare)")
 
@@ -35,9 +35,8 @@ def calibration_uncertainty(calibration: Calibration, sessions, max_samples: int
                             tare: bool = False):
     """Half-width of the 95 % interval per face and axis, from the calibration's covariance, on the samples
     of :func:`evaluate`'s ``rmse_single``: single-face loads, each face where it carries (its own load, or a
-    flange's face its reactions). An interval is of its sample's error, and where a face carries that error
-    is its own load's: the median over every loaded sample was mostly its crosstalk's (a random sensor at
-    2 % reference noise: face 5's torque ± 0.24 mN·m beside an RMSE of 3.06 where it carried; 4.85 there).
+    flange's face its reactions): an interval is of its sample's error, and where a face carries that error
+    is its own load's.
 
     Parameters
     ----------

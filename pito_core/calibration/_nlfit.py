@@ -22,7 +22,7 @@ import numpy as np
 from ..frames import FACES, N_GAUGES
 from ._lstsq import RANK_RTOL
 from ._cv import ALPHAS, N_FOLDS, FoldedGram, MAX_SEGMENT_FRACTION, Problem, SegmentCounter, choose_model, cross_validate, \
-    fold_bounds, held_out_sse, solution_operator, solve_problem
+    fold_bounds, held_out_sse, solve_problem
 from ._poly import PolyCorrection, poly_features_t, poly_terms
 
 __all__ = ["PolyAccumulator", "FULL_SCALE_WEIGHT", "mixed_offsets"]
@@ -71,8 +71,7 @@ class PolyAccumulator:
     session_lengths : list of int
     """
 
-    def __init__(self, own, out_faces, n_int, scale, reaction_faces, session_lengths, n_folds=N_FOLDS,
-                 noisy_reference=False):
+    def __init__(self, own, out_faces, n_int, scale, reaction_faces, session_lengths, n_folds=N_FOLDS):
         self.own, self.n_int, self.scale, self.K = own, n_int, scale, n_folds
         self.out_faces = tuple(out_faces)
         self.reaction_faces = set(reaction_faces)
@@ -86,15 +85,6 @@ class PolyAccumulator:
             self.acc = {f: FoldedGram(n_int + 6 + 27, 6, n_folds) for f in FACES}
         else:
             self.acc = FoldedGram(n_int + N_GAUGES + 162, 6 * len(self.out_faces), n_folds)
-        # with a noisy reference: per output face, the design's Gram over the rows where it carries
-        # (its targets hold the reference's noise there only) and those rows per session
-        self.carry = None
-        self.reference_parts = []  # per corrected output face, after fit (_reference_part)
-        if noisy_reference:
-            faces = FACES if own else self.out_faces
-            p = (lambda f: self.acc[f].p) if own else (lambda f: self.acc.p)
-            self.carry = {f: np.zeros((p(f), p(f))) for f in faces}
-            self.carry_n = {f: np.zeros(n_int) for f in faces}
 
     def add(self, k, counts, center, loaded, targets_of):
         """Rows of session ``k``: ``counts (n, 36)`` as stored, ``center (36,)`` its zero (opening tare),
@@ -143,7 +133,6 @@ class PolyAccumulator:
                 idx = idx[order]
                 ZT = self._design(k, x[idx], np.arange(6 * (f - 1), 6 * f), _PAIRS6, _CUBES6, targets[idx, f - 1])
                 acc.add_sorted(ZT, bounds)
-                self._add_carrying(k, f, ZT[: acc.p], carries[idx, f - 1])
         else:
             idx = np.flatnonzero(usable)
             order, bounds = fold_bounds(fold[idx], self.K)
@@ -151,16 +140,6 @@ class PolyAccumulator:
             t = targets[idx][:, [f - 1 for f in self.out_faces], :].reshape(idx.size, -1)
             ZT = self._design(k, x[idx], np.arange(N_GAUGES), _PAIRS, _CUBES, t)
             self.acc.add_sorted(ZT, bounds)
-            for f in self.out_faces:
-                self._add_carrying(k, f, ZT[: self.acc.p], carries[idx, f - 1])
-
-    def _add_carrying(self, k, f, XT, carrying) -> None:
-        """Face ``f``'s Gram over its carrying rows (design columns ``XT (p, n)``) of session ``k``."""
-        if self.carry is None or not carrying.any():
-            return
-        X = XT[:, carrying]
-        self.carry[f] += X @ X.T
-        self.carry_n[f][k] += X.shape[1]
 
     def _rescale(self) -> None:
         """Put the Grams, the range and ``scale`` in the final scale: each gauge's RMS about its zero over
@@ -183,14 +162,9 @@ class PolyAccumulator:
             for f, acc in self.acc.items():
                 d = factors(np.arange(6 * (f - 1), 6 * f), _PAIRS6, _CUBES6, acc.q)
                 acc.gram *= np.outer(d, d)
-                if self.carry is not None:
-                    self.carry[f] *= np.outer(d[: acc.p], d[: acc.p])
         else:
             d = factors(np.arange(N_GAUGES), _PAIRS, _CUBES, self.acc.q)
             self.acc.gram *= np.outer(d, d)
-            if self.carry is not None:
-                for f in self.carry:
-                    self.carry[f] *= np.outer(d[: self.acc.p], d[: self.acc.p])
         self.lower, self.upper, self.scale = self.lower * r, self.upper * r, new
 
     def rows_of(self, f) -> int:
@@ -230,7 +204,6 @@ class PolyAccumulator:
             return choice, None
         F = len(out_faces)
         row = {f: k for k, f in enumerate(out_faces)}
-        self.reference_parts = []
         row_alpha = np.array([np.nan if a is None else a for a in choice.row_alpha])
         C, B, D, E2 = linear_matrix.copy(), np.zeros((self.n_int, 6 * F)), np.zeros((6 * F, 162)), np.full(6 * F, np.nan)
         n_int = self.n_int
@@ -251,41 +224,7 @@ class PolyAccumulator:
                 feats = face_features(f) if self.own else self._features_of(f)
                 D[np.ix_(ri, feats)] = X[n_int + lin.size :, use].T
                 E2[ri] = self.stride * held_out_sse(acc.total(), acc.p, pr, X)[use]  # over every sample
-                if self.carry is not None:
-                    self.reference_parts.append(self._reference_part(acc, pr, f, row[f], ra))
         return choice, (C, B, D, E2)
-
-    def _reference_part(self, acc, pr, f, block, ra) -> dict:
-        """The reference's noise through the correction's coefficients of output face ``f``.
-
-        With ``M_g`` the solution operator of a row group (:func:`solution_operator`, its ridge)
-        and ``M_k`` the Gram of the rows where face ``f`` carries, the coefficients' covariance is
-        ``M_g M_k M_g' ⊗ Σ_ref``; kept on the slopes (a re-tared sample's design ``z = [u; φ(u)]``).
-        Returns ``block`` (output row block), ``rows (6,)`` (those with the correction), ``cols``
-        (indices of ``z`` into ``[u (36) | φ (162)]``), ``leverage (3, c, c)`` (forces–forces,
-        torques–torques, forces–torques), ``hat (2, c, c)`` (forces, torques: the fit's hat on
-        the slopes, over the stride: a training sample's chance of being in the fitted rows) and
-        ``carry_n (n_int,)`` (carrying rows per session).
-        """
-        G = acc.total()
-        x = np.r_[pr.a, pr.b]
-        slopes = np.arange(self.n_int, x.size)
-        Mk = self.carry[f][np.ix_(x, x)]
-        lin = np.arange(6 * (f - 1), 6 * f) if self.own else np.arange(N_GAUGES)
-        feats = face_features(f) if self.own else self._features_of(f)
-        c = slopes.size
-        ops = []
-        for a in (ra[0], ra[3]):  # forces, torques: one ridge per group
-            ops.append(solution_operator(G, pr, a) if np.isfinite(a) else None)
-        lev, hat = np.zeros((3, c, c)), np.zeros((2, c, c))
-        for i, (g, h) in enumerate(((0, 0), (1, 1), (0, 1))):
-            if ops[g] is not None and ops[h] is not None:
-                lev[i] = (ops[g] @ Mk @ ops[h])[np.ix_(slopes, slopes)]
-        for g in range(2):
-            if ops[g] is not None:
-                hat[g] = ops[g][np.ix_(slopes, slopes)] / self.stride
-        return dict(block=block, rows=np.isfinite(ra), cols=np.r_[lin, N_GAUGES + feats], leverage=lev, hat=hat,
-                    carry_n=self.carry_n[f].copy())
 
 
 def correction(poly: PolyAccumulator, D, edge_matrix) -> PolyCorrection:

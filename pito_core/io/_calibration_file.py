@@ -9,7 +9,7 @@ Layout (docs/file-formats.md)::
     /offset       (36,) float64 counts
     /T_core_ati   (4, 4) float64
     /covariance   group (optional: a calibration built without one), attrs: n_groups, n_tare (-1: fitted offset),
-                  error_frame (optional, "face": variance_coef and residual_corr in each face's frame; absent: output)
+                  scale (factor on standard deviations that makes the training coverage nominal)
         gauge_cov         (36, 36) float64 counts²: gauge noise at rest
         g{k}_inputs       (m,) int64 gauge columns of least-squares problem k
         g{k}_rows         (q,) int64 rows of /matrix it fitted
@@ -17,17 +17,8 @@ Layout (docs/file-formats.md)::
         g{k}_residual_cov (q, q) float64 residual covariance (N², N²·m, N²·m²), attrs: dof
         g{k}_center       (m,) float64 counts
         g{k}_weights      (n_int,) float64
-        g{k}_inflation    (q,) float64 ≥ 1: cluster-robust inflation of the coefficients' variance
-        g{k}_reference_leverage (q/6, n_int+m, n_int+m), g{k}_reference_cov (q/6, 6, 6) float64
-                          (optional: a noisy reference) P M_k P and Σ_ref,k per face block
-        variance_coef     (6F, 5) float64: each row's error variance on [1, L, q, q², q_other]
-        residual_corr     (F, 6, 6) float64: residual correlation between a face's six outputs
-        rest_bias         (6F,) float64: the fitted offset's error² at rest
-        own_variance_coef (6F, 5) float64, own_q (F,) float64:
-                          the error variance where a face reads a load of its own, and the q where that begins
-        p{k}_rows (6,) bool, p{k}_cols (c,) int64, p{k}_leverage (3, c, c), p{k}_reference_cov (6, 6) float64,
-                          attrs of p{k}_rows: block (optional, attrs n_poly_reference: a noisy reference
-                          and a correction) the reference's noise through the correction's coefficients
+        variance_coef     (6F, 4) float64: each face axis's error variance on [1, q, q², q_other] (face frames)
+        residual_corr     (F, 6, 6) float64: residual correlation between a face's six axes
     /correction   group (model "poly" only): the polynomial correction
         scale             (36,) float64 counts per unit of u = (counts − offset) / scale
         pairs             (P, 2) int64 gauge pairs of the products u_i u_j
@@ -57,11 +48,7 @@ CALIBRATION_READ_VERSIONS = {6}
 _CORRECTION_FIELDS = ("scale", "pairs", "cubes", "coef")
 #: The range the correction was fitted on, and its slopes beyond.
 _CORRECTION_RANGE = ("lower", "upper", "edge_matrix")
-_GROUP_FIELDS = ("inputs", "rows", "design_pinv", "residual_cov", "center", "weights", "inflation")
-#: Group fields written only when set (the reference's noise per face block; absent: None).
-_GROUP_OPTIONAL = ("reference_leverage", "reference_cov")
-#: Fields of each block of the correction's reference term (optional; absent: none).
-_POLY_REFERENCE_FIELDS = ("rows", "cols", "leverage", "reference_cov")
+_GROUP_FIELDS = ("inputs", "rows", "design_pinv", "residual_cov", "center", "weights")
 
 
 def write_calibration(path, cal) -> None:
@@ -91,29 +78,13 @@ def write_calibration(path, cal) -> None:
             g.attrs["n_groups"] = len(cov.groups)
             g.attrs["n_tare"] = -1 if cov.n_tare is None else int(cov.n_tare)
             checked_dataset(g, "gauge_cov", data=cov.gauge_cov)
+            g.attrs["scale"] = float(cov.scale)
             for k, grp in enumerate(cov.groups):
                 for name in _GROUP_FIELDS:
                     checked_dataset(g, f"g{k}_{name}", data=getattr(grp, name))
-                for name in _GROUP_OPTIONAL:
-                    if getattr(grp, name, None) is not None:
-                        checked_dataset(g, f"g{k}_{name}", data=getattr(grp, name))
                 g[f"g{k}_residual_cov"].attrs["dof"] = int(grp.dof)
             checked_dataset(g, "variance_coef", data=cov.variance_coef)
             checked_dataset(g, "residual_corr", data=cov.residual_corr)
-            if getattr(cov, "rest_bias", None) is not None:
-                checked_dataset(g, "rest_bias", data=cov.rest_bias)
-            for name in ("own_variance_coef", "own_q"):
-                if getattr(cov, name, None) is not None:
-                    checked_dataset(g, name, data=getattr(cov, name))
-            if getattr(cov, "error_frame", "output") != "output":
-                g.attrs["error_frame"] = cov.error_frame
-            blocks = getattr(cov, "poly_reference", None) or []
-            if blocks:
-                g.attrs["n_poly_reference"] = len(blocks)
-            for k, b in enumerate(blocks):
-                for name in _POLY_REFERENCE_FIELDS:
-                    checked_dataset(g, f"p{k}_{name}", data=getattr(b, name))
-                g[f"p{k}_rows"].attrs["block"] = int(b.block)
         seal(f)  # SHA-256 manifest of every dataset and attribute (last: covers everything above)
     os.replace(tmp, path)
 
@@ -125,9 +96,7 @@ def read_calibration_fields(path) -> dict:
     ``matrix`` (M, 36), ``output_faces``, ``output_frame``, ``offset`` (36,) counts,
     ``core_edge`` m, ``T_core_ati`` (4, 4), ``meta``), ``model`` (dict or None), ``correction``
     (dict of ``scale``, ``pairs``, ``cubes``, ``coef``, or None) and ``covariance``: ``None`` or a dict
-    (``groups``: list of dicts, ``gauge_cov``, ``n_tare``, ``variance_coef``, ``residual_corr``, ``rest_bias``,
-    ``own_variance_coef``, ``own_q`` (each or None),
-    ``poly_reference``: list of dicts).
+    (``groups``: list of dicts, ``gauge_cov``, ``n_tare``, ``scale``, ``variance_coef``, ``residual_corr``).
     The objects are built by ``pito_core.calibration.load_calibration`` (io never imports calibration).
     """
     with open_checked(path, CALIBRATION_FORMAT, CALIBRATION_READ_VERSIONS) as f:
@@ -160,37 +129,18 @@ def read_calibration_fields(path) -> dict:
 def _read_covariance(f, path) -> dict:
     g = f["covariance"]
     try:
-        n_groups = int(g.attrs["n_groups"])
-        n_tare = int(g.attrs["n_tare"])
+        n_groups, n_tare, scale = int(g.attrs["n_groups"]), int(g.attrs["n_tare"]), float(g.attrs["scale"])
     except KeyError as exc:
         raise FileFormatError(f"{path}: covariance: missing attribute {exc}") from None
     groups = []
     for k in range(n_groups):
         fields = {name: np.asarray(require(g, f"g{k}_{name}", path)[()]) for name in _GROUP_FIELDS}
-        fields.update({name: np.asarray(g[f"g{k}_{name}"][()]) for name in _GROUP_OPTIONAL if f"g{k}_{name}" in g})
-        dof = int(g[f"g{k}_residual_cov"].attrs.get("dof", 0))
-        groups.append({**fields, "dof": dof})
-    poly = []
-    for k in range(int(g.attrs.get("n_poly_reference", 0))):
-        fields = {name: np.asarray(require(g, f"p{k}_{name}", path)[()]) for name in _POLY_REFERENCE_FIELDS}
-        try:
-            fields["block"] = int(g[f"p{k}_rows"].attrs["block"])
-        except KeyError:
-            raise FileFormatError(f"{path}: covariance: p{k}_rows: missing attribute 'block'") from None
-        poly.append(fields)
+        groups.append({**fields, "dof": int(g[f"g{k}_residual_cov"].attrs.get("dof", 0))})
     return {
         "groups": groups,
-        "poly_reference": poly,
-        "error_frame": _text(g.attrs.get("error_frame", "output")),
         "gauge_cov": np.asarray(require(g, "gauge_cov", path)[()]),
         "n_tare": None if n_tare < 0 else n_tare,
+        "scale": scale,
         "variance_coef": np.asarray(require(g, "variance_coef", path)[()]),
         "residual_corr": np.asarray(require(g, "residual_corr", path)[()]),
-        "rest_bias": np.asarray(g["rest_bias"][()]) if "rest_bias" in g else None,
-        **{name: np.asarray(g[name][()]) if name in g else None for name in ("own_variance_coef", "own_q")},
     }
-
-
-def _text(v) -> str:
-    """An HDF5 string attribute as ``str`` (h5py gives ``bytes`` for fixed-length ones)."""
-    return v.decode() if isinstance(v, bytes) else str(v)

@@ -10,7 +10,7 @@ import pytest
 from gen import CASES, FULL_SCALE, make_session, true_sensitivity
 
 from pito_core.calibration import calibrate, fit_sensor
-from pito_core.calibration._cv import FoldedGram, Problem, cross_validate, solution_operator, solve_problem
+from pito_core.calibration._cv import FoldedGram, Problem, cross_validate
 from pito_core.calibration._poly import PolyCorrection, poly_terms
 from pito_core.sim import VirtualCube, simulate_calibration, simulate_squeeze
 
@@ -184,29 +184,3 @@ def test_gram_cross_validation_equals_per_fold_least_squares():
             Xa = np.linalg.lstsq(Aa, Y[tr] - Ab @ Xb, rcond=None)[0]
             E = A[te] @ np.r_[Xa, Xb] - Y[te]
             np.testing.assert_allclose(cv["sse"][i, k, 0], np.sum(E**2, axis=0), rtol=1e-7)
-
-
-def test_the_solution_operator_gives_the_ridge_solution_and_its_noise_covariance():
-    """``M`` maps ``Zᵀy`` to the solver's ridge solution, and ``M (Z_cᵀ Z_c) M v`` is the solution's
-    covariance when only rows ``c`` carry noise of variance ``v`` (Monte Carlo, 4000 draws)."""
-    rng = np.random.default_rng(1)
-    n, na, nb = 300, 3, 6
-    Z = np.c_[np.ones(n), rng.normal(size=(n, na - 1)) * [2.0, 50.0], rng.normal(size=(n, nb)) ** 2]
-    beta = rng.normal(size=na + nb)
-    carrying = rng.random(n) < 0.3
-    pr = Problem(np.arange(na), np.arange(na, na + nb), np.arange(1), np.ones(1))
-    g = FoldedGram(na + nb, 1, 1)
-    g.add(Z, (Z @ beta)[:, None], np.zeros(n, dtype=int))
-    G = g.total()
-    alpha = 1e-2
-    M = solution_operator(G, pr, alpha)
-    np.testing.assert_allclose(M @ G[: na + nb, na + nb :], solve_problem(g, pr, [alpha])[0], rtol=1e-9, atol=1e-12)
-    v, draws = 0.25, 4000
-    Y = (Z @ beta)[:, None] + rng.normal(size=(n, draws)) * np.sqrt(v) * carrying[:, None]
-    X = M @ (Z.T @ Y)  # every draw's solution at once (the operator is linear in the targets)
-    mc = np.cov(X)
-    Zc = Z[carrying]
-    predicted = M @ (Zc.T @ Zc) @ M * v
-    sd = np.sqrt(np.diag(predicted))
-    np.testing.assert_allclose(np.diag(mc), np.diag(predicted), rtol=0.1)  # 4000 draws: ±4.5 % per variance (2σ)
-    assert np.max(np.abs(mc - predicted) / np.outer(sd, sd)) < 0.1  # correlations within ±0.1

@@ -1,0 +1,390 @@
+"""The calibration's error model: each sample's covariance of its face wrenches.
+
+One estimator (docs/calibration.md, "Uncertainty"). A prediction's error has two parts:
+
+* the coefficients' error: the fit is least squares on the design ``x̃ = [a; s − m]`` (an
+  offset column per session, ``a`` its weights, then the counts ``s`` less a centre ``m``);
+  with ``P = (XᵀX)⁺`` and the residual covariance ``Σ_r`` of the outputs, a sample has
+  ``(x̃ᵀ P x̃) Σ_r``, mapped to each face's frame;
+* the error a sample brings itself (gauge noise, what the model misses): per face and axis, a
+  variance ``c₀ + c₁ q + c₂ q² + c₃ q_other`` of the face's own load ``q = ‖ŵ_face / FULL_SCALE‖²``
+  and of the other faces' (the sum of their ``q``), fitted by non-negative least squares to the
+  squared residuals of the training subsample (each session tared on its samples at rest, as the
+  calibration is used) less the reference's noise at rest where the face carries; ``c₀`` is at
+  least the gauge noise through the matrix. The six axes of a face share the residuals' correlation.
+
+The sum is multiplied by ``scale²``, the factor that puts 95 % of the loaded training residuals
+within ``±1.96`` standard deviations (the reference's noise added where the face carries; the
+errors are not Gaussian). The sample's own term is also multiplied by the held-out factor²: the
+median over outputs of the chosen model's cross-validated RMSE over its in-sample RMSE (the
+fit's own folds, ``ModelChoice.cv_rmse``; 1 where none ran), except a ``face_to_face`` face's
+``c₃``: it never fitted its crosstalk, whose residuals are held out already. After
+:meth:`CalibrationCovariance.retared` on ``n`` samples the tare's gauge noise ``A Σ_g Aᵀ / n`` is added.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.optimize
+
+from ..defaults import TARE_STILL_FORCE_STD_N, TARE_STILL_TORQUE_STD_NM
+
+from ._targets import block_targets
+
+__all__ = ["CovarianceGroup", "CalibrationCovariance", "ErrorModel", "fit_error_model", "load_features",
+           "NoisyReferenceWarning", "reference_noise_at_rest", "FULL_SCALE", "N_FEATURES", "ERROR_MODEL_SAMPLES", "COVERAGE", "Z_COVERAGE"]
+
+#: Full-scale loads that make a wrench dimensionless, ``[fx … tz]`` in N and N·m.
+FULL_SCALE = np.array([15.0, 15.0, 15.0, 0.1, 0.1, 0.1])
+#: Features of the error variance: ``[1, q, q², q_other]``.
+N_FEATURES = 4
+#: The error model reads about this many training samples (every n-th sample of the fit's pass).
+ERROR_MODEL_SAMPLES = 10_000
+#: The nominal coverage the scale is set for, and its two-sided normal quantile.
+COVERAGE = 0.95
+Z_COVERAGE = 1.959964
+#: Bounds of the coverage scale (a factor on standard deviations).
+SCALE_BOUNDS = (0.05, 50.0)
+#: A session's reference is above the tare's noise limits when its noise at rest is, less this many
+#: of its standard errors (:func:`reference_noise_at_rest`).
+NOISE_LIMIT_SE = 3.0
+
+
+def load_features(q: np.ndarray) -> np.ndarray:
+    """``(N, F, 4)`` features ``[1, q, q², q_other]`` from each output face's ``q (N, F)`` (dimensionless)."""
+    q = np.nan_to_num(q)
+    return np.stack([np.ones_like(q), q, q * q, q.sum(axis=1, keepdims=True) - q], axis=-1)
+
+
+def face_q(face_wrenches: np.ndarray) -> np.ndarray:
+    """``(N, F)`` each face's ``‖w / FULL_SCALE‖²`` from ``face_wrenches (N, F, 6)``."""
+    u = face_wrenches / FULL_SCALE
+    return np.einsum("nfi,nfi->nf", u, u)
+
+
+@dataclass
+class CovarianceGroup:
+    """One least-squares problem of a fit (six for ``face_to_face``, one otherwise).
+
+    Attributes
+    ----------
+    inputs : ndarray of int, shape (m,)
+        Gauge columns (0..35) of the design.
+    rows : ndarray of int, shape (q,)
+        Rows of ``Calibration.matrix`` this problem fitted.
+    design_pinv : ndarray, shape (n_int + m, n_int + m)
+        ``P = (XᵀX)⁺`` of the design ``[offset columns | counts − center]``, per counts².
+    residual_cov : ndarray, shape (q, q)
+        ``Σ_r``: covariance of the fit's residuals, in the matrix's output frame (N², N²·m, N²·m²).
+    center : ndarray, shape (m,)
+        Counts subtracted from the inputs in the design.
+    weights : ndarray, shape (n_int,)
+        Weights of the offset columns that reproduce ``Calibration.offset``.
+    dof : int
+        Residual degrees of freedom ``n − rank``.
+    """
+
+    inputs: np.ndarray
+    rows: np.ndarray
+    design_pinv: np.ndarray
+    residual_cov: np.ndarray
+    center: np.ndarray
+    weights: np.ndarray
+    dof: int = 0
+
+    def __post_init__(self):
+        self.inputs = np.asarray(self.inputs, dtype=np.int64).reshape(-1)
+        self.rows = np.asarray(self.rows, dtype=np.int64).reshape(-1)
+        self.design_pinv = np.asarray(self.design_pinv, dtype=float)
+        self.residual_cov = np.asarray(self.residual_cov, dtype=float)
+        self.center = np.asarray(self.center, dtype=float).reshape(-1)
+        self.weights = np.asarray(self.weights, dtype=float).reshape(-1)
+        self.dof = int(self.dof)
+        m, q, n_int = self.inputs.size, self.rows.size, self.weights.size
+        for name, shape in (("design_pinv", (n_int + m, n_int + m)), ("residual_cov", (q, q)), ("center", (m,))):
+            a = getattr(self, name)
+            if a.shape != shape:
+                raise ValueError(f"{name}: expected shape {shape}, got {a.shape}")
+            if not np.all(np.isfinite(a)):
+                raise ValueError(f"{name}: expected finite values")
+        if q % 6:
+            raise ValueError(f"rows: expected whole faces (a multiple of 6), got {q}")
+
+    def leverage(self, counts: np.ndarray, offset: np.ndarray | None) -> np.ndarray:
+        """``x̃ᵀ P x̃`` per sample ``(N,)``: the fitted offset if ``offset`` is None, else slopes only."""
+        n_int = self.weights.size
+        if offset is None:
+            x = counts[:, self.inputs] - self.center
+            xt = np.concatenate([np.broadcast_to(self.weights, (x.shape[0], n_int)), x], axis=1)
+            P = self.design_pinv
+        else:
+            xt = counts[:, self.inputs] - offset[self.inputs]
+            P = self.design_pinv[n_int:, n_int:]
+        return np.einsum("ni,ij,nj->n", xt, P, xt)
+
+
+@dataclass(kw_only=True)
+class ErrorModel:
+    """What :func:`fit_error_model` returns.
+
+    Attributes
+    ----------
+    variance_coef : ndarray, shape (6F, 4)
+        Per output face and axis (face frames), non-negative coefficients of the error variance on
+        :func:`load_features` (N², N²·m²), the held-out factor included.
+    residual_corr : ndarray, shape (F, 6, 6)
+        Correlation of the residuals between each face's six axes.
+    scale : float
+        Factor on the standard deviations that makes the loaded training residuals' coverage nominal.
+    """
+
+    variance_coef: np.ndarray
+    residual_corr: np.ndarray
+    scale: float
+
+
+@dataclass(kw_only=True)
+class CalibrationCovariance:
+    """Everything needed to give each sample's face wrenches a covariance (module docstring).
+
+    Attributes
+    ----------
+    groups : list of CovarianceGroup
+    gauge_cov : ndarray, shape (36, 36)
+        Gauge noise at rest ``Σ_g``, counts².
+    variance_coef : ndarray, shape (6F, 4)
+        :attr:`ErrorModel.variance_coef`.
+    residual_corr : ndarray, shape (F, 6, 6)
+        :attr:`ErrorModel.residual_corr`.
+    scale : float
+        :attr:`ErrorModel.scale`.
+    n_tare : int or None
+        None: the calibration's offset is the fitted one. n: it was re-tared on n samples.
+    """
+
+    groups: list = field(default_factory=list)
+    gauge_cov: np.ndarray = field(default_factory=lambda: np.zeros((36, 36)))
+    variance_coef: np.ndarray | None = None
+    residual_corr: np.ndarray | None = None
+    scale: float = 1.0
+    n_tare: int | None = None
+
+    def __post_init__(self):
+        self.gauge_cov = np.asarray(self.gauge_cov, dtype=float)
+        if self.gauge_cov.shape != (36, 36) or not np.all(np.isfinite(self.gauge_cov)):
+            raise ValueError(f"gauge_cov: expected finite values of shape (36, 36), got {self.gauge_cov.shape}")
+        q = sum(g.rows.size for g in self.groups)
+        if self.variance_coef is None:
+            self.variance_coef = np.zeros((q, N_FEATURES))
+        if self.residual_corr is None:
+            self.residual_corr = np.broadcast_to(np.eye(6), (q // 6, 6, 6)).copy()
+        self.variance_coef = np.asarray(self.variance_coef, dtype=float)
+        self.residual_corr = np.asarray(self.residual_corr, dtype=float)
+        c = self.variance_coef
+        if c.shape != (q, N_FEATURES) or not np.all(np.isfinite(c)) or np.any(c < 0):
+            raise ValueError(f"variance_coef: expected finite non-negative values of shape ({q}, {N_FEATURES}), "
+                             f"got shape {c.shape}")
+        if self.residual_corr.shape != (q // 6, 6, 6) or not np.all(np.isfinite(self.residual_corr)):
+            raise ValueError(f"residual_corr: expected finite values of shape ({q // 6}, 6, 6)")
+        self.scale = float(self.scale)
+        if not (np.isfinite(self.scale) and self.scale > 0):
+            raise ValueError(f"scale: expected a positive number, got {self.scale!r}")
+        if self.n_tare is not None:
+            if int(self.n_tare) < 1:
+                raise ValueError(f"n_tare: expected a number of samples ≥ 1, got {self.n_tare!r}")
+            self.n_tare = int(self.n_tare)
+
+    def retared(self, n: int) -> "CalibrationCovariance":
+        """The same, for an offset taken as the mean of ``n`` unloaded samples."""
+        return CalibrationCovariance(groups=self.groups, gauge_cov=self.gauge_cov, variance_coef=self.variance_coef,
+                                     residual_corr=self.residual_corr, scale=self.scale, n_tare=int(n))
+
+    def face_covariances(self, counts, offset, face_wrenches, apply, face_from_output, output_faces,
+                         explicit_offset: bool):
+        """``(N, 6, 6, 6)`` covariance of each face's wrench in its frame (NaN where no output).
+
+        Parameters
+        ----------
+        counts : ndarray, shape (N, 36)
+        offset : ndarray, shape (36,)
+            The offset the wrenches were computed with.
+        face_wrenches : ndarray, shape (N, 6, 6)
+            The predicted wrenches (``Calibration.wrenches``), N and N·m.
+        apply : ndarray, shape (6, 6, 36)
+            Counts → face wrench in face frames (``Calibration._apply``), for the tare's term.
+        face_from_output : ndarray, shape (6, 6, 6)
+            Adjoint from each face's output frame to its face frame (identity for ``face``).
+        output_faces : tuple of int
+            Faces (1..6) of the matrix's row blocks, in row order.
+        explicit_offset : bool
+            The caller gave the offset: its uncertainty is not known (slopes only, no tare term).
+        """
+        N, F = counts.shape[0], len(output_faces)
+        idx = np.asarray(output_faces) - 1
+        out = np.full((N, 6, 6, 6), np.nan)
+        out[:, idx] = 0.0
+        fitted = self.n_tare is None and not explicit_offset
+        for g in self.groups:  # the coefficients' error
+            h = g.leverage(counts, None if fitted else offset)
+            for k in range(g.rows.size // 6):
+                f = output_faces[int(g.rows[6 * k]) // 6] - 1
+                X = face_from_output[f]
+                out[:, f] += h[:, None, None] * (X @ g.residual_cov[6 * k : 6 * k + 6, 6 * k : 6 * k + 6] @ X.T)
+        phi = load_features(face_q(face_wrenches[:, idx]))  # the sample's own error
+        var = np.einsum("nfk,fik->nfi", phi, self.variance_coef.reshape(F, 6, N_FEATURES))
+        sd = np.sqrt(var)
+        out[:, idx] += sd[..., :, None] * self.residual_corr * sd[..., None, :]
+        out[:, idx] *= self.scale**2
+        if self.n_tare is not None and not explicit_offset:  # the tare's own noise
+            A = apply[idx]
+            out[:, idx] += np.einsum("fia,ab,fjb->fij", A, self.gauge_cov, A) / self.n_tare
+        return out
+
+
+def _nnls(Phi: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """Non-negative ``c`` minimising ``‖Φ c − y‖²``, columns scaled to unit norm (``Φ (n, k)``)."""
+    s = np.linalg.norm(Phi, axis=0)
+    on = s > 0
+    c = np.zeros(Phi.shape[1])
+    if on.any():
+        c[on] = scipy.optimize.nnls(Phi[:, on] / s[on], y)[0] / s[on]
+    return c
+
+
+def _standardised(e: np.ndarray, var: np.ndarray) -> np.ndarray:
+    """``e / √var`` (0 where ``var`` is 0)."""
+    sd = np.sqrt(var)
+    return np.divide(e, sd, out=np.zeros_like(e), where=sd > 0)
+
+
+def held_out_ratio(cal, noise=None) -> float:
+    """The median over output rows of the chosen model's cross-validated RMSE over its in-sample RMSE
+    (``cal.model.cv_rmse["chosen"]`` over ``cal.meta["fit_residual_rms"]``), each mean square less
+    ``noise (F, 6)``, the reference's mean noise variance in the row's targets (output frame; rows
+    where it is not below the in-sample mean square are left out); at least 1; 1 where no
+    cross-validation ran (``model="linear"``)."""
+    F = len(cal.output_faces)
+    cv = np.asarray((cal.model.cv_rmse or {}).get("chosen") or [], dtype=float)
+    fit = np.asarray(cal.meta.get("fit_residual_rms", np.full((6, 6), np.nan)), dtype=float)[np.asarray(cal.output_faces) - 1]
+    if cv.size != 6 * F:
+        return 1.0
+    v = np.zeros((F, 6)) if noise is None else noise
+    num, den = cv.reshape(F, 6) ** 2 - v, fit**2 - v
+    ok = np.isfinite(num) & np.isfinite(den) & (den > 0)
+    r = np.sqrt(np.maximum(num[ok], 0.0) / den[ok])
+    return max(float(np.median(r)), 1.0) if r.size else 1.0
+
+
+def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov) -> ErrorModel:
+    """The sample's own error and the coverage scale, from the training subsample (module docstring).
+
+    Parameters
+    ----------
+    cal : Calibration
+        The fitted calibration (matrix, correction, output faces, model choice).
+    groups : list of CovarianceGroup
+        The fit's least-squares problems (a group of 6 inputs: a face fitted on its own rows).
+    subsample : list of list of SessionBlock
+        Per session, every n-th training sample (``GramPass.subsample``).
+    mounts : list of MountGeometry
+    offsets : ndarray, shape (n_sessions, 36)
+        Each session's tare: the mean of its counts at rest.
+    ref_covs : list of ndarray (6, 6) or None
+        The reference's covariance at rest per session, in S_A (N², N²·m, N²·m²).
+    gauge_cov : ndarray, shape (36, 36)
+        Gauge noise at rest, counts².
+    """
+    idx = np.asarray(cal.output_faces) - 1
+    F = idx.size
+    own = np.zeros(F, dtype=bool)  # faces fitted on their own rows (carrying or at rest) alone
+    for g in groups:
+        if g.inputs.size == 6:
+            own[g.rows // 6] = True
+    n = sum(len(b.counts) for blocks in subsample for b in blocks)
+    E, V = np.zeros((n, F, 6)), np.zeros((n, F, 6), dtype=np.float32)  # residuals, the reference's noise in them
+    q, L, at = np.zeros((n, F)), np.zeros(n, dtype=bool), 0
+    v_out = np.zeros((F, 6))  # the reference's noise variance in the targets, output frame, summed
+    for blocks, mount, off, rc in zip(subsample, mounts, offsets, ref_covs):
+        v = None if rc is None else np.einsum("fij,jk,fik->fi", mount.X_face_ati, rc, mount.X_face_ati)[idx]
+        vo = None if rc is None else (np.broadcast_to(np.diag(rc), (F, 6)) if cal.output_frame == "reference" else v)
+        for b in blocks:
+            T, carries, usable, _ = block_targets(np.asarray(b.reference, float), b.loaded, mount, "face")
+            rows = slice(at, at + int(usable.sum()))
+            at = rows.stop
+            W = cal.wrenches(np.asarray(b.counts, float)[usable], offset=off)[:, idx]
+            E[rows] = T[usable][:, idx] - W
+            q[rows], L[rows] = face_q(W), b.loaded[usable].any(axis=1)
+            if v is not None:
+                V[rows] = carries[usable][:, idx, None] * v
+                v_out += carries[usable][:, idx].sum(axis=0)[:, None] * vo
+    E, V, L, phi = E[:at], V[:at], L[:at], load_features(q[:at])  # (n, F, 6), (n, F, 6), (n,), (n, F, 4)
+    del q
+    rho = held_out_ratio(cal, v_out / max(at, 1))
+    if at == 0:  # no usable sample in the subsample: the coefficients' term alone
+        return ErrorModel(variance_coef=np.zeros((6 * F, N_FEATURES)), residual_corr=np.broadcast_to(np.eye(6), (F, 6, 6)),
+                          scale=rho)
+    A = cal._apply[idx]
+    floor = np.einsum("fia,ab,fib->fi", A, gauge_cov, A)  # gauge noise through the matrix (F, 6)
+    coef = np.zeros((F, 6, N_FEATURES))
+    for f in range(F):
+        for a in range(6):
+            y = E[:, f, a] ** 2 - V[:, f, a]
+            c = _nnls(phi[:, f], y)
+            c[0] = max(c[0], floor[f, a])
+            coef[f, a] = c
+    var = np.einsum("nfk,fik->nfi", phi, coef)
+    del phi
+    with np.errstate(divide="ignore", invalid="ignore"):  # an axis without error: NaN, replaced below
+        corr = np.stack([np.corrcoef(_standardised(E[:, f], var[:, f]), rowvar=False) for f in range(F)])
+    corr = np.where(np.isfinite(corr), corr, np.eye(6)) if E.shape[0] > 2 else np.broadcast_to(np.eye(6), (F, 6, 6))
+    # the scale: the 95 % quantile over the loaded residuals of each one's s², E² = Z² (s² var + V)
+    E **= 2
+    E /= Z_COVERAGE**2
+    E -= V
+    del V
+    zero = var <= 0
+    np.divide(E, var, out=E, where=~zero)
+    E[zero] = np.where(E[zero] > 0, np.inf, 0.0)
+    del var
+    t = E[L] if L.any() else E
+    lo, hi = SCALE_BOUNDS
+    scale = float(np.clip(np.sqrt(max(np.quantile(t, COVERAGE, overwrite_input=True), 0.0)), lo, hi))
+    coef[..., :3] *= rho**2  # held out (own-row fits: not their crosstalk, which they never fitted)
+    coef[~own, :, 3] *= rho**2
+    return ErrorModel(variance_coef=coef.reshape(6 * F, N_FEATURES), residual_corr=corr, scale=scale)
+
+
+class NoisyReferenceWarning(UserWarning):
+    """The reference's noise at rest is above the limits the 95 % intervals were checked within."""
+
+
+def reference_noise_at_rest(ref_covs, ref_n) -> dict:
+    """The reference's noise at rest in the calibration's ``meta``, with a :class:`NoisyReferenceWarning` where
+    it is above the tare's stillness limits (``pito_core.defaults``; 0.33 % and 0.5 % of the simulated cubes'
+    full scale, 15 N and 0.1 N·m). The intervals' coverage was checked up to those: the wizard refuses a tare
+    above them, a session recorded elsewhere is fitted all the same. Above them the reference's noise swamps
+    the calibration's own error and the training data cannot tell its shape: at 1–3 % some axes' intervals
+    fall short where the face carries (docs/calibration.md, "Uncertainty").
+
+    ``ref_covs``: per session, the reference's covariance at rest ``(6, 6)`` (N², N²·m, N²·m²) from ``ref_n``
+    samples. Returns ``{"force_std_N": [...], "torque_std_Nm": [...], "within_limits": bool}``, per session the
+    largest standard deviation of its force and torque axes (as the tare's check reads them); a session is
+    above a limit when its figure is, less 3 of its standard errors (``σ / √(2(n − 1))``): a reference at
+    0.33 % of 15 N (0.0495 N) measured 0.0500 N in some of 2000 samples at rest.
+    """
+    sd = [np.sqrt(np.clip(np.diagonal(np.asarray(c, float)), 0.0, None)) for c in ref_covs]
+    force, torque = [float(d[:3].max()) for d in sd], [float(d[3:].max()) for d in sd]
+    low = [1.0 - NOISE_LIMIT_SE / np.sqrt(2.0 * max(n - 1, 1)) for n in ref_n]  # the figures' lower bounds, relative
+    over = [k for k, (f, t, a) in enumerate(zip(force, torque, low))
+            if a * f >= TARE_STILL_FORCE_STD_N or a * t >= TARE_STILL_TORQUE_STD_NM]
+    for k in over:
+        warnings.warn(
+            f"sessions[{k}].reference: its noise at rest is {force[k]:.3f} N, {torque[k] * 1000:.2f} mN·m (largest axis "
+            f"standard deviation), above the tare's stillness limits ({TARE_STILL_FORCE_STD_N} N, "
+            f"{TARE_STILL_TORQUE_STD_NM * 1000:g} mN·m) that the 95 % intervals were checked within; the fit is "
+            "made, but where a face carries its intervals may be short (docs/calibration.md, \"Uncertainty\")",
+            NoisyReferenceWarning, stacklevel=5)
+    return {"force_std_N": force, "torque_std_Nm": torque, "within_limits": not over}
