@@ -35,7 +35,7 @@ def test_wizard_end_to_end_on_the_simulators(qtbot, styled, tmp_path):
     from pito_core.cli import main as pito
     from pito_core.sim import simulate_calibration
 
-    window = MainWindow(demo=True, demo_period=0.6, demo_speed=3.0, wizard_k=600, demo_k=800)
+    window = MainWindow(demo=True, demo_period=0.6, wizard_k=600, demo_k=800)
     qtbot.addWidget(window)
     window.resize(1440, 900)
     window.show()
