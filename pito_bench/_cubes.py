@@ -19,12 +19,13 @@ from __future__ import annotations
 import numpy as np
 
 from pito_core.calibration import CalibrationSession
+from pito_core.defaults import FULL_SCALE_FACE
 from pito_core.frames import CubeCore, invert_pose, pose_from_rotation_translation, transform_wrench
 
 __all__ = ["FULL_SCALE", "BenchCube", "cube_session"]
 
 #: Full-scale face load, [fx, fy, fz, tx, ty, tz], N and N·m.
-FULL_SCALE = np.array([15.0, 15.0, 15.0, 0.1, 0.1, 0.1])
+FULL_SCALE = np.asarray(FULL_SCALE_FACE)
 #: Samples between the knots of a load's path.
 KNOT_SAMPLES = 40
 

@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.optimize
 
-from ..defaults import TARE_STILL_FORCE_STD_N, TARE_STILL_TORQUE_STD_NM
+from ..defaults import FULL_SCALE_FACE, TARE_STILL_FORCE_STD_N, TARE_STILL_TORQUE_STD_NM
 
 from ._targets import block_targets
 
@@ -38,7 +38,7 @@ __all__ = ["CovarianceGroup", "CalibrationCovariance", "ErrorModel", "fit_error_
            "NoisyReferenceWarning", "reference_noise_at_rest", "FULL_SCALE", "N_FEATURES", "ERROR_MODEL_SAMPLES", "COVERAGE", "Z_COVERAGE"]
 
 #: Full-scale loads that make a wrench dimensionless, ``[fx … tz]`` in N and N·m.
-FULL_SCALE = np.array([15.0, 15.0, 15.0, 0.1, 0.1, 0.1])
+FULL_SCALE = np.asarray(FULL_SCALE_FACE)
 #: Features of the error variance: ``[1, q, q², q_other]``.
 N_FEATURES = 4
 #: The error model reads about this many training samples (every n-th sample of the fit's pass).

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..defaults import FULL_SCALE_FACE
 from ..frames import FACES, N_GAUGES
 from ._lstsq import RANK_RTOL
 from ._cv import ALPHAS, N_FOLDS, FoldedGram, MAX_SEGMENT_FRACTION, Problem, SegmentCounter, choose_model, cross_validate, \
@@ -28,7 +29,7 @@ from ._poly import PolyCorrection, poly_features_t, poly_terms
 __all__ = ["PolyAccumulator", "FULL_SCALE_WEIGHT", "mixed_offsets"]
 
 #: Outputs are weighed by 1 / full scale in the model choice: ``[fx … tz]`` in 1/N and 1/(N·m).
-FULL_SCALE_WEIGHT = 1.0 / np.array([15.0, 15.0, 15.0, 0.1, 0.1, 0.1])
+FULL_SCALE_WEIGHT = 1.0 / np.asarray(FULL_SCALE_FACE)
 #: Rows whose features are built at once (8192 × 235 columns × 8 B ≈ 15 MB).
 CHUNK = 8192
 #: The correction is fitted (and cross-validated) from at most about this many samples, every
