@@ -31,7 +31,7 @@ import numpy as np
 import scipy.optimize
 
 from ..defaults import FULL_SCALE_FACE, TARE_STILL_FORCE_STD_N, TARE_STILL_TORQUE_STD_NM
-
+from ..frames import N_GAUGES
 from ._targets import block_targets
 
 __all__ = ["CovarianceGroup", "CalibrationCovariance", "ErrorModel", "fit_error_model", "load_features",
@@ -166,7 +166,7 @@ class CalibrationCovariance:
     """
 
     groups: list = field(default_factory=list)
-    gauge_cov: np.ndarray = field(default_factory=lambda: np.zeros((36, 36)))
+    gauge_cov: np.ndarray = field(default_factory=lambda: np.zeros((N_GAUGES, N_GAUGES)))
     variance_coef: np.ndarray | None = None
     residual_corr: np.ndarray | None = None
     scale: float = 1.0
@@ -174,7 +174,7 @@ class CalibrationCovariance:
 
     def __post_init__(self):
         self.gauge_cov = np.asarray(self.gauge_cov, dtype=float)
-        if self.gauge_cov.shape != (36, 36) or not np.all(np.isfinite(self.gauge_cov)):
+        if self.gauge_cov.shape != (N_GAUGES, N_GAUGES) or not np.all(np.isfinite(self.gauge_cov)):
             raise ValueError(f"gauge_cov: expected finite values of shape (36, 36), got {self.gauge_cov.shape}")
         q = sum(g.rows.size for g in self.groups)
         if self.variance_coef is None:

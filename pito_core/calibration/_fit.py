@@ -21,7 +21,7 @@ import numpy as np
 from threadpoolctl import ThreadpoolController
 
 from ..defaults import FULL_SCALE_FACE
-from ..frames import FACES
+from ..frames import FACES, N_GAUGES
 from ._calibration import Calibration
 from ._coverage import measured_directions
 from ._cv import MODELS, ModelChoice
@@ -136,8 +136,8 @@ def _tare_moments(session: CalibrationSession, block_size: int = 65536):
 
     Refuses NaN, inf and saturated counts anywhere in the session, naming the sample indices.
     """
-    total = np.zeros(36)
-    total_sq = np.zeros((36, 36))
+    total = np.zeros(N_GAUGES)
+    total_sq = np.zeros((N_GAUGES, N_GAUGES))
     n = 0
     shift = None  # first unloaded sample: sums of squares about it do not cancel catastrophically
     lo, hi = session.counts_range
@@ -259,7 +259,7 @@ def _add_block(st: _Streams, k: int, n_int: int, b, center, targets, carries, us
     st.carried_any |= (carries & usable[:, None]).any(axis=0)
     t = targets[usable].reshape(-1, 36)
     st.gram += (t.T @ t) * _GRAM_SCALE
-    A = np.zeros((b.counts.shape[0], n_int + 36))
+    A = np.zeros((b.counts.shape[0], n_int + N_GAUGES))
     A[:, k] = 1.0
     np.subtract(b.counts, center, out=A[:, n_int:])
     unloaded = ~b.loaded.any(axis=1)
@@ -422,7 +422,7 @@ class Calibrator:
         load_rank = _load_rank(st.gram, FACES)  # dimension of the 36-d space of face wrenches the loads span
         center = np.mean(tare_means, axis=0)
         weights = np.full(n_int, 1.0 / n_int)
-        fit = _Solution(np.zeros((6 * len(out_faces), 36)), np.full((6, 6), np.nan))
+        fit = _Solution(np.zeros((6 * len(out_faces), N_GAUGES)), np.full((6, 6), np.nan))
         own_C, own_b = self._solve_own(spec, st, out_faces, n_int, center, weights, fit)
         if st.joint is None:
             fit.matrix[:] = own_C
@@ -486,10 +486,10 @@ class Calibrator:
     def _stream_qr(self, spec, sessions, mounts, tare_means, st) -> None:
         """The stable second pass: streamed Householder QR of every design (replaces ``st.own``, ``st.joint``)."""
         n_int = len(sessions)
-        qr = _Streams(np.zeros((36, 36)), np.zeros(6, dtype=bool), 0,
+        qr = _Streams(np.zeros((N_GAUGES, N_GAUGES)), np.zeros(6, dtype=bool), 0,
                       {f: StreamedQR(n_int + 6, 6, flush_rows=self.block_size) for f in st.own},
                       st.joint_faces,
-                      StreamedQR(n_int + 36, 6 * len(st.joint_faces), flush_rows=self.block_size) if st.joint_faces else None,
+                      StreamedQR(n_int + N_GAUGES, 6 * len(st.joint_faces), flush_rows=self.block_size) if st.joint_faces else None,
                       None)
         for k, (s, mount, center) in enumerate(zip(sessions, mounts, tare_means)):
             for b in s.iter_blocks(self.block_size):
@@ -500,7 +500,7 @@ class Calibrator:
     def _solve_own(self, spec, st, out_faces, n_int, center, weights, fit):
         """Each output face's own-gauge fit: the block-diagonal ``own_C`` (6F, 36) and intercepts (n_int, 6F)."""
         own = {f: st.own[f] for f in out_faces if f in st.own}
-        own_C = np.zeros((6 * len(out_faces), 36))  # block-diagonal: own gauges -> own rows
+        own_C = np.zeros((6 * len(out_faces), N_GAUGES))  # block-diagonal: own gauges -> own rows
         own_b = np.zeros((n_int, 6 * len(out_faces)))
         for k, (f, acc) in enumerate(own.items()):
             res = self._solve_checked(acc, n_int + _load_rank(st.gram, (f,)), (f,), strict=spec.inputs == "own")
@@ -537,7 +537,7 @@ class Calibrator:
         fit.counts_rank.append(res.numerical_rank - n_int)
         for k, f in enumerate(out_faces):
             fit.residual[f - 1] = res.residual_rms[6 * k : 6 * k + 6]
-        fit.groups.append(self._group(res, np.arange(36), np.arange(6 * len(out_faces)), center, weights))
+        fit.groups.append(self._group(res, np.arange(N_GAUGES), np.arange(6 * len(out_faces)), center, weights))
 
     def _poly_step(self, poly, out_faces, zeros, fit, group=3):
         """The model choice, and the polynomial correction where chosen: ``(choice, correction, linear_fit)``.
@@ -617,7 +617,7 @@ class Calibrator:
         R12 = joint.R12[n_int:]
         G_ST = R.T @ R12
         G_TT = R12.T @ R12 + res.residual_cp
-        w = np.linalg.eigvalsh(gauge_cov) if np.all(np.isfinite(gauge_cov)) else np.zeros(36)
+        w = np.linalg.eigvalsh(gauge_cov) if np.all(np.isfinite(gauge_cov)) else np.zeros(N_GAUGES)
         if w[0] > 1e-12 * max(w[-1], 1e-300):
             L = np.linalg.cholesky(gauge_cov)
         else:  # noise-free data: scale by the columns' norms

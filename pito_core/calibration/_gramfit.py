@@ -30,6 +30,7 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg.blas
 
+from ..frames import N_GAUGES
 from ..io import SessionBlock, few_indices as _few
 from ._lstsq import GramQR
 from ._error import ERROR_MODEL_SAMPLES
@@ -242,7 +243,7 @@ class GramPass:
     def _counts_buf(self, counts):
         """A reused (CHUNK, 36) buffer of the counts' dtype."""
         if self._cbuf is None or self._cbuf.dtype != counts.dtype:
-            self._cbuf = np.empty((CHUNK, 36), dtype=counts.dtype)
+            self._cbuf = np.empty((CHUNK, N_GAUGES), dtype=counts.dtype)
         return self._cbuf
 
     @staticmethod
@@ -354,7 +355,7 @@ class GramPass:
 
     def target_gram(self) -> np.ndarray:
         """``(36, 36)`` Gram of the targets of all six faces (face-major), unscaled."""
-        return self._joint_gram()[self.n_int + 36 :, self.n_int + 36 :].copy()
+        return self._joint_gram()[self.n_int + N_GAUGES :, self.n_int + N_GAUGES :].copy()
 
     def factors(self, tare_means, joint_faces):
         """``(own, joint)``: :class:`GramQR` of each own-gauge design and of the joint design, centred on the tare means."""
@@ -370,10 +371,10 @@ class GramPass:
         joint = None
         if joint_faces:
             M = np.eye(n_int + 72)
-            M[:n_int, n_int : n_int + 36] = -D
+            M[:n_int, n_int : n_int + N_GAUGES] = -D
             G = M.T @ self._joint_gram() @ M
-            a = np.r_[np.arange(n_int), n_int + np.arange(36)]
-            t = n_int + 36 + np.concatenate([np.arange(6 * (f - 1), 6 * f) for f in joint_faces])
+            a = np.r_[np.arange(n_int), n_int + np.arange(N_GAUGES)]
+            t = n_int + N_GAUGES + np.concatenate([np.arange(6 * (f - 1), 6 * f) for f in joint_faces])
             joint = GramQR(G[np.ix_(a, a)], G[np.ix_(a, t)], G[np.ix_(t, t)], self.n_used)
         return own, joint
 

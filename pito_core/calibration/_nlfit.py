@@ -219,7 +219,7 @@ class PolyAccumulator:
                 for a, Xa in zip(levels, solve_problem(acc, pr, levels)):
                     X[:, ra == a] = Xa[:, ra == a]
                 ri = 6 * row[f] + np.flatnonzero(use)
-                lin = np.arange(6 * (f - 1), 6 * f) if self.own else np.arange(36)
+                lin = np.arange(6 * (f - 1), 6 * f) if self.own else np.arange(N_GAUGES)
                 C[np.ix_(ri, lin)] = (X[n_int : n_int + lin.size, use] / self.scale[lin, None]).T
                 B[:, ri] = X[:n_int, use]
                 feats = face_features(f) if self.own else self._features_of(f)
