@@ -16,7 +16,7 @@ import numpy as np
 
 from pito_core.calibration import CalibrationSession
 from pito_core.defaults import FULL_SCALE_FACE
-from pito_core.frames import FACES, invert_pose, wrench_adjoint
+from pito_core.frames import FACES, N_GAUGES, invert_pose, wrench_adjoint
 from pito_core.io import write_session
 from pito_core.sim import VirtualCube, reference_pose
 
@@ -133,7 +133,7 @@ class _LazyGenerated:
         self.T_core_ati, self.time = data.T_core_ati, None
         self.counts_range = data.cube.counts_range
         self.meta = {"simulated": True, "generator": "pito_bench (VirtualCube, seed 0)", "seed": data.seed}
-        self.counts = _Column(self, 0, 36, np.int32)
+        self.counts = _Column(self, 0, N_GAUGES, np.int32)
         self.reference = _Column(self, 1, 6, float)
         self.loaded = _Column(self, 2, 6, bool)
         self._cache: dict[int, tuple] = {}

@@ -26,7 +26,7 @@ import numpy as np
 from ..defaults import (
     TARE_NO_LOAD_FORCE_N, TARE_NO_LOAD_TORQUE_NM, TARE_STILL_FORCE_STD_N, TARE_STILL_TORQUE_STD_NM,
 )
-from ..frames import CubeCore, check_face
+from ..frames import N_GAUGES, CubeCore, check_face
 
 __all__ = ["TareCheck", "TareRefused", "TareSupport", "check_tare", "tare_event", "resting_load",
            "counts_offset_for", "MIN_TARE_SAMPLES", "FACE_STILL_FACTOR", "STANDARD_GRAVITY"]
@@ -174,8 +174,8 @@ def check_tare(counts, reference=None, calibration=None, support: TareSupport | 
     """
     c = np.asarray(counts, dtype=float)
     n = int(c.shape[0]) if c.ndim == 2 else 0
-    if c.ndim != 2 or c.shape[1] != 36:
-        raise ValueError(f"counts: expected shape (n, 36), got {c.shape}")
+    if c.ndim != 2 or c.shape[1] != N_GAUGES:
+        raise ValueError(f"counts: expected shape (n, {N_GAUGES}), got {c.shape}")
     if n < MIN_TARE_SAMPLES:
         return TareCheck(False, f"only {n} samples (at least {MIN_TARE_SAMPLES})", n)
     sf, st = _reference_spread(np.zeros((0, 6)) if reference is None else reference)
@@ -244,19 +244,19 @@ def counts_offset_for(calibration, counts_mean, expected, iterations: int = 4) -
     the known loads ``expected`` (face frames, N and N·m) at ``counts_mean``: Newton steps on
     the least-norm solution of the calibration's Jacobian (faces it outputs only).
     """
-    cm = np.asarray(counts_mean, dtype=float).reshape(36)
+    cm = np.asarray(counts_mean, dtype=float).reshape(N_GAUGES)
     E = np.asarray(expected, dtype=float).reshape(6, 6)
     if not E.any():
         return cm.copy()
-    zero = np.zeros(36)
-    x = np.zeros(36)  # counts above the offset
+    zero = np.zeros(N_GAUGES)
+    x = np.zeros(N_GAUGES)  # counts above the offset
     h = 1.0  # counts
     for _ in range(iterations):
-        X = x + np.vstack([np.zeros(36), h * np.eye(36)])
-        W = np.asarray(calibration.wrenches(X, offset=zero), dtype=float).reshape(37, 36)
+        X = x + np.vstack([np.zeros(N_GAUGES), h * np.eye(N_GAUGES)])
+        W = np.asarray(calibration.wrenches(X, offset=zero), dtype=float).reshape(N_GAUGES + 1, -1)
         rows = np.isfinite(W).all(axis=0)
         J = (W[1:, rows] - W[0, rows]).T / h  # (m, 36)
-        r = E.reshape(36)[rows] - W[0, rows]
+        r = E.reshape(-1)[rows] - W[0, rows]
         x = x + np.linalg.lstsq(J, r, rcond=None)[0]
     return cm - x
 

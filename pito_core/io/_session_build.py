@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..frames import CUBE_ADC_LIMIT
+from ..frames import CUBE_ADC_LIMIT, N_GAUGES
 from ._session import CalibrationSession
 
 __all__ = ["session_from_arrays", "saturated_samples"]
@@ -63,8 +63,8 @@ def session_from_arrays(counts, reference, loaded, time=None, *, T_core_ati, fla
     """
     counts = np.asarray(counts)
     reference = np.asarray(reference, dtype=float)
-    if counts.ndim != 2 or counts.shape[1] != 36:
-        raise ValueError(f"counts: expected shape (N, 36), got {counts.shape}")
+    if counts.ndim != 2 or counts.shape[1] != N_GAUGES:
+        raise ValueError(f"counts: expected shape (N, {N_GAUGES}), got {counts.shape}")
     if reference.shape != (counts.shape[0], 6):
         raise ValueError(f"reference: expected shape ({counts.shape[0]}, 6), got {reference.shape}")
     bad = saturated_samples(counts, reference, reference_saturated)

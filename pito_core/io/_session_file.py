@@ -18,6 +18,7 @@ import os
 import h5py
 import numpy as np
 
+from ..frames import N_GAUGES
 from ._hdf5 import (
     CheckedDataset,
     FileFormatError,
@@ -53,7 +54,7 @@ def write_session(path, session, block_size: int = 262144) -> None:
         f.attrs["counts_range"] = np.asarray(session.counts_range, dtype=np.int64)
         f.attrs["meta"] = json_attr(session.meta)
         chunk = (min(max(n, 1), _CHUNK_ROWS),)
-        dc = f.create_dataset("counts", (n, 36), dtype=counts_dtype, chunks=chunk + (36,), compression="gzip", compression_opts=1, shuffle=True, fletcher32=True)
+        dc = f.create_dataset("counts", (n, N_GAUGES), dtype=counts_dtype, chunks=chunk + (N_GAUGES,), compression="gzip", compression_opts=1, shuffle=True, fletcher32=True)
         dr = f.create_dataset("reference", (n, 6), dtype=float, chunks=chunk + (6,), compression="gzip", compression_opts=1, shuffle=True, fletcher32=True)
         dl = f.create_dataset("loaded", (n, 6), dtype=bool, chunks=chunk + (6,), compression="gzip", compression_opts=1, fletcher32=True)
         for start in range(0, n, block_size):

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..devices import Acquisition, NetFTBatch, PitoBatch
+from ..frames import N_GAUGES
 
 __all__ = ["IdleDevice", "push_samples"]
 
@@ -55,7 +56,7 @@ def push_samples(acq: Acquisition, first: int, n: int, *, host0: float = 10.0, c
     """
     idx = np.arange(first, first + n)
     host = host0 + idx * 1e-3 + 0.002
-    counts = np.tile(idx[:, None], (1, 36)) if counts is None else counts
+    counts = np.tile(idx[:, None], (1, N_GAUGES)) if counts is None else counts
     wrench = np.tile(idx[:, None], (1, 6)) if wrench is None else wrench
     acq._add_pito(PitoBatch(idx.astype(np.uint32), (idx * 1000).astype(np.uint32),
                             np.asarray(counts).astype(np.int32), host))

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..frames import check_face
+from ..frames import N_GAUGES, check_face
 from ._grasp import GraspScenario, GraspState
 from ._model import VirtualCube
 from ._mount import check_flanged_mount, core_from_face_adjoints, face_wrenches_from_applied
@@ -65,7 +65,7 @@ class LiveSource:
         return np.rint(t * self.rate).astype(np.int64)
 
     def _counts(self, t, F, W_frame=None, slip=None) -> np.ndarray:
-        noise = hashed_normal(self.seed, self._index(t), 36, stream=1)
+        noise = hashed_normal(self.seed, self._index(t), N_GAUGES, stream=1)
         return self.model.counts_from_face_wrenches(F, t, W_frame=W_frame, frame_slip=slip, noise=noise)
 
     def _reference(self, t, W_core) -> np.ndarray:

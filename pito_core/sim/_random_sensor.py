@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..frames import FACES, CubeCore, invert_pose, transform_wrench
+from ..frames import FACES, N_GAUGES, CubeCore, invert_pose, transform_wrench
 from ..io import CalibrationSession
 from ._mount import check_mount, face_wrenches_from_applied
 from ._params import FULL_SCALE_FACE
@@ -104,8 +104,8 @@ def random_sensor(seed: int = 0, *, condition=(1.0, 1e3), coupling=(0.0, 0.10), 
                 K[6 * i : 6 * i + 6, 6 * j : 6 * j + 6] = cpl[i, j] * gains[i] * G / _FS
     return RandomSensor(
         sensitivity=K,
-        offset=rng.uniform(-offset, offset, 36),
-        noise_std=logu(*noise, 36),
+        offset=rng.uniform(-offset, offset, N_GAUGES),
+        noise_std=logu(*noise, N_GAUGES),
         core=core,
         seed=int(seed),
         conditions=conds,
