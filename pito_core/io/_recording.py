@@ -43,6 +43,7 @@ __all__ = [
     "Recording",
     "ReplayBatch",
     "read_recording",
+    "RecordingChunks",
 ]
 
 RECORDING_FORMAT = "pito-recording"
@@ -400,6 +401,137 @@ class Recording:
                 yield ReplayBatch(t, self.pito[ip:jp], self.netft[inn:jn])
             ip, inn = jp, jn
             k += 1
+
+
+class RecordingChunks:
+    """A recording read chunk by chunk, in bounded memory: its index, small columns whole, rows by range.
+
+    One pass over the file checks every chunk (CRC, as :class:`Recording`) and keeps where each
+    row chunk lies and the fields named in ``keep`` (e.g. the clocks); :meth:`rows` then reads
+    any range of rows back from the file. For recordings too long to hold (an hour of both
+    streams is ~0.8 GB on disk, ~1.7 GB as float arrays).
+
+    Parameters
+    ----------
+    path : str or Path
+    recover : bool, optional
+        As :class:`Recording`: accept an incomplete or damaged file, up to its last intact chunk.
+    keep : dict, optional
+        ``{"pito": fields, "netft": fields}`` read whole in the pass (default: the clock and
+        sequence fields of each stream, not the counts and wrenches).
+
+    Attributes
+    ----------
+    meta, events, summary, complete, damaged_bytes, simulated
+        As :class:`Recording`.
+    pito, netft : dict of ndarray
+        The kept fields, whole (``pito["time_us"]`` ...), in file order.
+    n_pito, n_netft : int
+        Rows of each stream.
+    """
+
+    KEEP = {"pito": ("seq", "time_us", "host_time"), "netft": ("rdt_seq", "ft_seq", "status", "host_time")}
+
+    def __init__(self, path, *, recover: bool = False, keep: dict | None = None):
+        self.path = Path(os.fspath(path))
+        if not self.path.exists():
+            raise FileNotFoundError(f"{self.path}: no such file")
+        keep = dict(self.KEEP if keep is None else keep)
+        size = self.path.stat().st_size
+        with open(self.path, "rb") as fh:
+            head = fh.read(min(size, _HEAD.size))
+            n = _HEAD.unpack(head)[3] if len(head) == _HEAD.size and head[:8] == _MAGIC else 0
+            head += fh.read(n + 4)
+            self.meta, self.version, pos = _read_header(self.path, head)
+            chunks, where, kept = self._scan(fh, pos, size, keep)
+        self.events, self.summary = chunks.events, chunks.summary
+        self.complete = self.summary is not None and chunks.problem is None
+        self.damaged_bytes = size - chunks.end if chunks.problem else 0
+        if not recover:
+            _refuse_damaged(self.path, chunks, self.complete)
+        self._where = {k: (np.array([w[0] for w in v], np.int64), np.array([w[1] for w in v], np.int64))
+                       for k, v in where.items()}
+        self._starts = {k: np.concatenate([[0], np.cumsum(rows)]) for k, (_, rows) in self._where.items()}
+        name = {KIND_PITO: "pito", KIND_NETFT: "netft"}
+        for kind, parts in kept.items():
+            cols = {f: (np.concatenate(p) if p else np.zeros(0, _ROWS[kind][f])) for f, p in parts.items()}
+            setattr(self, name[kind], cols)
+        self.n_pito, self.n_netft = int(self._starts[KIND_PITO][-1]), int(self._starts[KIND_NETFT][-1])
+        if self.summary is not None and self.complete:
+            if (self.summary.get("pito_rows"), self.summary.get("netft_rows")) != (self.n_pito, self.n_netft):
+                raise FileFormatError(f"{self.path}: row counts do not match the end marker (corrupt file)")
+
+    @staticmethod
+    def _scan(fh, pos: int, size: int, keep: dict):
+        """Every chunk from byte ``pos``: ``(_Chunks, {kind: [(payload byte, rows)]}, {kind: {field: parts}})``."""
+        where = {KIND_PITO: [], KIND_NETFT: []}
+        kept = {KIND_PITO: {f: [] for f in keep.get("pito", ())}, KIND_NETFT: {f: [] for f in keep.get("netft", ())}}
+        events, summary, problem, crc_bad = [], None, None, None
+        fh.seek(pos)
+        while pos < size:
+            head = fh.read(_CHUNK.size)
+            if len(head) < _CHUNK.size:
+                problem = f"truncated chunk header at byte {pos}"
+                break
+            magic, kind, _, _, rows, n, crc = _CHUNK.unpack(head)
+            body = pos + _CHUNK.size
+            if magic != _CHUNK_MAGIC:
+                problem = f"bad chunk magic at byte {pos}"
+                break
+            if body + n > size:
+                problem = f"truncated chunk at byte {pos}"
+                break
+            payload = fh.read(n)
+            if zlib.crc32(payload, zlib.crc32(head[:16])) != crc:
+                problem, crc_bad = f"chunk CRC mismatch at byte {pos}", (pos, kind)
+                break
+            if kind in _ROWS:
+                if n != rows * _ROWS[kind].itemsize:
+                    problem = f"chunk size does not match its row count at byte {pos}"
+                    break
+                where[kind].append((body, rows))
+                arr = np.frombuffer(payload, dtype=_ROWS[kind])
+                for f, parts in kept[kind].items():
+                    parts.append(arr[f].copy())
+            elif kind == KIND_EVENT:
+                events.append(json.loads(payload.decode("utf-8")))
+            elif kind == KIND_END:
+                summary = json.loads(payload.decode("utf-8"))
+                pos = body + n
+                if pos != size:
+                    problem = f"{size - pos} bytes after the end marker"
+                break
+            pos = body + n
+        return _Chunks({}, events, summary, problem, crc_bad, pos), where, kept
+
+    @property
+    def simulated(self) -> bool:
+        return bool(self.meta.get("simulated", False))
+
+    def rows(self, stream: str, start: int, stop: int) -> np.ndarray:
+        """Rows ``start:stop`` of ``stream`` (``"pito"`` or ``"netft"``): :data:`PITO_ROW` / :data:`NETFT_ROW` array."""
+        kind = {"pito": KIND_PITO, "netft": KIND_NETFT}.get(stream)
+        if kind is None:
+            raise ValueError(f"stream: expected 'pito' or 'netft', got {stream!r}")
+        starts = self._starts[kind]
+        start, stop = max(0, int(start)), min(int(stop), int(starts[-1]))
+        out = np.empty(max(0, stop - start), _ROWS[kind])
+        if stop <= start:
+            return out
+        offsets, _ = self._where[kind]
+        size = _ROWS[kind].itemsize
+        c0 = int(np.searchsorted(starts, start, side="right")) - 1
+        c1 = int(np.searchsorted(starts, stop, side="left"))
+        buf = memoryview(out.view(np.uint8))
+        with open(self.path, "rb") as fh:
+            at = 0
+            for c in range(c0, c1):
+                a, b = max(start, int(starts[c])), min(stop, int(starts[c + 1]))
+                fh.seek(int(offsets[c]) + (a - int(starts[c])) * size)
+                if fh.readinto(buf[at * size:(at + b - a) * size]) != (b - a) * size:
+                    raise FileFormatError(f"{self.path}: the file changed while it was read")
+                at += b - a
+        return out
 
 
 def read_recording(path, *, recover: bool = False) -> Recording:
