@@ -3,17 +3,18 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 
 import numpy as np
 
 from ..contact import ContactEstimate
-from ..io import read_recording
-from ..pipeline import Pipeline, RecordingReader, concatenate_bundles, device_time_base, replay_blocks
+from ..io import RecordingChunks
+from ..pipeline import Pipeline, concatenate_bundles, device_time_base, recording_samples, replay_blocks
 from ._provenance import assembly_record, calibration_record, recording_calibration
 
-__all__ = ["ExportData", "export_data"]
+__all__ = ["ExportData", "ExportStream", "export_data"]
 
-#: Samples per block when contacts are solved (and progress reported).
+#: Cube samples per export block (contacts solved, files written, progress reported).
 BLOCK = 20000
 
 
@@ -80,10 +81,131 @@ class ExportData:
     def n(self) -> int:
         return int(self.time.size)
 
+    def blocks(self):
+        """The export as blocks (:class:`ExportStream` gives many; a whole ``ExportData`` is one)."""
+        yield self
+
+
+class ExportStream:
+    """A recording ready to export block by block, in bounded memory (a 1-hour recording: ~0.3 GB).
+
+    The recording is read chunk by chunk (:class:`~pito_core.io.RecordingChunks`) and run
+    through the one pipeline (:func:`~pito_core.pipeline.replay_blocks`: 1 s blocks, the live
+    pairing and tares); :meth:`blocks` yields :class:`ExportData` of about ``block`` cube
+    samples each, in order, every cube and every reference sample in exactly one block.
+    Parameters as :func:`export_data`.
+
+    Attributes
+    ----------
+    time : ndarray, shape (n,)
+        Every cube sample's time, s (the export's one time base, as ``ExportData.time``).
+    reference_time : ndarray, shape (m,)
+        Every reference record's time on the same base, s.
+    start_unix, calibration, assembly, note, meta, simulated
+        As :class:`ExportData`.
+    wrenches, contacts : bool
+        The blocks carry face wrenches (a calibration) / contacts.
+    """
+
+    def __init__(self, path, calibration=None, assembly=None, *, calibration_source: str | None = None,
+                 contacts: bool = True, progress=None, recover: bool = False, block: int = BLOCK):
+        if not block >= 1:
+            raise ValueError(f"block: expected at least 1 sample, got {block!r}")
+        self.path, self.block, self.progress = path, int(block), progress
+        self._rec = rec = RecordingChunks(path, recover=recover)
+        self.meta = meta = dict(rec.meta)
+        self._cal, self.note = recording_calibration(meta, calibration, calibration_source)
+        if assembly is None:
+            assembly = (meta.get("assembly") or {}).get("name") or "cube"
+        self._assembly = assembly
+        columns = SimpleNamespace(meta=rec.meta, events=rec.events,
+                                  pito={**rec.pito, "counts": np.zeros((rec.n_pito, 0))},
+                                  netft={**rec.netft, "wrench": np.zeros((rec.n_netft, 0))})
+        cube, ref = recording_samples(columns)  # the clocks only: counts and wrenches are read per block
+        if cube["time"].size == 0:
+            raise ValueError("recording: no cube samples")
+        cube["counts"] = _Rows(rec, "pito", "counts")
+        ref["wrench"] = _Rows(rec, "netft", "wrench")
+        has_ref = ref["time"].size > 0
+        self._reader = SimpleNamespace(cube=cube, reference=ref, has_reference=has_ref, events=[
+            e for e in rec.events if e.get("type") == "tare" and e.get("from_tick") is not None])
+        self.time, self.reference_time = device_time_base(cube, ref if has_ref else None)
+        self.start_unix = float(meta.get("created_unix", 0.0))
+        self.simulated = bool(meta.get("simulated", False))
+        self.wrenches = self._cal is not None
+        self.contacts = bool(contacts) and self.wrenches
+        self._pipe = Pipeline(self._cal, assembly, has_reference=has_ref)
+        self.calibration = None if self._cal is None else (
+            meta["calibration"] if calibration is None and meta.get("calibration")
+            else calibration_record(self._cal, calibration_source))
+        self.assembly = assembly_record(self._pipe.assembly if self._pipe.assembly is not None else assembly)
+
+    @property
+    def n(self) -> int:
+        return int(self.time.size)
+
+    def blocks(self):
+        """Yield :class:`ExportData` of consecutive cube samples (and the reference records up to the last one's time)."""
+        pipe = Pipeline(self._cal, self._assembly, has_reference=self._reader.has_reference)
+        parts, waiting, i0, j0 = [], 0, 0, 0
+        for bundle in replay_blocks(self._reader, pipe):
+            parts.append(bundle)
+            waiting += len(bundle)
+            if waiting >= self.block:
+                out = self._block(pipe, concatenate_bundles(parts), i0, j0)
+                i0, j0, parts, waiting = i0 + out.n, j0 + out.reference_time.size, [], 0
+                yield out
+        if parts or i0 == 0:
+            out = self._block(pipe, concatenate_bundles(parts) if parts else None, i0, j0)
+            i0, j0 = i0 + out.n, j0 + out.reference_time.size
+            yield out
+        if (i0, j0) != (self.n, self.reference_time.size):
+            raise RuntimeError(f"{self.path}: the pipeline gave {i0} cube samples of the recording's {self.n} and "
+                               f"{j0} reference records of {self.reference_time.size}")
+
+    def _block(self, pipe, bundle, i0: int, j0: int) -> ExportData:
+        """The :class:`ExportData` of ``bundle``, cube samples ``i0:``, reference records from ``j0``."""
+        cube = self._reader.cube
+        k = 0 if bundle is None else len(bundle)
+        i1 = i0 + k
+        if k and not np.array_equal(bundle.tick, cube["tick"][i0:i1]):
+            raise RuntimeError(f"{self.path}: the pipeline's cube samples {i0}..{i1} are not the recording's")
+        last = i1 >= self.n
+        m = self.reference_time.size
+        j1 = m if last else max(j0, int(np.searchsorted(self.reference_time, self.time[i1 - 1], side="right")))
+        W = None if not self.wrenches or bundle is None else np.asarray(bundle.face_wrenches, float)
+        cont = pipe.contacts(W) if self.contacts and k else None
+        reference = None if bundle is None else getattr(bundle, "reference", None)
+        if reference is not None and (not pipe.has_reference or np.size(reference) == 0):
+            reference = None
+        if self.progress is not None:
+            self.progress(0.05 + 0.9 * i1 / max(self.n, 1), "export")
+        ref = self._reader.reference
+        return ExportData(
+            time=self.time[i0:i1], host_time=np.asarray(cube["host_time"][i0:i1], float),
+            reference_time=self.reference_time[j0:j1],
+            reference_wrench=_tared_reference(self._reader, j0, j1),
+            reference_host_time=np.asarray(ref["host_time"][j0:j1], float),
+            start_unix=self.start_unix, tick=np.asarray(cube["tick"][i0:i1]),
+            counts=np.zeros((0, 36)) if bundle is None else np.asarray(bundle.counts),
+            reference=None if reference is None else np.asarray(reference, float),
+            face_wrenches=W, contacts=cont, calibration=self.calibration, assembly=self.assembly,
+            note=self.note, meta=self.meta, simulated=self.simulated)
+
+
+class _Rows:
+    """One field of a recording's stream, read from the file by slice (``column[i:j]``, float64)."""
+
+    def __init__(self, rec: RecordingChunks, stream: str, name: str):
+        self.rec, self.stream, self.name = rec, stream, name
+
+    def __getitem__(self, sl: slice) -> np.ndarray:
+        return np.asarray(self.rec.rows(self.stream, sl.start or 0, sl.stop)[self.name], np.float64)
+
 
 def export_data(path, calibration=None, assembly=None, *, calibration_source: str | None = None,
                 contacts: bool = True, progress=None, recover: bool = False) -> ExportData:
-    """Run recording ``path`` through the pipeline (:func:`pito_core.pipeline.replay_recording`).
+    """Run recording ``path`` through the pipeline (:func:`pito_core.pipeline.replay_recording`), all in memory.
 
     Parameters
     ----------
@@ -96,71 +218,39 @@ def export_data(path, calibration=None, assembly=None, *, calibration_source: st
     contacts : bool
         Solve contacts (needs a calibration).
     progress : callable(fraction in [0, 1], text), optional
+
+    :class:`ExportStream` gives the same in blocks, in bounded memory (long recordings).
     """
-    def report(f, text):
-        if progress is not None:
-            progress(float(f), text)
+    stream = ExportStream(path, calibration, assembly, calibration_source=calibration_source, contacts=contacts,
+                          progress=progress, recover=recover)
+    parts = list(stream.blocks())
 
-    rec = read_recording(path, recover=recover) if recover else read_recording(path)
-    meta = dict(rec.meta)
-    cal, note = recording_calibration(meta, calibration, calibration_source)
-    if assembly is None:
-        assembly = (meta.get("assembly") or {}).get("name") or "cube"
-    report(0.05, "pipeline")
-    reader = RecordingReader(rec, speed=float("inf"), loop=False)
-    pipe = Pipeline(cal, assembly, has_reference=reader.has_reference)
-    bundle = concatenate_bundles(list(replay_blocks(reader, pipe)))
-    n_rec = reader.cube["time"].size
-    if len(bundle) != n_rec or not np.array_equal(bundle.tick, reader.cube["tick"]):
-        raise RuntimeError(f"{path}: the pipeline gave {len(bundle)} cube samples of the recording's {n_rec}")
-    time, ref_time = device_time_base(reader.cube, reader.reference if reader.has_reference else None)
-    W = None if cal is None else np.asarray(bundle.face_wrenches, float)
-    cont = None
-    if W is not None and contacts and time.size:
-        parts = []
-        for s in range(0, len(W), BLOCK):
-            parts.append(pipe.contacts(W[s:s + BLOCK]))
-            report(0.1 + 0.6 * min(1.0, (s + BLOCK) / len(W)), "contacts")
-        cont = ContactEstimate.concatenate(parts)
-    reference = getattr(bundle, "reference", None)
-    if reference is not None and (not pipe.has_reference or np.size(reference) == 0):
-        reference = None
-    report(0.7, "pipeline done")
-    ref = reader.reference
-    return ExportData(
-        time=time,
-        host_time=np.asarray(reader.cube["host_time"], float),
-        reference_time=ref_time,
-        reference_wrench=_tared_reference(reader) if ref_time.size else np.zeros((0, 6)),
-        reference_host_time=np.asarray(ref["host_time"], float) if ref_time.size else np.zeros(0),
-        start_unix=float(meta.get("created_unix", 0.0)),
-        tick=np.asarray(bundle.tick),
-        counts=np.asarray(bundle.counts),
-        reference=None if reference is None else np.asarray(reference, float),
-        face_wrenches=W,
-        contacts=cont,
-        calibration=None if cal is None else (meta["calibration"] if calibration is None and meta.get("calibration")
-                                              else calibration_record(cal, calibration_source)),
-        assembly=assembly_record(pipe.assembly if pipe.assembly is not None else assembly),
-        note=note,
-        meta=meta,
-        simulated=bool(meta.get("simulated", False)),
-    )
+    def cat(name):
+        vals = [getattr(b, name) for b in parts]
+        return None if any(v is None for v in vals) else np.concatenate(vals)
+
+    out = parts[0]
+    for name in ("time", "host_time", "reference_time", "reference_wrench", "reference_host_time", "tick", "counts",
+                 "reference", "face_wrenches"):
+        setattr(out, name, cat(name))
+    if stream.contacts:
+        out.contacts = ContactEstimate.concatenate([b.contacts for b in parts if b.contacts is not None])
+    return out
 
 
-def _tared_reference(reader) -> np.ndarray:
-    """Every reference record of ``reader``'s recording ``(m, 6)``, less the bias of the tare in force at its time.
+def _tared_reference(reader, j0: int, j1: int) -> np.ndarray:
+    """Reference records ``j0:j1`` of ``reader``'s recording ``(j1 - j0, 6)``, less the bias of the tare in force at their time.
 
     The tare in force is the one of the last tare event (``from_tick``) at or before the cube
     sample the record pairs with (the last cube sample not later, by the pairing rule), as the
     pipeline applies it to the paired reference.
     """
     cube, ref = reader.cube, reader.reference
-    wrench = np.asarray(ref["wrench"], float)
+    wrench = ref["wrench"][j0:j1] if j1 > j0 else np.zeros((0, 6))
     events = sorted(reader.events, key=lambda e: int(e["from_tick"]))
-    if not events:
-        return wrench.copy()
-    k = np.clip(np.searchsorted(cube["time"], ref["time"], side="right") - 1, 0, cube["time"].size - 1)
+    if not events or j1 <= j0:
+        return wrench
+    k = np.clip(np.searchsorted(cube["time"], ref["time"][j0:j1], side="right") - 1, 0, cube["time"].size - 1)
     ticks = np.array([int(e["from_tick"]) for e in events])
     which = np.searchsorted(ticks, cube["tick"][k], side="right") - 1  # -1: before the first tare
     bias = np.vstack([np.zeros(6)] + [np.asarray(e["reference_bias"], float) for e in events])
