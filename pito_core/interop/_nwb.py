@@ -41,7 +41,7 @@ from ..frames import WRENCH_COMPONENTS
 from ._conventions import CORE_FRAME, FACE_FRAME
 from ._provenance import BULKY_RECORD_KEYS
 
-__all__ = ["write_nwb", "missing_metadata", "KEYWORDS", "BEHAVIOR_MODULE", "MISC_MODULE"]
+__all__ = ["write_nwb", "NwbWriter", "missing_metadata", "KEYWORDS", "BEHAVIOR_MODULE", "MISC_MODULE"]
 
 #: processing modules (NWB schema names): face wrenches and contacts; the calibration
 BEHAVIOR_MODULE, MISC_MODULE = "behavior", "misc"
@@ -57,30 +57,184 @@ def write_nwb(data, path, *, subject_id: str | None = None, species: str | None 
               experimenter: list[str] | None = None, session_description: str | None = None,
               institution: str | None = None, lab: str | None = None, identifier: str | None = None,
               progress=None) -> None:
-    """Write :class:`~pito_core.interop.ExportData` ``data`` to the NWB file ``path``.
+    """Write :class:`~pito_core.interop.ExportData` (or an :class:`~pito_core.interop.ExportStream`) ``data`` to the NWB file ``path``.
 
     With ``subject_id``, ``species``, ``sex``, ``age``, ``experimenter`` and ``institution``
     given, nwbinspector finds nothing to report (tests/interop/test_nwb.py); see
-    :func:`missing_metadata` for what is left out otherwise.
+    :func:`missing_metadata` for what is left out otherwise. A stream is written block by
+    block (:class:`NwbWriter`).
     """
-    from pynwb import NWBHDF5IO  # deferred: optional dependency (extra "interop"), over 1 s to load
+    w = NwbWriter(data, path, subject_id=subject_id, species=species, sex=sex, age=age, experimenter=experimenter,
+                  session_description=session_description, institution=institution, lab=lab, identifier=identifier)
+    for block in data.blocks():
+        w.append(block)
+    if progress is not None:
+        progress(0.85, "nwb: writing")
+    w.close()
+    if progress is not None:
+        progress(1.0, "nwb: done")
 
-    def report(f, text):
-        if progress is not None:
-            progress(float(f), text)
 
-    nwb = _nwb_file(data, experimenter=experimenter, session_description=session_description,
-                    institution=institution, lab=lab, identifier=identifier)
-    _add_subject(nwb, subject_id=subject_id, species=species, sex=sex, age=age)
-    counts = _add_acquisition(nwb, data)
-    report(0.75, "nwb: wrenches")
-    _add_behavior(nwb, data, _timing(data.time, counts))
-    if data.calibration is not None:
-        _add_calibration(nwb, data.calibration)
-    report(0.85, "nwb: writing")
-    with NWBHDF5IO(str(path), "w") as io:
-        io.write(nwb)
-    report(1.0, "nwb: done")
+class NwbWriter:
+    """An NWB file written block by block: its layout first (datasets of the full length), then the rows.
+
+    Parameters
+    ----------
+    head : ExportData or ExportStream
+        Whose ``time`` and ``reference_time`` are the whole recording's (the datasets' lengths
+        and timing), and its metadata (calibration, assembly, note).
+    path : str or Path
+    **metadata
+        As :func:`write_nwb`.
+
+    :meth:`append` takes the :class:`~pito_core.interop.ExportData` blocks in order;
+    :meth:`close` checks that every row was written.
+    """
+
+    def __init__(self, head, path, **metadata):
+        self.head, self.path, self.metadata = head, str(path), metadata
+        self._file = None
+        self._series: list = []
+        self._at = {"cube": 0, "reference": 0}
+
+    def append(self, block) -> None:
+        if self._file is None:
+            self._start(block)
+        n, m = self._at["cube"], self._at["reference"]
+        k, r = int(np.size(block.time)), int(np.size(block.reference_time))
+        for s in self._series:
+            lo, count = (n, k) if s.rows == "cube" else (m, r)
+            if count:
+                s.dataset[lo:lo + count] = s.values(block)
+        self._at["cube"], self._at["reference"] = n + k, m + r
+
+    def close(self) -> None:
+        if self._file is None:
+            raise ValueError(f"{self.path}: no block was written")
+        self._file.close()
+        want = {"cube": int(np.size(self.head.time)), "reference": int(np.size(self.head.reference_time))}
+        if self._at != want:
+            raise RuntimeError(f"{self.path}: wrote {self._at} rows, the recording has {want}")
+
+    def _start(self, first) -> None:
+        """Write the file's layout (every series at its full length, empty), then open its datasets."""
+        import h5py
+        from pynwb import NWBHDF5IO  # deferred: optional dependency (extra "interop"), over 1 s to load
+
+        head, md = self.head, self.metadata
+        nwb = _nwb_file(head, experimenter=md.get("experimenter"), session_description=md.get("session_description"),
+                        institution=md.get("institution"), lab=md.get("lab"), identifier=md.get("identifier"))
+        _add_subject(nwb, subject_id=md.get("subject_id"), species=md.get("species"), sex=md.get("sex"),
+                     age=md.get("age"))
+        self._series = _series(head, first)
+        _add_series(nwb, head, self._series, first)
+        if head.calibration is not None:
+            _add_calibration(nwb, head.calibration)
+        with NWBHDF5IO(self.path, "w") as io:
+            io.write(nwb)
+        self._file = h5py.File(self.path, "r+")
+        for s in self._series:
+            s.dataset = self._file[s.h5path]
+
+
+class _Series:
+    """One series of the file: where it goes, what it holds, and how to take its rows from a block."""
+
+    def __init__(self, where, name, unit, description, rows, values, dtype, width, kind="ts"):
+        self.where, self.name, self.unit, self.description = where, name, unit, description
+        self.rows, self.values, self.dtype, self.width, self.kind = rows, values, dtype, width, kind
+        self.dataset = None
+
+    @property
+    def h5path(self) -> str:
+        if self.kind == "point":
+            return f"processing/{BEHAVIOR_MODULE}/{self.name}/point/data"
+        return f"acquisition/{self.name}/data" if self.where == "acquisition" else \
+            f"processing/{BEHAVIOR_MODULE}/{self.name}/data"
+
+
+def _series(head, first) -> list:
+    """Every series of an export whose first block is ``first`` (which of them exist: wrenches, contacts, the test)."""
+    ref_desc = ("reference sensor (ATI Net F/T) {} [x, y, z] in the reference frame S_A, every record at its own time "
+                "(the cube's clock), tared")
+    out = [_Series("acquisition", "pito_raw_counts", "counts", "PITO cube raw gauge counts, 36 channels (6 per face, "
+                   "face-major)", "cube", lambda b: b.counts, np.int32, 36)]
+    if first.host_time is not None:
+        out.append(_Series("acquisition", "pito_host_time", "s", "host clock (time.monotonic) when each cube sample "
+                           "reached the computer; samples arrive in batches", "cube", lambda b: b.host_time, float, None))
+    if np.size(head.reference_time):
+        out += [_Series("acquisition", "reference_force", "N", ref_desc.format("force"), "reference",
+                        lambda b: b.reference_wrench[:, :3], float, 3),
+                _Series("acquisition", "reference_torque", "N*m", ref_desc.format("torque"), "reference",
+                        lambda b: b.reference_wrench[:, 3:], float, 3)]
+    if first.face_wrenches is not None:
+        for i in range(1, 7):
+            out += [_Series("behavior", f"face_{i}_force", "N", f"force on face {i}, [fx, fy, fz] in "
+                            f"{FACE_FRAME.format(i=i)}", "cube", lambda b, k=i - 1: b.face_wrenches[:, k, :3], float, 3),
+                    _Series("behavior", f"face_{i}_torque", "N*m", f"torque on face {i} about its frame origin, "
+                            f"[tx, ty, tz] in {FACE_FRAME.format(i=i)}", "cube",
+                            lambda b, k=i - 1: b.face_wrenches[:, k, 3:], float, 3)]
+    c = first.contacts
+    if c is not None:
+        names = ", ".join(f"{r.value} {r.name.lower()}" for r in SingleContactReason)
+        for i in range(1, 7):
+            k = i - 1
+            out += [
+                _Series("behavior", f"contact_face_{i}", "meters", f"contact point on face {i}'s patch, m, core frame",
+                        "cube", lambda b, k=k: b.contacts.point[:, k], float, 3, kind="point"),
+                _Series("behavior", f"contact_face_{i}_normal", "1", "outward unit normal at the contact point, core "
+                        "frame", "cube", lambda b, k=k: b.contacts.normal[:, k], float, 3),
+                _Series("behavior", f"contact_face_{i}_force", "N", "finger force [x, y, z] at the contact point, core "
+                        "frame", "cube", lambda b, k=k: b.contacts.force[:, k], float, 3),
+                _Series("behavior", f"contact_face_{i}_torsion", "N*m", "torsion about the normal", "cube",
+                        lambda b, k=k: b.contacts.torsion[:, k], float, None),
+                _Series("behavior", f"contact_face_{i}_valid", "1", "1 where the face carries a contact, else 0", "cube",
+                        lambda b, k=k: b.contacts.valid[:, k].astype(np.uint8), np.uint8, None)]
+            if getattr(c, "single_contact", None) is not None:
+                out += [
+                    _Series("behavior", f"contact_face_{i}_single_contact", "1", "1 where one fingertip on the patch "
+                            "can produce the face's wrench within its noise, 0 where not (a valid contact with 0 is "
+                            "flagged) or no force", "cube", lambda b, k=k: b.contacts.single_contact[:, k].astype(np.uint8), np.uint8, None),
+                    _Series("behavior", f"contact_face_{i}_single_contact_p", "1", "p-value of the single-contact test "
+                            "(0..1; NaN: no force)", "cube", lambda b, k=k: b.contacts.single_contact_p[:, k], float, None),
+                    _Series("behavior", f"contact_face_{i}_single_contact_reason", "1", f"why the test fails: {names}",
+                            "cube", lambda b, k=k: b.contacts.single_contact_reason[:, k],
+                            c.single_contact_reason.dtype, None)]
+    return out
+
+
+def _add_series(nwb, head, series: list, first) -> None:
+    """Every series in ``nwb``, its data an empty dataset of the full length (filled by :class:`NwbWriter`)."""
+    from hdmf.backends.hdf5 import H5DataIO  # deferred: optional dependency (extra "interop", with pynwb)
+    from pynwb import TimeSeries
+    from pynwb.behavior import Position, SpatialSeries
+
+    n, m = int(np.size(head.time)), int(np.size(head.reference_time))
+    timing = {"cube": _timing(head.time), "reference": _timing(head.reference_time)}
+    mod = None
+    if any(s.where == "behavior" for s in series):
+        what = ["face wrenches"] * (first.face_wrenches is not None) + [
+            f"one point contact per face on the patch assembly {(head.assembly or {}).get('name')} (NaN where no "
+            "contact)"] * (first.contacts is not None)
+        mod = nwb.create_processing_module(BEHAVIOR_MODULE, f"PITO {' and '.join(what)}, computed from the "
+                                           f"counts: {head.note}")
+    for s in series:
+        rows = n if s.rows == "cube" else m
+        data = H5DataIO(shape=(rows,) if s.width is None else (rows, s.width), dtype=np.dtype(s.dtype))
+        if s.kind == "point":
+            pos = Position(name=s.name)
+            pos.add_spatial_series(SpatialSeries(name="point", data=data, **timing[s.rows], unit=s.unit,
+                                                 reference_frame=CORE_FRAME, description=s.description))
+            mod.add(pos)
+            continue
+        extra = {"comments": "channel 6(i-1)+g = face i gauge g (1..6)"} if s.name == "pito_raw_counts" else {}
+        ts = TimeSeries(name=s.name, data=data, unit=s.unit, **timing[s.rows], description=s.description, **extra)
+        if "timestamps" in timing[s.rows] and not isinstance(timing[s.rows]["timestamps"], TimeSeries):
+            timing[s.rows] = {"timestamps": ts}  # the next series of these rows share its timestamps
+        if s.where == "acquisition":
+            nwb.add_acquisition(ts)
+        else:
+            mod.add(ts)
 
 
 def _nwb_file(data, *, experimenter, session_description, institution, lab, identifier):
@@ -123,86 +277,14 @@ def _add_subject(nwb, *, subject_id, species, sex, age) -> None:
                               else "participant handling the PITO object")
 
 
-def _timing(t, link=None) -> dict:
+def _timing(t) -> dict:
     """TimeSeries timing of sample times ``t`` (s): ``starting_time`` and ``rate`` (Hz) when they are evenly
-    spaced (to 1 ns: no dropped sample), else ``timestamps`` (``link``: a series whose timestamps to share)."""
+    spaced (to 1 ns: no dropped sample), else ``timestamps``."""
     t = np.asarray(t, float)
     d = np.diff(t)
     if d.size and float(d.max() - d.min()) <= 1e-9:
         return {"starting_time": float(t[0]), "rate": float(np.round(1.0 / d.mean(), 6))}
-    return {"timestamps": t if link is None else link}
-
-
-def _add_acquisition(nwb, data):
-    """The raw counts (and the reference's force and torque) as acquisition; returns the counts series."""
-    from pynwb import TimeSeries  # deferred: optional dependency (extra "interop"), over 1 s to load
-
-    t = np.asarray(data.time, float)
-    counts = TimeSeries(name="pito_raw_counts", data=np.asarray(data.counts, np.int32), unit="counts",
-                        **_timing(t), description="PITO cube raw gauge counts, 36 channels (6 per face, face-major)",
-                        comments="channel 6(i-1)+g = face i gauge g (1..6)")
-    nwb.add_acquisition(counts)
-    if data.host_time is not None:
-        nwb.add_acquisition(TimeSeries(name="pito_host_time", data=np.asarray(data.host_time, float), unit="s",
-                                       **_timing(t, counts), description="host clock (time.monotonic) when each cube "
-                                       "sample reached the computer; samples arrive in batches"))
-    if np.size(data.reference_time):
-        rt = np.asarray(data.reference_time, float)
-        first = None
-        for name, cols, unit in (("reference_force", slice(0, 3), "N"), ("reference_torque", slice(3, 6), "N*m")):
-            ts = TimeSeries(name=name, data=np.asarray(data.reference_wrench[:, cols]), unit=unit,
-                            **_timing(rt, first),
-                            description=f"reference sensor (ATI Net F/T) {name.split('_')[1]} [x, y, z] in the "
-                                        "reference frame S_A, every record at its own time (the cube's clock), tared")
-            nwb.add_acquisition(ts)
-            first = first or ts
-    return counts
-
-
-def _add_behavior(nwb, data, timing: dict) -> None:
-    """The ``behavior`` module: face wrenches and contacts, with the cube's ``timing`` (:func:`_timing`)."""
-    from pynwb import TimeSeries  # deferred: optional dependency (extra "interop"), over 1 s to load
-
-    if data.face_wrenches is None and data.contacts is None:
-        return
-    what = ["face wrenches"] * (data.face_wrenches is not None) + [
-        f"one point contact per face on the patch assembly {(data.assembly or {}).get('name')} (NaN where no "
-        "contact)"] * (data.contacts is not None)
-    mod = nwb.create_processing_module(BEHAVIOR_MODULE, f"PITO {' and '.join(what)}, computed from the "
-                                       f"counts: {data.note}")
-    if data.face_wrenches is not None:
-        for i in range(1, 7):
-            w = data.face_wrenches[:, i - 1]
-            mod.add(TimeSeries(name=f"face_{i}_force", data=w[:, :3], unit="N", **timing,
-                               description=f"force on face {i}, [fx, fy, fz] in {FACE_FRAME.format(i=i)}"))
-            mod.add(TimeSeries(name=f"face_{i}_torque", data=w[:, 3:], unit="N*m", **timing,
-                               description=f"torque on face {i} about its frame origin, [tx, ty, tz] in {FACE_FRAME.format(i=i)}"))
-    if data.contacts is not None:
-        for i in range(1, 7):
-            _add_contact(mod, data.contacts, i, timing)
-
-
-def _add_contact(mod, c, i, timing) -> None:
-    """Face ``i``'s contact (``ContactEstimate``): point, normal, force, torsion, valid, single-contact test."""
-    from pynwb import TimeSeries  # deferred: optional dependency (extra "interop"), over 1 s to load
-    from pynwb.behavior import Position, SpatialSeries
-
-    k = i - 1
-    pos = Position(name=f"contact_face_{i}")
-    pos.add_spatial_series(SpatialSeries(name="point", data=c.point[:, k], **timing, unit="meters",
-                                         reference_frame=CORE_FRAME,
-                                         description=f"contact point on face {i}'s patch, m, core frame"))
-    mod.add(pos)
-    mod.add(TimeSeries(name=f"contact_face_{i}_normal", data=c.normal[:, k], unit="1", **timing,
-                       description="outward unit normal at the contact point, core frame"))
-    mod.add(TimeSeries(name=f"contact_face_{i}_force", data=c.force[:, k], unit="N", **timing,
-                       description="finger force [x, y, z] at the contact point, core frame"))
-    mod.add(TimeSeries(name=f"contact_face_{i}_torsion", data=c.torsion[:, k], unit="N*m", **timing,
-                       description="torsion about the normal"))
-    mod.add(TimeSeries(name=f"contact_face_{i}_valid", data=c.valid[:, k].astype(np.uint8), unit="1",
-                       **timing, description="1 where the face carries a contact, else 0"))
-    if getattr(c, "single_contact", None) is not None:
-        _add_single_contact(mod, c, i, timing)
+    return {"timestamps": t}
 
 
 def _add_calibration(nwb, cal: dict) -> None:
@@ -247,19 +329,3 @@ def missing_metadata(*, subject_id=None, species=None, sex=None, age=None, exper
     given = {"--subject-id": subject_id, "--species": species, "--sex": sex, "--age": age,
              "--experimenter": experimenter, "--institution": institution}
     return [name for name, value in given.items() if not value]
-
-
-def _add_single_contact(mod, c, i, timing) -> None:
-    """The single-contact test of face ``i`` (``ContactEstimate.single_contact*``) as three series."""
-    from pynwb import TimeSeries  # deferred: optional dependency (extra "interop"), over 1 s to load
-
-    k = i - 1
-    names = ", ".join(f"{r.value} {r.name.lower()}" for r in SingleContactReason)
-    mod.add(TimeSeries(name=f"contact_face_{i}_single_contact", data=c.single_contact[:, k].astype(np.uint8),
-                       unit="1", **timing,
-                       description="1 where one fingertip on the patch can produce the face's wrench within its "
-                                   "noise, 0 where not (a valid contact with 0 is flagged) or no force"))
-    mod.add(TimeSeries(name=f"contact_face_{i}_single_contact_p", data=c.single_contact_p[:, k], unit="1",
-                       **timing, description="p-value of the single-contact test (0..1; NaN: no force)"))
-    mod.add(TimeSeries(name=f"contact_face_{i}_single_contact_reason", data=c.single_contact_reason[:, k],
-                       unit="1", **timing, description=f"why the test fails: {names}"))
