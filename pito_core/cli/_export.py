@@ -4,11 +4,10 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 
 from .. import analysis
 from ..calibration import load_calibration
-from ..interop import export_data, missing_metadata, write_mcap, write_nwb
+from ..interop import export_files, missing_metadata
 from ..io import export_recording_files, read_recording
 from ..pipeline import recording_times
 from ._analyze import add_study_options, run_many
@@ -75,8 +74,8 @@ def _require_writers(nwb: bool, mcap: bool) -> None:
     """Import the writers' optional dependencies now, before the pipeline runs (a missing one: ImportError)."""
     import importlib
 
-    for wanted, module in ((nwb, "pynwb"), (mcap, "mcap_ros2.writer")):
-        if wanted:
+    for wanted, modules in ((nwb, ("pynwb", "h5py")), (mcap, ("mcap_ros2.writer", "zstandard"))):
+        for module in modules if wanted else ():
             importlib.import_module(module)
 
 
@@ -111,32 +110,31 @@ def run(args) -> int:
     cal = None
     if args.calibration:
         cal = load_calibration(args.calibration)
-    t0 = time.perf_counter()
-    data = export_data(args.file, cal, args.object, calibration_source=args.calibration,
-                       contacts=not args.no_contacts, recover=args.recover)
-    t_pipe = time.perf_counter() - t0
-    label = " (simulated)" if data.simulated else ""
-    print(f"{args.file}: {data.n} cube samples{label}; {data.note}")
-    if data.face_wrenches is None:
-        print("  exporting counts and reference only (give --calibration FILE for wrenches and contacts)")
-    print(f"  pipeline{' + contacts' if data.contacts is not None else ''}: {t_pipe:.1f} s")
     if args.nwb:
         _warn_missing_metadata(missing_metadata(
             subject_id=args.subject_id, species=args.species, sex=args.sex, age=args.age,
             experimenter=args.experimenter, institution=args.institution))
-        t = time.perf_counter()
-        write_nwb(data, args.nwb, subject_id=args.subject_id, species=args.species, sex=args.sex, age=args.age,
-                  experimenter=args.experimenter,
-                  session_description=args.session_description, institution=args.institution, lab=args.lab)
-        dt = time.perf_counter() - t
-        print(f"wrote {args.nwb}: {dt:.1f} s ({data.n / max(dt, 1e-9):.0f} samples/s, "
-              f"{data.n / max(dt + t_pipe, 1e-9):.0f} samples/s with the pipeline)")
+    nwb_metadata = dict(subject_id=args.subject_id, species=args.species, sex=args.sex, age=args.age,
+                        experimenter=args.experimenter, session_description=args.session_description,
+                        institution=args.institution, lab=args.lab)
+    out = export_files(args.file, nwb=args.nwb, mcap=args.mcap, calibration=cal, assembly=args.object,
+                       calibration_source=args.calibration, contacts=not args.no_contacts, recover=args.recover,
+                       nwb_metadata=nwb_metadata)
+    n, sec = out["n"], out["seconds"]
+    label = " (simulated)" if out["simulated"] else ""
+    print(f"{args.file}: {n} cube samples, {out['m']} reference samples{label}; {out['note']}")
+    if not out["wrenches"]:
+        print("  exporting counts and reference only (give --calibration FILE for wrenches and contacts)")
+    print(f"  pipeline{' + contacts' if out['contacts'] else ''}: {sec['pipeline']:.1f} s "
+          f"({n / max(sec['pipeline'], 1e-9):.0f} samples/s)")
+    total = sum(sec.values())
+    if args.nwb:
+        print(f"wrote {args.nwb}: {sec['nwb']:.1f} s ({n / max(sec['nwb'], 1e-9):.0f} samples/s)")
     if args.mcap:
-        t = time.perf_counter()
-        topics = write_mcap(data, args.mcap)
-        dt = time.perf_counter() - t
-        print(f"wrote {args.mcap}: {sum(topics.values())} messages on {len(topics)} topics, {dt:.1f} s "
-              f"({data.n / max(dt, 1e-9):.0f} samples/s, {data.n / max(dt + t_pipe, 1e-9):.0f} with the pipeline)")
+        topics = out["topics"]
+        print(f"wrote {args.mcap}: {sum(topics.values())} messages on {len(topics)} topics, {sec['mcap']:.1f} s "
+              f"({n / max(sec['mcap'], 1e-9):.0f} samples/s)")
+    print(f"  export: {total:.1f} s in all, {n / max(total, 1e-9):.0f} samples/s with the pipeline")
     sys.stdout.flush()
     return 0
 

@@ -20,7 +20,7 @@ from ._conventions import (
     WRENCH_STREAM,
     WRENCH_TYPE,
 )
-from ._data import ExportData, export_data
+from ._data import ExportData, ExportStream, export_data, export_files
 from ._lsl import (
     LslPublisher,
     contact_samples,
@@ -29,8 +29,8 @@ from ._lsl import (
     machine_only_config,
     wrench_samples,
 )
-from ._mcap import write_mcap
-from ._nwb import BEHAVIOR_MODULE, MISC_MODULE, missing_metadata, write_nwb
+from ._mcap import McapWriter, write_mcap
+from ._nwb import BEHAVIOR_MODULE, MISC_MODULE, NwbWriter, missing_metadata, write_nwb
 from ._nwb_trials import GRASP_PHASES_TABLE, append_grasp_phases
 from ._provenance import (
     BULKY_RECORD_KEYS,
@@ -58,6 +58,10 @@ __all__ = [
     "WRENCH_STREAM",
     "WRENCH_TYPE",
     "ExportData",
+    "ExportStream",
+    "export_files",
+    "McapWriter",
+    "NwbWriter",
     "GRASP_PHASES_TABLE",
     "append_grasp_phases",
     "LslPublisher",

@@ -5,14 +5,18 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from types import SimpleNamespace
 
+import time as _time
+
 import numpy as np
 
 from ..contact import ContactEstimate
 from ..io import RecordingChunks
 from ..pipeline import Pipeline, concatenate_bundles, device_time_base, recording_samples, replay_blocks
+from ._mcap import McapWriter
+from ._nwb import NwbWriter
 from ._provenance import assembly_record, calibration_record, recording_calibration
 
-__all__ = ["ExportData", "ExportStream", "export_data"]
+__all__ = ["ExportData", "ExportStream", "export_data", "export_files"]
 
 #: Cube samples per export block (contacts solved, files written, progress reported).
 BLOCK = 20000
@@ -236,6 +240,70 @@ def export_data(path, calibration=None, assembly=None, *, calibration_source: st
     if stream.contacts:
         out.contacts = ContactEstimate.concatenate([b.contacts for b in parts if b.contacts is not None])
     return out
+
+
+def export_files(path, *, nwb=None, mcap=None, calibration=None, assembly=None, calibration_source: str | None = None,
+                 contacts: bool = True, recover: bool = False, raw_counts: bool = True, nwb_metadata: dict | None = None,
+                 block: int = BLOCK, progress=None) -> dict:
+    """Export recording ``path`` to NWB and/or MCAP in one streamed pass (bounded memory, any length).
+
+    Parameters
+    ----------
+    path : str or Path
+        A pito recording.
+    nwb, mcap : str or Path, optional
+        The files to write (at least one).
+    calibration, assembly, calibration_source, contacts, recover
+        As :func:`export_data`.
+    raw_counts : bool
+        MCAP ``/pito/raw_counts``.
+    nwb_metadata : dict, optional
+        Keyword arguments of :func:`~pito_core.interop.write_nwb` (``subject_id``, ``experimenter`` ...).
+    block : int
+        Cube samples per block (memory ∝ block).
+    progress : callable(fraction in [0, 1], text), optional
+
+    Returns
+    -------
+    dict
+        ``n`` cube samples, ``m`` reference records, ``note``, ``simulated``, ``wrenches`` and
+        ``contacts`` (bool), ``topics`` ``{topic: MCAP messages}``, ``seconds`` spent in
+        ``pipeline`` (reading, pairing, calibration, contacts), ``nwb`` and ``mcap`` (writing).
+    """
+    if nwb is None and mcap is None:
+        raise ValueError("export_files: give nwb= and/or mcap=")
+    t = _time.perf_counter()
+    stream = ExportStream(path, calibration, assembly, calibration_source=calibration_source, contacts=contacts,
+                          progress=progress, recover=recover, block=block)
+    seconds = {"pipeline": _time.perf_counter() - t, "nwb": 0.0, "mcap": 0.0}
+    writers = {}
+    if nwb is not None:
+        writers["nwb"] = NwbWriter(stream, nwb, **(nwb_metadata or {}))
+    if mcap is not None:
+        writers["mcap"] = McapWriter(stream, mcap, raw_counts=raw_counts)
+    blocks = stream.blocks()
+    while True:
+        t = _time.perf_counter()
+        b = next(blocks, None)
+        seconds["pipeline"] += _time.perf_counter() - t
+        if b is None:
+            break
+        for name, w in writers.items():
+            t = _time.perf_counter()
+            w.append(b)
+            seconds[name] += _time.perf_counter() - t
+    topics = {}
+    for name, w in writers.items():
+        t = _time.perf_counter()
+        out = w.close()
+        seconds[name] += _time.perf_counter() - t
+        if name == "mcap":
+            topics = out
+    if progress is not None:
+        progress(1.0, "export: done")
+    return {"n": stream.n, "m": int(stream.reference_time.size), "note": stream.note, "simulated": stream.simulated,
+            "wrenches": stream.wrenches, "contacts": stream.contacts, "topics": topics,
+            "seconds": {k: v for k, v in seconds.items() if k == "pipeline" or k in writers}}
 
 
 def _tared_reference(reader, j0: int, j1: int) -> np.ndarray:
