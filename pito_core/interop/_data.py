@@ -134,6 +134,7 @@ class ExportStream:
         self._reader = SimpleNamespace(cube=cube, reference=ref, has_reference=has_ref, events=[
             e for e in rec.events if e.get("type") == "tare" and e.get("from_tick") is not None])
         self.time, self.reference_time = device_time_base(cube, ref if has_ref else None)
+        del cube["device_time"], ref["device_time"]  # in the times above; 16 B a sample less to hold
         self.start_unix = float(meta.get("created_unix", 0.0))
         self.simulated = bool(meta.get("simulated", False))
         self.wrenches = self._cal is not None

@@ -170,7 +170,7 @@ class McapWriter:
     writes the summary and returns ``{topic: message count}``.
     """
 
-    def __init__(self, head, path, *, raw_counts: bool = True, compression_level: int = 1):
+    def __init__(self, head, path, *, raw_counts: bool = True, compression_level: int = -1):
         import zstandard  # deferred: optional dependency (extra "interop", with mcap)
         from mcap.records import Header
 
@@ -278,30 +278,26 @@ class McapWriter:
         """One chunk (zstd) of the messages ``[(topic, stamps (n,) ns, encoded (n, size) uint8)]`` and its indexes."""
         from mcap.records import Chunk, ChunkIndex
 
-        records, index, at = [], [], 0
-        lo, hi = None, None
-        for topic, st, enc in parts:
-            n = len(enc)
-            if not n:
-                continue
+        parts = [(topic, st, enc) for topic, st, enc in parts if len(enc)]
+        if not parts:
+            return
+        data = np.empty(sum(len(enc) * (31 + enc.shape[1]) for _, _, enc in parts), np.uint8)
+        index, at = [], 0
+        for topic, st, enc in parts:  # message records: 31-byte head, then the CDR message
+            n, size = len(enc), 31 + enc.shape[1]
             cid, seq0 = self._channels[topic], self.counts[topic]
-            size = 31 + enc.shape[1]
-            rec = np.empty((n, size), np.uint8)
+            rec = data[at:at + n * size].reshape(n, size)
             head = np.empty(n, _MSG_HEAD)
             head["op"], head["length"], head["channel"] = 0x05, size - 9, cid
             head["sequence"] = np.arange(seq0, seq0 + n)
             head["log_time"] = head["publish_time"] = st
             rec[:, :31] = head.view(np.uint8).reshape(n, 31)
             rec[:, 31:] = enc
-            records.append(rec.reshape(-1))
             index.append((cid, st, at + size * np.arange(n, dtype=np.uint64)))
-            at += rec.size
+            at += n * size
             self.counts[topic] = seq0 + n
-            lo = int(st.min()) if lo is None else min(lo, int(st.min()))
-            hi = int(st.max()) if hi is None else max(hi, int(st.max()))
-        if not records:
-            return
-        data = np.concatenate(records).tobytes()
+        lo = min(int(st.min()) for _, st, _ in parts)
+        hi = max(int(st.max()) for _, st, _ in parts)
         self._times = [lo if self._times[0] is None else min(self._times[0], lo), max(self._times[1] or hi, hi)]
         chunk = Chunk(compression="zstd", data=self._zstd.compress(data), message_start_time=lo, message_end_time=hi,
                       uncompressed_crc=zlib.crc32(data), uncompressed_size=len(data))

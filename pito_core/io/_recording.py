@@ -430,7 +430,7 @@ class RecordingChunks:
         Rows of each stream.
     """
 
-    KEEP = {"pito": ("seq", "time_us", "host_time"), "netft": ("rdt_seq", "ft_seq", "status", "host_time")}
+    KEEP = {"pito": ("seq", "time_us", "host_time"), "netft": ("rdt_seq", "host_time")}
 
     def __init__(self, path, *, recover: bool = False, keep: dict | None = None):
         self.path = Path(os.fspath(path))
@@ -452,10 +452,7 @@ class RecordingChunks:
         self._where = {k: (np.array([w[0] for w in v], np.int64), np.array([w[1] for w in v], np.int64))
                        for k, v in where.items()}
         self._starts = {k: np.concatenate([[0], np.cumsum(rows)]) for k, (_, rows) in self._where.items()}
-        name = {KIND_PITO: "pito", KIND_NETFT: "netft"}
-        for kind, parts in kept.items():
-            cols = {f: (np.concatenate(p) if p else np.zeros(0, _ROWS[kind][f])) for f, p in parts.items()}
-            setattr(self, name[kind], cols)
+        self.pito, self.netft = kept[KIND_PITO], kept[KIND_NETFT]
         self.n_pito, self.n_netft = int(self._starts[KIND_PITO][-1]), int(self._starts[KIND_NETFT][-1])
         if self.summary is not None and self.complete:
             if (self.summary.get("pito_rows"), self.summary.get("netft_rows")) != (self.n_pito, self.n_netft):
@@ -463,46 +460,60 @@ class RecordingChunks:
 
     @staticmethod
     def _scan(fh, pos: int, size: int, keep: dict):
-        """Every chunk from byte ``pos``: ``(_Chunks, {kind: [(payload byte, rows)]}, {kind: {field: parts}})``."""
-        where = {KIND_PITO: [], KIND_NETFT: []}
-        kept = {KIND_PITO: {f: [] for f in keep.get("pito", ())}, KIND_NETFT: {f: [] for f in keep.get("netft", ())}}
-        events, summary, problem, crc_bad = [], None, None, None
-        fh.seek(pos)
-        while pos < size:
+        """Every chunk from byte ``pos``: ``(_Chunks, {kind: [(payload byte, rows)]}, {kind: {field: [array]}})``.
+
+        A first pass reads the chunk heads only (their row counts size the kept columns), the
+        second every payload (CRC) into those columns: no column is held twice.
+        """
+        heads, events, summary, problem, crc_bad = [], [], None, None, None
+        at = pos
+        while at < size:
+            fh.seek(at)
             head = fh.read(_CHUNK.size)
             if len(head) < _CHUNK.size:
-                problem = f"truncated chunk header at byte {pos}"
+                problem = f"truncated chunk header at byte {at}"
                 break
             magic, kind, _, _, rows, n, crc = _CHUNK.unpack(head)
-            body = pos + _CHUNK.size
             if magic != _CHUNK_MAGIC:
-                problem = f"bad chunk magic at byte {pos}"
+                problem = f"bad chunk magic at byte {at}"
                 break
-            if body + n > size:
-                problem = f"truncated chunk at byte {pos}"
+            if at + _CHUNK.size + n > size:
+                problem = f"truncated chunk at byte {at}"
                 break
+            if kind in _ROWS and n != rows * _ROWS[kind].itemsize:
+                problem = f"chunk size does not match its row count at byte {at}"
+                break
+            heads.append((at, head, kind, rows, n, crc))
+            at += _CHUNK.size + n
+            if kind == KIND_END:
+                break
+        total = {k: sum(h[3] for h in heads if h[2] == k) for k in _ROWS}
+        cols = {k: {f: np.empty(total[k], _ROWS[k][f]) for f in keep.get(name, ())}
+                for k, name in ((KIND_PITO, "pito"), (KIND_NETFT, "netft"))}
+        where = {KIND_PITO: [], KIND_NETFT: []}
+        filled = {KIND_PITO: 0, KIND_NETFT: 0}
+        end = pos
+        for at, head, kind, rows, n, crc in heads:
+            fh.seek(at + _CHUNK.size)
             payload = fh.read(n)
             if zlib.crc32(payload, zlib.crc32(head[:16])) != crc:
-                problem, crc_bad = f"chunk CRC mismatch at byte {pos}", (pos, kind)
+                problem, crc_bad = f"chunk CRC mismatch at byte {at}", (at, kind)
                 break
+            end = at + _CHUNK.size + n
             if kind in _ROWS:
-                if n != rows * _ROWS[kind].itemsize:
-                    problem = f"chunk size does not match its row count at byte {pos}"
-                    break
-                where[kind].append((body, rows))
+                where[kind].append((at + _CHUNK.size, rows))
                 arr = np.frombuffer(payload, dtype=_ROWS[kind])
-                for f, parts in kept[kind].items():
-                    parts.append(arr[f].copy())
+                for f, col in cols[kind].items():
+                    col[filled[kind]:filled[kind] + rows] = arr[f]
+                filled[kind] += rows
             elif kind == KIND_EVENT:
                 events.append(json.loads(payload.decode("utf-8")))
             elif kind == KIND_END:
                 summary = json.loads(payload.decode("utf-8"))
-                pos = body + n
-                if pos != size:
-                    problem = f"{size - pos} bytes after the end marker"
-                break
-            pos = body + n
-        return _Chunks({}, events, summary, problem, crc_bad, pos), where, kept
+                if end != size:
+                    problem = f"{size - end} bytes after the end marker"
+        cols = {k: {f: c[:filled[k]] for f, c in v.items()} for k, v in cols.items()}
+        return _Chunks({}, events, summary, problem, crc_bad, end), where, cols
 
     @property
     def simulated(self) -> bool:
