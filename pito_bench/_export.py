@@ -37,8 +37,8 @@ EXPORT_HELP = """\
                samples/s of the pipeline alone, of the NWB writer, the MCAP writer and
                both (CPU time of a one-thread worker, less the pipeline), end to end;
                and a 1-hour export (3.6·10⁶ cube samples + reference) in its own
-               process: wall time, peak RSS (MB), counts per topic. Not in the default
-               list: --sections export.
+               process: wall time, peak RSS (MB), counts per topic (--quick: 60 s
+               and 5 min recordings).
 """
 
 

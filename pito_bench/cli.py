@@ -9,6 +9,7 @@ import sys
 
 from pito_bench import SECTIONS, run_bench
 
+from ._export import EXPORT_HELP, export_tables, run_export
 from ._report import format_report, write_plots
 
 HELP = """\
@@ -55,6 +56,7 @@ Measure what pito exists for and print tables with units.
                time to the first grab showing it — needs the app extras (PySide6,
                pyvista) and Xvfb; otherwise reported as skipped.
 
+""" + EXPORT_HELP + """
 Every figure is measured in the same run as its baseline and given as a ratio, since
 machines are noisy; each measurement runs in a fresh subprocess limited to --threads
 BLAS threads (default 1: "one core"). A full run takes several minutes (10⁷ samples are
@@ -69,8 +71,8 @@ def register(sub) -> None:
     p.add_argument("--json", action="store_true", help="print the results as JSON instead of tables (SI units, s, MB)")
     p.add_argument("--out", metavar="DIR",
                    help="also write bench.json, bench.txt (tables) and speed-vs-error plots (PNG) into DIR")
-    p.add_argument("--sections", default=",".join(SECTIONS), metavar="LIST",
-                   help=f"comma-separated sections to run (default: all of {','.join(SECTIONS)}; also: soak = a 10-minute recording soak, 1 min with --quick)")
+    p.add_argument("--sections", default=",".join(SECTIONS + ("export",)), metavar="LIST",
+                   help=f"comma-separated sections to run (default: all of {','.join(SECTIONS)}; also: soak = a 10-minute recording soak, 1 min with --quick; export = pito export's rates and a 1-hour export)")
     p.add_argument("--sizes", metavar="K,K,...",
                    help="calibration sizes k in samples (default 1000,…,10000000; quick: up to 100000)")
     p.add_argument("--threads", type=int, default=1, help="BLAS/OpenMP threads per measurement (default 1)")
@@ -91,9 +93,12 @@ def run(args) -> int:
     if args.threads < 1:
         raise ValueError(f"--threads: expected at least 1, got {args.threads}")
     progress = (lambda s: print(s, file=sys.stderr, flush=True))
-    result = run_bench(quick=args.quick, sections=sections, sizes=sizes, threads=args.threads,
-                       workdir=args.workdir, progress=progress)
-    text = format_report(result)
+    export = "export" in sections  # its own module (pito_bench._export), beside run_bench's sections
+    result = run_bench(quick=args.quick, sections=tuple(s for s in sections if s != "export"), sizes=sizes,
+                       threads=args.threads, workdir=args.workdir, progress=progress)
+    if export:
+        result["export"] = run_export(quick=args.quick, threads=args.threads, progress=progress)
+    text = format_report(result) + ("\n" + "\n".join(export_tables(result["export"])) + "\n" if export else "")
     if args.out:
         os.makedirs(args.out, exist_ok=True)
         with open(os.path.join(args.out, "bench.json"), "w") as f:
