@@ -73,16 +73,19 @@ def tiled_recording(source, path, seconds: float, chunk_s: float = 0.5) -> dict:
 
     src = read_recording(source)
     p, a = src.pito, src.netft
-    rate = 1e6 / float(np.median(np.diff(p["time_us"].astype(np.int64))))
-    span_s = (p.size / rate) if p.size else 0.0
+    span = {  # one copy's extent on each counter: a period past its last row (as scripts/bench_hour_export.py)
+        "time_us": int((np.diff(p["time_us"].astype(np.int64)) % 2**32).sum()) + 1000,
+        "seq": int((np.diff(p["seq"].astype(np.int64)) % 2**32).sum()) + 1,
+        "rdt_seq": int((np.diff(a["rdt_seq"].astype(np.int64)) % 2**32).sum()) + 1 if a.size else 0}
+    span_s = span["time_us"] * 1e-6
     copies = int(np.ceil(seconds / span_s))
     meta = dict(src.meta)
     meta["simulated"] = True
     meta["source"] = f"{meta.get('source', '')}; tiled {copies}x in time by pito_bench._export (SIMULATED)"
     meta.pop("created_unix", None)
-    n_want = int(round(seconds * rate))
+    n_want = int(round(seconds / span_s * p.size))
     n = m = 0
-    step = max(1, int(chunk_s * rate))
+    step = max(1, int(chunk_s / span_s * p.size))
     with RecordingWriter(path, meta, flush_interval=1.0, fsync=False) as w:
         for e in src.events:
             w.append_event(e)
@@ -91,18 +94,18 @@ def tiled_recording(source, path, seconds: float, chunk_s: float = 0.5) -> dict:
             ak = a
             if pk.size < p.size:  # the last copy: reference rows up to its last cube sample's host time
                 ak = a[: int(np.searchsorted(a["host_time"], pk["host_time"][-1], side="right"))] if pk.size else a[:0]
-            dt_us = np.int64(round(span_s * 1e6)) * k
             dt_host = span_s * k
             for s in range(0, pk.size, step):
                 r = pk[s:s + step]
-                w.append_pito(r["seq"].astype(np.int64) + k * p.size, (r["time_us"].astype(np.int64) + dt_us) % 2**32,
+                w.append_pito((r["seq"].astype(np.int64) + k * span["seq"]) % 2**32,
+                              (r["time_us"].astype(np.int64) + k * span["time_us"]) % 2**32,
                               r["host_time"] + dt_host, r["counts"])
                 t_hi = r["host_time"][-1]
                 lo = int(np.searchsorted(ak["host_time"], pk["host_time"][s - 1] if s else -np.inf, side="right"))
                 hi = ak.size if s + step >= pk.size else int(np.searchsorted(ak["host_time"], t_hi, side="right"))
                 q = ak[lo:hi]
                 if q.size:
-                    w.append_netft((q["rdt_seq"].astype(np.int64) + k * a.size) % 2**32, q["ft_seq"], q["status"],
+                    w.append_netft((q["rdt_seq"].astype(np.int64) + k * span["rdt_seq"]) % 2**32, q["ft_seq"], q["status"],
                                    q["host_time"] + dt_host, q["wrench"])
                 w.flush()
             n += pk.size
