@@ -3,9 +3,10 @@
 ``pylsl``, ``pynwb`` and ``mcap``/``mcap_ros2`` (the optional extra ``pito[interop]``) are
 imported only by the functions that need them.
 
->>> from pito_core.interop import export_data, write_nwb, write_mcap   # doctest: +SKIP
->>> data = export_data("grasp.pitorec")              # the recording's own calibration
+>>> from pito_core.interop import export_data, export_files, write_nwb, write_mcap   # doctest: +SKIP
+>>> data = export_data("grasp.pitorec")              # the recording's own calibration, in memory
 >>> write_nwb(data, "grasp.nwb", subject_id="S01"); write_mcap(data, "grasp.mcap")
+>>> export_files("hour.pitorec", nwb="hour.nwb", mcap="hour.mcap")   # streamed: any length
 """
 
 from ._conventions import (

@@ -184,7 +184,7 @@ class ExportStream:
         if reference is not None and (not pipe.has_reference or np.size(reference) == 0):
             reference = None
         if self.progress is not None:
-            self.progress(0.05 + 0.9 * i1 / max(self.n, 1), "export")
+            self.progress(0.05 + 0.65 * i1 / max(self.n, 1), "pipeline")  # 0.7: as export_data always said
         ref = self._reader.reference
         return ExportData(
             time=self.time[i0:i1], host_time=np.asarray(cube["host_time"][i0:i1], float),
@@ -274,8 +274,10 @@ def export_files(path, *, nwb=None, mcap=None, calibration=None, assembly=None, 
     if nwb is None and mcap is None:
         raise ValueError("export_files: give nwb= and/or mcap=")
     t = _time.perf_counter()
+    # the files are written as the pipeline goes: its 0.05..0.7 is the whole export's 0.05..0.95
+    scaled = None if progress is None else (lambda f, text: progress(0.05 + (f - 0.05) * 0.9 / 0.65, "export"))
     stream = ExportStream(path, calibration, assembly, calibration_source=calibration_source, contacts=contacts,
-                          progress=progress, recover=recover, block=block)
+                          progress=scaled, recover=recover, block=block)
     seconds = {"pipeline": _time.perf_counter() - t, "nwb": 0.0, "mcap": 0.0}
     writers = {}
     if nwb is not None:
