@@ -10,6 +10,7 @@ import time as _time
 import numpy as np
 
 from ..contact import ContactEstimate
+from ..frames import N_GAUGES
 from ..io import RecordingChunks
 from ..pipeline import Pipeline, concatenate_bundles, device_time_base, recording_samples, replay_blocks
 from ._mcap import McapWriter
@@ -139,11 +140,11 @@ class ExportStream:
         self.simulated = bool(meta.get("simulated", False))
         self.wrenches = self._cal is not None
         self.contacts = bool(contacts) and self.wrenches
-        self._pipe = Pipeline(self._cal, assembly, has_reference=has_ref)
+        pipe = Pipeline(self._cal, assembly, has_reference=has_ref)  # the assembly as the blocks' pipeline loads it
         self.calibration = None if self._cal is None else (
             meta["calibration"] if calibration is None and meta.get("calibration")
             else calibration_record(self._cal, calibration_source))
-        self.assembly = assembly_record(self._pipe.assembly if self._pipe.assembly is not None else assembly)
+        self.assembly = assembly_record(pipe.assembly if pipe.assembly is not None else assembly)
 
     @property
     def n(self) -> int:
@@ -192,7 +193,7 @@ class ExportStream:
             reference_wrench=_tared_reference(self._reader, j0, j1),
             reference_host_time=np.asarray(ref["host_time"][j0:j1], float),
             start_unix=self.start_unix, tick=np.asarray(cube["tick"][i0:i1]),
-            counts=np.zeros((0, 36)) if bundle is None else np.asarray(bundle.counts),
+            counts=np.zeros((0, N_GAUGES)) if bundle is None else np.asarray(bundle.counts),
             reference=None if reference is None else np.asarray(reference, float),
             face_wrenches=W, contacts=cont, calibration=self.calibration, assembly=self.assembly,
             note=self.note, meta=self.meta, simulated=self.simulated)
