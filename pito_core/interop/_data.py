@@ -303,6 +303,10 @@ def export_files(path, *, nwb=None, mcap=None, calibration=None, assembly=None, 
         seconds[name] += _time.perf_counter() - t
         if name == "mcap":
             topics = out
+    want = {"/pito/raw_counts": stream.n if raw_counts else None, "/pito/reference/wrench": stream.reference_time.size}
+    lost = {t: (topics.get(t, 0), k) for t, k in want.items() if topics and k and topics.get(t, 0) != k}
+    if lost:  # counted at the hand-off: samples in = messages out
+        raise RuntimeError(f"{mcap}: messages written / samples of the recording: {lost}")
     if progress is not None:
         progress(1.0, "export: done")
     return {"n": stream.n, "m": int(stream.reference_time.size), "note": stream.note, "simulated": stream.simulated,
