@@ -2,22 +2,35 @@
 
 The same test as :func:`~pito_core.contact._plausibility.single_contact_test` with
 :func:`~pito_core.contact._plausibility.soft_finger_variance` (module docstring there), written
-out for the soft finger: every vector is held as three contiguous rows ``(3, N)`` (x, y, z)
-so that each step is a handful of one-dimensional ufunc calls instead of small-axis einsums
-and ``(N, 3, 3)`` matrix products. Per estimate:
+without tangent coordinates: every vector is three one-dimensional arrays (x, y, z), each
+step a handful of ufunc calls over the solve's own arrays, no per-sample Python, no
+``(N, 3, 3)`` products.
 
-* tangents ``t1 = n × a / |n × a|`` (``a`` = x, or y where ``|n_x| ≥ 0.9``), ``t2 = n × t1``
-  (:func:`~pito_core.contact._surfaces.tangent_basis`);
-* ``D_j = ∂n/∂θ_j = S t_j``: 0 on a plane or a facet, ``t_j / r`` on a sphere,
-  ``(A t_j − n (n · A t_j)) / |A (c − c0)|`` on an ellipsoid;
-* the Jacobian's moment columns ``a_j = t_j × f + τ D_j`` and the adjugate of ``M = [a1; a2; n]``
-  (rows ``a2 × n``, ``n × a1``, ``a1 × a2``; ``det M = a1 · (a2 × n)``);
-* for a limit with gradient ``(g_θ1, g_θ2, g_f, g_τ)``: ``u_m = (g_θ1 adj1 + g_θ2 adj2 + g_τ adj3) / det M``,
-  ``u_f = g_f + c × u_m`` and ``σ² = uᵀ Σ u``; the limits are the pushing force ``f_n = −f · n``,
-  the friction margin ``μ f_n − √(|f_t|² + (τ/e)²)`` and the boundary margin (central
-  difference along the tangents, as the general test).
+A limit ``g(c, f, τ)`` of the estimate (``c`` on the surface) has the wrench gradient
+``u = (u_f, u_m)`` with ``σ_g² = uᵀ Σ u``. Writing ``f = f_t − f_n n`` (``f_n = −f · n``),
+``S`` the shape operator (``δn = S δc``) and ``J = n ×`` (a quarter turn in the tangent
+plane), ``δm − c × δf = δc × f + τ S δc + δτ n`` gives
 
-p-values ``Φ(z)`` are evaluated only where ``z < 8.3`` (above, ``Φ(z)`` is 1.0 in double precision).
+* ``u_m = g_τ n + X⁻¹ (g_c + g_τ n × f_t)`` with ``X = τ S − f_n J`` on the tangent plane,
+* ``u_f = g_f + c × u_m``,
+
+and in two dimensions ``X⁻¹ r = (τ (H r − S r) + f_n n × r) / (τ² K + f_n²)`` (``H = tr S``,
+``K = det S``: the mean and Gaussian curvatures' sums and products). A plane or a facet has
+``S = 0`` (``X⁻¹ r = n × r / f_n``); a sphere ``S = I / r``; an ellipsoid ``(c − c0)ᵀ A
+(c − c0) = 1`` with ``γ = |A (c − c0)|``: ``S r = (A r − n (n · A r)) / γ``,
+``H = (tr A − n · A n) / γ`` and ``K = det A / γ⁴``. The limits:
+
+* pushing, ``g = f_n``: ``g_c = −S f_t``, ``g_f = −n``, ``g_τ = 0``;
+* friction, ``g = μ f_n − s``, ``s = √(|f_t|² + (τ/e)²)``: ``g_c = −(μ + f_n/s) S f_t``,
+  ``g_f = −μ n − f_t / s``, ``g_τ = −τ / (e² s)`` (the ``s`` terms 0 where ``s = 0``);
+* on the patch (a boundary): the signed distance's central difference along two tangents.
+
+so with ``P = X⁻¹ S f_t`` and ``Q = n + X⁻¹ (n × f_t)`` the pushing limit has ``u_m = −P`` and the
+friction limit ``u_m = −(μ + f_n/s) P + g_τ Q``.
+
+``p = Φ(min z)`` (``Φ`` is monotone: the smallest p-value is that of the smallest margin),
+evaluated only where ``min z < 8.3`` (above, ``Φ(z)`` is 1.0 in double precision); the
+per-limit p-values are formed only for the rows that fail, to name the reason.
 """
 
 from __future__ import annotations
@@ -35,75 +48,109 @@ _Z_ONE = 8.3
 
 
 def _cross(a, b):
-    """Cross product of component arrays ``(3, N)``."""
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
-    np.multiply(a[1], b[2], out=out[0])
-    out[0] -= a[2] * b[1]
-    np.multiply(a[2], b[0], out=out[1])
-    out[1] -= a[0] * b[2]
-    np.multiply(a[0], b[1], out=out[2])
-    out[2] -= a[1] * b[0]
-    return out
+    """Cross product of vectors given as three component arrays each."""
+    a0, a1, a2 = a
+    b0, b1, b2 = b
+    x = a1 * b2
+    x -= a2 * b1
+    y = a2 * b0
+    y -= a0 * b2
+    z = a0 * b1
+    z -= a1 * b0
+    return x, y, z
 
 
 def _dot(a, b):
-    """Row-wise dot of component arrays ``(3, N)``: ``(N,)``."""
     out = a[0] * b[0]
     out += a[1] * b[1]
     out += a[2] * b[2]
     return out
 
 
-def _mat3(A, x):
-    """``A x`` for a ``(3, 3)`` matrix and component arrays ``(3, N)``, row by row (no BLAS: the same
-    rounding whatever ``N``)."""
-    out = np.empty_like(x)
+def _sym_mat(A, x):
+    """``A x`` for a symmetric ``(3, 3)`` matrix and a vector of component arrays (zero entries skipped)."""
+    out = []
     for i in range(3):
-        np.multiply(A[i, 0], x[0], out=out[i])
-        out[i] += A[i, 1] * x[1]
-        out[i] += A[i, 2] * x[2]
+        o = None
+        for j in range(3):
+            a = A[i, j]
+            if a == 0.0:
+                continue
+            if o is None:
+                o = x[j] * a
+            else:
+                o += x[j] * a
+        out.append(np.zeros_like(x[0]) if o is None else o)
     return out
 
 
-def _quad6(u, S):
-    """``uᵀ S u`` over the first axis of ``u (6, …)`` for a symmetric ``S (6, 6)``, term by term (no BLAS:
-    the same rounding whatever the batch, so grouped and single solves agree bitwise)."""
-    out = np.zeros(u.shape[1:])
-    for i in range(6):
-        if S[i, i] != 0.0:
-            out += S[i, i] * (u[i] * u[i])
-        for j in range(i + 1, 6):
-            if S[i, j] != 0.0:
-                out += (2.0 * S[i, j]) * (u[i] * u[j])
-    return out
+def _scaled(k, v):
+    return [k * x for x in v]
 
 
-def _tangents(n):
-    """``t1, t2`` ``(3, N)`` of unit normals ``n (3, N)`` (tangent_basis's rule)."""
-    use_x = np.abs(n[0]) < 0.9
-    t1 = np.empty_like(n)
-    np.copyto(t1[0], np.where(use_x, 0.0, -n[2]))
-    np.copyto(t1[1], np.where(use_x, n[2], 0.0))
-    np.copyto(t1[2], np.where(use_x, -n[1], n[0]))
-    t1 /= np.sqrt(_dot(t1, t1))
-    return t1, _cross(n, t1)
+class _Curvature:
+    """``X⁻¹`` of one block's rows (see the module docstring): ``apply(r)`` for tangent vectors ``r``."""
+
+    def __init__(self, surface, c, n, tau, fn):
+        self.n, self.tau, self.fn = n, tau, fn
+        if isinstance(surface, Sphere):
+            self.kind, k = "sphere", 1.0 / surface.radius
+            self.k = k
+            t = tau * k
+            self.den = t * t
+            self.den += fn * fn
+        elif isinstance(surface, Ellipsoid):
+            self.kind = "ellipsoid"
+            A = surface._A
+            self.A = A
+            Ap = _sym_mat(A, [c[i] - surface.center[i] for i in range(3)])
+            g = np.sqrt(_dot(Ap, Ap))
+            self.inv_g = 1.0 / g
+            H = float(np.trace(A)) - _dot(n, _sym_mat(A, n))
+            H *= self.inv_g
+            self.H = H
+            inv_g2 = self.inv_g * self.inv_g
+            den = tau * tau
+            den *= float(np.linalg.det(A))
+            den *= inv_g2 * inv_g2
+            den += fn * fn
+            self.den = den
+        else:  # a plane or a facet: S = 0
+            self.kind = "flat"
+
+    def shape(self, r):
+        """``S r`` for tangent ``r``."""
+        if self.kind == "sphere":
+            return _scaled(self.k, r)
+        Ar = _sym_mat(self.A, r)
+        nAr = _dot(self.n, Ar)
+        n = self.n
+        return [(Ar[i] - n[i] * nAr) * self.inv_g for i in range(3)]
+
+    def inv(self, r, n_cross_r=None):
+        """``X⁻¹ r`` for tangent ``r`` (``n × r`` if the caller has it)."""
+        nr = _cross(self.n, r) if n_cross_r is None else n_cross_r
+        if self.kind == "flat":
+            k = 1.0 / self.fn
+            return [x * k for x in nr]
+        if self.kind == "sphere":
+            a = self.tau * self.k  # τ (H − S) = τ / r on a sphere
+            out = [a * r[i] + self.fn * nr[i] for i in range(3)]
+        else:
+            Sr = self.shape(r)
+            tH = self.tau * self.H
+            out = []
+            for i in range(3):
+                o = tH * r[i]
+                o -= self.tau * Sr[i]
+                o += self.fn * nr[i]
+                out.append(o)
+        for o in out:
+            o /= self.den
+        return out
 
 
-def _dn(surface, c, n, t):
-    """``∂n/∂θ = S t`` ``(3, N)`` for tangents ``t (3, N)`` on ``surface``; None where ``S = 0``."""
-    if isinstance(surface, Sphere):
-        return t * (1.0 / surface.radius)
-    if isinstance(surface, Ellipsoid):
-        A = surface._A
-        At = _mat3(A, t)
-        At -= n * _dot(n, At)
-        g = _mat3(A, c - surface.center[:, None])
-        At /= np.sqrt(_dot(g, g))
-        return At
-    return None  # plane, mesh facet
-
-
-def soft_finger_test(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha):
+def soft_finger_test(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha, ok=None):
     """Single-contact test of soft-finger estimates: ``single (N,)``, ``p (N,)``, ``reason (N,) int8``.
 
     Parameters
@@ -120,120 +167,193 @@ def soft_finger_test(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha):
         Friction coefficient, effective torsional radius (m).
     alpha : float
         Significance level.
+    ok : ndarray of bool, shape (N,), optional
+        The solve's pushing rows with a finite point (their point and normal are finite;
+        only the others are checked).
     """
     N = len(c)
-    cT, nT, fT = (np.ascontiguousarray(x.T) for x in (c, n, f))
-    finite = np.isfinite(_dot(cT, cT))
-    finite &= np.isfinite(_dot(nT, nT))
+    e = torsion_radius
+    C = (c[:, 0], c[:, 1], c[:, 2])
+    Nn = (n[:, 0], n[:, 1], n[:, 2])
+    F = (f[:, 0], f[:, 1], f[:, 2])
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        t1, t2 = _tangents(nT)
-        finite &= np.isfinite(_dot(t1, t1) + _dot(t2, t2))
-        a1, a2 = _cross(t1, fT), _cross(t2, fT)
-        curved = any(isinstance(surface, Ellipsoid) for surface, _, _ in blocks)  # spheres too
-        if curved:  # ∂n/∂θ; planes and facets have none (their θ-gradients below are 0)
-            d1, d2 = np.zeros((3, N)), np.zeros((3, N))
-            for surface, _, sl in blocks:
-                got = _dn(surface, cT[:, sl], nT[:, sl], t1[:, sl])
-                if got is not None:
-                    d1[:, sl] = got
-                    d2[:, sl] = _dn(surface, cT[:, sl], nT[:, sl], t2[:, sl])
-            a1 += tau * d1
-            a2 += tau * d2
-        bounded = any(boundary is not None for _, boundary, _ in blocks)
-        adj = (_cross(a2, nT), _cross(nT, a1) if curved or bounded else None, _cross(a1, a2))
-        det = _dot(a1, adj[0])
-        # the pushing force and the friction margin
-        fn = -_dot(fT, nT)
-        ft_vec = fT + fn * nT
-        ft = np.sqrt(_dot(ft_vec, ft_vec))
-        tq = tau / torsion_radius
-        s = np.hypot(ft, tq)
-        u = np.divide(ft_vec, ft, out=np.zeros((3, N)), where=ft > 0)
-        k = ft / s
-        shear_ok = s > 0
-        # gradients [θ1, θ2, τ] and over f of the two limits, side by side: (…, 2, N)
-        gb = np.zeros((3, 2, N))
-        if curved:
-            np.negative(_dot(fT, d1), out=gb[0, 0])
-            np.negative(_dot(fT, d2), out=gb[1, 0])
-            gs_t1 = fn * _dot(u, d1) * k
-            gs_t2 = fn * _dot(u, d2) * k
+        if ok is None or not ok.all():
+            finite = np.isfinite(_dot(C, C) + _dot(Nn, Nn))
         else:
-            gs_t1 = gs_t2 = np.zeros(N)
-        gs_tau = tq / (torsion_radius * s)
-        gf = np.empty((3, 2, N))
-        np.negative(nT, out=gf[:, 0])
-        gs_f = u * k
-        if not shear_ok.all():
-            for x in (gs_t1, gs_t2, gs_tau):
-                x[~shear_ok] = 0.0
-            gs_f[:, ~shear_ok] = 0.0
+            finite = None
+        fn = -_dot(F, Nn)  # the pushing force, N
+        ft = [F[i] + fn * Nn[i] for i in range(3)]  # f_t
+        ft2 = _dot(ft, ft)
+        tq = tau / e
+        s = np.sqrt(ft2 + tq * tq)
+        inv_s = 1.0 / s
+        if not (s > 0).all():
+            inv_s[~(s > 0)] = 0.0  # no shear and no twist: the √ has no gradient
+        v = _cross(Nn, ft)  # n × f_t
+        mv = [-x for x in ft]  # n × (n × f_t)
+        # P = X⁻¹ S f_t and Q = n + X⁻¹ (n × f_t), block by block
+        one = len(blocks) == 1 and blocks[0][2] == slice(0, N)
+        flat = all(not isinstance(b[0], Ellipsoid) for b in blocks)
+        curv = []
+        if one:
+            curv.append((slice(None), _Curvature(blocks[0][0], C, Nn, tau, fn)))
+        else:
+            for surface, _, sl in blocks:
+                if sl.stop > sl.start:
+                    at = lambda x, sl=sl: [y[sl] for y in x]  # noqa: E731
+                    curv.append((sl, _Curvature(surface, at(C), at(Nn), tau[sl], fn[sl])))
+        P = None if flat else [np.zeros(N) for _ in range(3)]
+        Q = [np.empty(N) for _ in range(3)]
+        for sl, X in curv:
+            at = (lambda x: x) if one else (lambda x, sl=sl: [y[sl] for y in x])
+            iv = X.inv(at(v), at(mv))
+            for i in range(3):
+                Q[i][sl] = Nn[i][sl] + iv[i] if not one else Nn[i] + iv[i]
+            if P is not None and X.kind != "flat":
+                h = X.shape(at(ft))
+                ih = X.inv(h)
+                for i in range(3):
+                    P[i][sl] = ih[i]
+        # the friction limit's coefficients
         mu_ = mu if np.ndim(mu) == 0 else np.asarray(mu)
-        np.subtract(mu_ * gb[0, 0], gs_t1, out=gb[0, 1])
-        np.subtract(mu_ * gb[1, 0], gs_t2, out=gb[1, 1])
-        np.subtract(0.0, gs_tau, out=gb[2, 1])
-        np.subtract(mu_ * gf[:, 0], gs_f, out=gf[:, 1])
-        g = np.empty((2, N))
-        g[0] = fn
-        np.subtract(mu_ * fn, s, out=g[1])
-        var = _variance(gb, gf, cT, adj, det, w_cov, flat=not curved)
-        z = np.full((3, N), np.inf)
-        z[:2] = _z(g, var)
+        g_tau = tau * inv_s
+        g_tau /= -(e * e) if np.ndim(e) == 0 else -(np.asarray(e) ** 2)
+        um1 = [g_tau * q for q in Q]
+        if P is not None:
+            k = fn * inv_s
+            k += mu_
+            for i in range(3):
+                um1[i] -= k * P[i]
+        cu1 = _cross(C, um1)
+        uf1 = []
+        for i in range(3):
+            x = Nn[i] * mu_
+            x += ft[i] * inv_s
+            np.subtract(cu1[i], x, out=x)
+            uf1.append(x)
+        if P is not None:
+            um0 = [-x for x in P]
+            cu0 = _cross(C, um0)
+            uf0 = [cu0[i] - Nn[i] for i in range(3)]
+        else:
+            um0 = None
+            uf0 = [-x for x in Nn]
+        var0 = _quad(uf0, um0, w_cov)
+        var1 = _quad(uf1, um1, w_cov)
+        g1 = mu_ * fn
+        g1 -= s
+        z0 = fn / np.sqrt(var0)
+        z1 = g1 / np.sqrt(var1)
+        if np.isnan(z0).any():
+            z0 = _z(fn, var0)
+        if np.isnan(z1).any():
+            z1 = _z(g1, var1)
+        z2 = None
         for surface, boundary, sl in blocks:
             if boundary is None or sl.stop == sl.start:
                 continue
-            z[2, sl] = _boundary_z(boundary, cT[:, sl], t1[:, sl], t2[:, sl], adj, det, sl, w_cov)
-    if not finite.all():
-        z[:, ~finite] = np.inf
-    p = np.ones((3, N))
-    low = z < _Z_ONE
-    p[low] = ndtr(z[low])
-    if not finite.all():
-        p[:, ~finite] = 0.0
-    pmin = np.minimum(np.minimum(p[0], p[1]), p[2])
-    single = pmin >= alpha
-    if single.all():
-        return single, pmin, np.zeros(N, np.int8)
-    p_all = np.ones((N, 4))
-    p_all[:, :3] = p.T
-    z_all = np.zeros((N, 4))
-    z_all[:, :3] = z.T
-    shear = ft >= np.abs(tq)
-    return _decide(p_all, z_all, finite, shear[finite], alpha, False)
-
-
-def _variance(gb, gf, c, adj, det, w_cov, flat=False):
-    """``σ²`` ``(K, N)`` of ``K`` functions with gradients ``gb (3, K, N)`` over ``[θ1, θ2, τ]`` and ``gf (3, K, N)`` over f.
-
-    ``flat``: the θ-gradients are 0 (a plane or a facet): only the τ term of ``u_m``.
-    """
-    if flat:
-        um = gb[2] * adj[2][:, None]
+            if z2 is None:
+                z2 = np.full(N, np.inf)
+            X = next(x for s_, x in curv if s_ == sl or one)
+            z2[sl] = _boundary_z(boundary, [x[sl] for x in C], [x[sl] for x in Nn], X, w_cov, sl, one)
+    zmin = np.minimum(z0, z1)
+    if z2 is not None:
+        np.minimum(zmin, z2, out=zmin)
+    if finite is not None and not finite.all():
+        zmin[~finite] = -np.inf
+    low = zmin < _Z_ONE
+    if low.all():
+        p = ndtr(zmin)
     else:
-        um = gb[0] * adj[0][:, None] + gb[1] * adj[1][:, None] + gb[2] * adj[2][:, None]  # (3, K, N)
-    um /= det
-    u = np.empty((6,) + gb.shape[1:])
-    u[3:] = um
-    u[:3] = gf + _cross(c[:, None], um)
-    if w_cov.ndim == 2:
-        return _quad6(u, w_cov)
-    return np.einsum("ikn,nij,jkn->kn", u, w_cov, u)
+        p = np.ones(N)
+        p[low] = ndtr(zmin[low])
+    if finite is not None and not finite.all():
+        p[~finite] = 0.0
+    single = p >= alpha
+    if single.all():
+        return single, p, np.zeros(N, np.int8)
+    # name the failing limit on the rows that fail (the general test's rule, _decide)
+    bad = np.flatnonzero(~single)
+    zb = np.zeros((len(bad), 4))
+    zb[:, 0], zb[:, 1] = z0[bad], z1[bad]
+    zb[:, 2] = np.inf if z2 is None else z2[bad]
+    fin = np.ones(len(bad), bool) if finite is None else finite[bad]
+    zb[~fin, :3] = np.inf
+    p_all = np.ones((len(bad), 4))
+    lo = zb[:, :3] < _Z_ONE
+    p_all[:, :3][lo] = ndtr(zb[:, :3][lo])
+    p_all[~fin] = 0.0
+    shear = np.sqrt(ft2[bad]) >= np.abs(tq[bad] if np.ndim(tq) else tq)
+    _, _, reason_bad = _decide(p_all, zb, fin, shear[fin], alpha, False)
+    reason = np.zeros(N, np.int8)
+    reason[bad] = reason_bad
+    return single, p, reason
 
 
-def _boundary_z(boundary, c, t1, t2, adj, det, sl, w_cov):
-    """``z`` of the boundary margin on rows ``sl`` (central difference along the tangents)."""
+def _quad(uf, um, S):
+    """``uᵀ S u`` for ``u = (u_f, u_m)`` given as component arrays (``u_m`` None: zero), ``S (6, 6)`` or ``(N, 6, 6)``.
+
+    Term by term, zero entries skipped (no BLAS: the same rounding whatever the batch, so
+    grouped and single solves agree bitwise).
+    """
+    u = list(uf) + ([None] * 3 if um is None else list(um))
+    if S.ndim == 3:
+        z = np.zeros_like(uf[0])
+        U = np.stack([z if x is None else x for x in u], axis=1)
+        return np.einsum("ni,nij,nj->n", U, S, U)
+    out = None
+    for i in range(6):
+        if u[i] is None:
+            continue
+        if S[i, i] != 0.0:
+            t = u[i] * u[i]
+            t *= S[i, i]
+            if out is None:
+                out = t
+            else:
+                out += t
+        for j in range(i + 1, 6):
+            if u[j] is not None and S[i, j] != 0.0:
+                t = u[i] * u[j]
+                t *= 2.0 * S[i, j]
+                if out is None:
+                    out = t
+                else:
+                    out += t
+    return np.zeros_like(uf[0]) if out is None else out
+
+
+def _tangents(n):
+    """Two unit tangents of unit normals ``n`` (component arrays; tangent_basis's rule)."""
+    use_x = np.abs(n[0]) < 0.9
+    t1 = [np.where(use_x, 0.0, -n[2]), np.where(use_x, n[2], 0.0), np.where(use_x, -n[1], n[0])]
+    norm = np.sqrt(_dot(t1, t1))
+    t1 = [x / norm for x in t1]
+    return t1, list(_cross(n, t1))
+
+
+def _boundary_z(boundary, c, n, X, w_cov, sl, one):
+    """``z`` of the boundary margin on one block (central difference along two tangents):
+    ``g_c`` the margin's tangent gradient, ``u_m = X⁻¹ g_c``, ``u_f = c × u_m``."""
     h = _BOUNDARY_STEP
-    n = c.shape[1]
-    pts = np.empty((5, n, 3))
-    pts[0] = c.T
-    pts[1] = (c + h * t1).T
-    pts[2] = (c + h * t2).T
-    pts[3] = (c - h * t1).T
-    pts[4] = (c - h * t2).T
-    m = boundary.margin(pts.reshape(-1, 3)).reshape(5, n)
-    gb = np.zeros((3, 1, n))
-    gb[0, 0] = (m[1] - m[3]) / (2 * h)
-    gb[1, 0] = (m[2] - m[4]) / (2 * h)
+    k = len(c[0])
+    t1, t2 = _tangents(n)
+    C = np.stack(c, axis=1)
+    T1, T2 = np.stack(t1, axis=1), np.stack(t2, axis=1)
+    pts = np.empty((5, k, 3))
+    pts[0] = C
+    pts[1] = C + h * T1
+    pts[2] = C + h * T2
+    pts[3] = C - h * T1
+    pts[4] = C - h * T2
+    m = boundary.margin(pts.reshape(-1, 3)).reshape(5, k)
+    d1 = (m[1] - m[3]) / (2 * h)
+    d2 = (m[2] - m[4]) / (2 * h)
+    gc = [d1 * t1[i] + d2 * t2[i] for i in range(3)]
+    if one:
+        um = X.inv(gc)
+    else:  # X holds the block's own rows
+        um = X.inv(gc)
+    uf = _cross(c, um)
     cov = w_cov if w_cov.ndim == 2 else w_cov[sl]
-    var = _variance(gb, np.zeros((3, 1, n)), c, tuple(a[:, sl] for a in adj), det[sl], cov)
-    return _z(m[0], var[0])
+    return _z(m[0], _quad(uf, um, cov))
