@@ -39,7 +39,7 @@ import numpy as np
 from scipy.special import ndtr
 
 from ._plausibility import _BOUNDARY_STEP, _decide, _z
-from ._surfaces import Ellipsoid, Sphere
+from ._surfaces import Ellipsoid, Plane, Sphere
 
 __all__ = ["soft_finger_test"]
 
@@ -150,7 +150,12 @@ class _Curvature:
         return out
 
 
-def soft_finger_test(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha, ok=None):
+#: Rows per pass: each temporary (16,000 float64 = 125 KiB) stays below malloc's mmap threshold
+#: (128 KiB: no fresh pages to fault in) and in the cache.
+CHUNK = 16_000
+
+
+def soft_finger_test(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha, ok=None, m=None):
     """Single-contact test of soft-finger estimates: ``single (N,)``, ``p (N,)``, ``reason (N,) int8``.
 
     Parameters
@@ -170,9 +175,77 @@ def soft_finger_test(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha, ok=
     ok : ndarray of bool, shape (N,), optional
         The solve's pushing rows with a finite point (their point and normal are finite;
         only the others are checked).
+    m : ndarray, shape (N, 3), optional
+        The measured moments (N·m) the estimates solve exactly: on a plane ``c × f = m − τ n``.
     """
     N = len(c)
-    e = torsion_radius
+    if N <= CHUNK:
+        return _test_rows(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha, ok, m)
+    single, p, reason = np.empty(N, bool), np.empty(N), np.empty(N, np.int8)
+    for a in range(0, N, CHUNK):
+        b = min(N, a + CHUNK)
+        sub = [(s, bnd, slice(max(sl.start, a) - a, min(sl.stop, b) - a)) for s, bnd, sl in blocks
+               if min(sl.stop, b) > max(sl.start, a)]
+        rows = slice(a, b)
+        at = lambda x: x if x is None or np.ndim(x) == 0 else x[rows]  # noqa: E731
+        single[rows], p[rows], reason[rows] = _test_rows(
+            c[rows], n[rows], f[rows], tau[rows], w_cov if w_cov.ndim == 2 else w_cov[rows], sub, at(mu),
+            at(torsion_radius), alpha, at(ok), at(m))
+    return single, p, reason
+
+
+def _plane_z(plane, C, F, tau, M, w_cov, mu, e):
+    """``fn``, ``z`` of the pushing and the friction limits on a plane (constant normal, ``S = 0``).
+
+    There ``X⁻¹ r = n × r / f_n``, ``P = 0``, ``Q = −f / f_n``, ``c × f = m − τ n``: the pushing
+    limit's gradient is ``u = (−n, 0)`` (one variance for every row) and the friction
+    limit's ``u_m = a f``, ``u_f = −(μ + f_n/s) n − f/s + a (m − τ n)`` with ``a = τ / (e² s f_n)``.
+    """
+    nv = plane.normal
+    nz = [i for i in range(3) if nv[i] != 0.0]
+    fn = None
+    for i in nz:
+        t = F[i] * (-nv[i])
+        fn = t if fn is None else fn.__iadd__(t)
+    f2 = _dot(F, F)
+    ft2 = f2 - fn * fn
+    tq = tau / e
+    s = tq * tq
+    s += ft2
+    np.sqrt(s, out=s)
+    inv_s = 1.0 / s
+    if not (s > 0).all():
+        inv_s[~(s > 0)] = 0.0
+    a = tq * inv_s
+    a /= fn
+    a /= e
+    b = fn * inv_s
+    b += mu
+    uf = []
+    for i in range(3):
+        x = M[i] - tau * nv[i] if nv[i] != 0.0 else M[i].copy()
+        x *= a
+        x -= F[i] * inv_s
+        if nv[i] != 0.0:
+            x -= b * nv[i]
+        uf.append(x)
+    var1 = _quad(uf, [a * x for x in F], w_cov)
+    Sff = w_cov[..., :3, :3]
+    var0 = np.einsum("i,...ij,j->...", nv, Sff, nv)
+    g1 = mu * fn
+    g1 -= s
+    z0 = fn / np.sqrt(var0)
+    z1 = g1 / np.sqrt(var1)
+    if np.isnan(z0).any():
+        z0 = _z(fn, np.broadcast_to(var0, fn.shape))
+    if np.isnan(z1).any():
+        z1 = _z(g1, var1)
+    return fn, z0, z1
+
+
+def _test_rows(c, n, f, tau, w_cov, blocks, mu, e, alpha, ok, m):
+    """:func:`soft_finger_test` on at most ``CHUNK`` rows."""
+    N = len(c)
     C = (c[:, 0], c[:, 1], c[:, 2])
     Nn = (n[:, 0], n[:, 1], n[:, 2])
     F = (f[:, 0], f[:, 1], f[:, 2])
@@ -181,81 +254,24 @@ def soft_finger_test(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha, ok=
             finite = np.isfinite(_dot(C, C) + _dot(Nn, Nn))
         else:
             finite = None
-        fn = -_dot(F, Nn)  # the pushing force, N
-        ft = [F[i] + fn * Nn[i] for i in range(3)]  # f_t
-        ft2 = _dot(ft, ft)
-        tq = tau / e
-        s = np.sqrt(ft2 + tq * tq)
-        inv_s = 1.0 / s
-        if not (s > 0).all():
-            inv_s[~(s > 0)] = 0.0  # no shear and no twist: the √ has no gradient
-        v = _cross(Nn, ft)  # n × f_t
-        mv = [-x for x in ft]  # n × (n × f_t)
-        # P = X⁻¹ S f_t and Q = n + X⁻¹ (n × f_t), block by block
-        one = len(blocks) == 1 and blocks[0][2] == slice(0, N)
-        flat = all(not isinstance(b[0], Ellipsoid) for b in blocks)
-        curv = []
-        if one:
-            curv.append((slice(None), _Curvature(blocks[0][0], C, Nn, tau, fn)))
-        else:
-            for surface, _, sl in blocks:
-                if sl.stop > sl.start:
-                    at = lambda x, sl=sl: [y[sl] for y in x]  # noqa: E731
-                    curv.append((sl, _Curvature(surface, at(C), at(Nn), tau[sl], fn[sl])))
-        P = None if flat else [np.zeros(N) for _ in range(3)]
-        Q = [np.empty(N) for _ in range(3)]
-        for sl, X in curv:
-            at = (lambda x: x) if one else (lambda x, sl=sl: [y[sl] for y in x])
-            iv = X.inv(at(v), at(mv))
-            for i in range(3):
-                Q[i][sl] = Nn[i][sl] + iv[i] if not one else Nn[i] + iv[i]
-            if P is not None and X.kind != "flat":
-                h = X.shape(at(ft))
-                ih = X.inv(h)
-                for i in range(3):
-                    P[i][sl] = ih[i]
-        # the friction limit's coefficients
-        mu_ = mu if np.ndim(mu) == 0 else np.asarray(mu)
-        g_tau = tau * inv_s
-        g_tau /= -(e * e) if np.ndim(e) == 0 else -(np.asarray(e) ** 2)
-        um1 = [g_tau * q for q in Q]
-        if P is not None:
-            k = fn * inv_s
-            k += mu_
-            for i in range(3):
-                um1[i] -= k * P[i]
-        cu1 = _cross(C, um1)
-        uf1 = []
-        for i in range(3):
-            x = Nn[i] * mu_
-            x += ft[i] * inv_s
-            np.subtract(cu1[i], x, out=x)
-            uf1.append(x)
-        if P is not None:
-            um0 = [-x for x in P]
-            cu0 = _cross(C, um0)
-            uf0 = [cu0[i] - Nn[i] for i in range(3)]
-        else:
-            um0 = None
-            uf0 = [-x for x in Nn]
-        var0 = _quad(uf0, um0, w_cov)
-        var1 = _quad(uf1, um1, w_cov)
-        g1 = mu_ * fn
-        g1 -= s
-        z0 = fn / np.sqrt(var0)
-        z1 = g1 / np.sqrt(var1)
-        if np.isnan(z0).any():
-            z0 = _z(fn, var0)
-        if np.isnan(z1).any():
-            z1 = _z(g1, var1)
-        z2 = None
+        # block by block (each row's figures depend on its own block only: grouped solves equal single ones)
+        z0, z1, z2 = np.empty(N), np.empty(N), None
         for surface, boundary, sl in blocks:
-            if boundary is None or sl.stop == sl.start:
+            if sl.stop == sl.start:
                 continue
-            if z2 is None:
-                z2 = np.full(N, np.inf)
-            X = next(x for s_, x in curv if s_ == sl or one)
-            z2[sl] = _boundary_z(boundary, [x[sl] for x in C], [x[sl] for x in Nn], X, w_cov, sl, one)
+            whole = sl == slice(0, N)
+            at = (lambda x: x) if whole else (lambda x, sl=sl: x if np.ndim(x) == 0 else x[sl])  # noqa: E731
+            Cb, Nb, Fb = ([at(x) for x in v] for v in (C, Nn, F))
+            tb, mub, eb = at(tau), at(mu), at(e)
+            cov = w_cov if w_cov.ndim == 2 else at(w_cov)
+            if isinstance(surface, Plane) and m is not None:
+                fn, z0[sl], z1[sl] = _plane_z(surface, Cb, Fb, tb, [at(m[:, i]) for i in range(3)], cov, mub, eb)
+            else:
+                fn, z0[sl], z1[sl] = _curved_z(surface, Cb, Nb, Fb, tb, cov, mub, eb)
+            if boundary is not None:
+                if z2 is None:
+                    z2 = np.full(N, np.inf)
+                z2[sl] = _boundary_z(boundary, Cb, Nb, _Curvature(surface, Cb, Nb, tb, fn), cov)
     zmin = np.minimum(z0, z1)
     if z2 is not None:
         np.minimum(zmin, z2, out=zmin)
@@ -283,11 +299,66 @@ def soft_finger_test(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha, ok=
     lo = zb[:, :3] < _Z_ONE
     p_all[:, :3][lo] = ndtr(zb[:, :3][lo])
     p_all[~fin] = 0.0
-    shear = np.sqrt(ft2[bad]) >= np.abs(tq[bad] if np.ndim(tq) else tq)
+    fb, nb = f[bad], n[bad]
+    ftb = fb - np.einsum("ij,ij->i", fb, nb)[:, None] * nb
+    eb = e if np.ndim(e) == 0 else e[bad]
+    shear = np.sqrt(np.einsum("ij,ij->i", ftb, ftb)) >= np.abs(tau[bad] / eb)
     _, _, reason_bad = _decide(p_all, zb, fin, shear[fin], alpha, False)
     reason = np.zeros(N, np.int8)
     reason[bad] = reason_bad
     return single, p, reason
+
+
+def _curved_z(surface, C, Nn, F, tau, w_cov, mu, e):
+    """``fn``, ``z`` of the pushing and the friction limits on one surface's rows (any kind)."""
+    fn = -_dot(F, Nn)  # the pushing force, N
+    ft = [F[i] + fn * Nn[i] for i in range(3)]  # f_t
+    ft2 = _dot(ft, ft)
+    tq = tau / e
+    s = np.sqrt(ft2 + tq * tq)
+    inv_s = 1.0 / s
+    if not (s > 0).all():
+        inv_s[~(s > 0)] = 0.0  # no shear and no twist: the √ has no gradient
+    # P = X⁻¹ S f_t and Q = n + X⁻¹ (n × f_t)
+    X = _Curvature(surface, C, Nn, tau, fn)
+    iv = X.inv(_cross(Nn, ft), [-x for x in ft])  # n × (n × f_t) = −f_t
+    Q = [Nn[i] + iv[i] for i in range(3)]
+    P = None if X.kind == "flat" else X.inv(X.shape(ft))
+    # the friction limit: u_m = −(μ + f_n/s) P + g_τ Q, u_f = −μ n − f_t / s + c × u_m
+    g_tau = tau * inv_s
+    g_tau /= -(e * e)
+    um1 = [g_tau * q for q in Q]
+    if P is not None:
+        k = fn * inv_s
+        k += mu
+        for i in range(3):
+            um1[i] -= k * P[i]
+    cu1 = _cross(C, um1)
+    uf1 = []
+    for i in range(3):
+        x = Nn[i] * mu
+        x += ft[i] * inv_s
+        np.subtract(cu1[i], x, out=x)
+        uf1.append(x)
+    # the pushing limit: u_m = −P, u_f = −n + c × u_m
+    if P is not None:
+        um0 = [-x for x in P]
+        cu0 = _cross(C, um0)
+        uf0 = [cu0[i] - Nn[i] for i in range(3)]
+    else:
+        um0 = None
+        uf0 = [-x for x in Nn]
+    var0 = _quad(uf0, um0, w_cov)
+    var1 = _quad(uf1, um1, w_cov)
+    g1 = mu * fn
+    g1 -= s
+    z0 = fn / np.sqrt(var0)
+    z1 = g1 / np.sqrt(var1)
+    if np.isnan(z0).any():
+        z0 = _z(fn, var0)
+    if np.isnan(z1).any():
+        z1 = _z(g1, var1)
+    return fn, z0, z1
 
 
 def _quad(uf, um, S):
@@ -332,7 +403,7 @@ def _tangents(n):
     return t1, list(_cross(n, t1))
 
 
-def _boundary_z(boundary, c, n, X, w_cov, sl, one):
+def _boundary_z(boundary, c, n, X, w_cov):
     """``z`` of the boundary margin on one block (central difference along two tangents):
     ``g_c`` the margin's tangent gradient, ``u_m = X⁻¹ g_c``, ``u_f = c × u_m``."""
     h = _BOUNDARY_STEP
@@ -350,10 +421,6 @@ def _boundary_z(boundary, c, n, X, w_cov, sl, one):
     d1 = (m[1] - m[3]) / (2 * h)
     d2 = (m[2] - m[4]) / (2 * h)
     gc = [d1 * t1[i] + d2 * t2[i] for i in range(3)]
-    if one:
-        um = X.inv(gc)
-    else:  # X holds the block's own rows
-        um = X.inv(gc)
+    um = X.inv(gc)  # X holds the block's own rows
     uf = _cross(c, um)
-    cov = w_cov if w_cov.ndim == 2 else w_cov[sl]
-    return _z(m[0], _quad(uf, um, cov))
+    return _z(m[0], _quad(uf, um, w_cov))

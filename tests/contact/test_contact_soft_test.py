@@ -70,7 +70,7 @@ def test_closed_form_test_equals_the_general_test(kind, bounded):
     c, n, f, tau, ok = _solved(blocks, w)
     A = rng.normal(size=(6, 6))
     for S in (np.diag([0.05**2] * 3 + [5e-4**2] * 3), A @ A.T * 1e-5 + np.diag([1e-3] * 3 + [1e-7] * 3)):
-        fast = soft_finger_test(c, n, f, tau, S, blocks, MU, E, ALPHA, ok)
+        fast = soft_finger_test(c, n, f, tau, S, blocks, MU, E, ALPHA, ok, w[:, 3:])
         ref = _general(blocks, c, n, f, tau, w, S)
         assert 0.05 < np.mean(~ref.single) < 0.95  # both outcomes occur
         np.testing.assert_array_equal(fast[0], ref.single)
@@ -78,7 +78,9 @@ def test_closed_form_test_equals_the_general_test(kind, bounded):
         np.testing.assert_array_equal(fast[2], ref.reason)
 
 
-def test_several_patches_side_by_side_and_per_row_covariances():
+@pytest.mark.parametrize("chunk", [16_000, 100])
+def test_several_patches_side_by_side_and_per_row_covariances(chunk, monkeypatch):
+    monkeypatch.setattr("pito_core.contact._soft_test.CHUNK", chunk)  # blocks across the passes' edges
     rng = np.random.default_rng(12)
     surfs = _surfaces()
     ws = [_touches(surfs[k], 150, rng) for k in ("plane", "ellipsoid", "sphere")]
@@ -89,8 +91,9 @@ def test_several_patches_side_by_side_and_per_row_covariances():
               for i, (k, b) in enumerate((("plane", bnd), ("ellipsoid", None), ("sphere", bnd)))]
     c, n, f, tau, ok = _solved(blocks, w)
     A = rng.normal(size=(len(w), 6, 6))
+    mu = np.full(len(w), MU)
     S = A @ np.swapaxes(A, 1, 2) * 1e-5 + np.diag([1e-3] * 3 + [1e-7] * 3)
-    fast = soft_finger_test(c, n, f, tau, S, blocks, MU, E, ALPHA, ok)
+    fast = soft_finger_test(c, n, f, tau, S, blocks, mu, E, ALPHA, ok, w[:, 3:])
     ref = _general(blocks, c, n, f, tau, w, S)
     np.testing.assert_array_equal(fast[0], ref.single)
     np.testing.assert_allclose(fast[1], ref.p, rtol=1e-7, atol=1e-12)
