@@ -35,6 +35,8 @@ per-limit p-values are formed only for the rows that fail, to name the reason.
 
 from __future__ import annotations
 
+import threading
+
 import numpy as np
 from scipy.special import ndtr
 
@@ -150,9 +152,31 @@ class _Curvature:
         return out
 
 
-#: Rows per pass: each temporary (16,000 float64 = 125 KiB) stays below malloc's mmap threshold
-#: (128 KiB: no fresh pages to fault in) and in the cache.
-CHUNK = 16_000
+#: Rows per pass: the temporaries of a pass are named buffers of this many rows, kept per thread
+#: and reused (a fresh array per temporary costs its pages' faults, more than the arithmetic).
+CHUNK = 8192
+
+_local = threading.local()
+
+
+class _Work:
+    """Named float buffers of ``CHUNK`` rows (``(k, CHUNK)`` for ``k`` components), one set per thread."""
+
+    def __init__(self):
+        self._bufs = {}
+
+    def __call__(self, name, rows, k=None):
+        b = self._bufs.get((name, k))
+        if b is None or b.shape[-1] < rows:
+            b = self._bufs[(name, k)] = np.empty((max(rows, CHUNK),) if k is None else (k, max(rows, CHUNK)))
+        return b[..., :rows]
+
+
+def _work() -> _Work:
+    w = getattr(_local, "work", None)
+    if w is None:
+        w = _local.work = _Work()
+    return w
 
 
 def soft_finger_test(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha, ok=None, m=None):
@@ -194,53 +218,242 @@ def soft_finger_test(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha, ok=
     return single, p, reason
 
 
-def _plane_z(plane, C, F, tau, M, w_cov, mu, e):
-    """``fn``, ``z`` of the pushing and the friction limits on a plane (constant normal, ``S = 0``).
+def _cross3(a, b, out, t):
+    """``out = a × b`` for ``(3, r)`` arrays, ``t`` an ``(r,)`` scratch row."""
+    for i, j, k in ((0, 1, 2), (1, 2, 0), (2, 0, 1)):
+        np.multiply(a[j], b[k], out=out[i])
+        np.multiply(a[k], b[j], out=t)
+        out[i] -= t
+
+
+def _dot3(a, b, out, T):
+    """``out = a · b`` column-wise for ``(3, r)`` arrays, ``T`` a ``(3, r)`` scratch."""
+    np.multiply(a, b, out=T)
+    np.add(T[0], T[1], out=out)
+    out += T[2]
+    return out
+
+
+def _matvec(A, x, out, t):
+    """``out = A x`` for a ``(3, 3)`` matrix and ``(3, r)`` columns (zero entries skipped; no BLAS)."""
+    for i in range(3):
+        first = True
+        for j in range(3):
+            if A[i, j] == 0.0:
+                continue
+            if first:
+                np.multiply(x[j], A[i, j], out=out[i])
+                first = False
+            else:
+                np.multiply(x[j], A[i, j], out=t)
+                out[i] += t
+        if first:
+            out[i] = 0.0
+
+
+def _quad6(U, S, out, W):
+    """``out = uᵀ S u`` per column of ``U (6, r)`` (``[u_f, u_m]``); ``S (6, 6)`` or ``(r, 6, 6)`` (no BLAS:
+    the same rounding whatever the batch, so grouped and single solves agree bitwise)."""
+    if S.ndim == 3:
+        return np.einsum("in,nij,jn->n", U, S, U, out=out)
+    if not np.any(S - np.diag(np.diagonal(S))):
+        U2 = W("U2", U.shape[1], 6)
+        np.multiply(U, U, out=U2)
+        return np.einsum("i,in->n", np.diagonal(S), U2, out=out)
+    return np.einsum("in,ij,jn->n", U, S, U, out=out)
+
+
+def _limits_z(W, fn, s, mu, U0, var0, U1, w_cov, z0, z1):
+    """``z0 = f_n / σ_0`` and ``z1 = (μ f_n − s) / σ_1`` into ``z0``, ``z1`` (``var0`` given, or from ``U0``)."""
+    r = len(fn)
+    if var0 is None:
+        var0 = _quad6(U0, w_cov, W("var0", r), W)
+    var1 = _quad6(U1, w_cov, W("var1", r), W)
+    g1 = W("g1", r)
+    np.multiply(fn, mu, out=g1)
+    g1 -= s
+    sq = W("sq", r)
+    np.sqrt(var0, out=sq) if np.ndim(var0) else sq.fill(np.sqrt(var0))
+    np.divide(fn, sq, out=z0)
+    np.sqrt(var1, out=sq)
+    np.divide(g1, sq, out=z1)
+    if np.isnan(z0.sum()):  # degenerate rows (rare): _z's rules
+        z0[:] = _z(fn, np.broadcast_to(var0, fn.shape))
+    if np.isnan(z1.sum()):
+        z1[:] = _z(g1, var1)
+
+
+def _shear(W, fn, ft, tau, e):
+    """``s = √(|f_t|² + (τ/e)²)`` and ``1/s`` (0 where ``s = 0``) of ``f_t (3, r)``; returns ``s, inv_s, tq``."""
+    r = len(fn)
+    T3, t = W("T3", r, 3), W("t", r)
+    s = _dot3(ft, ft, W("s", r), T3)
+    tq = W("tq", r)
+    np.divide(tau, e, out=tq)
+    np.multiply(tq, tq, out=t)
+    s += t
+    np.sqrt(s, out=s)
+    inv_s = W("inv_s", r)
+    np.divide(1.0, s, out=inv_s)
+    if not s.min() > 0:
+        inv_s[~(s > 0)] = 0.0  # no shear and no twist: the √ has no gradient
+    return s, inv_s, tq
+
+
+def _plane_z(plane, W, f, m, tau, w_cov, mu, e, z0, z1):
+    """The pushing and friction limits' ``z`` on a plane (constant normal, ``S = 0``) into ``z0``, ``z1``.
 
     There ``X⁻¹ r = n × r / f_n``, ``P = 0``, ``Q = −f / f_n``, ``c × f = m − τ n``: the pushing
     limit's gradient is ``u = (−n, 0)`` (one variance for every row) and the friction
     limit's ``u_m = a f``, ``u_f = −(μ + f_n/s) n − f/s + a (m − τ n)`` with ``a = τ / (e² s f_n)``.
+    Returns ``f_n``.
     """
+    r = f.shape[1]
     nv = plane.normal
-    nz = [i for i in range(3) if nv[i] != 0.0]
-    fn = None
-    for i in nz:
-        t = F[i] * (-nv[i])
-        fn = t if fn is None else fn.__iadd__(t)
-    f2 = _dot(F, F)
-    ft2 = f2 - fn * fn
-    tq = tau / e
-    s = tq * tq
-    s += ft2
-    np.sqrt(s, out=s)
-    inv_s = 1.0 / s
-    if not (s > 0).all():
-        inv_s[~(s > 0)] = 0.0
-    a = tq * inv_s
+    T3 = W("T3", r, 3)
+    fn = _dot3(f, nv[:, None], W("fn", r), T3)
+    np.negative(fn, out=fn)
+    ft = W("ft", r, 3)
+    np.multiply(nv[:, None], fn, out=ft)
+    ft += f
+    s, inv_s, tq = _shear(W, fn, ft, tau, e)
+    a = W("a", r)
+    np.multiply(tq, inv_s, out=a)
     a /= fn
     a /= e
-    b = fn * inv_s
+    U = W("U", r, 6)
+    uf, um = U[:3], U[3:]
+    np.multiply(nv[:, None], tau, out=uf)
+    np.subtract(m, uf, out=uf)
+    uf *= a
+    np.multiply(f, inv_s, out=T3)
+    uf -= T3
+    b = W("b", r)
+    np.multiply(fn, inv_s, out=b)
     b += mu
-    uf = []
-    for i in range(3):
-        x = M[i] - tau * nv[i] if nv[i] != 0.0 else M[i].copy()
-        x *= a
-        x -= F[i] * inv_s
-        if nv[i] != 0.0:
-            x -= b * nv[i]
-        uf.append(x)
-    var1 = _quad(uf, [a * x for x in F], w_cov)
-    Sff = w_cov[..., :3, :3]
-    var0 = np.einsum("i,...ij,j->...", nv, Sff, nv)
-    g1 = mu * fn
-    g1 -= s
-    z0 = fn / np.sqrt(var0)
-    z1 = g1 / np.sqrt(var1)
-    if np.isnan(z0).any():
-        z0 = _z(fn, np.broadcast_to(var0, fn.shape))
-    if np.isnan(z1).any():
-        z1 = _z(g1, var1)
-    return fn, z0, z1
+    np.multiply(nv[:, None], b, out=T3)
+    uf -= T3
+    np.multiply(f, a, out=um)
+    var0 = np.einsum("i,...ij,j->...", nv, w_cov[..., :3, :3], nv)
+    _limits_z(W, fn, s, mu, None, var0, U, w_cov, z0, z1)
+    return fn
+
+
+def _curved_z(surface, W, c, n, f, tau, w_cov, mu, e, z0, z1):
+    """The pushing and friction limits' ``z`` on any surface's rows into ``z0``, ``z1`` (module docstring).
+
+    ``c, n, f``: ``(3, r)``. Returns ``f_n``.
+    """
+    r = f.shape[1]
+    T3, t = W("T3", r, 3), W("t", r)
+    fn = _dot3(f, n, W("fn", r), T3)
+    np.negative(fn, out=fn)
+    ft = W("ft", r, 3)
+    np.multiply(n, fn, out=ft)
+    ft += f
+    s, inv_s, tq = _shear(W, fn, ft, tau, e)
+    v = W("v", r, 3)
+    _cross3(n, ft, v, t)  # n × f_t; n × (n × f_t) = −f_t
+    Q = W("Q", r, 3)  # Q = n + X⁻¹ (n × f_t)
+    P = None  # P = X⁻¹ S f_t
+    den, al, be = W("den", r), W("al", r), W("be", r)
+    if isinstance(surface, Sphere):  # S = I / R: X⁻¹ r = (τ/R r + f_n n × r) / ((τ/R)² + f_n²)
+        k = 1.0 / surface.radius
+        at = W("at", r)
+        np.multiply(tau, k, out=at)
+        np.multiply(at, at, out=den)
+        np.multiply(fn, fn, out=t)
+        den += t
+        np.divide(at, den, out=al)
+        np.divide(fn, den, out=be)
+        np.multiply(v, al, out=Q)
+        Q += n
+        np.multiply(ft, be, out=T3)
+        Q -= T3
+        P = W("P", r, 3)
+        np.multiply(ft, al, out=P)
+        np.multiply(v, be, out=T3)
+        P += T3
+        P *= k
+    elif isinstance(surface, Ellipsoid):
+        A = surface._A
+        Ap, ig, H = W("Ap", r, 3), W("ig", r), W("H", r)
+        np.subtract(c, surface.center[:, None], out=T3)
+        _matvec(A, T3, Ap, t)
+        _dot3(Ap, Ap, ig, T3)
+        np.sqrt(ig, out=ig)
+        np.divide(1.0, ig, out=ig)  # 1/γ
+        An = W("An", r, 3)
+        _matvec(A, n, An, t)
+        _dot3(n, An, H, T3)
+        np.subtract(float(np.trace(A)), H, out=H)
+        H *= ig  # tr S
+        np.multiply(ig, ig, out=den)
+        np.multiply(den, den, out=den)
+        den *= float(np.linalg.det(A))
+        np.multiply(tau, tau, out=t)
+        den *= t
+        np.multiply(fn, fn, out=t)
+        den += t  # det X = τ² K + f_n²
+
+        def shape(x, out):  # S x = (A x − n (n · A x)) / γ
+            Ax = W("Ax", r, 3)
+            _matvec(A, x, Ax, t)
+            _dot3(n, Ax, be, T3)
+            np.multiply(n, be, out=out)
+            np.subtract(Ax, out, out=out)
+            out *= ig
+
+        def inv(x, nx, out):  # X⁻¹ x = (τ (H x − S x) + f_n n × x) / det X
+            Sx = W("Sx", r, 3)
+            shape(x, Sx)
+            np.multiply(x, H, out=out)
+            out -= Sx
+            out *= tau
+            np.multiply(nx, fn, out=Sx)
+            out += Sx
+            out /= den
+
+        mft = W("mft", r, 3)
+        np.negative(ft, out=mft)
+        inv(v, mft, Q)  # n × v = −f_t
+        Q += n
+        h, nh = W("h", r, 3), W("nh", r, 3)
+        shape(ft, h)
+        _cross3(n, h, nh, t)
+        P = W("P", r, 3)
+        inv(h, nh, P)
+    else:  # a plane or a facet: X⁻¹ r = n × r / f_n, Q = −f / f_n
+        np.divide(f, fn, out=Q)
+        np.negative(Q, out=Q)
+    # the friction limit: u_m = g_τ Q − (μ + f_n/s) P, u_f = c × u_m − μ n − f_t / s
+    gt = W("gt", r)
+    np.multiply(tq, inv_s, out=gt)
+    gt /= -e
+    U1 = W("U", r, 6)
+    uf1, um1 = U1[:3], U1[3:]
+    np.multiply(Q, gt, out=um1)
+    if P is not None:
+        np.multiply(fn, inv_s, out=al)
+        al += mu
+        np.multiply(P, al, out=T3)
+        um1 -= T3
+    _cross3(c, um1, uf1, t)
+    np.multiply(n, mu, out=T3)
+    uf1 -= T3
+    np.multiply(ft, inv_s, out=T3)
+    uf1 -= T3
+    # the pushing limit: u = −(n + c × P, P)
+    U0 = W("U0", r, 6)
+    if P is not None:
+        _cross3(c, P, U0[:3], t)
+        U0[:3] += n
+        U0[3:] = P
+    else:
+        U0[:3] = n
+        U0[3:] = 0.0
+    _limits_z(W, fn, s, mu, U0, None, U1, w_cov, z0, z1)
+    return fn
 
 
 def _test_rows(c, n, f, tau, w_cov, blocks, mu, e, alpha, ok, m):
@@ -248,7 +461,6 @@ def _test_rows(c, n, f, tau, w_cov, blocks, mu, e, alpha, ok, m):
     N = len(c)
     C = (c[:, 0], c[:, 1], c[:, 2])
     Nn = (n[:, 0], n[:, 1], n[:, 2])
-    F = (f[:, 0], f[:, 1], f[:, 2])
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         if ok is None or not ok.all():
             finite = np.isfinite(_dot(C, C) + _dot(Nn, Nn))
@@ -256,22 +468,30 @@ def _test_rows(c, n, f, tau, w_cov, blocks, mu, e, alpha, ok, m):
             finite = None
         # block by block (each row's figures depend on its own block only: grouped solves equal single ones)
         z0, z1, z2 = np.empty(N), np.empty(N), None
+        W = _work()
         for surface, boundary, sl in blocks:
-            if sl.stop == sl.start:
+            r = sl.stop - sl.start
+            if r == 0:
                 continue
-            whole = sl == slice(0, N)
-            at = (lambda x: x) if whole else (lambda x, sl=sl: x if np.ndim(x) == 0 else x[sl])  # noqa: E731
-            Cb, Nb, Fb = ([at(x) for x in v] for v in (C, Nn, F))
+            at = lambda x, sl=sl: x if np.ndim(x) == 0 else x[sl]  # noqa: E731
+            fT = W("f", r, 3)
+            np.copyto(fT, f[sl].T)
             tb, mub, eb = at(tau), at(mu), at(e)
-            cov = w_cov if w_cov.ndim == 2 else at(w_cov)
+            cov = w_cov if w_cov.ndim == 2 else w_cov[sl]
             if isinstance(surface, Plane) and m is not None:
-                fn, z0[sl], z1[sl] = _plane_z(surface, Cb, Fb, tb, [at(m[:, i]) for i in range(3)], cov, mub, eb)
+                mT = W("m", r, 3)
+                np.copyto(mT, m[sl].T)
+                fn = _plane_z(surface, W, fT, mT, tb, cov, mub, eb, z0[sl], z1[sl])
             else:
-                fn, z0[sl], z1[sl] = _curved_z(surface, Cb, Nb, Fb, tb, cov, mub, eb)
+                cT, nT = W("c", r, 3), W("n", r, 3)
+                np.copyto(cT, c[sl].T)
+                np.copyto(nT, n[sl].T)
+                fn = _curved_z(surface, W, cT, nT, fT, tb, cov, mub, eb, z0[sl], z1[sl])
             if boundary is not None:
                 if z2 is None:
                     z2 = np.full(N, np.inf)
-                z2[sl] = _boundary_z(boundary, Cb, Nb, _Curvature(surface, Cb, Nb, tb, fn), cov)
+                Cb, Nb = [x[sl] for x in C], [x[sl] for x in Nn]
+                z2[sl] = _boundary_z(boundary, Cb, Nb, _Curvature(surface, Cb, Nb, tb, fn.copy()), cov)
     zmin = np.minimum(z0, z1)
     if z2 is not None:
         np.minimum(zmin, z2, out=zmin)
@@ -307,58 +527,6 @@ def _test_rows(c, n, f, tau, w_cov, blocks, mu, e, alpha, ok, m):
     reason = np.zeros(N, np.int8)
     reason[bad] = reason_bad
     return single, p, reason
-
-
-def _curved_z(surface, C, Nn, F, tau, w_cov, mu, e):
-    """``fn``, ``z`` of the pushing and the friction limits on one surface's rows (any kind)."""
-    fn = -_dot(F, Nn)  # the pushing force, N
-    ft = [F[i] + fn * Nn[i] for i in range(3)]  # f_t
-    ft2 = _dot(ft, ft)
-    tq = tau / e
-    s = np.sqrt(ft2 + tq * tq)
-    inv_s = 1.0 / s
-    if not (s > 0).all():
-        inv_s[~(s > 0)] = 0.0  # no shear and no twist: the √ has no gradient
-    # P = X⁻¹ S f_t and Q = n + X⁻¹ (n × f_t)
-    X = _Curvature(surface, C, Nn, tau, fn)
-    iv = X.inv(_cross(Nn, ft), [-x for x in ft])  # n × (n × f_t) = −f_t
-    Q = [Nn[i] + iv[i] for i in range(3)]
-    P = None if X.kind == "flat" else X.inv(X.shape(ft))
-    # the friction limit: u_m = −(μ + f_n/s) P + g_τ Q, u_f = −μ n − f_t / s + c × u_m
-    g_tau = tau * inv_s
-    g_tau /= -(e * e)
-    um1 = [g_tau * q for q in Q]
-    if P is not None:
-        k = fn * inv_s
-        k += mu
-        for i in range(3):
-            um1[i] -= k * P[i]
-    cu1 = _cross(C, um1)
-    uf1 = []
-    for i in range(3):
-        x = Nn[i] * mu
-        x += ft[i] * inv_s
-        np.subtract(cu1[i], x, out=x)
-        uf1.append(x)
-    # the pushing limit: u_m = −P, u_f = −n + c × u_m
-    if P is not None:
-        um0 = [-x for x in P]
-        cu0 = _cross(C, um0)
-        uf0 = [cu0[i] - Nn[i] for i in range(3)]
-    else:
-        um0 = None
-        uf0 = [-x for x in Nn]
-    var0 = _quad(uf0, um0, w_cov)
-    var1 = _quad(uf1, um1, w_cov)
-    g1 = mu * fn
-    g1 -= s
-    z0 = fn / np.sqrt(var0)
-    z1 = g1 / np.sqrt(var1)
-    if np.isnan(z0).any():
-        z0 = _z(fn, var0)
-    if np.isnan(z1).any():
-        z1 = _z(g1, var1)
-    return fn, z0, z1
 
 
 def _quad(uf, um, S):
