@@ -69,89 +69,6 @@ def _dot(a, b):
     return out
 
 
-def _sym_mat(A, x):
-    """``A x`` for a symmetric ``(3, 3)`` matrix and a vector of component arrays (zero entries skipped)."""
-    out = []
-    for i in range(3):
-        o = None
-        for j in range(3):
-            a = A[i, j]
-            if a == 0.0:
-                continue
-            if o is None:
-                o = x[j] * a
-            else:
-                o += x[j] * a
-        out.append(np.zeros_like(x[0]) if o is None else o)
-    return out
-
-
-def _scaled(k, v):
-    return [k * x for x in v]
-
-
-class _Curvature:
-    """``X⁻¹`` of one block's rows (see the module docstring): ``apply(r)`` for tangent vectors ``r``."""
-
-    def __init__(self, surface, c, n, tau, fn):
-        self.n, self.tau, self.fn = n, tau, fn
-        if isinstance(surface, Sphere):
-            self.kind, k = "sphere", 1.0 / surface.radius
-            self.k = k
-            t = tau * k
-            self.den = t * t
-            self.den += fn * fn
-        elif isinstance(surface, Ellipsoid):
-            self.kind = "ellipsoid"
-            A = surface._A
-            self.A = A
-            Ap = _sym_mat(A, [c[i] - surface.center[i] for i in range(3)])
-            g = np.sqrt(_dot(Ap, Ap))
-            self.inv_g = 1.0 / g
-            H = float(np.trace(A)) - _dot(n, _sym_mat(A, n))
-            H *= self.inv_g
-            self.H = H
-            inv_g2 = self.inv_g * self.inv_g
-            den = tau * tau
-            den *= float(np.linalg.det(A))
-            den *= inv_g2 * inv_g2
-            den += fn * fn
-            self.den = den
-        else:  # a plane or a facet: S = 0
-            self.kind = "flat"
-
-    def shape(self, r):
-        """``S r`` for tangent ``r``."""
-        if self.kind == "sphere":
-            return _scaled(self.k, r)
-        Ar = _sym_mat(self.A, r)
-        nAr = _dot(self.n, Ar)
-        n = self.n
-        return [(Ar[i] - n[i] * nAr) * self.inv_g for i in range(3)]
-
-    def inv(self, r, n_cross_r=None):
-        """``X⁻¹ r`` for tangent ``r`` (``n × r`` if the caller has it)."""
-        nr = _cross(self.n, r) if n_cross_r is None else n_cross_r
-        if self.kind == "flat":
-            k = 1.0 / self.fn
-            return [x * k for x in nr]
-        if self.kind == "sphere":
-            a = self.tau * self.k  # τ (H − S) = τ / r on a sphere
-            out = [a * r[i] + self.fn * nr[i] for i in range(3)]
-        else:
-            Sr = self.shape(r)
-            tH = self.tau * self.H
-            out = []
-            for i in range(3):
-                o = tH * r[i]
-                o -= self.tau * Sr[i]
-                o += self.fn * nr[i]
-                out.append(o)
-        for o in out:
-            o /= self.den
-        return out
-
-
 #: Rows per pass: the temporaries of a pass are named buffers of this many rows, kept per thread
 #: and reused (a fresh array per temporary costs its pages' faults, more than the arithmetic).
 CHUNK = 8192
@@ -300,13 +217,13 @@ def _shear(W, fn, ft, tau, e):
     return s, inv_s, tq
 
 
-def _plane_z(plane, W, f, m, tau, w_cov, mu, e, z0, z1):
+def _plane_z(plane, W, f, m, c, tau, w_cov, mu, e, z0, z1, edge=None):
     """The pushing and friction limits' ``z`` on a plane (constant normal, ``S = 0``) into ``z0``, ``z1``.
 
     There ``X⁻¹ r = n × r / f_n``, ``P = 0``, ``Q = −f / f_n``, ``c × f = m − τ n``: the pushing
     limit's gradient is ``u = (−n, 0)`` (one variance for every row) and the friction
     limit's ``u_m = a f``, ``u_f = −(μ + f_n/s) n − f/s + a (m − τ n)`` with ``a = τ / (e² s f_n)``.
-    Returns ``f_n``.
+    ``edge``: ``(margin, gradient (3, r), z2)`` of a boundary (``c (3, r)`` given), or None.
     """
     r = f.shape[1]
     nv = plane.normal
@@ -336,13 +253,17 @@ def _plane_z(plane, W, f, m, tau, w_cov, mu, e, z0, z1):
     np.multiply(f, a, out=um)
     var0 = np.einsum("i,...ij,j->...", nv, w_cov[..., :3, :3], nv)
     _limits_z(W, fn, s, mu, None, var0, U, w_cov, z0, z1)
-    return fn
+    if edge is not None:  # X⁻¹ g = n × g / f_n
+        um = W("um2", r, 3)
+        _cross3(np.broadcast_to(nv[:, None], (3, r)), edge[1], um, W("t", r))
+        um /= fn
+        _boundary_z(W, c, um, w_cov, edge[0], edge[2])
 
 
-def _curved_z(surface, W, c, n, f, tau, w_cov, mu, e, z0, z1):
+def _curved_z(surface, W, c, n, f, tau, w_cov, mu, e, z0, z1, edge=None):
     """The pushing and friction limits' ``z`` on any surface's rows into ``z0``, ``z1`` (module docstring).
 
-    ``c, n, f``: ``(3, r)``. Returns ``f_n``.
+    ``c, n, f``: ``(3, r)``. ``edge``: ``(margin, gradient (3, r), z2)`` of a boundary, or None.
     """
     r = f.shape[1]
     T3, t = W("T3", r, 3), W("t", r)
@@ -375,6 +296,13 @@ def _curved_z(surface, W, c, n, f, tau, w_cov, mu, e, z0, z1):
         np.multiply(v, be, out=T3)
         P += T3
         P *= k
+        if edge is not None:  # X⁻¹ g = (τ/R) g + f_n n × g) / det X
+            um2 = W("um2", r, 3)
+            _cross3(n, edge[1], um2, t)
+            um2 *= be
+            np.multiply(edge[1], al, out=T3)
+            um2 += T3
+            _boundary_z(W, c, um2, w_cov, edge[0], edge[2])
     elif isinstance(surface, Ellipsoid):
         A = surface._A
         Ap, ig, H = W("Ap", r, 3), W("ig", r), W("H", r)
@@ -423,9 +351,19 @@ def _curved_z(surface, W, c, n, f, tau, w_cov, mu, e, z0, z1):
         _cross3(n, h, nh, t)
         P = W("P", r, 3)
         inv(h, nh, P)
+        if edge is not None:
+            um2, ng = W("um2", r, 3), W("ng", r, 3)
+            _cross3(n, edge[1], ng, t)
+            inv(edge[1], ng, um2)
+            _boundary_z(W, c, um2, w_cov, edge[0], edge[2])
     else:  # a plane or a facet: X⁻¹ r = n × r / f_n, Q = −f / f_n
         np.divide(f, fn, out=Q)
         np.negative(Q, out=Q)
+        if edge is not None:
+            um2 = W("um2", r, 3)
+            _cross3(n, edge[1], um2, t)
+            um2 /= fn
+            _boundary_z(W, c, um2, w_cov, edge[0], edge[2])
     # the friction limit: u_m = g_τ Q − (μ + f_n/s) P, u_f = c × u_m − μ n − f_t / s
     gt = W("gt", r)
     np.multiply(tq, inv_s, out=gt)
@@ -453,7 +391,6 @@ def _curved_z(surface, W, c, n, f, tau, w_cov, mu, e, z0, z1):
         U0[:3] = n
         U0[3:] = 0.0
     _limits_z(W, fn, s, mu, U0, None, U1, w_cov, z0, z1)
-    return fn
 
 
 def _test_rows(c, n, f, tau, w_cov, blocks, mu, e, alpha, ok, m):
@@ -478,20 +415,24 @@ def _test_rows(c, n, f, tau, w_cov, blocks, mu, e, alpha, ok, m):
             np.copyto(fT, f[sl].T)
             tb, mub, eb = at(tau), at(mu), at(e)
             cov = w_cov if w_cov.ndim == 2 else w_cov[sl]
+            edge = None
+            if boundary is not None:
+                if z2 is None:
+                    z2 = np.full(N, np.inf)
+                edge = (*_boundary_grad(boundary, c[sl], n[sl]), z2[sl])
             if isinstance(surface, Plane) and m is not None:
                 mT = W("m", r, 3)
                 np.copyto(mT, m[sl].T)
-                fn = _plane_z(surface, W, fT, mT, tb, cov, mub, eb, z0[sl], z1[sl])
+                cT = None
+                if edge is not None:
+                    cT = W("c", r, 3)
+                    np.copyto(cT, c[sl].T)
+                _plane_z(surface, W, fT, mT, cT, tb, cov, mub, eb, z0[sl], z1[sl], edge)
             else:
                 cT, nT = W("c", r, 3), W("n", r, 3)
                 np.copyto(cT, c[sl].T)
                 np.copyto(nT, n[sl].T)
-                fn = _curved_z(surface, W, cT, nT, fT, tb, cov, mub, eb, z0[sl], z1[sl])
-            if boundary is not None:
-                if z2 is None:
-                    z2 = np.full(N, np.inf)
-                Cb, Nb = [x[sl] for x in C], [x[sl] for x in Nn]
-                z2[sl] = _boundary_z(boundary, Cb, Nb, _Curvature(surface, Cb, Nb, tb, fn.copy()), cov)
+                _curved_z(surface, W, cT, nT, fT, tb, cov, mub, eb, z0[sl], z1[sl], edge)
     zmin = np.minimum(z0, z1)
     if z2 is not None:
         np.minimum(zmin, z2, out=zmin)
@@ -529,39 +470,6 @@ def _test_rows(c, n, f, tau, w_cov, blocks, mu, e, alpha, ok, m):
     return single, p, reason
 
 
-def _quad(uf, um, S):
-    """``uᵀ S u`` for ``u = (u_f, u_m)`` given as component arrays (``u_m`` None: zero), ``S (6, 6)`` or ``(N, 6, 6)``.
-
-    Term by term, zero entries skipped (no BLAS: the same rounding whatever the batch, so
-    grouped and single solves agree bitwise).
-    """
-    u = list(uf) + ([None] * 3 if um is None else list(um))
-    if S.ndim == 3:
-        z = np.zeros_like(uf[0])
-        U = np.stack([z if x is None else x for x in u], axis=1)
-        return np.einsum("ni,nij,nj->n", U, S, U)
-    out = None
-    for i in range(6):
-        if u[i] is None:
-            continue
-        if S[i, i] != 0.0:
-            t = u[i] * u[i]
-            t *= S[i, i]
-            if out is None:
-                out = t
-            else:
-                out += t
-        for j in range(i + 1, 6):
-            if u[j] is not None and S[i, j] != 0.0:
-                t = u[i] * u[j]
-                t *= 2.0 * S[i, j]
-                if out is None:
-                    out = t
-                else:
-                    out += t
-    return np.zeros_like(uf[0]) if out is None else out
-
-
 def _tangents(n):
     """Two unit tangents of unit normals ``n`` (component arrays; tangent_basis's rule)."""
     use_x = np.abs(n[0]) < 0.9
@@ -571,24 +479,29 @@ def _tangents(n):
     return t1, list(_cross(n, t1))
 
 
-def _boundary_z(boundary, c, n, X, w_cov):
-    """``z`` of the boundary margin on one block (central difference along two tangents):
-    ``g_c`` the margin's tangent gradient, ``u_m = X⁻¹ g_c``, ``u_f = c × u_m``."""
+def _boundary_grad(boundary, c, n):
+    """The boundary margin ``(r,)`` m (> 0 inside) at ``c (r, 3)`` and its tangent gradient ``(3, r)``
+    (central difference along two tangents of the unit normals ``n (r, 3)``)."""
     h = _BOUNDARY_STEP
-    k = len(c[0])
-    t1, t2 = _tangents(n)
-    C = np.stack(c, axis=1)
+    k = len(c)
+    t1, t2 = _tangents((n[:, 0], n[:, 1], n[:, 2]))
     T1, T2 = np.stack(t1, axis=1), np.stack(t2, axis=1)
     pts = np.empty((5, k, 3))
-    pts[0] = C
-    pts[1] = C + h * T1
-    pts[2] = C + h * T2
-    pts[3] = C - h * T1
-    pts[4] = C - h * T2
+    pts[0] = c
+    pts[1] = c + h * T1
+    pts[2] = c + h * T2
+    pts[3] = c - h * T1
+    pts[4] = c - h * T2
     m = boundary.margin(pts.reshape(-1, 3)).reshape(5, k)
     d1 = (m[1] - m[3]) / (2 * h)
     d2 = (m[2] - m[4]) / (2 * h)
-    gc = [d1 * t1[i] + d2 * t2[i] for i in range(3)]
-    um = X.inv(gc)  # X holds the block's own rows
-    uf = _cross(c, um)
-    return _z(m[0], _quad(uf, um, w_cov))
+    return m[0], np.array([d1 * t1[i] + d2 * t2[i] for i in range(3)])
+
+
+def _boundary_z(W, c, um, w_cov, margin, z2):
+    """``z2`` of the boundary margin from ``u_m = X⁻¹ g_c`` in ``um (3, r)`` (``u_f = c × u_m``)."""
+    r = um.shape[1]
+    U = W("U2b", r, 6)
+    U[3:] = um
+    _cross3(c, um, U[:3], W("t", r))
+    z2[:] = _z(margin, _quad6(U, w_cov, W("var2", r), W))
