@@ -190,8 +190,11 @@ def _limits_z(W, fn, s, mu, U0, var0, U1, w_cov, z0, z1):
     np.multiply(fn, mu, out=g1)
     g1 -= s
     sq = W("sq", r)
-    np.sqrt(var0, out=sq) if np.ndim(var0) else sq.fill(np.sqrt(var0))
-    np.divide(fn, sq, out=z0)
+    if np.ndim(var0):
+        np.sqrt(var0, out=sq)
+        np.divide(fn, sq, out=z0)
+    else:  # one variance for every row (a plane)
+        np.multiply(fn, 1.0 / np.sqrt(var0), out=z0)
     np.sqrt(var1, out=sq)
     np.divide(g1, sq, out=z1)
     if np.isnan(z0.sum()):  # degenerate rows (rare): _z's rules
@@ -227,9 +230,13 @@ def _plane_z(plane, W, f, m, c, tau, w_cov, mu, e, z0, z1, edge=None):
     """
     r = f.shape[1]
     nv = plane.normal
-    T3 = W("T3", r, 3)
-    fn = _dot3(f, nv[:, None], W("fn", r), T3)
-    np.negative(fn, out=fn)
+    T3, t = W("T3", r, 3), W("t", r)
+    fn = W("fn", r)
+    nz = [i for i in range(3) if nv[i] != 0.0]  # a face frame's plane: one component
+    np.multiply(f[nz[0]], -nv[nz[0]], out=fn)
+    for i in nz[1:]:
+        np.multiply(f[i], nv[i], out=t)
+        fn -= t
     ft = W("ft", r, 3)
     np.multiply(nv[:, None], fn, out=ft)
     ft += f
