@@ -31,8 +31,6 @@ from typing import Callable
 import numpy as np
 from PySide6.QtCore import QObject, Qt, Signal, Slot
 
-from pito_core.contact import solve_object
-from pito_core.defaults import SHOW_CONTACT_FORCE_N
 from pito_core.frames import CubeCore
 from pito_core.interop import provenance_meta
 from pito_core.pipeline import LiveBundle, TareRefused
@@ -53,6 +51,8 @@ class LiveFeed(QObject):
         What runs the pipeline now.
     calibration, assembly, wrench_cov
         The settings the operator chose (the source's pipeline has them once accepted).
+    sample_contacts : bool
+        The bundles carry every sample's contacts (``arrived_contacts``; the LSL publisher asks).
     live_tare : dict or None
         The last tare taken live (its event): a replay applies its own, Back to live this one again.
     contacts_sink : callable or None
@@ -82,6 +82,7 @@ class LiveFeed(QObject):
         self.assembly = None
         self.wrench_cov = None
         self.live_tare: dict | None = None
+        self.sample_contacts = False
         self.contacts_sink: Callable | None = None
         self.delivered = 0
         self.emitted = 0
@@ -190,6 +191,8 @@ class LiveFeed(QObject):
             source.set_calibration(self.calibration)
         if source.assembly is not self.assembly or not _same_cov(source.wrench_cov, self.wrench_cov):
             source.set_assembly(self.assembly, self.wrench_cov)
+        if self.sample_contacts:
+            source.set_sample_contacts(True)
         if not self.replaying and self.live_tare is not None and source.tare_in_force is None:
             source.apply_tare(self.live_tare)  # Back to live (or new devices): the live tare again
         source.set_sink(self.deliver, self._on_source_error)
@@ -207,6 +210,13 @@ class LiveFeed(QObject):
         if self.source is not None:
             self.source.set_assembly(assembly, wrench_cov)
         self.assembly, self.wrench_cov = assembly, wrench_cov
+
+    def set_sample_contacts(self, on: bool) -> None:
+        """Bundles with every sample's contacts (``arrived_contacts``: the LSL publisher's), or not.
+
+        Kept for the next source; the source is asked from the command thread (it may wait for its answer)."""
+        self.sample_contacts = bool(on)
+        self.post(lambda: self.source is not None and self.source.set_sample_contacts(self.sample_contacts))
 
     def seek(self, t: float) -> None:
         """Replay: continue from ``t`` s into the recording (nothing live)."""
@@ -265,11 +275,6 @@ class LiveFeed(QObject):
             j = int(np.argmax(np.linalg.norm(W[:, :3], axis=1)))
             state += f": face {j + 1} reads its weight, {np.linalg.norm(W[j, :3]):.2f} N"
         return f"Tare: taken {when} ({ev.get('duration', 0.5):g} s, still, {state})"
-
-    def contacts(self, wrenches):
-        """Contacts (``ContactEstimate``, frame "core") of face wrenches ``(n, 6, 6)`` on the object shown, each sample
-        (the LSL publisher's; the live view's come with the bundles)."""
-        return solve_object(self.assembly if self.assembly is not None else "cube", wrenches, SHOW_CONTACT_FORCE_N)
 
     # ------------------------------------------------------------ recording
     def start_recording(self, path, simulated: bool = False, meta: dict | None = None) -> None:

@@ -1,7 +1,8 @@
 """The live view's "LSL" toggle: publish ``pito-wrenches`` and ``pito-contacts`` while it is on.
 
 The toggle creates a :class:`pito_core.interop.LslPublisher` on the live feed (the
-calibration and object shown, and the contacts of each sample on that object) and pushes every
+calibration and object shown; the feed's pipeline then solves the contacts of each sample on
+that object, ``LiveBundle.arrived_contacts``, the publisher solves none) and pushes every
 bundle the feed sends to the GUI (bundles are merged, never dropped, so every sample is
 published once). The label next to it names the streams.
 Without the ``interop`` extra (pylsl) the toggle is disabled with the reason as its tooltip.
@@ -15,7 +16,15 @@ import importlib.util
 
 from PySide6.QtWidgets import QHBoxLayout, QLabel, QPushButton, QWidget
 
-from pito_core.interop import LslPublisher
+from pito_core.interop import (
+    CONTACT_CHANNEL_COUNT,
+    CONTACT_STREAM,
+    CONTACT_TYPE,
+    WRENCH_CHANNELS,
+    WRENCH_STREAM,
+    WRENCH_TYPE,
+    LslPublisher,
+)
 
 __all__ = ["LslToggle", "install_lsl_toggle"]
 
@@ -26,7 +35,8 @@ class LslToggle(QWidget):
     Parameters
     ----------
     feed : app.live.feed.LiveFeed
-        Its ``calibration``, ``assembly`` and ``contacts`` describe the streams; its ``bundle``
+        Its ``calibration`` and ``assembly`` describe the streams, ``set_sample_contacts`` asks its
+        pipeline for every sample's contacts; its ``bundle``
         signal delivers the samples.
     publisher_factory : callable(feed) -> sink, optional
         Default :class:`pito_core.interop.LslPublisher`.
@@ -39,8 +49,9 @@ class LslToggle(QWidget):
         self.publisher = None
         self.button = QPushButton("LSL")
         self.button.setCheckable(True)
-        self.button.setToolTip("Publish the face wrenches (pito-wrenches, Force, 36 ch) and contacts "
-                               "(pito-contacts, Contact, 72 ch) as Lab Streaming Layer streams")
+        self.button.setToolTip(f"Publish the face wrenches ({WRENCH_STREAM}, {WRENCH_TYPE}, {6 * len(WRENCH_CHANNELS)} ch) "
+                               f"and contacts ({CONTACT_STREAM}, {CONTACT_TYPE}, {CONTACT_CHANNEL_COUNT} ch) as Lab "
+                               "Streaming Layer streams")
         self.label = QLabel("")
         lay = QHBoxLayout(self)
         lay.setContentsMargins(0, 0, 0, 0)

@@ -240,7 +240,7 @@ def _solve_rows(surfaces, f, m, ws, Sn, *, with_cov, point_contact, single_conta
 
     test = cov = None
     if single_contact and not point_contact:  # the soft finger's test in closed form (_soft_test)
-        test = soft_finger_test(c, n, force, tau, Sn, blocks, mu, e, alpha)
+        test = soft_finger_test(c, n, force, tau, Sn, blocks, mu, e, alpha, ok, m)
     elif single_contact or with_cov:
         with np.errstate(invalid="ignore", divide="ignore"):  # NaN rows stay NaN
             shape = _shape(surfaces, blocks, c, n)

@@ -132,8 +132,15 @@ def wrench_samples(face_wrenches) -> np.ndarray:
     return W.reshape(W.shape[0], 36)
 
 
-def contact_samples(contacts) -> np.ndarray:
-    """A core-frame ``ContactEstimate`` with shapes ``(n, 6, …)`` → ``(n, 72)`` ``pito-contacts`` samples (face-major)."""
+def contact_samples(contacts, n: int | None = None) -> np.ndarray:
+    """A core-frame ``ContactEstimate`` with shapes ``(n, 6, …)`` → ``(n, 72)`` ``pito-contacts`` samples (face-major).
+
+    ``contacts`` None (samples without their contacts): ``n`` rows of NaN with ``valid`` 0.
+    """
+    if contacts is None:
+        out = np.full((int(n), 6, CONTACT_CHANNEL_COUNT // 6), np.nan, np.float32)
+        out[:, :, 10] = 0.0  # valid
+        return out.reshape(int(n), CONTACT_CHANNEL_COUNT)
     p = np.asarray(contacts.point, np.float32)
     if p.ndim != 3 or p.shape[1:] != (6, 3):
         raise ValueError(f"contacts.point: expected shape (n, 6, 3), got {p.shape}")
@@ -207,9 +214,11 @@ class LslPublisher:
 
     Parameters
     ----------
-    pipeline : Pipeline
-        The pipeline producing the bundles (its calibration/assembly go into ``desc``;
-        its :meth:`~pito_core.pipeline.Pipeline.contacts` gives per-sample contacts).
+    pipeline : Pipeline, PipelineProcess, PipelineThread or a live feed
+        The pipeline producing the bundles: its calibration and assembly go into ``desc``,
+        and it is asked to keep every sample's contacts (``set_sample_contacts(True)``): the
+        ``pito-contacts`` samples are the bundles' ``arrived_contacts``, solved once, by the
+        pipeline (a bundle made before that took effect gives NaN contacts, ``valid`` 0).
     rate_hz : float
         The cube's nominal rate, Hz.
     calibration_record, assembly_record : dict, optional
@@ -232,6 +241,7 @@ class LslPublisher:
         self.pushed = 0
         self.names = (WRENCH_STREAM, CONTACT_STREAM)
         self.time_base = None  # (LSL time s, device tick µs) of the first sample published
+        pipeline.set_sample_contacts(True)
 
     def __call__(self, bundle) -> None:
         # each cube sample once, as it arrives (its face wrenches do not wait for the reference);
@@ -247,9 +257,13 @@ class LslPublisher:
                 self.time_base = (float(t[0]) + self.clock_offset, int(tick[0]))
             ts = (self.time_base[0] + (np.asarray(tick, np.int64) - self.time_base[1]) * 1e-6).tolist()
         self.wrench_outlet.push_chunk(wrench_samples(W), ts)
-        self.contact_outlet.push_chunk(contact_samples(self.pipeline.contacts(np.asarray(W))), ts)
+        contacts = bundle.arrived_contacts
+        if contacts is not None and len(contacts.valid) != len(ts):
+            raise ValueError(f"arrived_contacts: expected {len(ts)} samples, got {len(contacts.valid)}")
+        self.contact_outlet.push_chunk(contact_samples(contacts, len(ts)), ts)
         self.pushed += len(ts)
 
     def close(self) -> None:
-        """Close both outlets (inlets see the streams end)."""
+        """Close both outlets (inlets see the streams end); the pipeline stops keeping every sample's contacts."""
         self.wrench_outlet = self.contact_outlet = None
+        self.pipeline.set_sample_contacts(False)

@@ -60,6 +60,10 @@ class LiveBundle:
         Face wrenches of the arrived samples (the same values their records will carry).
     arrived_tick : ndarray of int64, shape (m,) or None
         The arrived samples' device clock, µs (unwrapped): the time base of the live streams.
+    arrived_contacts : ContactEstimate or None
+        Contacts of each arrived sample's face wrenches (core frame, fields ``(m, 6, …)``), as
+        ``contacts`` is of the latest wrenches; only when the pipeline keeps them
+        (``Pipeline(sample_contacts=True)``: the LSL streams), else None.
     contacts_time : float
         Time of the newest sample behind ``wrenches``, ``contacts`` and the sums, s (NaN when
         the bundle has none).
@@ -81,6 +85,7 @@ class LiveBundle:
     arrived_time: np.ndarray | None = None
     arrived_face_wrenches: np.ndarray | None = None
     arrived_tick: np.ndarray | None = None
+    arrived_contacts: ContactEstimate | None = None
     contacts_time: float = float("nan")
     measured: np.ndarray | None = None
 
@@ -115,7 +120,8 @@ class LiveBundle:
                          face_wrenches=cat(self.face_wrenches, newer.face_wrenches),
                          arrived_time=_cat_arrived(self.arrived_time, newer.arrived_time),
                          arrived_face_wrenches=_cat_arrived(self.arrived_face_wrenches, newer.arrived_face_wrenches),
-                         arrived_tick=_cat_arrived(self.arrived_tick, newer.arrived_tick))
+                         arrived_tick=_cat_arrived(self.arrived_tick, newer.arrived_tick),
+                         arrived_contacts=_cat_contacts(self, newer))
         src = newer if newer.wrenches is not None else self
         out.wrenches, out.contacts, out.contacts_time = src.wrenches, src.contacts, src.contacts_time
         out.sum_force, out.sum_torque = src.sum_force, src.sum_torque
@@ -128,6 +134,20 @@ def _cat_arrived(a, b):
     if a is None or b is None:
         return b if a is None else a
     return np.concatenate([a, b])
+
+
+def _cat_contacts(a: LiveBundle, b: LiveBundle) -> ContactEstimate | None:
+    """Per-sample contacts of two bundles' arrived rows, in order; None unless every arrived row has its own."""
+    na = 0 if a.arrived_time is None else len(a.arrived_time)
+    nb = 0 if b.arrived_time is None else len(b.arrived_time)
+    ca, cb = a.arrived_contacts, b.arrived_contacts
+    if nb == 0 and (na == 0 or ca is not None):
+        return ca
+    if na == 0 and cb is not None:
+        return cb
+    if ca is None or cb is None:
+        return None
+    return ContactEstimate.concatenate([ca, cb])
 
 
 def face_sums(wrenches, core: CubeCore, cog=(0.0, 0.0, 0.0)) -> tuple[np.ndarray, np.ndarray]:

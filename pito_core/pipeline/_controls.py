@@ -29,6 +29,10 @@ class PipelineControls:
         """:meth:`Pipeline.set_assembly`, between two reads (a library assembly goes by name)."""
         self._call("set_assembly", assembly, wrench_cov)
 
+    def set_sample_contacts(self, on: bool) -> None:
+        """:meth:`Pipeline.set_sample_contacts`: every arrived sample's contacts in the bundles (the LSL streams)."""
+        self._call("set_sample_contacts", bool(on))
+
     def tare(self, duration: float = 0.5, check: bool = False, support=None) -> dict:
         """:meth:`Pipeline.tare` (recorded when recording); returns the event.
 

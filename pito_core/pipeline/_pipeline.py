@@ -63,6 +63,10 @@ class Pipeline:
         NaN (a reference that stopped).
     rate_hz : float
         Nominal sample rate, Hz (sizes the histories).
+    sample_contacts : bool
+        Also solve the contacts of every arrived sample (``LiveBundle.arrived_contacts``: the
+        live streams' contacts, one per sample), not only of the latest wrenches
+        (:meth:`set_sample_contacts` turns it on and off).
 
     Attributes
     ----------
@@ -76,7 +80,8 @@ class Pipeline:
 
     def __init__(self, calibration=None, assembly=None, *, core: CubeCore | None = None, has_reference: bool = True,
                  force_threshold: float = SHOW_CONTACT_FORCE_N, wrench_cov=None, smooth: int = 5,
-                 reference_history: float = 4.0, max_wait: float = 1.0, rate_hz: float = 1000.0):
+                 reference_history: float = 4.0, max_wait: float = 1.0, rate_hz: float = 1000.0,
+                 sample_contacts: bool = False):
         if int(smooth) < 1:
             raise ValueError(f"smooth: expected >= 1 samples, got {smooth!r}")
         if not force_threshold >= 0:
@@ -86,6 +91,7 @@ class Pipeline:
         self.force_threshold = float(force_threshold)
         self.smooth = int(smooth)
         self.max_wait = float(max_wait)
+        self.sample_contacts = bool(sample_contacts)
         self.calibration = None
         self.coverage = None
         self._tare_history: list = []  # (counts_offset, reference_bias) before each tare, for undo_tare
@@ -144,6 +150,10 @@ class Pipeline:
             self.wrench_cov = None if wrench_cov is None else np.asarray(wrench_cov, dtype=float)
         c = getattr(assembly, "center_of_gravity", None)
         self.cog = np.zeros(3) if c is None else np.asarray(c, dtype=float)
+
+    def set_sample_contacts(self, on: bool) -> None:
+        """Solve the contacts of every arrived sample too (``LiveBundle.arrived_contacts``), or stop."""
+        self.sample_contacts = bool(on)
 
     # ------------------------------------------------------------ tare
     def tare(self, duration: float = 0.5, *, check: bool = False, support=None) -> dict:
@@ -308,12 +318,18 @@ class Pipeline:
                     if not self.coverage.net_load:  # a sum over unmeasured directions: none
                         b.sum_force, b.sum_torque = np.full(3, np.nan), np.full(3, np.nan)
                     b.measured = self.coverage.faces
-                b.contacts = self.contacts(latest, self._latest_cov(tail["counts"]))
+                cov = self._latest_cov(tail["counts"])
+                b.contacts = self.contacts(latest, cov)
                 # a gauge at its ADC limit (saturated: the true load is unknown) in the samples behind the
                 # latest wrenches: no valid contact (every face's wrench depends on all 36 gauges through
                 # the calibration matrix)
                 if (np.abs(tail["counts"]) >= CUBE_ADC_LIMIT).any() and b.contacts is not None:
                     b.contacts.valid[...] = False
+                if self.sample_contacts:  # each arrived sample's own contacts, by the same solve
+                    b.arrived_contacts = self.contacts(W, cov)
+                    saturated = (np.abs(arrived["counts"]) >= CUBE_ADC_LIMIT).any(axis=1)
+                    if saturated.any():
+                        b.arrived_contacts.valid[saturated] = False
         return b
 
     def _arrive(self, cube: dict | None) -> dict | None:

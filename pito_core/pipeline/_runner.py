@@ -13,7 +13,7 @@ from ._pipeline import Pipeline
 __all__ = ["PipelineRunner", "REQUESTS"]
 
 #: The runner's methods a caller may ask for by name (the pipeline process's protocol).
-REQUESTS = ("set_calibration", "set_assembly", "tare", "undo_tare", "apply_tare", "reset", "open_recording",
+REQUESTS = ("set_calibration", "set_assembly", "set_sample_contacts", "tare", "undo_tare", "apply_tare", "reset", "open_recording",
             "close_recording", "record_event")
 
 
@@ -42,6 +42,9 @@ class PipelineRunner:
 
     def set_assembly(self, assembly, wrench_cov=None) -> None:
         self.pipeline.set_assembly(assembly, wrench_cov)
+
+    def set_sample_contacts(self, on: bool) -> None:
+        self.pipeline.set_sample_contacts(on)
 
     def tare(self, duration: float = 0.5, check: bool = False, support=None) -> dict:
         """:meth:`Pipeline.tare`; the event is recorded when recording. Refused: ``TareRefused`` (a ValueError)."""

@@ -418,22 +418,38 @@ def test_contacts_go_from_the_source_thread_to_the_drawing_thread(live, qtbot):
     assert scene.contacts_time == 1.5
 
 
-def test_the_feeds_per_sample_contacts_are_the_pipelines(qtbot):
-    """The LSL publisher's per-sample contacts (from the feed's object) equal the one pipeline's."""
-    from pito_core.contact import load_assembly
-    from pito_core.pipeline import Pipeline
+def test_the_feed_asks_its_sources_for_every_samples_contacts(qtbot):
+    """The LSL publisher's per-sample contacts come from the one pipeline: the feed forwards the request
+    (``set_sample_contacts``) to its source and to the next one; it solves no contacts itself."""
+
+    class Source:
+        calibration = assembly = wrench_cov = tare_in_force = None
+        replay = False
+
+        def __init__(self):
+            self.asked = []
+
+        def set_sample_contacts(self, on):
+            self.asked.append(on)
+
+        def set_sink(self, *args):
+            pass
+
+        def close(self):
+            pass
 
     feed = LiveFeed()
     try:
-        asm = load_assembly("pito_mixed")
-        feed.set_assembly(asm)
-        W = np.zeros((4, 6, 6))
-        W[:, 0, 2] = -np.array([0.1, 1.0, 4.0, 9.0])  # pressing on face 1, under and over the threshold
-        W[:, 0, 4] = 0.01
-        mine, theirs = feed.contacts(W), Pipeline(assembly=asm).contacts(W)
-        np.testing.assert_array_equal(mine.valid, theirs.valid)
-        np.testing.assert_allclose(mine.point, theirs.point, equal_nan=True)
-        assert mine.valid[1:, 0].all() and not mine.valid[0, 0]
+        assert not hasattr(feed, "contacts")
+        s1 = Source()
+        feed.set_source(s1)
+        feed.set_sample_contacts(True)
+        assert feed.sync() and s1.asked == [True]
+        s2 = Source()
+        feed.set_source(s2)  # a new source (Back to live, a replay): asked at once
+        assert s2.asked == [True]
+        feed.set_sample_contacts(False)
+        assert feed.sync() and s2.asked == [True, False] and s1.asked == [True]
     finally:
         feed.stop()
 

@@ -87,6 +87,7 @@ def test_recording_through_the_outlets_arrives_exactly(namespace, interop_files)
     assert out["received"] == {"pito-wrenches": out["sent"], "pito-contacts": out["sent"]}
     assert out["wrench_max_abs_diff"] == 0.0  # float32 on the wire, compared as float32
     assert out["contact_max_abs_diff"] == 0.0 and out["contact_nan_same"]
+    assert out["contacts_from_bundles"]  # the publisher solves nothing: the pipeline's per-sample contacts
     assert out["timestamps_max_abs_diff"] < 1e-9  # the cube's device clock on the LSL clock, not push times
     assert out["timestamps_strictly_increasing"] and out["valid_contacts"] > 0
 

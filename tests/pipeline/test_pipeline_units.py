@@ -122,3 +122,26 @@ def test_a_new_calibration_reaches_the_samples_waiting_for_their_reference(calib
     done = pipe.process(None, _reference(rows["time"] + 0.0005))
     assert len(done) == 50 and done.arrived_time is None and done.contacts is None
     np.testing.assert_array_equal(done.face_wrenches, calibration.wrenches(np.asarray(rows["counts"], float)))
+
+
+def test_every_arrived_sample_gets_its_contacts_when_asked(calibration):
+    # the LSL streams' contacts: one per arrived sample, solved by the pipeline (the publisher solves none)
+    rows = _grasp(300, t0=4.0)
+    pipe = Pipeline(calibration, "pito_mixed", has_reference=False)
+    assert pipe.process({k: v[:100] for k, v in rows.items()}).arrived_contacts is None  # off by default
+    pipe.set_sample_contacts(True)
+    b1 = pipe.process({k: v[100:220] for k, v in rows.items()})
+    b2 = pipe.process({k: v[220:] for k, v in rows.items()})
+    for b in (b1, b2):
+        c = b.arrived_contacts
+        assert c.frame == "core" and c.point.shape == (len(b.arrived_time), 6, 3) and c.valid.any()
+        ref = pipe.contacts(b.arrived_face_wrenches)
+        np.testing.assert_array_equal(c.point, ref.point)
+        np.testing.assert_array_equal(c.single_contact, ref.single_contact)
+    m = b1.merged(b2)  # a consumer that fell behind: the samples and their contacts stay aligned
+    assert len(m.arrived_contacts.valid) == len(m.arrived_time) == 200
+    np.testing.assert_array_equal(m.arrived_contacts.point[120:], b2.arrived_contacts.point)
+    pipe.set_sample_contacts(False)
+    b3 = pipe.process({k: v[220:] + (0.5 if k == "time" else 500_000 if k == "tick" else 0) for k, v in rows.items()})
+    assert b3.arrived_contacts is None and b3.contacts is not None
+    assert b2.merged(b3).arrived_contacts is None  # not every sample has its own: none rather than misaligned
