@@ -22,6 +22,9 @@ from ..tasks import TaskBar, run_in_process, run_task
 from .ident_why import identification_why
 from .model_choice import ModelChoiceBox
 from .page import WizardPage
+from ..fonts import use_app_font_in_matplotlib
+
+use_app_font_in_matplotlib()  # the app's font in this module's figures (app/fonts.py)
 
 __all__ = ["ResultsPage", "fit_job", "render_figures", "per_face_text"]
 
