@@ -19,7 +19,6 @@ from pito_core.calibration import HOLDOUT, NOT_MEASURED_TEXT, fit_and_evaluate
 from pito_core import report
 from ..filetypes import CALIBRATION_SAVE_FILTER, CALIBRATION_SUFFIX
 from ..tasks import TaskBar, run_in_process, run_task
-from .ident_why import identification_why
 from .model_choice import ModelChoiceBox
 from .page import WizardPage
 from ..fonts import use_app_font_in_matplotlib
@@ -432,8 +431,9 @@ class ResultsPage(WizardPage):
             v["per_face"].setText("n/a (no validation pass)")
             v["reactions"].setText("—")
         head = ev.identification_headline()  # the papers' rule: single by force, squeeze by torque
-        v["ident"].setText("; ".join(h["text"] for h in head) if head else "n/a")
-        v["ident"].setToolTip(identification_why(ev, reaction))  # why the figure is what it is
+        note = report.identification_note(ev, reaction)  # what holds the figure down, on the page
+        v["ident"].setText(("; ".join(h["text"] for h in head) if head else "n/a") + (f" — {note}" if note else ""))
+        v["ident"].setToolTip(report.identification_why(ev, reaction))  # why the figure is what it is
         ho = m.heldout
         if ho is not None:
             f, t = ho.rmse_force(), ho.rmse_torque()
