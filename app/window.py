@@ -247,10 +247,10 @@ class MainWindow(QMainWindow):
             cached = cached_demo_calibration(k, self.seed)
             if cached is not None:  # a previous start's, for today's code and simulator: forces at once
                 self.set_calibration(cached, f"virtual cube, calibrated with the simulator ({m}, k = {k}/face)")
-                self.statusBar().showMessage(
-                    f"SIMULATED DEVICE — no calibration file: the virtual cube's calibration with the simulator "
-                    f"({m}, k = {k} samples per face, 1/cond = {cached.inverse_condition_number:.1e}), "
-                    f"cached by an earlier start in {demo_cache_path(k, self.seed)}.")
+                self.cal_label.setToolTip(f"cached in {demo_cache_path(k, self.seed)}")  # a path of any length
+                self.statusBar().showMessage(  # short enough for the bar at 1280 px (tests/app/test_demo_cache.py)
+                    f"SIMULATED DEVICE — the virtual cube's calibration (simulator, {m}, k = {k}/face, "
+                    f"1/cond = {cached.inverse_condition_number:.1e}), cached by an earlier start")
                 return
             self.statusBar().showMessage(f"Calibrating the virtual cube (method '{m}', k = {k} per face)…")
             seed = self.seed
@@ -260,9 +260,8 @@ class MainWindow(QMainWindow):
                     return
                 self.set_calibration(cal, f"virtual cube, calibrated at startup ({m}, k = {k}/face)")
                 self.statusBar().showMessage(
-                    f"SIMULATED DEVICE — no calibration file: the virtual cube was calibrated at startup with the "
-                    f"simulator ({m}, k = {k} samples per face, 1/cond = {cal.inverse_condition_number:.1e})."
-                )
+                    f"SIMULATED DEVICE — the virtual cube's calibration (simulator, {m}, k = {k}/face, "
+                    f"1/cond = {cal.inverse_condition_number:.1e}), fitted at startup")
 
             # in a child process (the fit's LAPACK holds the GIL): the window shows the raw demo meanwhile
             self.calibration_task = run_in_process(
@@ -314,6 +313,7 @@ class MainWindow(QMainWindow):
         self.feed.post(lambda: self.feed.set_calibration(calibration))
         h = short_hash(calibration_hash(calibration))  # the calibration's identity
         self.cal_label.setText(f"calibration: {label or calibration.method} [{h}]")
+        self.cal_label.setToolTip("")
         self.cal_label.setStyleSheet("")
         self.live.set_notice(None)
         base = self.windowTitle().split("  — calibration")[0]

@@ -25,6 +25,9 @@ from ..fonts import use_app_font_in_matplotlib
 
 use_app_font_in_matplotlib()  # the app's font in this module's figures (app/fonts.py)
 
+#: Width of the figures of merit's names, px (wrapped): the values beside them get the rest.
+NAME_WIDTH = 190
+
 __all__ = ["ResultsPage", "fit_job", "render_figures", "per_face_text"]
 
 #: samples per block of the streamed QR in the wizard's fit (keeps each GIL-holding LAPACK call short)
@@ -219,7 +222,10 @@ class ResultsPage(WizardPage):
             ("coverage", "Measures"),
             ("status", "Status"),
         )):
-            grid.addWidget(QLabel(text), r, 0, Qt.AlignmentFlag.AlignTop)
+            name = QLabel(text)
+            name.setWordWrap(True)  # a narrow name column: the values get the width (their numbers stay whole)
+            name.setFixedWidth(NAME_WIDTH)
+            grid.addWidget(name, r, 0, Qt.AlignmentFlag.AlignTop)
             lab = QLabel("—")
             lab.setObjectName("value")
             lab.setWordWrap(True)  # rows grow to their text (height for width), never clipped
@@ -414,9 +420,9 @@ class ResultsPage(WizardPage):
         if fig is not None:
             wf, wt = int(np.nanargmax(fig.rmse_force)) + 1, int(np.nanargmax(fig.rmse_torque)) + 1
             self._worst = wf
-            v["force"].setText(f"{fig.worst_force:.3f} N (face {wf}), 95 %: "
+            v["force"].setText(f"{fig.worst_force:.3f} N (face {wf}), 95\u00a0%: "
                                f"{fig.worst_force_ci[0]:.3f}–{fig.worst_force_ci[1]:.3f}")
-            v["torque"].setText(f"{fig.worst_torque * 1000:.2f} mN·m (face {wt}), 95 %: "
+            v["torque"].setText(f"{fig.worst_torque * 1000:.2f} mN·m (face {wt}), 95\u00a0%: "
                                 f"{fig.worst_torque_ci[0] * 1000:.2f}–{fig.worst_torque_ci[1] * 1000:.2f}")
             v["reactions"].setText(f"face {reaction}: {fig.reaction_force:.2f} N, {fig.reaction_torque * 1000:.1f} mN·m"
                                    if reaction else "—")
@@ -432,7 +438,10 @@ class ResultsPage(WizardPage):
             v["reactions"].setText("—")
         head = ev.identification_headline()  # the papers' rule: single by force, squeeze by torque
         note = report.identification_note(ev, reaction)  # what holds the figure down, on the page
-        v["ident"].setText(("; ".join(h["text"] for h in head) if head else "n/a") + (f" — {note}" if note else ""))
+        text = ("; ".join(h["text"] for h in head) if head else "n/a") + (f" — {note}" if note else "")
+        if fig is None:  # no fresh loads: the fit's own held-out samples, said as such (they score higher)
+            text = f"n/a (no validation pass); on held-out samples of the fit (optimistic): {text}"
+        v["ident"].setText(text)
         v["ident"].setToolTip(report.identification_why(ev, reaction))  # why the figure is what it is
         ho = m.heldout
         if ho is not None:

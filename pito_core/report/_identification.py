@@ -78,8 +78,8 @@ def identification_note(evaluation, reaction: int | None = None) -> str:
         return ""
     t = b["threshold"]
     if b["phantom"] >= b["missed"]:
-        why = (f"an unloaded face read above {t:g} N in {100 * b['phantom']:.0f} % of them (crosstalk: unloaded faces "
-               f"median {b['unloaded_median']:.2f} N, 90th percentile {b['unloaded_p90']:.2f} N)")
+        why = (f"crosstalk: an unloaded face read > {t:g} N in {100 * b['phantom']:.0f} % (unloaded faces: median "
+               f"{b['unloaded_median']:.2f} N, 90th percentile {b['unloaded_p90']:.2f} N)")
     else:
-        why = f"the loaded face read at or below {t:g} N in {100 * b['missed']:.0f} % of them (light loads)"
-    return f"not a labelling error: {why}; with a {2 * t:g} N threshold {100 * b['accuracy'][2.0]:.1f} % are identified"
+        why = f"light loads: the loaded face read ≤ {t:g} N in {100 * b['missed']:.0f} %"
+    return f"not a labelling error, {why}; {100 * b['accuracy'][2.0]:.1f} % at a {2 * t:g} N threshold"

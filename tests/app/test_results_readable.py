@@ -49,6 +49,8 @@ def test_each_figure_is_shown_at_the_size_it_was_drawn(page, qtbot):
     # issue 45: a low figure (the simulator's crosstalk, not a labelling error) says why on the page itself
     text = page.values["ident"].text()
     assert "identified by force" in text and "not a labelling error" in text and "crosstalk" in text
+    # identification on fresh loads only: this fit has no validation pass, and the row says so
+    assert text.startswith("n/a (no validation pass); on held-out samples of the fit (optimistic): ")
     # a resize draws them again at the new size (debounced), never leaves them shrunk
     page.window().resize(1280, 800)
     qtbot.waitUntil(lambda: _drawn_at_shown_size(page.canvas_comp), timeout=30000)

@@ -54,7 +54,7 @@ def test_the_note_names_what_holds_the_figure_down():
     b = identification_breakdown(ev)
     assert b["phantom"] > b["missed"] and b["accuracy"][1.0] < 0.95
     note = identification_note(ev)
-    assert "crosstalk" in note and f"{100 * b['accuracy'][2.0]:.1f} %" in note and "1 N threshold" in note
+    assert "crosstalk" in note and f"{100 * b['accuracy'][2.0]:.1f} %" in note and "at a 1 N threshold" in note
     quiet = _evaluation(crosstalk=0.01)
     quiet.identified["force_norm"][quiet.identified["true_loaded"]] = 5.0
     assert identification_note(quiet) == ""  # nothing to explain
