@@ -28,7 +28,9 @@ How it is measured, from outside the app's process:
 - first frame (``--first-frame N``, also in ``run``): the time from starting the app's process to
   the first read showing a stamp in each view (a frame with data: the demo's calibrated forces once
   its start-up calibration is cached), over N starts after one that is not counted (it fills the
-  caches a user's first start fills); the window's showing is the moment the app writes its regions.
+  caches a user's first start fills); the window's showing is the moment the app writes its regions;
+  the CPU seconds the app and its children had used by the first stamp (``/proc``) are the figure
+  a loaded machine moves least.
 
 Figures depend on the machine and on its load: the load average before and after is in the
 result. The app and the grabber share the machine with the simulated devices.
@@ -213,9 +215,31 @@ class _StampLog:
         self.last = ts
 
 
+def _cpu_seconds(pid: int) -> float | None:
+    """CPU time (user + system, s) of process ``pid`` and every live descendant (Linux ``/proc``), or None."""
+    tick = os.sysconf("SC_CLK_TCK")
+    stats = {}
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit():
+            try:
+                f = (d / "stat").read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            stats[int(d.name)] = (int(f[1]), (int(f[11]) + int(f[12])) / tick)  # ppid, utime + stime
+    if pid not in stats:
+        return None
+    total, todo = 0.0, [pid]
+    while todo:
+        p = todo.pop()
+        total += stats[p][1]
+        todo += [c for c, (pp, _) in stats.items() if pp == p]
+    return total
+
+
 def _first_frame_once(display: str, timeout: float = 90.0) -> dict:
     """One start of the demo app: seconds from starting its process to its window shown and to the
-    first read showing a data stamp in the scene and in the plots."""
+    first read showing a data stamp in the scene and in the plots; the CPU seconds the app and its
+    child processes (the simulated devices, the pipeline) had used when the first stamp was seen."""
     from ._xgrab import Grabber  # deferred: loads libX11 (ctypes) at import
 
     regions = Path(f"/tmp/pito_bench_first_{os.getpid()}.json")
@@ -224,7 +248,7 @@ def _first_frame_once(display: str, timeout: float = 90.0) -> dict:
     app = subprocess.Popen([sys.executable, "-m", "pito_bench._live_window", "--run-app", str(regions),
                             "--seconds", "4", "--warmup", "0"], env=display_env(display),
                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    out = {"window_s": None, "scene_s": None, "plots_s": None}
+    out = {"window_s": None, "scene_s": None, "plots_s": None, "cpu_s": None}
     try:
         while not regions.exists():
             if app.poll() is not None or time.monotonic() - t0 > timeout:
@@ -245,6 +269,8 @@ def _first_frame_once(display: str, timeout: float = 90.0) -> dict:
                     b, gg, r = (int(v) for v in px[:3])
                     if (r, gg, b) != (0, 0, 0) and t0 <= decode((r, gg, b), t) <= t:  # a sample of this start
                         out[key] = t - t0
+                        if out["cpu_s"] is None:
+                            out["cpu_s"] = _cpu_seconds(app.pid)
                 time.sleep(0.001)
         finally:
             g.close()
@@ -276,7 +302,7 @@ def first_frame(runs: int = 3, display: str | None = None) -> dict:
             xvfb.terminate()
             xvfb.wait()
     res = {"status": "ok", "runs": rows}
-    for key in ("window_s", "scene_s", "plots_s"):
+    for key in ("window_s", "scene_s", "plots_s", "cpu_s"):
         v = [r[key] for r in rows if r[key] is not None]
         res[key] = {"median": float(np.median(v)) if v else None, "min": min(v, default=None),
                     "max": max(v, default=None), "n": len(v)}
@@ -399,7 +425,8 @@ def _print_first_frame(ff: dict) -> None:
     def fmt(d):
         return "–" if d["median"] is None else f"{d['median']:.2f} s ({d['min']:.2f}–{d['max']:.2f}, n = {d['n']})"
     print(f"start-up (process start →, median (min–max)): window shown {fmt(ff['window_s'])}, first frame with data: "
-          f"scene {fmt(ff['scene_s'])}, plots {fmt(ff['plots_s'])}; load average {ff['loadavg'][0]:.1f}")
+          f"scene {fmt(ff['scene_s'])}, plots {fmt(ff['plots_s'])}; CPU used by then (app and its children) "
+          f"{fmt(ff['cpu_s'])}; load average {ff['loadavg'][0]:.1f}")
 
 
 if __name__ == "__main__":
