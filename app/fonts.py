@@ -9,12 +9,13 @@ even where the system has none (``scripts/install-system-deps.sh`` also installs
 
 from __future__ import annotations
 
+import sys
+from importlib.util import find_spec
 from pathlib import Path
 
-import matplotlib
 from PySide6.QtGui import QFont, QFontDatabase
 
-__all__ = ["APP_FONT", "GLYPHS", "install_app_font", "matplotlib_font_files"]
+__all__ = ["APP_FONT", "GLYPHS", "install_app_font", "matplotlib_font_files", "use_app_font_in_matplotlib"]
 
 APP_FONT = "DejaVu Sans"
 #: characters the app's labels use that a font must have
@@ -22,8 +23,9 @@ GLYPHS = "‖·±σΣκ✔→−²"
 
 
 def matplotlib_font_files() -> list[Path]:
-    """The DejaVu Sans (and Mono) TrueType files bundled with matplotlib."""
-    folder = Path(matplotlib.get_data_path()) / "fonts" / "ttf"
+    """The DejaVu Sans (and Mono) TrueType files bundled with matplotlib (found without importing it:
+    half a second of the app's start-up that the live view does not need)."""
+    folder = Path(find_spec("matplotlib").submodule_search_locations[0]) / "mpl-data" / "fonts" / "ttf"
     return sorted(folder.glob("DejaVuSans*.ttf"))
 
 
@@ -38,6 +40,14 @@ def install_app_font(app, point_size: float | None = None) -> str:
     if point_size is not None:
         font.setPointSizeF(point_size)
     app.setFont(font)
+    if "matplotlib" in sys.modules:  # else the modules that draw with it call use_app_font_in_matplotlib
+        use_app_font_in_matplotlib()
+    return font.family()
+
+
+def use_app_font_in_matplotlib() -> None:
+    """Make :data:`APP_FONT` matplotlib's first sans-serif font (called where the app draws with matplotlib)."""
+    import matplotlib  # deferred: the live view does not need it (see matplotlib_font_files)
+
     matplotlib.rcParams["font.family"] = "sans-serif"
     matplotlib.rcParams["font.sans-serif"] = [APP_FONT] + [f for f in matplotlib.rcParams["font.sans-serif"] if f != APP_FONT]
-    return font.family()

@@ -57,6 +57,9 @@ def main(argv=None) -> int:
     if args.screenshot and not args.demo:
         print("pito-app: --screenshot needs --demo (screens are rendered on the simulated devices)", file=sys.stderr)
         return 2
+    period = 0.6 if args.screenshot else 1.5
+    # the demo's devices (two child processes, seconds of waiting) boot while Qt, VTK and the window load
+    rig_boot = _boot_demo_devices(args.seed, period) if args.demo and not args.pito else None
     # deferred: Qt, pyvista, VTK and the window load only once a window is made (not for --help)
     from PySide6.QtWidgets import QApplication
 
@@ -73,8 +76,8 @@ def main(argv=None) -> int:
     app.setStyleSheet(STYLE)
     # screenshots: a brisker simulated operator (0.6 s per move-and-hold) so the wizard fills quickly
     window = MainWindow(demo=args.demo, calibration_path=args.calibration, rate=args.rate, seed=args.seed,
-                        demo_k=args.demo_k, demo_period=0.6 if args.screenshot else 1.5,
-                        wizard_k=600 if args.screenshot else 1000)
+                        demo_k=args.demo_k, demo_period=period, wizard_k=600 if args.screenshot else 1000,
+                        rig_boot=rig_boot)
     if args.pito:
         window.connect_devices(args.pito, args.ati or "", False)
     if args.screenshot:
@@ -99,6 +102,21 @@ def main(argv=None) -> int:
     window.shutdown()
     window.release_views()
     return code
+
+
+def _boot_demo_devices(seed: int, period: float):
+    """Start the demo's simulated devices in a thread: a future of :class:`~app.demo.DemoDevices`."""
+    from concurrent.futures import ThreadPoolExecutor  # deferred: `pito-app --help` starts no thread
+
+    def boot():
+        from .demo import DemoDevices  # deferred: the core's imports run beside the main thread's Qt ones
+
+        return DemoDevices(seed=seed, period=period)
+
+    pool = ThreadPoolExecutor(1, thread_name_prefix="demo-boot")
+    future = pool.submit(boot)
+    pool.shutdown(wait=False)  # the boot runs on; the thread ends with it
+    return future
 
 
 def _record_when_live(window, path) -> None:

@@ -23,7 +23,6 @@ from .live import LiveFeed, LiveView
 from .tasks import TaskBar, cancel_tasks, run_in_process, run_task
 from .objects import display_meshes, list_assemblies, load_assembly, weight
 from .wizard.model import WizardModel
-from .wizard.wizard import CalibrationWizard
 from .export_dialog import install_export_menu
 from .live.lsl_toggle import install_lsl_toggle
 from .health import install_health_indicator
@@ -52,6 +51,9 @@ class MainWindow(QMainWindow):
         calibrated at startup.
     rate : float
         Reads per second of a replayed recording (Hz).
+    rig_boot : concurrent.futures.Future, optional
+        Demo: the simulated devices (:class:`~app.demo.DemoDevices`) already booting (``pito-app`` starts
+        them before it loads Qt's widgets and the window); without it the window starts them itself.
 
     Signals: ``recording_saved(str, int)`` — a recording was closed and is complete on disk
     (path, cube samples written); ``recording_failed(str)`` — starting or closing one failed.
@@ -61,16 +63,18 @@ class MainWindow(QMainWindow):
     recording_failed = Signal(str)
 
     def __init__(self, demo: bool = False, calibration_path=None, rate: float = 60.0, seed: int = 0,
-                 demo_k: int = 1500, wizard_k: int = 1000, demo_speed: float = 1.0, demo_period: float = 1.5):
+                 demo_k: int = 1500, wizard_k: int = 1000, demo_speed: float = 1.0, demo_period: float = 1.5,
+                 rig_boot=None):
         super().__init__()
         self.demo = demo
         self.seed = seed
         self.demo_speed, self.demo_period = demo_speed, demo_period
         # demo: the simulated devices' two processes boot (seconds of waiting) while the window is built
-        self._rig_boot = None
-        if demo:
-            self._rig_boot = ThreadPoolExecutor(1, thread_name_prefix="demo-boot")
-            self._rig_future = self._rig_boot.submit(DemoDevices, seed=seed, speed=demo_speed, period=demo_period)
+        self._rig_future = rig_boot if demo else None
+        if demo and rig_boot is None:
+            boot = ThreadPoolExecutor(1, thread_name_prefix="demo-boot")
+            self._rig_future = boot.submit(DemoDevices, seed=seed, speed=demo_speed, period=demo_period)
+            boot.shutdown(wait=False)  # the boot runs on; the thread ends with it
         self.core = CubeCore()
         self.setWindowTitle("pito — Patched Intrinsic Tactile Object" + ("  [SIMULATED DEVICE]" if demo else ""))
         self._build_tabs(wizard_k if demo else 10000)
@@ -86,7 +90,7 @@ class MainWindow(QMainWindow):
 
         self._connect_views()
         if demo:
-            self._simulated_wizard()
+            self.model.simulated = True
         self.model.mount_changed.connect(self._mount_changed)
         self._mount_changed()
         self.set_assembly(self.live.assembly.currentText())
@@ -96,15 +100,56 @@ class MainWindow(QMainWindow):
             self.start_demo(demo_k)
 
     def _build_tabs(self, wizard_k: int) -> None:
-        """The wizard's model (collecting ``wizard_k`` samples on each face), the live view and the wizard as tabs."""
+        """The wizard's model (collecting ``wizard_k`` samples on each face), the live view and the wizard as tabs.
+
+        The wizard itself (two 3D views, a second of work) is built when first wanted (:attr:`wizard`):
+        its tab holds a placeholder until then, so the live view's first frame does not wait for it."""
         self.model = WizardModel(self.core)
         self.model.set_k(wizard_k)
-        self.wizard = CalibrationWizard(self.model)
+        self._wizard = None
+        self._devices_status = ("not connected", False)  # the devices page's line, kept until the page exists
         self.live = LiveView(self.core, list_assemblies())
         self.tabs = QTabWidget()
         self.tabs.addTab(self.live, "Live view")
-        self.tabs.addTab(self.wizard, "Calibration wizard")
+        self._wizard_placeholder = QLabel("Opening the calibration wizard…")
+        self._wizard_placeholder.setAlignment(Qt.AlignmentFlag.AlignCenter)
+        self.tabs.addTab(self._wizard_placeholder, "Calibration wizard")
         self.setCentralWidget(self.tabs)
+
+    @property
+    def wizard(self):
+        """The calibration wizard (:class:`app.wizard.wizard.CalibrationWizard`), built on first use."""
+        if self._wizard is None:
+            self._build_wizard()
+        return self._wizard
+
+    def _build_wizard(self) -> None:
+        """Build the wizard, put it in place of its tab's placeholder and connect it."""
+        from .wizard.wizard import CalibrationWizard  # deferred: the live view's first frame does not need it
+
+        wiz = self._wizard = CalibrationWizard(self.model)
+        i = self.tabs.indexOf(self._wizard_placeholder)
+        current = self.tabs.currentIndex() == i
+        self.tabs.blockSignals(True)  # a swap of the tab's widget, not a change of tab
+        try:
+            self.tabs.removeTab(i)
+            self.tabs.insertTab(i, wiz, "Calibration wizard")
+            if current:
+                self.tabs.setCurrentIndex(i)
+        finally:
+            self.tabs.blockSignals(False)
+        self._wizard_placeholder.deleteLater()
+        self._wizard_placeholder = None
+        wiz.pages["devices"].connect_requested.connect(self.connect_devices)
+        if self.demo:
+            self._simulated_wizard()
+        wiz.pages["devices"].set_connected(*self._devices_status)
+
+    def _set_devices_status(self, text: str, ok: bool) -> None:
+        """The wizard's devices page line (kept for the page if the wizard is not built yet)."""
+        self._devices_status = (text, ok)
+        if self._wizard is not None:
+            self._wizard.pages["devices"].set_connected(text, ok)
 
     def _build_corner_and_status_bar(self, demo: bool) -> None:
         """The calibration's name and the SIMULATED badge beside the tabs; the task bar below; the size."""
@@ -143,7 +188,6 @@ class MainWindow(QMainWindow):
     def _connect_views(self) -> None:
         """The tabs', live view's and wizard's signals to this window's and the feed's handlers."""
         self.tabs.currentChanged.connect(self._tab_changed)
-        self.wizard.pages["devices"].connect_requested.connect(self.connect_devices)
         self.live.tare_requested.connect(self._tare)
         self.live.scenario_requested.connect(self._scenario_requested)
         self.live.mass.valueChanged.connect(self._mass_changed)
@@ -160,7 +204,6 @@ class MainWindow(QMainWindow):
 
     def _simulated_wizard(self) -> None:
         """Demo: the wizard on the simulated devices; its tare and load pages move the simulated operator."""
-        self.model.simulated = True
         dev = self.wizard.pages["devices"]
         dev.simulated.setChecked(True)
         self.wizard.pages["tare"].operator = lambda face: self.rig and self.rig.set_operator_face(face)
@@ -186,12 +229,9 @@ class MainWindow(QMainWindow):
     # ------------------------------------------------------------ demo
     def start_demo(self, k: int) -> None:
         """Open the simulated devices (pty + UDP) and, without a calibration, calibrate the virtual cube."""
-        if self._rig_boot is not None:  # booted while the window was built
-            boot, self._rig_boot = self._rig_boot, None
-            try:
-                self.rig = self._rig_future.result()
-            finally:
-                boot.shutdown(wait=False)
+        if self._rig_future is not None:  # booted while the window was built
+            future, self._rig_future = self._rig_future, None
+            self.rig = future.result()
         else:
             self.rig = DemoDevices(seed=self.seed, speed=self.demo_speed, period=self.demo_period)
         self.rig.set_scenario(self._live_scenario())
@@ -200,17 +240,17 @@ class MainWindow(QMainWindow):
             self.live.mass.setValue(DEMO_OBJECT_MASS)  # the simulated object's
         source = self.rig.open_source()
         self.feed.post(lambda: self.feed.set_source(source))
-        self.wizard.pages["devices"].set_connected(f"✔ SIMULATED: {self.rig.describe()}", True)
+        self._set_devices_status(f"✔ SIMULATED: {self.rig.describe()}", True)
         self.statusBar().showMessage(f"SIMULATED DEVICE: {self.rig.describe()}")
         if self.calibration is None and not self._loading_calibration:
             m = DEMO_METHOD
             cached = cached_demo_calibration(k, self.seed)
             if cached is not None:  # a previous start's, for today's code and simulator: forces at once
                 self.set_calibration(cached, f"virtual cube, calibrated with the simulator ({m}, k = {k}/face)")
-                self.statusBar().showMessage(
-                    f"SIMULATED DEVICE — no calibration file: the virtual cube's calibration with the simulator "
-                    f"({m}, k = {k} samples per face, 1/cond = {cached.inverse_condition_number:.1e}), "
-                    f"cached by an earlier start in {demo_cache_path(k, self.seed)}.")
+                self.cal_label.setToolTip(f"cached in {demo_cache_path(k, self.seed)}")  # a path of any length
+                self.statusBar().showMessage(  # short enough for the bar at 1280 px (tests/app/test_demo_cache.py)
+                    f"SIMULATED DEVICE — the virtual cube's calibration (simulator, {m}, k = {k}/face, "
+                    f"1/cond = {cached.inverse_condition_number:.1e}), cached by an earlier start")
                 return
             self.statusBar().showMessage(f"Calibrating the virtual cube (method '{m}', k = {k} per face)…")
             seed = self.seed
@@ -220,9 +260,8 @@ class MainWindow(QMainWindow):
                     return
                 self.set_calibration(cal, f"virtual cube, calibrated at startup ({m}, k = {k}/face)")
                 self.statusBar().showMessage(
-                    f"SIMULATED DEVICE — no calibration file: the virtual cube was calibrated at startup with the "
-                    f"simulator ({m}, k = {k} samples per face, 1/cond = {cal.inverse_condition_number:.1e})."
-                )
+                    f"SIMULATED DEVICE — the virtual cube's calibration (simulator, {m}, k = {k}/face, "
+                    f"1/cond = {cal.inverse_condition_number:.1e}), fitted at startup")
 
             # in a child process (the fit's LAPACK holds the GIL): the window shows the raw demo meanwhile
             self.calibration_task = run_in_process(
@@ -230,10 +269,12 @@ class MainWindow(QMainWindow):
                 self.on_error, bar=self.taskbar, owner=self)
 
     def _tab_changed(self, index: int) -> None:
+        if self._wizard_placeholder is not None and self.tabs.widget(index) is self._wizard_placeholder:
+            self._build_wizard()  # its first showing: the wizard in place of the placeholder
         self.live.direct_contacts = self.tabs.widget(index) is self.live  # (bundles go to the wizard otherwise)
         if self.rig is None:
             return
-        if self.tabs.widget(index) is self.wizard:
+        if self.tabs.widget(index) is self._wizard:
             self.rig.set_scenario("calibration")
             self._mount_changed()
         else:
@@ -246,7 +287,6 @@ class MainWindow(QMainWindow):
 
     # ------------------------------------------------------------ devices
     def connect_devices(self, port: str, host: str, simulated: bool) -> None:
-        page = self.wizard.pages["devices"]
         try:
             if simulated:
                 if self.rig is None:
@@ -262,10 +302,10 @@ class MainWindow(QMainWindow):
                 self.model.simulated = False
                 text = f"✔ cube on {port}, reference at {host}"
         except Exception as exc:  # noqa: BLE001 - shown to the operator
-            page.set_connected(f"✘ {exc}", False)
+            self._set_devices_status(f"✘ {exc}", False)
             return
         self.feed.post(lambda: self.feed.set_source(source))
-        page.set_connected(text, True)
+        self._set_devices_status(text, True)
 
     # ------------------------------------------------------------ calibration and object
     def set_calibration(self, calibration, label: str = "") -> None:
@@ -273,6 +313,7 @@ class MainWindow(QMainWindow):
         self.feed.post(lambda: self.feed.set_calibration(calibration))
         h = short_hash(calibration_hash(calibration))  # the calibration's identity
         self.cal_label.setText(f"calibration: {label or calibration.method} [{h}]")
+        self.cal_label.setToolTip("")
         self.cal_label.setStyleSheet("")
         self.live.set_notice(None)
         base = self.windowTitle().split("  — calibration")[0]
@@ -400,7 +441,7 @@ class MainWindow(QMainWindow):
             source = PipelineThread(reader, core=self.core, rate_hz=self.rate)
             self.feed.post(lambda: self.feed.set_source(source))
             self.live.set_replay_mode(True, reader.duration)
-            self.wizard.pages["devices"].set_connected(f"▶ replaying {Path(path).name} (recorded data, not live devices)", True)
+            self._set_devices_status(f"▶ replaying {Path(path).name} (recorded data, not live devices)", True)
 
         def failed(message):
             QMessageBox.warning(self, "Replay", f"Could not open {path}:\n{message}")
@@ -417,9 +458,9 @@ class MainWindow(QMainWindow):
         if self.rig is not None:
             source = self.rig.open_source()
             self.feed.post(lambda: self.feed.set_source(source))
-            self.wizard.pages["devices"].set_connected(f"✔ SIMULATED: {self.rig.describe()}", True)
+            self._set_devices_status(f"✔ SIMULATED: {self.rig.describe()}", True)
         else:
-            self.wizard.pages["devices"].set_connected("not connected", False)
+            self._set_devices_status("not connected", False)
 
     # ------------------------------------------------------------ data
     def on_error(self, message: str) -> None:
@@ -431,8 +472,8 @@ class MainWindow(QMainWindow):
         try:
             if self.tabs.currentWidget() is self.live:
                 self.live.on_bundle(bundle)
-            else:
-                self.wizard.on_bundle(bundle)
+            elif self._wizard is not None:
+                self._wizard.on_bundle(bundle)
         finally:
             self.feed.ack()
 
@@ -453,5 +494,8 @@ class MainWindow(QMainWindow):
             self.rig = None
 
     def release_views(self) -> None:
-        for scene in (self.live.scene, self.wizard.pages["mount"].scene, self.wizard.pages["load"].scene):
+        scenes = [self.live.scene]
+        if self._wizard is not None:
+            scenes += [self._wizard.pages["mount"].scene, self._wizard.pages["load"].scene]
+        for scene in scenes:
             scene.close_scene()

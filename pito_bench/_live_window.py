@@ -25,6 +25,13 @@ How it is measured, from outside the app's process:
   (:class:`~pito_bench._stamp.WindowProbe`), joined with the reads by stamp: sample → frame
   start → frame end → first read showing it.
 
+- first frame (``--first-frame N``, also in ``run``): the time from starting the app's process to
+  the first read showing a stamp in each view (a frame with data: the demo's calibrated forces once
+  its start-up calibration is cached), over N starts after one that is not counted (it fills the
+  caches a user's first start fills); the window's showing is the moment the app writes its regions;
+  the CPU seconds the app and its children had used by the first stamp (``/proc``) are the figure
+  a loaded machine moves least.
+
 Figures depend on the machine and on its load: the load average before and after is in the
 result. The app and the grabber share the machine with the simulated devices.
 """
@@ -44,7 +51,7 @@ import numpy as np
 
 from ._stamp import WindowProbe, decode
 
-__all__ = ["run", "main", "start_xvfb", "display_env"]
+__all__ = ["run", "main", "start_xvfb", "display_env", "first_frame"]
 
 SIZE = (1440, 900)
 #: Reads of the stamp pixels per second, Hz (default): the latency is resolved to 1/STAMP_RATE.
@@ -52,7 +59,12 @@ STAMP_RATE = 1000.0
 
 
 def _run_app(regions: str, seconds: float, warmup: float) -> int:
-    """In the app's process: the demo window with frame stamps; writes the regions JSON when warm."""
+    """In the app's process: the demo window with frame stamps; writes the regions JSON when warm.
+
+    Started as ``pito-app --demo`` starts: the simulated devices boot before Qt and the window load."""
+    from app.main import _boot_demo_devices  # deferred: the app loads only in the app's process
+
+    rig_boot = _boot_demo_devices(0, 1.5)
     # deferred: Qt and the app load only in the app's process (the grabber and the soak import this module)
     from PySide6.QtCore import QTimer
     from PySide6.QtWidgets import QApplication
@@ -62,7 +74,7 @@ def _run_app(regions: str, seconds: float, warmup: float) -> int:
     from app.window import MainWindow
 
     app.setStyleSheet(STYLE)
-    w = MainWindow(demo=True)
+    w = MainWindow(demo=True, rig_boot=rig_boot)
     w.resize(*SIZE)
     w.move(0, 0)
     w.show()
@@ -203,6 +215,103 @@ class _StampLog:
         self.last = ts
 
 
+def _cpu_seconds(pid: int) -> float | None:
+    """CPU time (user + system, s) of process ``pid`` and every live descendant (Linux ``/proc``), or None."""
+    tick = os.sysconf("SC_CLK_TCK")
+    stats = {}
+    for d in Path("/proc").iterdir():
+        if d.name.isdigit():
+            try:
+                f = (d / "stat").read_text().rsplit(")", 1)[1].split()
+            except OSError:
+                continue
+            stats[int(d.name)] = (int(f[1]), (int(f[11]) + int(f[12])) / tick)  # ppid, utime + stime
+    if pid not in stats:
+        return None
+    total, todo = 0.0, [pid]
+    while todo:
+        p = todo.pop()
+        total += stats[p][1]
+        todo += [c for c, (pp, _) in stats.items() if pp == p]
+    return total
+
+
+def _first_frame_once(display: str, timeout: float = 90.0) -> dict:
+    """One start of the demo app: seconds from starting its process to its window shown and to the
+    first read showing a data stamp in the scene and in the plots; the CPU seconds the app and its
+    child processes (the simulated devices, the pipeline) had used when the first stamp was seen."""
+    from ._xgrab import Grabber  # deferred: loads libX11 (ctypes) at import
+
+    regions = Path(f"/tmp/pito_bench_first_{os.getpid()}.json")
+    regions.unlink(missing_ok=True)
+    t0 = time.monotonic()
+    app = subprocess.Popen([sys.executable, "-m", "pito_bench._live_window", "--run-app", str(regions),
+                            "--seconds", "4", "--warmup", "0"], env=display_env(display),
+                           stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    out = {"window_s": None, "scene_s": None, "plots_s": None, "cpu_s": None}
+    try:
+        while not regions.exists():
+            if app.poll() is not None or time.monotonic() - t0 > timeout:
+                return out
+            time.sleep(0.002)
+        out["window_s"] = time.monotonic() - t0
+        time.sleep(0.01)
+        reg = json.loads(regions.read_text())
+        g = Grabber(display)
+        try:
+            stamps = {"scene_s": reg["scene_stamp"], "plots_s": reg["plot_stamp"]}
+            while any(out[k] is None for k in stamps) and time.monotonic() - t0 < timeout:
+                for key, (sx, sy) in stamps.items():
+                    if out[key] is not None:
+                        continue
+                    px = g.grab(sx, sy, 1, 1)[0, 0]
+                    t = time.monotonic()
+                    b, gg, r = (int(v) for v in px[:3])
+                    if (r, gg, b) != (0, 0, 0) and t0 <= decode((r, gg, b), t) <= t:  # a sample of this start
+                        out[key] = t - t0
+                        if out["cpu_s"] is None:
+                            out["cpu_s"] = _cpu_seconds(app.pid)
+                time.sleep(0.001)
+        finally:
+            g.close()
+    finally:
+        app.terminate()
+        try:
+            app.wait(timeout=30)
+        except subprocess.TimeoutExpired:
+            app.kill()
+            app.wait()
+        regions.unlink(missing_ok=True)
+        Path(str(regions) + ".frames").unlink(missing_ok=True)
+    return out
+
+
+def first_frame(runs: int = 3, display: str | None = None) -> dict:
+    """The demo's start-up as a user sees it: ``runs`` starts (after one not counted), each timed from
+    starting the process to the first frame with data on the screen (s); medians and every run."""
+    if shutil.which("Xvfb") is None and display is None:
+        return {"status": "skipped: Xvfb not installed"}
+    xvfb = None
+    if display is None:
+        display, xvfb = start_xvfb()
+    try:
+        _first_frame_once(display)  # fills the caches a first start fills (calibration, meshes)
+        rows = [_first_frame_once(display) for _ in range(runs)]
+    finally:
+        if xvfb is not None:
+            xvfb.terminate()
+            xvfb.wait()
+    res = {"status": "ok", "runs": rows}
+    for key in ("window_s", "scene_s", "plots_s", "cpu_s"):
+        v = [r[key] for r in rows if r[key] is not None]
+        res[key] = {"median": float(np.median(v)) if v else None, "min": min(v, default=None),
+                    "max": max(v, default=None), "n": len(v)}
+    res["loadavg"] = list(os.getloadavg())
+    res["method"] = ("process start → first read of each view's data stamp on a private Xvfb (1 ms polls), "
+                     f"{runs} starts after one not counted")
+    return res
+
+
 def start_xvfb(screen: str = "1600x1000x24") -> tuple[str, subprocess.Popen]:
     """A private Xvfb display for a window to be watched from outside: ``(":N", process)`` (terminate it after)."""
     display = f":{90 + os.getpid() % 400}"
@@ -257,6 +366,7 @@ def run(quick: bool = False, seconds: float | None = None, rate: float = 100.0, 
         regions.unlink(missing_ok=True)
         Path(str(regions) + ".frames").unlink(missing_ok=True)
     res["status"] = "ok"
+    res["first_frame"] = first_frame(2 if quick else 3)
     res["loadavg_before"], res["loadavg_after"], res["cpus"] = list(load0), list(os.getloadavg()), os.cpu_count()
     res["method"] = ("pito-app --demo window (devices in a child process) on Xvfb, grabbed from outside (whole views "
                      f"at {rate:g} Hz, the stamp pixels at {stamp_rate:g} Hz); frames = new data stamps seen per s; "
@@ -273,11 +383,20 @@ def main(argv=None) -> int:
     p.add_argument("--rate", type=float, default=100.0, help="whole-view grabs per second (Hz, default 100)")
     p.add_argument("--stamp-rate", type=float, default=STAMP_RATE,
                    help=f"reads of the two stamp pixels per second (Hz, default {STAMP_RATE:g}): the latency's resolution")
+    p.add_argument("--first-frame", type=int, metavar="N",
+                   help="only the start-up: N starts of the demo app timed to their first frame with data (s)")
     p.add_argument("--run-app", metavar="REGIONS", help=argparse.SUPPRESS)
     p.add_argument("--warmup", type=float, default=12.0, help="seconds from start to measuring (s, default 12)")
     args = p.parse_args(argv)
     if args.run_app:
         return _run_app(args.run_app, args.seconds or 20.0, args.warmup)
+    if args.first_frame:
+        ff = first_frame(args.first_frame)
+        if args.json or ff["status"] != "ok":
+            print(json.dumps(ff) if args.json else ff["status"])
+        else:
+            _print_first_frame(ff)
+        return 0 if ff["status"] == "ok" or ff["status"].startswith("skipped") else 1
     out = run(args.quick, args.seconds, args.rate, args.warmup, args.stamp_rate)
     if args.json:
         print(json.dumps(out))
@@ -291,6 +410,8 @@ def main(argv=None) -> int:
             L = r["latency_ms"]
             print(f"{key}: {r['frames_per_s']:.1f} frames/s with new data ({r['changed_grabs_per_s']:.1f} changed grabs/s); "
                   f"latency p50 {L['p50']:.1f} ms, p95 {L['p95']:.1f} ms, max {L['max']:.1f} ms (n = {L['n']})")
+        if out["first_frame"].get("status") == "ok":
+            _print_first_frame(out["first_frame"])
         bd = out["scene"].get("breakdown_ms")
         if bd:
             print("scene, per frame (p50 / p95 ms): sample → frame start "
@@ -298,6 +419,14 @@ def main(argv=None) -> int:
                   f"{bd['frame']['p50']:.1f} / {bd['frame']['p95']:.1f}, frame end → screen "
                   f"{bd['frame_end_to_screen']['p50']:.1f} / {bd['frame_end_to_screen']['p95']:.1f}")
     return 0 if out["status"] == "ok" or out["status"].startswith("skipped") else 1
+
+
+def _print_first_frame(ff: dict) -> None:
+    def fmt(d):
+        return "–" if d["median"] is None else f"{d['median']:.2f} s ({d['min']:.2f}–{d['max']:.2f}, n = {d['n']})"
+    print(f"start-up (process start →, median (min–max)): window shown {fmt(ff['window_s'])}, first frame with data: "
+          f"scene {fmt(ff['scene_s'])}, plots {fmt(ff['plots_s'])}; CPU used by then (app and its children) "
+          f"{fmt(ff['cpu_s'])}; load average {ff['loadavg'][0]:.1f}")
 
 
 if __name__ == "__main__":

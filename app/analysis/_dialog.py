@@ -18,6 +18,9 @@ from pito_core.analysis import analyze_recording, trial_figure, write_analysis
 
 from ..tasks import TaskBar, run_task
 from ._table import DataFrameModel
+from ..fonts import use_app_font_in_matplotlib
+
+use_app_font_in_matplotlib()  # the app's font in this module's figures (app/fonts.py)
 
 __all__ = ["AnalysisDialog", "AnalysisResult", "run_analysis"]
 

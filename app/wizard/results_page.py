@@ -19,9 +19,14 @@ from pito_core.calibration import HOLDOUT, NOT_MEASURED_TEXT, fit_and_evaluate
 from pito_core import report
 from ..filetypes import CALIBRATION_SAVE_FILTER, CALIBRATION_SUFFIX
 from ..tasks import TaskBar, run_in_process, run_task
-from .ident_why import identification_why
 from .model_choice import ModelChoiceBox
 from .page import WizardPage
+from ..fonts import use_app_font_in_matplotlib
+
+use_app_font_in_matplotlib()  # the app's font in this module's figures (app/fonts.py)
+
+#: Width of the figures of merit's names, px (wrapped): the values beside them get the rest.
+NAME_WIDTH = 190
 
 __all__ = ["ResultsPage", "fit_job", "render_figures", "per_face_text"]
 
@@ -217,7 +222,10 @@ class ResultsPage(WizardPage):
             ("coverage", "Measures"),
             ("status", "Status"),
         )):
-            grid.addWidget(QLabel(text), r, 0, Qt.AlignmentFlag.AlignTop)
+            name = QLabel(text)
+            name.setWordWrap(True)  # a narrow name column: the values get the width (their numbers stay whole)
+            name.setFixedWidth(NAME_WIDTH)
+            grid.addWidget(name, r, 0, Qt.AlignmentFlag.AlignTop)
             lab = QLabel("—")
             lab.setObjectName("value")
             lab.setWordWrap(True)  # rows grow to their text (height for width), never clipped
@@ -412,9 +420,9 @@ class ResultsPage(WizardPage):
         if fig is not None:
             wf, wt = int(np.nanargmax(fig.rmse_force)) + 1, int(np.nanargmax(fig.rmse_torque)) + 1
             self._worst = wf
-            v["force"].setText(f"{fig.worst_force:.3f} N (face {wf}), 95 %: "
+            v["force"].setText(f"{fig.worst_force:.3f} N (face {wf}), 95\u00a0%: "
                                f"{fig.worst_force_ci[0]:.3f}–{fig.worst_force_ci[1]:.3f}")
-            v["torque"].setText(f"{fig.worst_torque * 1000:.2f} mN·m (face {wt}), 95 %: "
+            v["torque"].setText(f"{fig.worst_torque * 1000:.2f} mN·m (face {wt}), 95\u00a0%: "
                                 f"{fig.worst_torque_ci[0] * 1000:.2f}–{fig.worst_torque_ci[1] * 1000:.2f}")
             v["reactions"].setText(f"face {reaction}: {fig.reaction_force:.2f} N, {fig.reaction_torque * 1000:.1f} mN·m"
                                    if reaction else "—")
@@ -429,8 +437,12 @@ class ResultsPage(WizardPage):
             v["per_face"].setText("n/a (no validation pass)")
             v["reactions"].setText("—")
         head = ev.identification_headline()  # the papers' rule: single by force, squeeze by torque
-        v["ident"].setText("; ".join(h["text"] for h in head) if head else "n/a")
-        v["ident"].setToolTip(identification_why(ev, reaction))  # why the figure is what it is
+        note = report.identification_note(ev, reaction)  # what holds the figure down, on the page
+        text = ("; ".join(h["text"] for h in head) if head else "n/a") + (f" — {note}" if note else "")
+        if fig is None:  # no fresh loads: the fit's own held-out samples, said as such (they score higher)
+            text = f"n/a (no validation pass); on held-out samples of the fit (optimistic): {text}"
+        v["ident"].setText(text)
+        v["ident"].setToolTip(report.identification_why(ev, reaction))  # why the figure is what it is
         ho = m.heldout
         if ho is not None:
             f, t = ho.rmse_force(), ho.rmse_torque()

@@ -8,7 +8,9 @@ One place for what the command line, ``pito bench`` and ``pito reproduce`` print
 - :func:`save_png` and :func:`write_csv` the files behind a figure,
 - the calibration report: :func:`rmse_figure`, :func:`identification_figure`,
   :func:`comparison_figure` (the wizard's results page draws the same), :func:`model_summary`
-  and :func:`export_report` (a folder of figures, ``report.md`` and ``numbers.json``).
+  and :func:`export_report` (a folder of figures, ``report.md`` and ``numbers.json``),
+- why face identification scores what it does: :func:`identification_breakdown`,
+  :func:`identification_why` (a paragraph) and :func:`identification_note` (one line).
 """
 
 from ._calibration import (
@@ -22,7 +24,9 @@ from ._calibration import (
     style_figure,
 )
 from ._figures import new_figure, save_png, write_csv
+from ._identification import identification_breakdown, identification_note, identification_why
 from ._text import fmt, table
 
 __all__ = ["fmt", "table", "new_figure", "save_png", "write_csv", "rmse_figure", "identification_figure",
-           "comparison_figure", "style_figure", "model_summary", "export_report", "SMALL", "SCREEN_DPI"]
+           "comparison_figure", "style_figure", "model_summary", "export_report", "SMALL", "SCREEN_DPI",
+           "identification_breakdown", "identification_why", "identification_note"]

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..frames import FACE_COLORS, WRENCH_COMPONENTS, WRENCH_UNITS
+from ._identification import identification_note
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -336,9 +337,11 @@ def _report_lines(calibration, evaluation, info: dict, generated: str, rmse: dic
         lines.append(f"| {name} | {num(f[i], '.4f')} | {num(uf[i], '.4f')} | {num(t[i] * 1000, '.4f')} | "
                      f"{num(ut[i], '.4f')} |")
     head = evaluation.identification_headline()  # single-face loads by force, squeeze loads by torque
+    note = identification_note(evaluation, reaction)  # what holds it down: the results page's line
     lines += [
         "",
-        ("Face identification (the papers' rule): " + "; ".join(h["text"] for h in head) + ".") if head else "",
+        ("Face identification (the papers' rule): " + "; ".join(h["text"] for h in head)
+         + (f" — {note}" if note else "") + ".") if head else "",
         "",
         f"![{kind} RMSE per face](rmse.png)",
         "",

@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from PySide6.QtWidgets import QWidget
 
 
 def test_the_demo_calibration_is_cached_by_its_parameters(demo_cache):
@@ -33,6 +34,14 @@ def test_a_second_start_shows_forces_without_calibrating(qtbot, styled):
         assert window.calibration is not None and window.calibration_task is None
         assert "virtual cube" in window.cal_label.text()
         assert "cached by an earlier start" in window.statusBar().currentMessage()
+        # the message fits beside the bar's permanent widgets at the smallest window (no text cut)
+        window.resize(1280, 800)
+        window.show()
+        qtbot.waitExposed(window)
+        bar = window.statusBar()
+        room = bar.width() - sum(w.sizeHint().width() for w in bar.findChildren(QWidget) if w.parent() is bar
+                                 and w.isVisible()) - 24
+        assert bar.fontMetrics().horizontalAdvance(bar.currentMessage()) <= room
     finally:
         window.shutdown()
         window.release_views()

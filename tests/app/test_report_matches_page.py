@@ -39,3 +39,14 @@ def test_value_labels_sit_above_the_interval_marks(fitted):
             x, y = t.xy
             assert y >= ys.get(round(x), -np.inf) - 1e-12, (t.get_text(), y, ys.get(round(x)))
         assert "validation" in ax.get_title()
+
+
+def test_the_report_and_the_page_say_why_identification_scores_low(fitted, tmp_path):
+    from pito_core.report import export_report, identification_note
+
+    cal, ev = fitted
+    ev.identified["force_norm"] = np.asarray(ev.identified["force_norm"], dtype=float) + 0.45  # crosstalk added
+    note = identification_note(ev)
+    assert note and "crosstalk" in note
+    text = export_report(tmp_path, cal, ev, {"simulated": True}).read_text()
+    assert note in text  # the words of the results page's line (app/wizard/results_page.py)

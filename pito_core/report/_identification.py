@@ -1,11 +1,12 @@
 """Why the face identification figure is what it is: the loaded face's and the unloaded faces'
-force norms against the threshold (the results page's tooltip)."""
+force norms against the threshold (the wizard's results page: a line under the figure and its
+tooltip)."""
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["identification_breakdown", "identification_why"]
+__all__ = ["identification_breakdown", "identification_why", "identification_note"]
 
 
 def identification_breakdown(evaluation, reaction: int | None = None) -> dict | None:
@@ -63,3 +64,22 @@ def identification_why(evaluation, reaction: int | None = None) -> str:
             f"calibration's crosstalk). With a {2 * t:g} N threshold, {100 * b['accuracy'][2.0]:.1f} % would be "
             f"identified. Fresh loads show this crosstalk; held-out samples of the fitted captures share the fit's "
             f"errors and score higher. More samples per face (k) lower it.")
+
+
+def identification_note(evaluation, reaction: int | None = None) -> str:
+    """One line under the identification figure: what holds it down, with its numbers (N, %).
+
+    Names the larger failure (an unloaded face above the threshold, the calibration's crosstalk;
+    or the loaded face at or below it) and the figure at twice the threshold; ``""`` when no
+    single-face samples were evaluated or fewer than 5 % of them fail.
+    """
+    b = identification_breakdown(evaluation, reaction)
+    if b is None or b["accuracy"][1.0] >= 0.95:
+        return ""
+    t = b["threshold"]
+    if b["phantom"] >= b["missed"]:
+        why = (f"crosstalk: an unloaded face read > {t:g} N in {100 * b['phantom']:.0f} % (unloaded faces: median "
+               f"{b['unloaded_median']:.2f} N, 90th percentile {b['unloaded_p90']:.2f} N)")
+    else:
+        why = f"light loads: the loaded face read ≤ {t:g} N in {100 * b['missed']:.0f} %"
+    return f"not a labelling error, {why}; {100 * b['accuracy'][2.0]:.1f} % at a {2 * t:g} N threshold"

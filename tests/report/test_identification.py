@@ -1,11 +1,11 @@
-"""The face identification tooltip (issue 21, defect 9): its breakdown of where single-face
+"""Why face identification scores what it does (issue 21 defect 9, issue 45): the breakdown of where single-face
 identification fails matches a direct count on independent random forms (not the simulator)."""
 
 from types import SimpleNamespace
 
 import numpy as np
 
-from app.wizard.ident_why import identification_breakdown, identification_why
+from pito_core.report import identification_breakdown, identification_note, identification_why
 
 
 def _evaluation(seed=5, n=2000, crosstalk=0.3, threshold=0.5):
@@ -47,3 +47,14 @@ def test_no_single_face_samples_gives_no_words():
     ev = _evaluation()
     ev.comparison["kind"][:] = "squeeze"
     assert identification_breakdown(ev) is None and identification_why(ev) == ""
+
+
+def test_the_note_names_what_holds_the_figure_down():
+    ev = _evaluation(crosstalk=0.4)
+    b = identification_breakdown(ev)
+    assert b["phantom"] > b["missed"] and b["accuracy"][1.0] < 0.95
+    note = identification_note(ev)
+    assert "crosstalk" in note and f"{100 * b['accuracy'][2.0]:.1f} %" in note and "at a 1 N threshold" in note
+    quiet = _evaluation(crosstalk=0.01)
+    quiet.identified["force_norm"][quiet.identified["true_loaded"]] = 5.0
+    assert identification_note(quiet) == ""  # nothing to explain

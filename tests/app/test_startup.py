@@ -1,0 +1,61 @@
+"""Issue 45, point 9: the live view's first frame waits for nothing it does not show.
+
+The wizard (two 3D views) is built when its tab is first shown or ``window.wizard`` is used, and
+it then shows what the window learnt meanwhile (the devices line); the app's start-up imports
+neither the wizard nor matplotlib.
+"""
+
+import os
+import subprocess
+import sys
+
+import pytest
+
+
+@pytest.mark.needs_display
+def test_the_wizard_is_built_when_its_tab_is_first_shown(qtbot, styled):
+    from app.window import MainWindow
+
+    window = MainWindow()
+    qtbot.addWidget(window)
+    try:
+        assert window._wizard is None and window.tabs.count() == 2
+        assert window.tabs.tabText(1) == "Calibration wizard"
+        window._set_devices_status("✔ cube on /dev/ttyX, reference at 192.0.2.1", True)
+        window.tabs.setCurrentIndex(1)  # the operator clicks the tab
+        wiz = window._wizard
+        assert wiz is not None and window.tabs.widget(1) is wiz and window.tabs.currentWidget() is wiz
+        assert window.tabs.count() == 2 and window.tabs.tabText(1) == "Calibration wizard"
+        assert "/dev/ttyX" in wiz.pages["devices"].status.text()
+        assert window.wizard is wiz  # built once
+        window.tabs.setCurrentIndex(0)
+        window.tabs.setCurrentIndex(1)
+        assert window.wizard is wiz and window.tabs.count() == 2
+    finally:
+        window.shutdown()
+        window.release_views()
+
+
+@pytest.mark.needs_display
+def test_using_window_wizard_builds_it_in_its_tab(qtbot, styled):
+    from app.window import MainWindow
+
+    window = MainWindow()
+    qtbot.addWidget(window)
+    try:
+        wiz = window.wizard
+        assert window.tabs.indexOf(wiz) == 1 and window.tabs.currentIndex() == 0  # the live view stays in front
+        window.tabs.setCurrentWidget(wiz)
+        assert window.tabs.currentWidget() is wiz
+    finally:
+        window.shutdown()
+        window.release_views()
+
+
+def test_the_window_module_loads_neither_the_wizard_nor_matplotlib():
+    code = ("import sys; import app.window, app.fonts; "
+            "print(sorted(m for m in ('app.wizard.wizard', 'app.wizard.results_page', 'matplotlib') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60,
+                         env={**os.environ, "QT_QPA_PLATFORM": "offscreen"})
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == "[]"
