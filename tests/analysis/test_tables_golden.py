@@ -4,11 +4,23 @@
 from the SIMULATED recording below (``write_lift_recording`` of ``LiftTask(1, seed=0)``,
 seed 0, the ideal calibration embedded), with ``phases.to_csv`` / ``patches.to_csv`` as
 ``pito analyze`` writes them. The recording is made again here from the same seeds.
+
+``data/lift3_11_*.csv``: the same for ``LiftTask(3, seed=11)`` written with seed 3 (the
+``lift_recording`` fixture), tables of commit 4e9e0cd (before issue 44's second round).
+
+``data/recorded_seed7.pitorec.xz`` is a SIMULATED recording made by ``pito record --pito sim
+--ati sim --sim-speed 4 --duration 3 --seed 7 --tare 0.4 --calibration ideal.pitocal`` (the
+real recorder, simulated devices in their own process; timing makes it unrepeatable, so the
+file itself is kept, xz-compressed); ``recorded_seed7_{phases,patches}.csv`` are the tables
+``pito analyze --no-figures --mass 0.3`` of commit 4e9e0cd wrote from it.
 """
 
+import lzma
 from pathlib import Path
 
-from pito_core.analysis import analyze_recording, write_analysis
+import pytest
+
+from pito_core.analysis import AnalysisSettings, analyze_recording, write_analysis
 from pito_core.interop import assembly_record, calibration_record
 from pito_core.sim import LiftTask, write_lift_recording
 
@@ -17,17 +29,30 @@ from .conftest import ideal_calibration
 DATA = Path(__file__).parent / "data"
 
 
-def test_tables_equal_the_old_code_to_the_last_digit(tmp_path):
-    meta = {"calibration": calibration_record(ideal_calibration(), "ideal"), "assembly": assembly_record("cube")}
-    path = tmp_path / "lift1_0.pitorec"
-    write_lift_recording(path, LiftTask(1, seed=0), seed=0, meta=meta)
-    analysis = analyze_recording(path)
-    assert analysis.meta["n_samples"] == 6000
-    write_analysis(analysis, tmp_path, figures=False)
+def _same_tables(analysis, out, stem):
+    write_analysis(analysis, out, figures=False)
     for name in ("phases", "patches"):
-        got = (tmp_path / f"{name}.csv").read_text().splitlines()
-        want = (DATA / f"lift1_0_{name}.csv").read_text().splitlines()
+        got = (out / f"{name}.csv").read_text().splitlines()
+        want = (DATA / f"{stem}_{name}.csv").read_text().splitlines()
         assert got[0] == want[0], f"{name}.csv: columns changed"
         assert len(got) == len(want), f"{name}.csv: {len(got) - 1} rows, expected {len(want) - 1}"
         for k, (a, b) in enumerate(zip(got[1:], want[1:]), start=1):
             assert a == b, f"{name}.csv row {k}:\n got  {a}\n want {b}"
+
+
+@pytest.mark.parametrize(("n_trials", "task_seed", "seed", "stem"), [(1, 0, 0, "lift1_0"), (3, 11, 3, "lift3_11")])
+def test_tables_equal_the_old_code_to_the_last_digit(tmp_path, n_trials, task_seed, seed, stem):
+    meta = {"calibration": calibration_record(ideal_calibration(), "ideal"), "assembly": assembly_record("cube")}
+    path = tmp_path / f"{stem}.pitorec"
+    write_lift_recording(path, LiftTask(n_trials, seed=task_seed), seed=seed, meta=meta)
+    analysis = analyze_recording(path)
+    assert analysis.meta["n_samples"] == 6000 * n_trials
+    _same_tables(analysis, tmp_path, stem)
+
+
+def test_tables_of_a_pito_record_recording_equal_the_old_codes(tmp_path):
+    path = tmp_path / "recorded_seed7.pitorec"
+    path.write_bytes(lzma.decompress((DATA / "recorded_seed7.pitorec.xz").read_bytes()))
+    analysis = analyze_recording(path, settings=AnalysisSettings(mass=0.3))
+    assert analysis.meta["n_samples"] == 12350  # the recorder's count
+    _same_tables(analysis, tmp_path, "recorded_seed7")
