@@ -26,10 +26,12 @@ import numpy as np
 
 from ..frames import cross_rows
 
-__all__ = ["normal_tangential", "grasp_decomposition", "net_wrench"]
+__all__ = ["normal_tangential", "grasp_decomposition", "grasp_decomposition_pinv", "net_wrench"]
 
-#: Samples per block of the grasp-matrix split (bounds its memory to ~20 MB).
-_BLOCK = 10_000
+#: Relative singular-value cut of the grasp matrix's pseudo-inverse (as ``numpy.linalg.pinv``'s ``rcond``).
+_RCOND = 1e-10
+#: ``J``'s smallest eigenvalue over its trace below which the contact points are collinear.
+_COLLINEAR = 1e-12
 
 
 def normal_tangential(force, normal, active):
@@ -64,24 +66,62 @@ def grasp_decomposition(point, force, active, cog=(0.0, 0.0, 0.0)):
     active : ndarray of bool, shape (N, 6)
         Contacts in the grasp; the others get zero columns in ``G`` and zero parts.
     cog : array-like, shape (3,)
-        Centre of mass, core frame, m (moments about it; the split does not depend on it).
+        Centre of mass, core frame, m (moments about it; the split does not depend on it, so
+        it is computed about the active contacts' centroid).
 
     Returns
     -------
     f_manip, f_internal : ndarray, shape (N, 6, 3)
         ``G⁺ G f`` and ``(I − G⁺ G) f`` per contact, N (module docstring).
+
+    Notes
+    -----
+    Closed form, no SVD: with moments about the centroid of the K active points
+    (``r_k = p_k − p̄``, ``Σ r_k = 0``), ``G Gᵀ = diag(K I₃, J)`` with
+    ``J = Σ_k (‖r_k‖² I₃ − r_k r_kᵀ)``, so ``G⁺ G f = Gᵀ (G Gᵀ)⁺ G f`` is, per contact,
+    ``F / K + (J⁺ M) × r_k`` with ``F = Σ f_k`` and ``M = Σ r_k × f_k``. ``J`` has rank 3
+    (inverse by its adjugate), 2 when the points are collinear (``J⁺ = J / s²``, ``s = Σ ‖r_k‖²``) or
+    0 (one point). ``J``'s smallest eigenvalue counts as 0 below ``1e-12 · tr J`` (points
+    collinear to rounding: a computed ``J`` of collinear points keeps ``~1e-16 · tr J`` there,
+    where the ``pinv`` of ``G`` with ``rcond = 1e-10`` sees an exact zero); the result equals
+    that ``pinv`` to rounding (:func:`grasp_decomposition_pinv`, tests/analysis/test_grasp_metrics.py).
     """
-    busy = active.any(axis=1)
-    if not busy.all():  # samples without contact: G = 0, so both parts are 0 (no SVD to run)
-        f_manip = np.zeros(point.shape)
-        f_int = np.zeros(point.shape)
-        if busy.any():
-            f_manip[busy], f_int[busy] = grasp_decomposition(point[busy], force[busy], active[busy], cog)
-        return f_manip, f_int
-    if point.shape[0] > _BLOCK:  # bounded memory: the (n, 6, 18) matrices block by block
-        parts = [grasp_decomposition(point[a:a + _BLOCK], force[a:a + _BLOCK], active[a:a + _BLOCK], cog)
-                 for a in range(0, point.shape[0], _BLOCK)]
-        return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+    active = np.asarray(active, bool)
+    a = active[..., None]
+    f = np.where(a, np.nan_to_num(force), 0.0)
+    p = np.where(a, np.nan_to_num(point), 0.0)
+    k = active.sum(axis=1).astype(float)
+    centroid = p.sum(axis=1) / np.maximum(k, 1.0)[:, None]
+    r = np.where(a, p - centroid[:, None], 0.0)
+    F = f.sum(axis=1)
+    M = cross_rows(r, f).sum(axis=1)
+    rr = np.einsum("nki,nkj->nij", r, r)
+    tr = rr[:, 0, 0] + rr[:, 1, 1] + rr[:, 2, 2]
+    J = -rr
+    J[:, 0, 0] += tr
+    J[:, 1, 1] += tr
+    J[:, 2, 2] += tr
+    c12, c20, c01 = cross_rows(J[:, 1], J[:, 2]), cross_rows(J[:, 2], J[:, 0]), cross_rows(J[:, 0], J[:, 1])
+    det = np.einsum("ni,ni->n", J[:, 0], c12)
+    minors = c12[:, 0] + c20[:, 1] + c01[:, 2]  # Σ principal 2 × 2 minors = λ₁λ₂ + λ₁λ₃ + λ₂λ₃
+    full = det > _COLLINEAR * tr * minors  # λ_min ≈ det / Σ minors, relative to tr J = Σ λ
+    line = ~full & (tr > _RCOND ** 2 * np.maximum(k, tr))  # rank 2: collinear points
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x_full = (M[:, :1] * c12 + M[:, 1:2] * c20 + M[:, 2:] * c01) / det[:, None]
+        x_line = np.einsum("nij,nj->ni", J, M) / (tr * tr)[:, None]
+    x = np.where(full[:, None], x_full, np.where(line[:, None], x_line, 0.0))
+    f_manip = F[:, None, :] / np.maximum(k, 1.0)[:, None, None] + cross_rows(np.broadcast_to(x[:, None], r.shape).copy(), r)
+    f_manip *= a
+    return f_manip, f - f_manip
+
+
+def grasp_decomposition_pinv(point, force, active, cog=(0.0, 0.0, 0.0)):
+    """:func:`grasp_decomposition` by ``numpy.linalg.pinv`` of each sample's ``G`` (6 × 18): the reference.
+
+    The code of the analysis before the closed form (slow: one SVD per sample); kept to
+    check the closed form against.
+    """
+    active = np.asarray(active, bool)
     n = point.shape[0]
     f = np.where(active[..., None], np.nan_to_num(force), 0.0)
     r = np.where(active[..., None], np.nan_to_num(point) - np.asarray(cog, float), 0.0)
@@ -92,8 +132,8 @@ def grasp_decomposition(point, force, active, cog=(0.0, 0.0, 0.0)):
     G[:, 5, :, 0], G[:, 5, :, 1] = -r[..., 1], r[..., 0]
     G = G.reshape(n, 6, 18)
     w = np.einsum("nij,nj->ni", G, f.reshape(n, 18))
-    f_manip = np.einsum("nij,nj->ni", np.linalg.pinv(G, rcond=1e-10), w).reshape(n, 6, 3)
-    f_manip *= active[..., None]  # rounding leaves ~1e-21 in the zero columns
+    f_manip = np.einsum("nij,nj->ni", np.linalg.pinv(G, rcond=_RCOND), w).reshape(n, 6, 3)
+    f_manip *= active[..., None]
     return f_manip, f - f_manip
 
 
