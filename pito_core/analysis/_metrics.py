@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._grasp import norm3
 from ._segment import AnalysisSettings, Trial
 
 __all__ = ["phase_rows", "PHASE_COLUMNS", "PATCH_COLUMNS", "GRAVITY_MS2"]
@@ -82,8 +83,8 @@ def phase_rows(g, trials: list[Trial], s: AnalysisSettings, mass: float | None =
     boolean selection ``x[(t >= a) & (t < b)]`` gives them (the same numbers, bit for bit).
     """
     fingers = np.array([i + 1 != s.base_face for i in range(6)])
-    man, inn = np.linalg.norm(g.f_manip, axis=2), np.linalg.norm(g.f_int, axis=2)
-    net = np.linalg.norm(g.net_force, axis=1)
+    man, inn = norm3(g.f_manip), norm3(g.f_int)
+    net = norm3(g.net_force)
     phases, patches = [], []
     for tr in trials:
         names = list(tr.phases)

@@ -12,7 +12,7 @@ import numpy as np
 from scipy.signal import butter, sosfiltfilt
 
 from ..contact import ContactEstimate
-from ._grasp import grasp_decomposition, net_wrench, normal_tangential
+from ._grasp import _net, _normal_tangential, _split, finite
 from ._segment import AnalysisSettings, contact_runs
 
 __all__ = ["GraspSeries", "check_contacts", "grasp_series", "smooth_paths"]
@@ -112,11 +112,14 @@ def smooth_paths(time, point, on, cutoff: float) -> np.ndarray:
 def grasp_series(time, contacts: ContactEstimate, settings: AnalysisSettings, cog=(0.0, 0.0, 0.0)) -> GraspSeries:
     """The per-sample quantities (:class:`GraspSeries`) of ``contacts`` at ``time`` s (:func:`check_contacts`)."""
     time, c = check_contacts(time, contacts)
-    f_n, _ = normal_tangential(c.force, c.normal, c.valid)
+    force, normal, point = finite(c.force), finite(c.normal), finite(c.point)
+    f_n = -np.einsum("nkj,nkj->nk", force, normal)  # where valid: normal_tangential's f_n
     on = np.stack([contact_runs(c.valid[:, i] & (f_n[:, i] > settings.contact_force), time, settings.min_contact)
                    for i in range(6)], axis=1) & c.valid
-    f_n, f_t = normal_tangential(c.force, c.normal, on)
-    f_manip, f_int = grasp_decomposition(c.point, c.force, on, cog)
-    F, M = net_wrench(c.point, c.force, c.torsion, c.normal, on, cog)
+    a = on[..., None]
+    f = np.where(a, force, 0.0)
+    f_n, f_t = _normal_tangential(f, normal)
+    f_manip, f_int = _split(np.where(a, point, 0.0), f, on)
+    F, M = _net(point, f, finite(c.torsion), normal, on, cog)
     path = smooth_paths(time, c.point, on, settings.path_cutoff)
     return GraspSeries(time, on, f_n, f_t, f_manip, f_int, F, M, path, c.single_contact)
