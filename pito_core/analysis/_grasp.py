@@ -183,5 +183,14 @@ def _net(point, f, torsion, normal, active, cog):
     r = np.where(active[..., None], point - np.asarray(cog, float), 0.0)
     tau = np.where(active, torsion, 0.0)[..., None] * normal
     n = f.shape[0]
-    m = cross_rows(r.reshape(-1, 3), f.reshape(-1, 3)).reshape(n, 6, 3) + tau
-    return f.sum(axis=1), m.sum(axis=1)
+    m = cross_rows(r.reshape(-1, 3), f.reshape(-1, 3)).reshape(n, 6, 3)
+    m += tau
+    return _sum_faces(f), _sum_faces(m)
+
+
+def _sum_faces(x) -> np.ndarray:
+    """``x.sum(axis=1)`` of ``(N, 6, 3)`` (the same numbers: numpy adds the faces in order), without its strided reduction."""
+    out = x[:, 0] + x[:, 1]
+    for i in range(2, x.shape[1]):
+        out += x[:, i]
+    return out
