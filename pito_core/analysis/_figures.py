@@ -15,14 +15,13 @@ from matplotlib.figure import Figure
 
 from ..frames import FACE_COLORS
 from ._grasp import norm3
+from ._series import FIGURE_PAD_S, FIGURE_POINTS
 
 __all__ = ["trial_figure", "save_trial_figures"]
 
-#: Most points drawn per curve (the series is decimated to this for the figure only): about
-#: the axes' width in pixels at the default dpi.
-_MAX_POINTS = 800
+_MAX_POINTS = FIGURE_POINTS
 _PHASE_COLOURS = {"load": "#dbe9f6", "lift": "#fde3c8", "hold": "#e2f0d9", "replace": "#fde3c8", "release": "#ececec"}
-_PAD_S = 0.3
+_PAD_S = FIGURE_PAD_S
 _FORCES = (("grip force (Σ finger normal)", "-"), ("load force (Σ finger tangential)", "-"),
            ("internal force Σ‖(I−G⁺G)f‖", "--"), ("manipulation force Σ‖G⁺Gf‖", ":"))
 _N_SPANS = 5  # at most one span per phase name
@@ -74,7 +73,8 @@ class _TrialCanvas:
         lo, hi = np.searchsorted(g.time, (trial.start - _PAD_S, trial.stop + _PAD_S), side="left")
         hi = int(hi) + int(hi < g.time.size and g.time[hi] <= trial.stop + _PAD_S)
         m = np.arange(lo, hi)
-        m = m[:: max(1, m.size // _MAX_POINTS)]  # a screen's worth of points per curve
+        if not g.decimated:
+            m = m[:: max(1, m.size // _MAX_POINTS)]  # a screen's worth of points per curve
         t = g.time[m]
         on = g.on[m]
         f_n = g.f_n[m]

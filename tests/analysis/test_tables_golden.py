@@ -67,3 +67,23 @@ def test_tables_of_a_pito_record_recording_equal_the_old_codes(tmp_path):
     analysis = analyze_recording(path, settings=AnalysisSettings(mass=0.3))
     assert analysis.meta["n_samples"] == 12350  # the recorder's count
     _same_tables(analysis, tmp_path, "recorded_seed7")
+
+
+@pytest.mark.parametrize("window", [1, 4000])
+def test_a_long_recordings_path_gives_the_same_tables(tmp_path, monkeypatch, window):
+    """The bounded-memory path (``analysis._stream``), forced on short recordings: windows of one trial and of several."""
+    import pito_core.analysis._analyze as analyze
+    import pito_core.analysis._stream as stream
+
+    monkeypatch.setattr(analyze, "STREAM_SAMPLES", 0)
+    monkeypatch.setattr(stream, "WINDOW", window)
+    path = tmp_path / "recorded_seed7.pitorec"
+    path.write_bytes(lzma.decompress((DATA / "recorded_seed7.pitorec.xz").read_bytes()))
+    a = analyze_recording(path, settings=AnalysisSettings(mass=0.3))
+    assert a.series.decimated and a.meta["n_samples"] == 12350
+    _same_tables(a, tmp_path, "recorded_seed7")
+    meta = {"calibration": calibration_record(ideal_calibration(), "ideal"), "assembly": assembly_record("cube")}
+    path = tmp_path / "lift3_11.pitorec"
+    write_lift_recording(path, LiftTask(3, seed=11), seed=3, meta=meta)
+    (tmp_path / "b").mkdir()
+    _same_tables(analyze_recording(path), tmp_path / "b", "lift3_11")
