@@ -20,6 +20,7 @@ cost as a share of it. Peak resident memory of the worker is reported with the s
 
 from __future__ import annotations
 
+import os
 import shutil
 import tempfile
 import time
@@ -113,8 +114,9 @@ def task_analysis_study(n_recordings: int = 8, n_trials: int = 5, seed: int = 0)
     The single-process path (:func:`~pito_core.analysis.run_serial`) on one recording and on
     all; then a loopback ``LocalCluster`` of 1 and of 2 workers (one thread each), each warmed
     up on a recording of its own first (imports), running all recordings. Samples per second
-    of compute (first submit to last result, wall clock) and the cost of 100 one-hour
-    recordings (3.6·10⁶ samples each) at those rates.
+    of compute (first submit to last result, wall clock), the tasks' own CPU time per sample
+    (which other work on the machine does not change; the load average is given) and the cost
+    of 100 one-hour recordings (3.6·10⁶ samples each) at those rates.
     """
     from pito_core.analysis import analyze_to_dir, local_cluster, run_serial, run_study
 
@@ -128,9 +130,11 @@ def task_analysis_study(n_recordings: int = 8, n_trials: int = 5, seed: int = 0)
         rows = []
 
         def row(name, workers, res):
+            cpu = sum(r.get("cpu_seconds") or 0.0 for r in res.results)
             rows.append({"path": name, "workers": workers, "recordings": len(res.results), "samples": res.samples,
                          "s": res.compute_seconds, "samples_per_s": res.samples_per_s,
-                         "failed": len(res.failed)})
+                         "cpu_us_per_sample": 1e6 * cpu / res.samples if res.samples else float("nan"),
+                         "failed": len(res.failed), "load_average": os.getloadavg()[0]})
 
         run_serial(analyze_to_dir, [warm], out_root=tmp / "w0", figures=False)  # imports
         row("in process, 1 recording", 0, run_serial(analyze_to_dir, recs[:1], out_root=tmp / "s1", figures=False))

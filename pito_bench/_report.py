@@ -203,12 +203,14 @@ def _study_tables(st: dict | None) -> list[str]:
     """Samples/s of ``pito analyze`` by workers, and what 100 one-hour recordings cost at that rate."""
     if not st:
         return []
-    rows = [[r["path"], str(r["recordings"]), _f(r["s"]), _f(r["samples_per_s"]),
-             _f(r["hours_100_one_hour_recordings"]), _f(r["cpu_hours_100_one_hour_recordings"])] for r in st["rows"]]
+    rows = [[r["path"], str(r["recordings"]), _f(r["s"]), _f(r["samples_per_s"]), _f(r.get("cpu_us_per_sample")),
+             _f(r.get("load_average")), _f(r["hours_100_one_hour_recordings"]),
+             _f(r["cpu_hours_100_one_hour_recordings"])] for r in st["rows"]]
     return [text_table(f"Analysis by workers ({st['data']}; {st['n_recordings']} recordings of "
                        f"{st['samples_per_recording']:,} samples; wall clock from the first task to the last result; "
                        f"2 workers = {st['speedup_2_workers']:.2f}× 1 worker)",
-                       ["path", "recordings", "time (s)", "samples/s", "100 one-hour recordings (h)", "(CPU h)"],
+                       ["path", "recordings", "time (s)", "samples/s", "CPU µs/sample", "load average",
+                        "100 one-hour recordings (h)", "(CPU h)"],
                        rows)]
 
 
