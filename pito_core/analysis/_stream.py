@@ -42,6 +42,9 @@ __all__ = ["contact_blocks", "analyze_long", "STREAM_SAMPLES", "WINDOW"]
 
 #: Contacts are solved in blocks of this many samples (as ``export_data``).
 BLOCK = 20000
+#: Seconds of cube samples per block fed to the pipeline: each block also costs the pipeline's
+#: live-display work (the latest contacts, one solve), which the analysis does not use.
+REPLAY_BLOCK_S = 20.0
 #: Recordings with more cube samples than this are analysed by :func:`analyze_long`.
 STREAM_SAMPLES = 600_000
 #: Samples per window of the second pass (a longer trial is one window of its own).
@@ -83,7 +86,7 @@ class RecordingContacts:
         """
         tick = self.reader.cube["tick"]
         W, T, rows, done = [], [], 0, 0
-        for bundle in replay_blocks(self.reader, self.pipe):
+        for bundle in replay_blocks(self.reader, self.pipe, REPLAY_BLOCK_S):
             W.append(np.asarray(bundle.face_wrenches, float))
             T.append(np.asarray(bundle.tick))
             rows += len(bundle)
