@@ -69,6 +69,10 @@ class RecordingContacts:
             assembly = (meta.get("assembly") or {}).get("name") or "cube"
         self.path = path
         self.reader = RecordingReader(rec, speed=float("inf"), loop=False)
+        # The replay reads the reader's own arrays only; its reference to the recording would keep
+        # the raw rows (160 bytes per cube sample) for the whole analysis.
+        self.reader.recording = None
+        del rec
         self.pipe = Pipeline(cal, assembly, has_reference=self.reader.has_reference)
         self.time, _ = device_time_base(self.reader.cube, self.reader.reference if self.reader.has_reference else None)
         self.n = int(self.reader.cube["time"].size)
