@@ -46,7 +46,7 @@ BLOCK = 20000
 #: live-display work (the latest contacts, one solve), which the analysis does not use.
 REPLAY_BLOCK_S = 20.0
 #: Recordings with more cube samples than this are analysed by :func:`analyze_long`.
-STREAM_SAMPLES = 600_000
+STREAM_SAMPLES = 200_000
 #: Samples per window of the second pass (a longer trial is one window of its own).
 WINDOW = 100_000
 
