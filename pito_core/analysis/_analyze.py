@@ -145,8 +145,8 @@ def analyze_recording(path, calibration=None, assembly=None, settings: AnalysisS
             parts.append(c)
             if progress is not None:
                 progress(0.1 + 0.6 * min(1.0, len(parts) * BLOCK / max(rc.n, 1)), "contacts")
-        empty = rc.pipe.contacts(np.zeros((0, 6, 6)))
-        return _analyze(rc.time, ContactEstimate.concatenate(parts) if parts else empty, rc.meta, settings)
+        contacts = ContactEstimate.concatenate(parts) if parts else rc.pipe.contacts(np.zeros((0, 6, 6)))
+        return _analyze(rc.time, contacts, rc.meta, settings)
     s = settings or AnalysisSettings()
     meta = dict(rc.meta)
     cog = meta["cog_m"] if meta["cog_m"] is not None else (0.0, 0.0, 0.0)
