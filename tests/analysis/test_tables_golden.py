@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pytest
 
-from pito_core.analysis import AnalysisSettings, analyze_recording, write_analysis
+from pito_core.analysis import AnalysisSettings, analyze_recording, save_trial_figures, write_analysis
 from pito_core.interop import assembly_record, calibration_record
 from pito_core.sim import LiftTask, write_lift_recording
 
@@ -82,6 +82,9 @@ def test_a_long_recordings_path_gives_the_same_tables(tmp_path, monkeypatch, win
     a = analyze_recording(path, settings=AnalysisSettings(mass=0.3))
     assert a.series.decimated and a.meta["n_samples"] == 12350
     _same_tables(a, tmp_path, "recorded_seed7")
+    if window == 1:  # the figures draw from the samples kept for them
+        (tmp_path / "fig").mkdir()
+        assert [p.name for p in save_trial_figures(a, tmp_path / "fig")] == ["trial_01.png"]
     meta = {"calibration": calibration_record(ideal_calibration(), "ideal"), "assembly": assembly_record("cube")}
     path = tmp_path / "lift3_11.pitorec"
     write_lift_recording(path, LiftTask(3, seed=11), seed=3, meta=meta)
