@@ -20,6 +20,7 @@ cost as a share of it. Peak resident memory of the worker is reported with the s
 
 from __future__ import annotations
 
+import os
 import shutil
 import tempfile
 import time
@@ -103,4 +104,65 @@ def run_analysis(*, quick: bool = False, threads: int = 1, progress=print) -> di
     r = run_worker("analysis", params, threads=threads)
     r["data"] = "SIMULATED lift-hold-replace recording (pito_core.sim), ideal calibration embedded"
     r["threads"] = threads
+    r["study"] = run_analysis_study(quick=quick, threads=threads, progress=progress)
+    return r
+
+
+def task_analysis_study(n_recordings: int = 8, n_trials: int = 5, seed: int = 0) -> dict:
+    """``pito analyze`` of ``n_recordings`` SIMULATED lift recordings (no figures): in process and on Dask.
+
+    The single-process path (:func:`~pito_core.analysis.run_serial`) on one recording and on
+    all; then a loopback ``LocalCluster`` of 1 and of 2 workers (one thread each), each warmed
+    up on a recording of its own first (imports), running all recordings. Samples per second
+    of compute (first submit to last result, wall clock), the tasks' own CPU time per sample
+    (which other work on the machine does not change; the load average is given) and the cost
+    of 100 one-hour recordings (3.6·10⁶ samples each) at those rates.
+    """
+    from pito_core.analysis import analyze_to_dir, local_cluster, run_serial, run_study
+
+    tmp = Path(tempfile.mkdtemp(prefix="pito-bench-study-"))
+    try:
+        paths = []
+        for k in range(n_recordings + 1):
+            p = _recording(tmp, n_trials, seed + k)
+            paths.append(p.rename(tmp / f"rec{k:02d}.pitorec"))
+        warm, recs = paths[0], paths[1:]
+        rows = []
+
+        def row(name, workers, res):
+            cpu = sum(r.get("cpu_seconds") or 0.0 for r in res.results)
+            rows.append({"path": name, "workers": workers, "recordings": len(res.results), "samples": res.samples,
+                         "s": res.compute_seconds, "samples_per_s": res.samples_per_s,
+                         "cpu_us_per_sample": 1e6 * cpu / res.samples if res.samples else float("nan"),
+                         "failed": len(res.failed), "load_average": os.getloadavg()[0]})
+
+        run_serial(analyze_to_dir, [warm], out_root=tmp / "w0", figures=False)  # imports
+        row("in process, 1 recording", 0, run_serial(analyze_to_dir, recs[:1], out_root=tmp / "s1", figures=False))
+        row(f"in process, {len(recs)} recordings", 0, run_serial(analyze_to_dir, recs, out_root=tmp / "s", figures=False))
+        for n in (1, 2):
+            with local_cluster(n, memory_limit="2GiB") as cluster:
+                addr = cluster.scheduler_address
+                run_study(analyze_to_dir, paths[:1] if n == 1 else [warm, recs[0]], scheduler=addr,
+                          out_root=tmp / f"w{n}", figures=False)  # every worker imports pito first
+                row(f"Dask, {n} worker{'s' * (n > 1)}", n,
+                    run_study(analyze_to_dir, recs, scheduler=addr, out_root=tmp / f"d{n}", figures=False))
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    by = {r["workers"]: r["samples_per_s"] for r in rows if r["path"].startswith("Dask")}
+    hour = 3.6e6
+    for r in rows:
+        workers = max(1, r["workers"])
+        r["hours_100_one_hour_recordings"] = 100 * hour / r["samples_per_s"] / 3600
+        r["cpu_hours_100_one_hour_recordings"] = r["hours_100_one_hour_recordings"] * workers
+    return {"rows": rows, "speedup_2_workers": by[2] / by[1], "samples_per_recording": rows[0]["samples"],
+            "n_recordings": len(recs)}
+
+
+def run_analysis_study(*, quick: bool = False, threads: int = 1, progress=print) -> dict:
+    """Run the Dask part of the analysis benchmark in a one-thread subprocess; returns its JSON section."""
+    params = {"n_recordings": 8, "n_trials": 2 if quick else 5}
+    progress(f"analysis on Dask: {params['n_recordings']} simulated recordings of {params['n_trials']} trials, "
+             "in process and on 1 and 2 workers")
+    r = run_worker("analysis_study", params, threads=threads)
+    r["data"] = "SIMULATED lift-hold-replace recordings (pito_core.sim), ideal calibration embedded, no figures"
     return r

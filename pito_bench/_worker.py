@@ -25,6 +25,7 @@ TASKS = {
     "contact_single": ("_single_contact", "task_single_contact"),
     "pipeline": ("_pipeline", "task_pipeline"),
     "analysis": ("_analysis", "task_analysis"),
+    "analysis_study": ("_analysis", "task_analysis_study"),
 }
 
 

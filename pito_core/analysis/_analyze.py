@@ -16,6 +16,7 @@ from ._metrics import PATCH_COLUMNS, PHASE_COLUMNS, phase_rows
 from ._optional import require
 from ._segment import PHASES, AnalysisSettings, trials_from_contacts
 from ._series import GraspSeries, grasp_series
+from ._stream import BLOCK, STREAM_SAMPLES, RecordingContacts, analyze_long
 
 __all__ = ["GraspAnalysis", "analyze_contacts", "analyze_data", "analyze_recording", "recording_contacts",
            "require_pandas"]
@@ -131,12 +132,29 @@ def analyze_recording(path, calibration=None, assembly=None, settings: AnalysisS
                       calibration_source=None, recover=False, progress=None) -> GraspAnalysis:
     """:func:`analyze_contacts` of a recording's contacts (:func:`recording_contacts`).
 
-    The pipeline's other outputs (counts, wrenches) are freed before the analysis starts;
-    :func:`analyze_data` analyses an :class:`~pito_core.interop.ExportData` kept for an export.
+    The pipeline's contacts are kept, block by block, without its other outputs (counts,
+    wrenches, covariances); a recording of more than ``STREAM_SAMPLES`` samples is analysed
+    in bounded memory (:mod:`._stream`: the same tables, ``series`` only the figures'
+    samples). :func:`analyze_data` analyses an :class:`~pito_core.interop.ExportData` kept
+    for an export.
     """
-    time, contacts, meta = recording_contacts(path, calibration, assembly, calibration_source=calibration_source,
-                                              recover=recover, progress=progress)
-    return _analyze(time, contacts, meta, settings)
+    rc = RecordingContacts(path, calibration, assembly, calibration_source=calibration_source, recover=recover)
+    if rc.n <= STREAM_SAMPLES:
+        parts = []
+        for c in rc.blocks():
+            parts.append(c)
+            if progress is not None:
+                progress(0.1 + 0.6 * min(1.0, len(parts) * BLOCK / max(rc.n, 1)), "contacts")
+        contacts = ContactEstimate.concatenate(parts) if parts else rc.pipe.contacts(np.zeros((0, 6, 6)))
+        return _analyze(rc.time, contacts, rc.meta, settings)
+    s = settings or AnalysisSettings()
+    meta = dict(rc.meta)
+    cog = meta["cog_m"] if meta["cog_m"] is not None else (0.0, 0.0, 0.0)
+    mass = s.mass if s.mass is not None else meta["mass_kg"]
+    trials, phase_list, patch_list, series = analyze_long(rc, s, cog, mass)
+    meta.update(mass_kg=mass, n_samples=rc.n, n_trials=len(trials))
+    phases, patches = _tables(phase_list, patch_list, bool(meta["simulated"]))
+    return GraspAnalysis(phases, patches, trials, series, s, meta)
 
 
 def analyze_data(data: ExportData, settings: AnalysisSettings | None = None, *,

@@ -1,4 +1,9 @@
-"""Per-trial figures (matplotlib, Agg canvas; no pyplot state, safe in worker threads)."""
+"""Per-trial figures (matplotlib, Agg canvas; no pyplot state, safe in worker threads).
+
+One figure is built per recording and redrawn for each trial (:class:`_TrialCanvas`): the
+axes, ticks and legends are made once, each trial only moves the lines' data, the phase
+spans and the limits, so a figure costs its drawing only.
+"""
 
 from __future__ import annotations
 
@@ -9,73 +14,144 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from ..frames import FACE_COLORS
+from ._grasp import norm3
+from ._series import FIGURE_PAD_S, FIGURE_POINTS
 
 __all__ = ["trial_figure", "save_trial_figures"]
 
-#: Most points drawn per curve (the series is decimated to this for the figure only).
-_MAX_POINTS = 1500
+_MAX_POINTS = FIGURE_POINTS
 _PHASE_COLOURS = {"load": "#dbe9f6", "lift": "#fde3c8", "hold": "#e2f0d9", "replace": "#fde3c8", "release": "#ececec"}
+_PAD_S = FIGURE_PAD_S
+_FORCES = (("grip force (Σ finger normal)", "-"), ("load force (Σ finger tangential)", "-"),
+           ("internal force Σ‖(I−G⁺G)f‖", "--"), ("manipulation force Σ‖G⁺Gf‖", ":"))
+_N_SPANS = 5  # at most one span per phase name
 
 
-def _shade(ax, analysis, trial) -> None:
-    """Phase spans of ``trial``; implausible phases (not single contacts) hatched red."""
-    bad = set(_implausible(analysis, trial))
-    for name, (a, b) in trial.phases.items():
-        ax.axvspan(a, b, color=_PHASE_COLOURS.get(name, "#eeeeee"), lw=0, zorder=0)
-        if name in bad:
-            ax.axvspan(a, b, facecolor="none", edgecolor="#c0392b", hatch="///", lw=0, zorder=1)
+class _TrialCanvas:
+    """One figure of three panels (forces, normal force per patch, contact displacement) for a recording's trials."""
+
+    def __init__(self, analysis):
+        self.analysis = analysis
+        self.base = analysis.settings.base_face
+        self.fingers = np.array([i + 1 != self.base for i in range(6)])
+        fig = Figure(figsize=(8, 7.5))  # fixed margins: a layout engine would cost a third of the drawing
+        fig.subplots_adjust(left=0.08, right=0.98, bottom=0.065, top=0.91, hspace=0.1)
+        FigureCanvasAgg(fig)
+        self.fig = fig
+        self.axes = axes = fig.subplots(3, 1, sharex=True)
+        self.force_lines = [axes[0].plot([], [], ls, label=label)[0] for label, ls in _FORCES]
+        self.normal_lines = [axes[1].plot([], [], color=FACE_COLORS[i + 1],
+                                          label=f"face {i + 1}" + (" (base)" if i + 1 == self.base else ""))[0]
+                             for i in range(6)]
+        self.path_lines = [axes[2].plot([], [], color=FACE_COLORS[i + 1], label=f"face {i + 1}")[0] for i in range(6)]
+        axes[0].set_ylabel("force (N)")
+        axes[1].set_ylabel("normal force (N)")
+        axes[2].set_ylabel("contact displacement (mm)")
+        axes[2].set_xlabel("time (s)")
+        self.spans, self.hatches = [], []
+        for ax in axes:
+            self.spans.append([ax.axvspan(0, 1, lw=0, zorder=0, visible=False) for _ in range(_N_SPANS)])
+            self.hatches.append([ax.axvspan(0, 1, facecolor="none", edgecolor="#c0392b", hatch="///", lw=0, zorder=1,
+                                            visible=False) for _ in range(_N_SPANS)])
+            ax.grid(alpha=0.3)
+        self.labels = [axes[0].text(0, 1.0, "", transform=axes[0].get_xaxis_transform(), ha="center", va="bottom",
+                                    fontsize=8) for _ in range(_N_SPANS)]
+        self.title = fig.suptitle("", fontsize=10)
+        axes[0].legend(fontsize=7, loc="upper right")
+        self._legends = {}
+
+    def _legend(self, ax, lines, shown) -> None:
+        key = (id(ax), tuple(shown))
+        if key not in self._legends:
+            ax.legend(handles=[lines[i] for i in shown], fontsize=7, loc="upper right")
+            self._legends[key] = ax.legend_
+        ax.legend_ = self._legends[key]
+
+    def draw(self, trial) -> Figure:
+        """The figure of ``trial``; phases whose contacts are not single contacts hatched red and named in the title."""
+        a, g = self.analysis, self.analysis.series
+        lo, hi = np.searchsorted(g.time, (trial.start - _PAD_S, trial.stop + _PAD_S), side="left")
+        hi = int(hi) + int(hi < g.time.size and g.time[hi] <= trial.stop + _PAD_S)
+        m = np.arange(lo, hi)
+        if not g.decimated:
+            m = m[:: max(1, m.size // _MAX_POINTS)]  # a screen's worth of points per curve
+        t = g.time[m]
+        on = g.on[m]
+        f_n = g.f_n[m]
+        ys = ((f_n * self.fingers).sum(axis=1), (g.f_t[m] * self.fingers).sum(axis=1),
+              norm3(g.f_int[m]).sum(axis=1), norm3(g.f_manip[m]).sum(axis=1))
+        for line, y in zip(self.force_lines, ys):
+            line.set_data(t, y)
+        shown = [i for i in range(6) if on[:, i].any()]
+        for i, line in enumerate(self.normal_lines):
+            line.set_data((t, np.where(on[:, i], f_n[:, i], np.nan)) if i in shown else ([], []))
+            line.set_visible(i in shown)
+        for i, line in enumerate(self.path_lines):
+            p = g.path[m, i]
+            ok = np.isfinite(p).all(axis=1)
+            if ok.any():
+                line.set_data(t, 1e3 * norm3(p - p[ok][0]))
+            else:
+                line.set_data([], [])
+            line.set_visible(bool(ok.any()))
+        self._legend(self.axes[1], self.normal_lines, shown)
+        bad = _implausible(a, trial)
+        phases = list(trial.phases.items())[:_N_SPANS]
+        for k in range(_N_SPANS):
+            for j in range(3):
+                span, hatch = self.spans[j][k], self.hatches[j][k]
+                if k < len(phases):
+                    name, (x0, x1) = phases[k]
+                    _move_span(span, x0, x1)
+                    span.set_color(_PHASE_COLOURS.get(name, "#eeeeee"))
+                    span.set_visible(True)
+                    _move_span(hatch, x0, x1)
+                    hatch.set_visible(name in bad)
+                else:
+                    span.set_visible(False)
+                    hatch.set_visible(False)
+            label = self.labels[k]
+            if k < len(phases):
+                name, (x0, x1) = phases[k]
+                label.set_text(name)
+                label.set_x((x0 + x1) / 2)
+            label.set_visible(k < len(phases))
+        for ax in self.axes:
+            ax.relim(visible_only=True)
+            ax.autoscale_view()
+        if t.size:
+            self.axes[0].set_xlim(*_padded(t[0], t[-1]))
+        sim = "SIMULATED — " if a.simulated else ""
+        title = f"{sim}trial {trial.index}: {trial.start:.2f}–{trial.stop:.2f} s"
+        if bad:
+            title += f"\nnot single contacts (hatched): {', '.join(bad)}"
+        self.title.set_text(title)
+        self.title.set_color("#c0392b" if bad else "black")
+        return self.fig
+
+
+def _move_span(span, x0, x1) -> None:
+    """Move an ``axvspan`` rectangle (data x, axes y) to ``[x0, x1]``."""
+    if hasattr(span, "set_x") and hasattr(span, "set_width"):  # matplotlib ≥ 3.9: a Rectangle
+        span.set_x(x0)
+        span.set_width(x1 - x0)
+    else:  # a Polygon
+        span.set_xy([[x0, 0], [x0, 1], [x1, 1], [x1, 0], [x0, 0]])
+
+
+def _padded(t0, t1):
+    """The x limits autoscaling would give the curves (5 % margins)."""
+    d = (t1 - t0) * 0.05 or 0.5
+    return t0 - d, t1 + d
 
 
 def trial_figure(analysis, trial) -> Figure:
     """Forces, normal force per patch and contact displacement of one trial, phases shaded.
 
     A phase whose contacts are not single contacts is hatched red and named in the title.
+    (Many trials: :func:`save_trial_figures` redraws one figure instead of building one each.)
     """
-    g = analysis.series
-    pad = 0.3
-    m = np.flatnonzero((g.time >= trial.start - pad) & (g.time <= trial.stop + pad))
-    m = m[:: max(1, m.size // _MAX_POINTS)]  # a screen's worth of points per curve
-    t = g.time[m]
-    fingers = np.array([i + 1 != analysis.settings.base_face for i in range(6)])
-    fig = Figure(figsize=(8, 7.5))  # fixed margins: a layout engine would cost a third of the drawing
-    fig.subplots_adjust(left=0.08, right=0.98, bottom=0.065, top=0.91, hspace=0.1)
-    FigureCanvasAgg(fig)
-    axes = fig.subplots(3, 1, sharex=True)
-    ax = axes[0]
-    ax.plot(t, (g.f_n[m] * fingers).sum(axis=1), label="grip force (Σ finger normal)")
-    ax.plot(t, (g.f_t[m] * fingers).sum(axis=1), label="load force (Σ finger tangential)")
-    ax.plot(t, np.linalg.norm(g.f_int[m], axis=2).sum(axis=1), "--", label="internal force Σ‖(I−G⁺G)f‖")
-    ax.plot(t, np.linalg.norm(g.f_manip[m], axis=2).sum(axis=1), ":", label="manipulation force Σ‖G⁺Gf‖")
-    ax.set_ylabel("force (N)")
-    ax.legend(fontsize=7, loc="upper right")
-    ax = axes[1]
-    for i in range(6):
-        if g.on[m, i].any():
-            role = " (base)" if i + 1 == analysis.settings.base_face else ""
-            ax.plot(t, np.where(g.on[m, i], g.f_n[m, i], np.nan), label=f"face {i + 1}{role}", color=FACE_COLORS[i + 1])
-    ax.set_ylabel("normal force (N)")
-    ax.legend(fontsize=7, loc="upper right")
-    ax = axes[2]
-    for i in range(6):
-        p = g.path[m, i]
-        if np.isfinite(p).any():
-            first = p[np.isfinite(p).all(axis=1)][0]
-            ax.plot(t, 1e3 * np.linalg.norm(p - first, axis=1), label=f"face {i + 1}", color=FACE_COLORS[i + 1])
-    ax.set_ylabel("contact displacement (mm)")
-    ax.set_xlabel("time (s)")
-    for ax in axes:
-        _shade(ax, analysis, trial)
-        ax.grid(alpha=0.3)
-    for name, (a, b) in trial.phases.items():
-        axes[0].text((a + b) / 2, 1.0, name, transform=axes[0].get_xaxis_transform(), ha="center", va="bottom",
-                     fontsize=8)
-    bad = _implausible(analysis, trial)
-    sim = "SIMULATED — " if analysis.simulated else ""
-    title = f"{sim}trial {trial.index}: {trial.start:.2f}–{trial.stop:.2f} s"
-    if bad:
-        title += f"\nnot single contacts (hatched): {', '.join(bad)}"
-    fig.suptitle(title, fontsize=10, color="#c0392b" if bad else "black")
-    return fig
+    return _TrialCanvas(analysis).draw(trial)
 
 
 def _implausible(analysis, trial) -> list[str]:
@@ -87,8 +163,9 @@ def _implausible(analysis, trial) -> list[str]:
 def save_trial_figures(analysis, directory, dpi: int = 90) -> list:
     """Write ``trial_NN.png`` for every trial into ``directory``; the paths written."""
     out = []
+    canvas = _TrialCanvas(analysis) if analysis.trials else None
     for tr in analysis.trials:
         path = Path(directory) / f"trial_{tr.index:02d}.png"
-        trial_figure(analysis, tr).savefig(path, dpi=dpi, pil_kwargs={"compress_level": 1})  # fast zlib
+        canvas.draw(tr).savefig(path, dpi=dpi, pil_kwargs={"compress_level": 1})  # fast zlib
         out.append(path)
     return out

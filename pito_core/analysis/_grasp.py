@@ -26,10 +26,12 @@ import numpy as np
 
 from ..frames import cross_rows
 
-__all__ = ["normal_tangential", "grasp_decomposition", "net_wrench"]
+__all__ = ["normal_tangential", "grasp_decomposition", "grasp_decomposition_pinv", "net_wrench"]
 
-#: Samples per block of the grasp-matrix split (bounds its memory to ~20 MB).
-_BLOCK = 10_000
+#: Relative singular-value cut of the grasp matrix's pseudo-inverse (as ``numpy.linalg.pinv``'s ``rcond``).
+_RCOND = 1e-10
+#: ``J``'s smallest eigenvalue over its trace below which the contact points are collinear.
+_COLLINEAR = 1e-12
 
 
 def normal_tangential(force, normal, active):
@@ -47,11 +49,29 @@ def normal_tangential(force, normal, active):
         ``f_n = −f · n`` (N, ≥ 0 for a pushing finger) and ``f_t = ‖f + f_n n‖`` (N);
         0 where not active.
     """
-    f = np.where(active[..., None], np.nan_to_num(force), 0.0)
-    n = np.nan_to_num(normal)
+    return _normal_tangential(np.where(active[..., None], finite(force), 0.0), finite(normal))
+
+
+def finite(x) -> np.ndarray:
+    """``numpy.nan_to_num(x)`` (float) without its cost when ``x`` has no infinities: NaN → 0."""
+    x = np.asarray(x, float)
+    nan = np.isnan(x)
+    if not nan.any():
+        return x if np.isfinite(x).all() else np.nan_to_num(x)
+    out = np.where(nan, 0.0, x)
+    return out if np.isfinite(out).all() else np.nan_to_num(x)
+
+
+def _normal_tangential(f, n):
+    """:func:`normal_tangential` of forces already zero where inactive and finite normals."""
     f_n = -np.einsum("nkj,nkj->nk", f, n)
-    f_t = np.linalg.norm(f + f_n[..., None] * n, axis=-1)
-    return f_n, f_t
+    return f_n, norm3(f + f_n[..., None] * n)
+
+
+def norm3(x) -> np.ndarray:
+    """``numpy.linalg.norm(x, axis=-1)`` of ``(..., 3)`` (the same numbers), at a third of its cost."""
+    x0, x1, x2 = x[..., 0], x[..., 1], x[..., 2]
+    return np.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
 
 
 def grasp_decomposition(point, force, active, cog=(0.0, 0.0, 0.0)):
@@ -64,24 +84,76 @@ def grasp_decomposition(point, force, active, cog=(0.0, 0.0, 0.0)):
     active : ndarray of bool, shape (N, 6)
         Contacts in the grasp; the others get zero columns in ``G`` and zero parts.
     cog : array-like, shape (3,)
-        Centre of mass, core frame, m (moments about it; the split does not depend on it).
+        Centre of mass, core frame, m (moments about it; the split does not depend on it, so
+        it is computed about the active contacts' centroid).
 
     Returns
     -------
     f_manip, f_internal : ndarray, shape (N, 6, 3)
         ``G⁺ G f`` and ``(I − G⁺ G) f`` per contact, N (module docstring).
+
+    Notes
+    -----
+    Closed form, no SVD: with moments about the centroid of the K active points
+    (``r_k = p_k − p̄``, ``Σ r_k = 0``), ``G Gᵀ = diag(K I₃, J)`` with
+    ``J = Σ_k (‖r_k‖² I₃ − r_k r_kᵀ)``, so ``G⁺ G f = Gᵀ (G Gᵀ)⁺ G f`` is, per contact,
+    ``F / K + (J⁺ M) × r_k`` with ``F = Σ f_k`` and ``M = Σ r_k × f_k``. ``J`` has rank 3
+    (inverse by its adjugate), 2 when the points are collinear (``J⁺ = J / s²``, ``s = Σ ‖r_k‖²``) or
+    0 (one point). ``J``'s smallest eigenvalue counts as 0 below ``1e-12 · tr J`` (points
+    collinear to rounding: a computed ``J`` of collinear points keeps ``~1e-16 · tr J`` there,
+    where the ``pinv`` of ``G`` with ``rcond = 1e-10`` sees an exact zero); the result equals
+    that ``pinv`` to rounding (:func:`grasp_decomposition_pinv`, tests/analysis/test_grasp_metrics.py).
     """
-    busy = active.any(axis=1)
-    if not busy.all():  # samples without contact: G = 0, so both parts are 0 (no SVD to run)
-        f_manip = np.zeros(point.shape)
-        f_int = np.zeros(point.shape)
-        if busy.any():
-            f_manip[busy], f_int[busy] = grasp_decomposition(point[busy], force[busy], active[busy], cog)
-        return f_manip, f_int
-    if point.shape[0] > _BLOCK:  # bounded memory: the (n, 6, 18) matrices block by block
-        parts = [grasp_decomposition(point[a:a + _BLOCK], force[a:a + _BLOCK], active[a:a + _BLOCK], cog)
-                 for a in range(0, point.shape[0], _BLOCK)]
-        return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+    active = np.asarray(active, bool)
+    a = active[..., None]
+    return _split(np.where(a, finite(point), 0.0), np.where(a, finite(force), 0.0), active)
+
+
+def _split(p, f, active):
+    """:func:`grasp_decomposition` of points and forces already zero where inactive (finite).
+
+    Component-first arrays ``(3, 6, N)``: every product and sum runs over contiguous rows.
+    """
+    P = np.ascontiguousarray(p.transpose(2, 1, 0))
+    Fc = np.ascontiguousarray(f.transpose(2, 1, 0))
+    A = np.ascontiguousarray(active.T)
+    k = A.sum(axis=0).astype(float)
+    kk = np.maximum(k, 1.0)
+    R = np.where(A, P - (P.sum(axis=1) / kk)[:, None], 0.0)  # about the active points' centroid
+    F = Fc.sum(axis=1)
+    M = np.stack([(R[1] * Fc[2] - R[2] * Fc[1]).sum(axis=0), (R[2] * Fc[0] - R[0] * Fc[2]).sum(axis=0),
+                  (R[0] * Fc[1] - R[1] * Fc[0]).sum(axis=0)])
+    xx, yy, zz = (R[0] * R[0]).sum(axis=0), (R[1] * R[1]).sum(axis=0), (R[2] * R[2]).sum(axis=0)
+    xy, xz, yz = (R[0] * R[1]).sum(axis=0), (R[0] * R[2]).sum(axis=0), (R[1] * R[2]).sum(axis=0)
+    tr = xx + yy + zz
+    j00, j11, j22, j01, j02, j12 = yy + zz, xx + zz, xx + yy, -xy, -xz, -yz
+    a00, a11, a22 = j11 * j22 - j12 * j12, j00 * j22 - j02 * j02, j00 * j11 - j01 * j01  # adjugate of J
+    a01, a02, a12 = j02 * j12 - j01 * j22, j01 * j12 - j02 * j11, j01 * j02 - j00 * j12
+    det = j00 * a00 + j01 * a01 + j02 * a02
+    full = det > _COLLINEAR * tr * (a00 + a11 + a22)  # λ_min ≈ det / Σ principal minors, against tr
+    line = ~full & (tr > _RCOND ** 2 * np.maximum(k, tr))  # rank 2: collinear points
+    with np.errstate(divide="ignore", invalid="ignore"):
+        x_full = np.stack([a00 * M[0] + a01 * M[1] + a02 * M[2], a01 * M[0] + a11 * M[1] + a12 * M[2],
+                           a02 * M[0] + a12 * M[1] + a22 * M[2]]) / det
+        x_line = np.stack([j00 * M[0] + j01 * M[1] + j02 * M[2], j01 * M[0] + j11 * M[1] + j12 * M[2],
+                           j02 * M[0] + j12 * M[1] + j22 * M[2]]) / (tr * tr)
+    x = np.where(full, x_full, np.where(line, x_line, 0.0))
+    Fk = F / kk
+    f_manip = np.empty(p.shape)
+    out = f_manip.transpose(2, 1, 0)
+    out[0] = (Fk[0] + (x[1] * R[2] - x[2] * R[1])) * A
+    out[1] = (Fk[1] + (x[2] * R[0] - x[0] * R[2])) * A
+    out[2] = (Fk[2] + (x[0] * R[1] - x[1] * R[0])) * A
+    return f_manip, f - f_manip
+
+
+def grasp_decomposition_pinv(point, force, active, cog=(0.0, 0.0, 0.0)):
+    """:func:`grasp_decomposition` by ``numpy.linalg.pinv`` of each sample's ``G`` (6 × 18): the reference.
+
+    The code of the analysis before the closed form (slow: one SVD per sample); kept to
+    check the closed form against.
+    """
+    active = np.asarray(active, bool)
     n = point.shape[0]
     f = np.where(active[..., None], np.nan_to_num(force), 0.0)
     r = np.where(active[..., None], np.nan_to_num(point) - np.asarray(cog, float), 0.0)
@@ -92,8 +164,8 @@ def grasp_decomposition(point, force, active, cog=(0.0, 0.0, 0.0)):
     G[:, 5, :, 0], G[:, 5, :, 1] = -r[..., 1], r[..., 0]
     G = G.reshape(n, 6, 18)
     w = np.einsum("nij,nj->ni", G, f.reshape(n, 18))
-    f_manip = np.einsum("nij,nj->ni", np.linalg.pinv(G, rcond=1e-10), w).reshape(n, 6, 3)
-    f_manip *= active[..., None]  # rounding leaves ~1e-21 in the zero columns
+    f_manip = np.einsum("nij,nj->ni", np.linalg.pinv(G, rcond=_RCOND), w).reshape(n, 6, 3)
+    f_manip *= active[..., None]
     return f_manip, f - f_manip
 
 
@@ -103,9 +175,22 @@ def net_wrench(point, force, torsion, normal, active, cog=(0.0, 0.0, 0.0)):
     ``Σ_k f_k`` and ``Σ_k (p_k − c) × f_k + τ_k n_k`` over the active contacts.
     """
     a = active[..., None]
-    f = np.where(a, np.nan_to_num(force), 0.0)
-    r = np.where(a, np.nan_to_num(point) - np.asarray(cog, float), 0.0)
-    tau = np.where(active, np.nan_to_num(torsion), 0.0)[..., None] * np.nan_to_num(normal)
+    return _net(finite(point), np.where(a, finite(force), 0.0), finite(torsion), finite(normal), active, cog)
+
+
+def _net(point, f, torsion, normal, active, cog):
+    """:func:`net_wrench` of finite arrays, ``f`` zero where inactive."""
+    r = np.where(active[..., None], point - np.asarray(cog, float), 0.0)
+    tau = np.where(active, torsion, 0.0)[..., None] * normal
     n = f.shape[0]
-    m = cross_rows(r.reshape(-1, 3), f.reshape(-1, 3)).reshape(n, 6, 3) + tau
-    return f.sum(axis=1), m.sum(axis=1)
+    m = cross_rows(r.reshape(-1, 3), f.reshape(-1, 3)).reshape(n, 6, 3)
+    m += tau
+    return _sum_faces(f), _sum_faces(m)
+
+
+def _sum_faces(x) -> np.ndarray:
+    """``x.sum(axis=1)`` of ``(N, 6, 3)`` (the same numbers: numpy adds the faces in order), without its strided reduction."""
+    out = x[:, 0] + x[:, 1]
+    for i in range(2, x.shape[1]):
+        out += x[:, i]
+    return out

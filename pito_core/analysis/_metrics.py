@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._grasp import norm3
 from ._segment import AnalysisSettings, Trial
 
 __all__ = ["phase_rows", "PHASE_COLUMNS", "PATCH_COLUMNS", "GRAVITY_MS2"]
@@ -64,7 +65,7 @@ def _path(p) -> tuple[float, float]:
     p = p[np.isfinite(p).all(axis=1)]
     if len(p) < 2:
         return (0.0, 0.0) if len(p) else (float("nan"), float("nan"))
-    length = np.linalg.norm(np.diff(p, axis=0), axis=1).sum()
+    length = norm3(np.diff(p, axis=0)).sum()
     spread = np.sqrt(((p - p.mean(axis=0)) ** 2).sum(axis=1).mean())
     return float(1e3 * length), float(1e3 * spread)
 
@@ -82,8 +83,10 @@ def phase_rows(g, trials: list[Trial], s: AnalysisSettings, mass: float | None =
     boolean selection ``x[(t >= a) & (t < b)]`` gives them (the same numbers, bit for bit).
     """
     fingers = np.array([i + 1 != s.base_face for i in range(6)])
-    man, inn = np.linalg.norm(g.f_manip, axis=2), np.linalg.norm(g.f_int, axis=2)
-    net = np.linalg.norm(g.net_force, axis=1)
+    man, inn = norm3(g.f_manip), norm3(g.f_int)
+    net = norm3(g.net_force)
+    moment = norm3(g.net_moment)
+    by_face = _by_face(g, man, inn)
     phases, patches = [], []
     for tr in trials:
         names = list(tr.phases)
@@ -96,7 +99,7 @@ def phase_rows(g, trials: list[Trial], s: AnalysisSettings, mass: float | None =
             m = slice(lo, hi)
             on = g.on[m]
             faces = [i for i in range(6) if on[:, i].any()]
-            rows = [_patch_row(g, tr, name, m, i, s, man, inn) for i in faces]
+            rows = [_patch_row(by_face, tr, name, m, i, s) for i in faces]
             f_n = np.ascontiguousarray(g.f_n[m])
             total_n = f_n.sum(axis=1).mean()
             for r in rows:
@@ -116,22 +119,36 @@ def phase_rows(g, trials: list[Trial], s: AnalysisSettings, mass: float | None =
                 "manipulation_force_N": float(np.ascontiguousarray(man[m]).sum(axis=1).mean()),
                 "internal_force_N": float(np.ascontiguousarray(inn[m]).sum(axis=1).mean()),
                 "residual_force_N": float(np.abs(net_m - mass * _G).mean()) if mass else float("nan"),
-                "residual_moment_Nmm": float(1e3 * np.linalg.norm(np.ascontiguousarray(g.net_moment[m]), axis=1).mean()),
+                "residual_moment_Nmm": float(1e3 * moment[m].mean()),
                 "single_contact_frac": frac, "plausible": _plausible(frac, s)})
             patches += rows
     return phases, patches
 
 
-def _patch_row(g, tr: Trial, name, m: slice, i, s, man, inn) -> dict:
-    """The row of face ``i + 1`` (0-based ``i``) in the phase of samples ``m`` (a slice)."""
-    on = g.on[m, i]
+def _by_face(g, man, inn) -> dict:
+    """Per-face copies ``(6, N, …)`` of the series: a face's samples of a phase are then a contiguous slice."""
+    out = {k: np.ascontiguousarray(np.moveaxis(v, 1, 0)) for k, v in
+           (("on", g.on), ("f_n", g.f_n), ("f_t", g.f_t), ("man", man), ("inn", inn), ("path", g.path))}
+    out["single"] = None if g.single is None else np.ascontiguousarray(np.asarray(g.single).T)
+    return out
+
+
+def _patch_row(by_face, tr: Trial, name, m: slice, i, s) -> dict:
+    """The row of face ``i + 1`` (0-based ``i``) in the phase of samples ``m`` (a slice).
+
+    ``by_face``: :func:`_by_face`; every mean is over the same samples in the same order as
+    the boolean selection of the ``(N, 6)`` arrays gives them.
+    """
+    on = by_face["on"][i, m]
     n = m.stop - m.start
-    length, spread = _path(g.path[m, i][on])
-    frac = _mean(g.single[m, i], on) if g.single is not None else float("nan")
+    length, spread = _path(by_face["path"][i, m][on])
+    single = by_face["single"]
+    frac = _mean(single[i, m], on) if single is not None else float("nan")
+    f_n = by_face["f_n"][i, m]
     return {"trial": tr.index, "phase": name, "face": i + 1, "role": "base" if i + 1 == s.base_face else "finger",
             "onset_s": tr.onset.get(i + 1, float("nan")), "contact_frac": float(on.sum() / n),
-            "normal_force_N": _mean(g.f_n[m, i], on), "tangential_force_N": _mean(g.f_t[m, i], on),
-            "_fn_sum": float(np.ascontiguousarray(g.f_n[m, i]).sum()),
-            "manipulation_force_N": _mean(man[m, i], on), "internal_force_N": _mean(inn[m, i], on),
+            "normal_force_N": _mean(f_n, on), "tangential_force_N": _mean(by_face["f_t"][i, m], on),
+            "_fn_sum": float(f_n.sum()),
+            "manipulation_force_N": _mean(by_face["man"][i, m], on), "internal_force_N": _mean(by_face["inn"][i, m], on),
             "path_length_mm": length, "spread_mm": spread, "single_contact_frac": frac,
             "plausible": _plausible(frac, s)}

@@ -12,10 +12,16 @@ import numpy as np
 from scipy.signal import butter, sosfiltfilt
 
 from ..contact import ContactEstimate
-from ._grasp import grasp_decomposition, net_wrench, normal_tangential
+from ._grasp import _net, _normal_tangential, _split, finite
 from ._segment import AnalysisSettings, contact_runs
 
 __all__ = ["GraspSeries", "check_contacts", "grasp_series", "smooth_paths"]
+
+#: A trial's figure spans the trial and this margin on both sides, s.
+FIGURE_PAD_S = 0.3
+#: Most points drawn per curve of a figure (the series is decimated to this for the figure
+#: only): about the axes' width in pixels at the default dpi.
+FIGURE_POINTS = 800
 
 
 def check_contacts(time, contacts: ContactEstimate) -> tuple[np.ndarray, ContactEstimate]:
@@ -87,13 +93,23 @@ class GraspSeries:
     net_moment: np.ndarray
     path: np.ndarray
     single: np.ndarray | None
+    #: The samples are already those a figure draws (a long recording's, :mod:`._stream`).
+    decimated: bool = False
 
 
-def smooth_paths(time, point, on, cutoff: float) -> np.ndarray:
-    """Zero-phase Butterworth low-pass (order 2, ``cutoff`` Hz) of each contact run of ``point (N, 6, 3)``, m."""
+def sample_rate(time) -> float:
+    """Hz: 1 / the median sample interval of ``time`` (s), 1 for fewer than two samples."""
+    return 1.0 / (np.median(np.diff(time)) if time.size > 1 else 1.0)
+
+
+def smooth_paths(time, point, on, cutoff: float, fs: float | None = None) -> np.ndarray:
+    """Zero-phase Butterworth low-pass (order 2, ``cutoff`` Hz) of each contact run of ``point (N, 6, 3)``, m.
+
+    ``fs``: the sampling rate, Hz (default :func:`sample_rate` of ``time``; a part of a
+    recording passes the whole one's).
+    """
     out = np.full(point.shape, np.nan)
-    dt = np.median(np.diff(time)) if time.size > 1 else 1.0
-    fs = 1.0 / dt
+    fs = sample_rate(time) if fs is None else fs
     sos = butter(2, cutoff, fs=fs, output="sos") if 0 < cutoff < fs / 2 else None
     for i in range(point.shape[1]):
         edges = np.flatnonzero(np.diff(np.r_[0, on[:, i].astype(np.int8), 0]))
@@ -112,11 +128,34 @@ def smooth_paths(time, point, on, cutoff: float) -> np.ndarray:
 def grasp_series(time, contacts: ContactEstimate, settings: AnalysisSettings, cog=(0.0, 0.0, 0.0)) -> GraspSeries:
     """The per-sample quantities (:class:`GraspSeries`) of ``contacts`` at ``time`` s (:func:`check_contacts`)."""
     time, c = check_contacts(time, contacts)
-    f_n, _ = normal_tangential(c.force, c.normal, c.valid)
-    on = np.stack([contact_runs(c.valid[:, i] & (f_n[:, i] > settings.contact_force), time, settings.min_contact)
-                   for i in range(6)], axis=1) & c.valid
-    f_n, f_t = normal_tangential(c.force, c.normal, on)
-    f_manip, f_int = grasp_decomposition(c.point, c.force, on, cog)
-    F, M = net_wrench(c.point, c.force, c.torsion, c.normal, on, cog)
-    path = smooth_paths(time, c.point, on, settings.path_cutoff)
+    force, normal = finite(c.force), finite(c.normal)
+    on = contact_state(time, raw_contacts(force, normal, c.valid, settings), c.valid, settings)
+    return series_of(time, c, on, settings, cog, force=force, normal=normal)
+
+
+def raw_contacts(force, normal, valid, settings: AnalysisSettings) -> np.ndarray:
+    """``(N, 6)`` bool: valid contacts pushing in harder than ``contact_force`` (finite ``force``, ``normal``)."""
+    return valid & (-np.einsum("nkj,nkj->nk", force, normal) > settings.contact_force)  # normal_tangential's f_n
+
+
+def contact_state(time, raw, valid, settings: AnalysisSettings) -> np.ndarray:
+    """``(N, 6)`` bool: :func:`raw_contacts` debounced (:func:`~pito_core.analysis.contact_runs`), still valid."""
+    return np.stack([contact_runs(raw[:, i], time, settings.min_contact) for i in range(6)], axis=1) & valid
+
+
+def series_of(time, c: ContactEstimate, on, settings: AnalysisSettings, cog=(0.0, 0.0, 0.0), *, fs=None, force=None,
+              normal=None) -> GraspSeries:
+    """The :class:`GraspSeries` of checked contacts ``c`` with the contact state ``on (N, 6)`` given.
+
+    ``fs`` as :func:`smooth_paths`; ``force``, ``normal``: ``finite`` of ``c``'s when already made.
+    """
+    force = finite(c.force) if force is None else force
+    normal = finite(c.normal) if normal is None else normal
+    point = finite(c.point)
+    a = on[..., None]
+    f = np.where(a, force, 0.0)
+    f_n, f_t = _normal_tangential(f, normal)
+    f_manip, f_int = _split(np.where(a, point, 0.0), f, on)
+    F, M = _net(point, f, finite(c.torsion), normal, on, cog)
+    path = smooth_paths(time, c.point, on, settings.path_cutoff, fs)
     return GraspSeries(time, on, f_n, f_t, f_manip, f_int, F, M, path, c.single_contact)

@@ -98,14 +98,19 @@ def test_normal_tangential_and_net_wrench():
         np.testing.assert_allclose(M[j], m if np.ndim(m) else np.zeros(3), atol=1e-12)
 
 
-def test_blocks_give_the_same_split(monkeypatch):
-    import pito_core.analysis._grasp as grasp
+def test_closed_form_split_equals_the_pinv_of_the_grasp_matrix():
+    """1–6 contacts anywhere, collinear ones (rank 5 and less), NaN points of inactive contacts."""
+    from pito_core.analysis._grasp import grasp_decomposition_pinv
 
     rng = np.random.default_rng(9)
-    point, force = rng.uniform(-0.04, 0.04, (25, 6, 3)), rng.normal(0, 3, (25, 6, 3))
-    active = rng.random((25, 6)) < 0.6
-    whole = grasp_decomposition(point, force, active)
-    monkeypatch.setattr(grasp, "_BLOCK", 10)
-    blocked = grasp_decomposition(point, force, active)
-    np.testing.assert_allclose(blocked[0], whole[0], atol=1e-12)
-    np.testing.assert_allclose(blocked[1], whole[1], atol=1e-12)
+    n = 600
+    point, force = rng.uniform(-0.04, 0.04, (n, 6, 3)), rng.normal(0, 3, (n, 6, 3))
+    active = rng.random((n, 6)) < rng.uniform(0.1, 1.0, (n, 1))
+    line = rng.normal(size=(100, 1, 3)) * rng.uniform(-0.04, 0.04, (100, 6, 1))  # points on lines through 0
+    point[:100] = line + rng.uniform(-0.02, 0.02, (100, 1, 3))
+    point[~active] = np.nan
+    fast = grasp_decomposition(point, force, active, cog=(0.01, 0.0, -0.02))
+    slow = grasp_decomposition_pinv(point, force, active, cog=(0.01, 0.0, -0.02))
+    for a, b in zip(fast, slow):
+        np.testing.assert_allclose(a, b, rtol=0, atol=1e-11)
+        assert (a[~active] == 0).all()
