@@ -190,12 +190,13 @@ class Calibration:
         if off.shape != (36,):
             raise ValueError(f"offset: expected shape (36,), got {off.shape}")
         x = c2 - off
-        W = np.einsum("fij,nj->nfi", self._apply, x)
+        n = x.shape[0]
+        W = (x @ self._apply.reshape(36, -1).T).reshape(n, 6, 6)  # matrix products (BLAS), not einsum
         if self._apply_nl is not None:
-            W += np.einsum("fir,nr->nfi", self._apply_nl, self.correction.features(x))
-        d = None if self._apply_edge is None else self.correction.beyond(x)
-        if d is not None:  # beyond the fitted range, the linear fit's slope
-            W += np.einsum("fij,nj->nfi", self._apply_edge, d)
+            phi, d = self.correction.terms(x)
+            W += (phi @ self._apply_nl.reshape(36, -1).T).reshape(n, 6, 6)
+            if d is not None and self._apply_edge is not None:  # beyond the fitted range, the linear fit's slope
+                W += (d @ self._apply_edge.reshape(36, -1).T).reshape(n, 6, 6)
         W[:, ~self.has_output] = np.nan
         if not return_cov:
             return W[0] if single else W

@@ -173,6 +173,16 @@ class PolyCorrection:
             return None
         return self.clamped(x) - np.asarray(x, dtype=float)
 
+    def terms(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """``(features (N, P + Q), beyond (N, m) or None)`` of offset-free counts ``x (N, m)``: what
+        :meth:`features` and :meth:`beyond` give, drawn back once."""
+        xc = self.clamped(x)
+        phi = poly_features_t(np.ascontiguousarray((xc / self.scale).T), self.pairs, self.cubes).T
+        if self.lower is None or self.edge_matrix is None:
+            return phi, None
+        xc -= np.asarray(x, dtype=float)
+        return phi, xc
+
     @property
     def n_features(self) -> int:
         return self.coef.shape[1]
