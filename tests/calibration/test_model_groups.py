@@ -129,6 +129,8 @@ def test_correction_is_drawn_back_only_beyond_both_boxes():
         np.testing.assert_allclose(corr.features(np.array([x])), plain.features(np.array([xc])), rtol=1e-12)
     with pytest.raises(ValueError, match="domain_lower"):
         PolyCorrection(one, pairs, cubes, coef, -one, one, domain=dom, domain_lower=[1.0], domain_upper=[-1.0])
+    with pytest.raises(ValueError, match="input_map"):
+        PolyCorrection(one, pairs, cubes, coef, input_map=np.eye(3))
 
 
 def test_face_to_face_correction_reads_a_face_s_own_loads_under_squeeze():
