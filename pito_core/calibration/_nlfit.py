@@ -85,8 +85,10 @@ class PolyAccumulator:
         # the fitted ones: the correction's two boxes (_poly.py)
         self.lower, self.upper = np.full(N_GAUGES, np.inf), np.full(N_GAUGES, -np.inf)
         self.target_lo, self.target_hi = np.zeros((6, 6)), np.zeros((6, 6))
-        # ``own``: Gram of the counts in each load group (0 none, 1..6 the face loaded alone): the input map
+        # ``own``: Gram of the counts in each load group (0 none, 1..6 the face loaded alone) and the faces
+        # that carry in it (a ``face`` flange's connected face carries every load): the input map
         self.count_grams = np.zeros((7, N_GAUGES, N_GAUGES)) if own else None
+        self.group_carries = np.zeros((7, 6), dtype=bool)
         self._ss, self._ss_rows, self._final = np.zeros(N_GAUGES), 0, False  # the final scale's sums
         self._session, self._seen = None, 0
         if own:
@@ -122,6 +124,7 @@ class PolyAccumulator:
             for j in np.unique(group[group < 7]):
                 xg = x[group == j]
                 self.count_grams[j] += xg.T @ xg
+                self.group_carries[j] |= carries[group == j].any(axis=0)
         self._ss += np.einsum("ij,ij->j", x, x)
         self._ss_rows += x.shape[0]
         for a in range(0, x.shape[0], CHUNK):  # bounded memory: features of CHUNK rows at a time
@@ -243,26 +246,37 @@ class PolyAccumulator:
         return choice, (C, B, D, E2)
 
 
-def input_map(count_grams: np.ndarray) -> np.ndarray:
+def input_map(count_grams: np.ndarray, group_carries: np.ndarray) -> np.ndarray:
     """``P (36, 36)``: each face's gauges less what they read of the other faces' loads (``face_to_face``).
 
     From the Grams of the offset-free counts per load group ``count_grams (7, 36, 36)`` (0: none
-    loaded, ``f``: face ``f`` alone). For face ``f``, ``B`` predicts the other gauges ``x_o`` from its
+    loaded, ``f``: face ``f`` alone) and the faces that carry in each ``group_carries (7, 6)``. For face
+    ``f``, ``B`` predicts the other gauges ``x_o`` (of the faces that carry nothing when ``f`` is loaded:
+    not a ``face`` flange's connected face, whose reaction to ``f``'s load bends its gauges too) from its
     own ``x_f`` with ``f`` loaded alone; what is left, ``r = x_o − B x_f``, is the other faces' loads;
-    ``A`` regresses ``x_f`` on ``r`` where ``f`` carries nothing (its crosstalk). ``P x`` has
-    ``x_f − A r`` in face ``f``'s gauges: its own loads' reading alone (``x_f`` when only ``f`` is loaded,
-    as in the rows its correction was fitted on).
+    ``A`` regresses ``x_f`` on ``r`` in the groups
+    where ``f`` carries nothing (its crosstalk; none but the rest for a ``face`` flange's connected face,
+    which carries every load: ``A ≈ 0``). ``P x`` has ``x_f − A r`` in face ``f``'s gauges: its own
+    loads' reading alone (``x_f`` when only ``f`` is loaded, as in the rows its correction was fitted on).
     """
     P = np.eye(N_GAUGES)
     for f in FACES:
         own = np.arange(6 * (f - 1), 6 * f)
-        o = np.setdiff1d(np.arange(N_GAUGES), own)
+        quiet = [g for g in FACES if g != f and not group_carries[f, g - 1]]
+        o = np.concatenate([np.arange(6 * (g - 1), 6 * g) for g in quiet]) if quiet else np.zeros(0, dtype=np.int64)
+        if o.size == 0:
+            continue
         G = count_grams[f]
+        none = (np.arange(7) != f) & ~group_carries[:, f - 1]  # groups where f carries nothing
+        none[0] = False
+        if not np.any(np.diag(G)) or not np.any(np.trace(count_grams[none], axis1=1, axis2=2)):
+            continue  # f never loaded alone, or never idle beside another load: nothing to learn
+        none[0] = True
         B = np.linalg.lstsq(G[np.ix_(own, own)], G[np.ix_(own, o)], rcond=INPUT_MAP_RTOL)[0].T  # (30, 6)
         T = np.zeros((o.size, N_GAUGES))
         T[:, o] = np.eye(o.size)
         T[:, own] = -B
-        S = count_grams[np.arange(7) != f].sum(axis=0)  # rows where f carries nothing
+        S = count_grams[none].sum(axis=0)
         A = np.linalg.lstsq(T @ S @ T.T, T @ S[:, own], rcond=INPUT_MAP_RTOL)[0].T  # (6, 30)
         P[own] -= A @ T
     return P
@@ -279,7 +293,7 @@ def correction(poly: PolyAccumulator, D, edge_matrix, linear_matrix, out_faces) 
     idx = [f - 1 for f in out_faces]
     lo, hi = poly.target_lo[idx].reshape(-1), poly.target_hi[idx].reshape(-1)
     keep = hi > lo
-    P = input_map(poly.count_grams) if poly.own else None
+    P = input_map(poly.count_grams, poly.group_carries) if poly.own else None
     return PolyCorrection(poly.scale, _PAIRS, _CUBES, D, lower, upper, edge_matrix, domain=linear_matrix[keep],
                           domain_lower=lo[keep], domain_upper=hi[keep], input_map=P)
 

@@ -146,7 +146,7 @@ def test_face_to_face_correction_reads_a_face_s_own_loads_under_squeeze():
         x = F @ K.T + rng.normal(scale=2.0, size=(400, 36))
         grams[f] = x.T @ x
     assert load_groups(np.eye(6, dtype=bool)).tolist() == [1, 2, 3, 4, 5, 6]
-    P = input_map(grams)
+    P = input_map(grams, np.eye(7, 6, -1, dtype=bool))  # group f: face f carries
     F = np.zeros((300, 36))
     F[:, :12] = rng.uniform(-1, 1, size=(300, 12)) * np.tile(FULL_SCALE, 2)  # faces 1 and 2 at once
     own = F.copy()
