@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..frames import FACES, CubeCore, check_pose, invert_pose, wrench_adjoint
+from ..frames import FACES, N_GAUGES, CubeCore, check_pose, invert_pose, wrench_adjoint
 from ..io import FileFormatError, read_calibration_fields, write_calibration
 from ._coverage import Coverage
 from ._cv import ModelChoice
@@ -58,15 +58,15 @@ class Calibration:
         if not output_faces or any(f not in FACES for f in output_faces) or len(set(output_faces)) != len(output_faces):
             raise ValueError(f"output_faces: expected distinct faces 1..6, got {output_faces}")
         matrix = np.asarray(matrix, dtype=float)
-        if matrix.shape != (6 * len(output_faces), 36):
-            raise ValueError(f"matrix: expected shape ({6 * len(output_faces)}, 36), got {matrix.shape}")
+        if matrix.shape != (6 * len(output_faces), N_GAUGES):
+            raise ValueError(f"matrix: expected shape ({6 * len(output_faces)}, {N_GAUGES}), got {matrix.shape}")
         if not np.all(np.isfinite(matrix)):
             raise ValueError("matrix: expected finite values")
         if output_frame not in ("face", "reference"):
             raise ValueError(f"output_frame: expected 'face' or 'reference', got {output_frame!r}")
         offset = np.asarray(offset, dtype=float)
-        if offset.shape != (36,):
-            raise ValueError(f"offset: expected shape (36,), got {offset.shape}")
+        if offset.shape != (N_GAUGES,):
+            raise ValueError(f"offset: expected shape ({N_GAUGES},), got {offset.shape}")
         if not isinstance(core, CubeCore):
             raise ValueError(f"core: expected a CubeCore, got {type(core).__name__}")
         self.matrix = matrix
@@ -82,8 +82,8 @@ class Calibration:
         if correction is not None:
             if not isinstance(correction, PolyCorrection):
                 raise ValueError(f"correction: expected a PolyCorrection or None, got {type(correction).__name__}")
-            if correction.coef.shape[0] != matrix.shape[0] or correction.scale.shape != (36,):
-                raise ValueError(f"correction: expected {matrix.shape[0]} rows over 36 gauges, got "
+            if correction.coef.shape[0] != matrix.shape[0] or correction.scale.shape != (N_GAUGES,):
+                raise ValueError(f"correction: expected {matrix.shape[0]} rows over {N_GAUGES} gauges, got "
                                  f"{correction.coef.shape[0]} rows over {correction.scale.size}")
         self.correction = correction
         if model is None:
@@ -96,8 +96,8 @@ class Calibration:
         self.model = model
         if linear_fit is not None:
             lm, lo = (np.asarray(a, dtype=float) for a in linear_fit)
-            if lm.shape != matrix.shape or lo.shape != (36,):
-                raise ValueError(f"linear_fit: expected a matrix of shape {matrix.shape} and an offset of shape (36,)")
+            if lm.shape != matrix.shape or lo.shape != (N_GAUGES,):
+                raise ValueError(f"linear_fit: expected a matrix of shape {matrix.shape} and an offset of shape ({N_GAUGES},)")
             linear_fit = (lm, lo)
         self.linear_fit = linear_fit
         self._face_from_output = self._build_adjoints()
@@ -116,7 +116,7 @@ class Calibration:
 
     def _build_apply(self) -> np.ndarray:
         """(6, 6, 36) maps: counts → wrench on face i in face i's frame (zeros where no output)."""
-        A = np.zeros((6, 6, 36))
+        A = np.zeros((6, 6, N_GAUGES))
         for k, f in enumerate(self.output_faces):
             A[f - 1] = self._face_from_output[f - 1] @ self.matrix[6 * k : 6 * k + 6]
         return A
@@ -132,9 +132,9 @@ class Calibration:
 
     def _build_apply_edge(self):
         """(6, 6, 36) maps: counts beyond the correction's range → wrench on face i (None without an edge term)."""
-        if self.correction is None or self.correction.beyond(np.zeros((1, 36))) is None:
+        if self.correction is None or self.correction.beyond(np.zeros((1, N_GAUGES))) is None:
             return None
-        A = np.zeros((6, 6, 36))
+        A = np.zeros((6, 6, N_GAUGES))
         for k, f in enumerate(self.output_faces):
             A[f - 1] = self._face_from_output[f - 1] @ self.correction.edge_matrix[6 * k : 6 * k + 6]
         return A
@@ -184,18 +184,19 @@ class Calibration:
         c = np.asarray(counts, dtype=float)
         single = c.ndim == 1
         c2 = np.atleast_2d(c)
-        if c2.ndim != 2 or c2.shape[1] != 36:
-            raise ValueError(f"counts: expected shape (N, 36), got {c.shape}")
+        if c2.ndim != 2 or c2.shape[1] != N_GAUGES:
+            raise ValueError(f"counts: expected shape (N, {N_GAUGES}), got {c.shape}")
         off = self.offset if offset is None else np.asarray(offset, dtype=float)
-        if off.shape != (36,):
-            raise ValueError(f"offset: expected shape (36,), got {off.shape}")
+        if off.shape != (N_GAUGES,):
+            raise ValueError(f"offset: expected shape ({N_GAUGES},), got {off.shape}")
         x = c2 - off
-        W = np.einsum("fij,nj->nfi", self._apply, x)
+        n = x.shape[0]
+        W = (x @ self._apply.reshape(6 * 6, -1).T).reshape(n, 6, 6)  # matrix products (BLAS), not einsum
         if self._apply_nl is not None:
-            W += np.einsum("fir,nr->nfi", self._apply_nl, self.correction.features(x))
-        d = None if self._apply_edge is None else self.correction.beyond(x)
-        if d is not None:  # beyond the fitted range, the linear fit's slope
-            W += np.einsum("fij,nj->nfi", self._apply_edge, d)
+            phi, d = self.correction.terms(x)
+            W += (phi @ self._apply_nl.reshape(6 * 6, -1).T).reshape(n, 6, 6)
+            if d is not None and self._apply_edge is not None:  # beyond the fitted range, the linear fit's slope
+                W += (d @ self._apply_edge.reshape(6 * 6, -1).T).reshape(n, 6, 6)
         W[:, ~self.has_output] = np.nan
         if not return_cov:
             return W[0] if single else W
@@ -229,8 +230,8 @@ class Calibration:
         The covariance then includes the tare's own noise (gauge noise / N).
         """
         c = np.asarray(counts_unloaded, dtype=float)
-        if c.ndim != 2 or c.shape[1] != 36 or c.shape[0] == 0:
-            raise ValueError(f"counts_unloaded: expected shape (N, 36) with N ≥ 1, got {c.shape}")
+        if c.ndim != 2 or c.shape[1] != N_GAUGES or c.shape[0] == 0:
+            raise ValueError(f"counts_unloaded: expected shape (N, {N_GAUGES}) with N ≥ 1, got {c.shape}")
         return Calibration(
             self.method, self.matrix, self.output_faces, self.output_frame, c.mean(axis=0),
             self.core, self.T_core_ati, self.meta,
@@ -258,7 +259,7 @@ class Calibration:
 
     def __repr__(self) -> str:
         return (
-            f"Calibration(method={self.method!r}, model={self.model.name!r}, matrix={self.matrix.shape[0]}×36, "
+            f"Calibration(method={self.method!r}, model={self.model.name!r}, matrix={self.matrix.shape[0]}×{N_GAUGES}, "
             f"faces={list(self.output_faces)}, frame={self.output_frame!r}, "
             f"1/cond={self.inverse_condition_number:.2e})"
         )

@@ -24,6 +24,7 @@ from ..frames import FACES, N_GAUGES
 from ._lstsq import RANK_RTOL
 from ._cv import ALPHAS, N_FOLDS, FoldedGram, MAX_SEGMENT_FRACTION, Problem, SegmentCounter, choose_model, cross_validate, \
     fold_bounds, held_out_sse, solve_problem
+from ._gramfit import load_groups
 from ._poly import PolyCorrection, poly_features_t, poly_terms
 
 __all__ = ["PolyAccumulator", "FULL_SCALE_WEIGHT", "mixed_offsets"]
@@ -39,6 +40,8 @@ MAX_ROWS = 1 << 15
 _PAIRS, _CUBES = poly_terms([range(6 * (f - 1), 6 * f) for f in FACES])
 _N_PAIRS = _PAIRS.shape[0] // 6  # 21 per face
 _PAIRS6, _CUBES6 = poly_terms([range(6)])  # one face's own, in the order of face_features
+#: Singular values of a Gram below this fraction of the largest are dropped in :func:`input_map`.
+INPUT_MAP_RTOL = 1e-10
 
 
 def face_features(f: int) -> np.ndarray:
@@ -78,8 +81,14 @@ class PolyAccumulator:
         self.reaction_faces = set(reaction_faces)
         self.counter = SegmentCounter(max(1, int(np.ceil(max(session_lengths) * MAX_SEGMENT_FRACTION))))
         self.stride = max(1, int(np.ceil(sum(session_lengths) / MAX_ROWS)))
-        # range of each scaled channel over the fitted rows: the correction clamps its channels to it
+        # range of each scaled channel over the usable rows, and of each face's targets (output frame) over
+        # the fitted ones: the correction's two boxes (_poly.py)
         self.lower, self.upper = np.full(N_GAUGES, np.inf), np.full(N_GAUGES, -np.inf)
+        self.target_lo, self.target_hi = np.zeros((6, 6)), np.zeros((6, 6))
+        # ``own``: Gram of the counts in each load group (0 none, 1..6 the face loaded alone) and the faces
+        # that carry in it (a ``face`` flange's connected face carries every load): the input map
+        self.count_grams = np.zeros((7, N_GAUGES, N_GAUGES)) if own else None
+        self.group_carries = np.zeros((7, 6), dtype=bool)
         self._ss, self._ss_rows, self._final = np.zeros(N_GAUGES), 0, False  # the final scale's sums
         self._session, self._seen = None, 0
         if own:
@@ -91,22 +100,31 @@ class PolyAccumulator:
         """Rows of session ``k``: ``counts (n, 36)`` as stored, ``center (36,)`` its zero (opening tare),
         ``loaded (n, 6)``. ``targets_of(rows)`` (a slice) gives ``(targets (r, 6, 6), carries (r, 6),
         usable (r,))`` of the rows it keeps, as :func:`~._targets.block_targets` does: only those
-        are worked out (one sample in ``stride``), the range and the segments from every row.
+        are worked out (one sample in ``stride``), the channels' range and the segments from every row.
         """
         fold = self.counter.ids(loaded, new_session=self._session != k) % self.K
         self._session = k
         usable = np.count_nonzero(loaded, axis=1) <= 1  # as block_targets: unloaded or one face loaded
         if usable.any():  # (c − center) / scale is monotone in c: the extremes of the counts give those of u
             c = counts if usable.all() else counts[usable]
-            lo = (c.min(axis=0) - center) / self.scale
-            hi = (c.max(axis=0) - center) / self.scale
-            self.lower, self.upper = np.minimum(self.lower, lo), np.maximum(self.upper, hi)
+            self.lower = np.minimum(self.lower, (c.min(axis=0) - center) / self.scale)
+            self.upper = np.maximum(self.upper, (c.max(axis=0) - center) / self.scale)
         rows = slice(None)
         if self.stride > 1:  # every stride-th sample of the sessions
             rows = slice((-self._seen) % self.stride, None, self.stride)
             self._seen += counts.shape[0]
         targets, carries, usable = targets_of(rows)
         x, loaded, fold = counts[rows] - center, loaded[rows], fold[rows]
+        if usable.any():
+            t = targets[usable]
+            self.target_lo = np.minimum(self.target_lo, t.min(axis=0))
+            self.target_hi = np.maximum(self.target_hi, t.max(axis=0))
+        if self.own:
+            group = load_groups(loaded)
+            for j in np.unique(group[group < 7]):
+                xg = x[group == j]
+                self.count_grams[j] += xg.T @ xg
+                self.group_carries[j] |= carries[group == j].any(axis=0)
         self._ss += np.einsum("ij,ij->j", x, x)
         self._ss_rows += x.shape[0]
         for a in range(0, x.shape[0], CHUNK):  # bounded memory: features of CHUNK rows at a time
@@ -143,7 +161,7 @@ class PolyAccumulator:
             self.acc.add_sorted(ZT, bounds)
 
     def _rescale(self) -> None:
-        """Put the Grams, the range and ``scale`` in the final scale: each gauge's RMS about its zero over
+        """Put the Grams, the channels' range and ``scale`` in the final scale: each gauge's RMS about its zero over
         the fitted rows (``u`` to unit spread, which the ridge's footing needs). Its features are monomials,
         so a scale per gauge scales each design column: ``G → d G d``, exact (to rounding) whatever scale
         the rows were added in (the first block's: the tare's noise alone where the session opens with a
@@ -228,13 +246,56 @@ class PolyAccumulator:
         return choice, (C, B, D, E2)
 
 
-def correction(poly: PolyAccumulator, D, edge_matrix) -> PolyCorrection:
-    """The calibration's correction from the fitted feature coefficients ``D (6F, 162)``, clamped
-    to the range of the gauges the accumulator ``poly`` saw, with the linear fit's slope beyond it
-    (``edge_matrix (6F, 36)``: the corrected slopes less the linear fit's; ``_poly.py``)."""
+def input_map(count_grams: np.ndarray, group_carries: np.ndarray) -> np.ndarray:
+    """``P (36, 36)``: each face's gauges less what they read of the other faces' loads (``face_to_face``).
+
+    From the Grams of the offset-free counts per load group ``count_grams (7, 36, 36)`` (0: none
+    loaded, ``f``: face ``f`` alone) and the faces that carry in each ``group_carries (7, 6)``. For face
+    ``f``, ``B`` predicts the other gauges ``x_o`` (of the faces that carry nothing when ``f`` is loaded:
+    not a ``face`` flange's connected face, whose reaction to ``f``'s load bends its gauges too) from its
+    own ``x_f`` with ``f`` loaded alone; what is left, ``r = x_o − B x_f``, is the other faces' loads;
+    ``A`` regresses ``x_f`` on ``r`` in the groups
+    where ``f`` carries nothing (its crosstalk; none but the rest for a ``face`` flange's connected face,
+    which carries every load: ``A ≈ 0``). ``P x`` has ``x_f − A r`` in face ``f``'s gauges: its own
+    loads' reading alone (``x_f`` when only ``f`` is loaded, as in the rows its correction was fitted on).
+    """
+    P = np.eye(N_GAUGES)
+    for f in FACES:
+        own = np.arange(6 * (f - 1), 6 * f)
+        quiet = [g for g in FACES if g != f and not group_carries[f, g - 1]]
+        o = np.concatenate([np.arange(6 * (g - 1), 6 * g) for g in quiet]) if quiet else np.zeros(0, dtype=np.int64)
+        if o.size == 0:
+            continue
+        G = count_grams[f]
+        none = (np.arange(7) != f) & ~group_carries[:, f - 1]  # groups where f carries nothing
+        none[0] = False
+        if not np.any(np.diag(G)) or not np.any(np.trace(count_grams[none], axis1=1, axis2=2)):
+            continue  # f never loaded alone, or never idle beside another load: nothing to learn
+        none[0] = True
+        B = np.linalg.lstsq(G[np.ix_(own, own)], G[np.ix_(own, o)], rcond=INPUT_MAP_RTOL)[0].T  # (30, 6)
+        T = np.zeros((o.size, N_GAUGES))
+        T[:, o] = np.eye(o.size)
+        T[:, own] = -B
+        S = count_grams[none].sum(axis=0)
+        A = np.linalg.lstsq(T @ S @ T.T, T @ S[:, own], rcond=INPUT_MAP_RTOL)[0].T  # (6, 30)
+        P[own] -= A @ T
+    return P
+
+
+def correction(poly: PolyAccumulator, D, edge_matrix, linear_matrix, out_faces) -> PolyCorrection:
+    """The calibration's correction from the fitted feature coefficients ``D (6F, 162)``: inside the
+    range of the gauges the accumulator ``poly`` saw, or inside that of the training loads in the
+    linear fit's coordinates (``linear_matrix (6F, 36)``'s output rows; axes that never carried load
+    left out), with the linear fit's slope beyond (``edge_matrix (6F, 36)``: the corrected slopes less
+    the linear fit's; ``_poly.py``); for ``face_to_face``, read through :func:`input_map`."""
     seen = poly.lower <= poly.upper
     lower, upper = np.where(seen, poly.lower, 0.0), np.where(seen, poly.upper, 0.0)
-    return PolyCorrection(poly.scale, _PAIRS, _CUBES, D, lower, upper, edge_matrix)
+    idx = [f - 1 for f in out_faces]
+    lo, hi = poly.target_lo[idx].reshape(-1), poly.target_hi[idx].reshape(-1)
+    keep = hi > lo
+    P = input_map(poly.count_grams, poly.group_carries) if poly.own else None
+    return PolyCorrection(poly.scale, _PAIRS, _CUBES, D, lower, upper, edge_matrix, domain=linear_matrix[keep],
+                          domain_lower=lo[keep], domain_upper=hi[keep], input_map=P)
 
 
 def mixed_offsets(C, linear_matrix, row_alpha, tare_means, linear_offsets) -> list:

@@ -6,13 +6,22 @@ of channels (a face's own six gauges), every square and pairwise product (``u_i 
 ``i ≤ j``) and every cube (``u_i³``). Squares and products model a quadratic response
 (hub bending, load-dependent contact in the frame's screw joints); cubes a per-gauge
 odd nonlinearity (amplifier or bridge saturation). A polynomial must not extrapolate: where a
-sample's channels leave the range they were fitted on (``lower``, ``upper``), the sample is
-drawn back along its own ray from zero load, ``x_c = t x`` with the largest ``t ≤ 1`` that puts
-every channel inside (a larger load of the same pattern becomes the largest trained one; a
-clamp of each channel alone would put the products at corners no load reached), and the
-correction is ``Δw = coef · φ(x_c / scale) + E (x_c − x)``, ``E`` the corrected model's slopes
-less the linear fit's (``edge_matrix``). Inside the range: the polynomial; beyond it: its value
-at the edge plus the linear fit's slope from there, so it never grows faster than the linear fit.
+sample lies beyond the loads it was fitted on, the sample is drawn back along its own ray from
+zero load, ``x_c = t x`` with the largest ``t ≤ 1`` that puts it inside (a larger load of the
+same pattern becomes the largest trained one; a clamp of each channel alone would put the
+products at corners no load reached), and the correction is
+``Δw = coef · φ(x_c / scale) + E (x_c − x)``, ``E`` the corrected model's slopes less the linear
+fit's (``edge_matrix``). Inside: the polynomial; beyond: its value at the edge plus the linear
+fit's slope from there, so it never grows faster than the linear fit.
+
+"Inside" is inside one of two boxes: each channel's range in training (``lower``, ``upper``), or,
+with a ``domain``, the range of the training loads on each axis of the linear fit's wrenches
+``z = domain · x`` (``domain_lower``, ``domain_upper``). Each alone draws back loads the other
+knows were trained: a gauge's extremes need several axes at theirs at once (rarely reached, so
+loads within the trained ones leave the channel box), and an axis at its extreme with the others
+small leaves the wrench box while every gauge stays in range. An ``input_map`` ``P`` first takes
+what a face's gauges read of other faces' loads out of them (``x → P x``, ``face_to_face``: its
+correction of a face was fitted with the other faces unloaded).
 """
 
 from __future__ import annotations
@@ -53,6 +62,13 @@ def poly_features_t(uT: np.ndarray, pairs: np.ndarray, cubes: np.ndarray, out: n
     return out
 
 
+def _ray_into(z: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """``(N,)`` the largest ``t ≤ 1`` with ``t z`` inside the box ``[lo, hi]`` (which holds zero), for ``z (N, d)``."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(z > hi, hi / z, np.where(z < lo, lo / z, 1.0))
+    return np.clip(np.nan_to_num(t, nan=1.0), 0.0, 1.0).min(axis=1, initial=1.0)
+
+
 class PolyCorrection:
     """The nonlinear part of a calibration: ``Δw = coef · φ((counts − offset) / scale)``.
 
@@ -67,15 +83,22 @@ class PolyCorrection:
         Output units per feature: rows in the order of the calibration's matrix rows
         (``[fx, fy, fz, tx, ty, tz]`` per output face, N and N·m, in its output frame).
     lower, upper : array-like, shape (m,), optional
-        Range of ``u`` (dimensionless) the correction was fitted on; beyond it the monomials
-        are clamped to it. None: the plain polynomial everywhere (for tests of the features).
+        Range of ``u`` (dimensionless) the correction was fitted on. None: the plain polynomial
+        everywhere (for tests of the features).
     edge_matrix : array-like, shape (q, m), optional
         Slopes of the corrected model less those of the linear fit (output units per count):
         beyond the range, ``edge_matrix (x_c − x)`` brings the slope back to the linear fit's.
         None: zero.
+    domain : array-like, shape (d, m), optional
+        Coordinates of the second box (a calibration: the linear fit's rows, N and N·m per count).
+    domain_lower, domain_upper : array-like, shape (d,), optional
+        Its range in training (with ``domain``).
+    input_map : array-like, shape (m, m), optional
+        ``P``: the correction reads ``P x`` in place of the offset-free counts ``x`` (None: ``x``).
     """
 
-    def __init__(self, scale, pairs, cubes, coef, lower=None, upper=None, edge_matrix=None):
+    def __init__(self, scale, pairs, cubes, coef, lower=None, upper=None, edge_matrix=None, domain=None,
+                 domain_lower=None, domain_upper=None, input_map=None):
         self.scale = np.asarray(scale, dtype=float).reshape(-1)
         self.pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
         self.cubes = np.asarray(cubes, dtype=np.int64).reshape(-1)
@@ -88,6 +111,22 @@ class PolyCorrection:
                 raise ValueError(f"{name}: expected channel indices in 0..{m - 1}")
         if self.coef.ndim != 2 or self.coef.shape[1] != r or not np.all(np.isfinite(self.coef)):
             raise ValueError(f"coef: expected finite values of shape (q, {r}), got {self.coef.shape}")
+        self.domain = self.domain_lower = self.domain_upper = self.input_map = None
+        if domain is not None:
+            self.domain = np.asarray(domain, dtype=float)
+            if self.domain.ndim != 2 or self.domain.shape[1] != m or not np.all(np.isfinite(self.domain)):
+                raise ValueError(f"domain: expected finite values of shape (d, {m}), got {self.domain.shape}")
+            d = self.domain.shape[0]
+            self.domain_lower = np.asarray(domain_lower, dtype=float).reshape(-1)
+            self.domain_upper = np.asarray(domain_upper, dtype=float).reshape(-1)
+            if lower is None or self.domain_lower.shape != (d,) or self.domain_upper.shape != (d,) \
+                    or not np.all(self.domain_lower <= self.domain_upper):
+                raise ValueError(f"domain_lower, domain_upper: expected ({d},) ranges with lower ≤ upper, and lower, "
+                                 "upper")
+        if input_map is not None:
+            self.input_map = np.asarray(input_map, dtype=float)
+            if self.input_map.shape != (m, m) or not np.all(np.isfinite(self.input_map)):
+                raise ValueError(f"input_map: expected finite values of shape ({m}, {m}), got {self.input_map.shape}")
         if (lower is None) != (upper is None):
             raise ValueError("lower, upper: expected both or neither")
         self.lower = self.upper = None
@@ -104,16 +143,20 @@ class PolyCorrection:
                 raise ValueError(f"edge_matrix: expected finite values of shape ({self.coef.shape[0]}, {m}), "
                                  f"got {self.edge_matrix.shape}")
 
-    def clamped(self, x: np.ndarray) -> np.ndarray:
-        """``(N, m)`` offset-free counts ``x (N, m)`` drawn back along their ray from zero into the
-        fitted range (``x`` itself inside it, or without a range)."""
+    def mapped(self, x: np.ndarray) -> np.ndarray:
+        """``(N, m)`` what the correction reads of offset-free counts ``x (N, m)``: ``P x`` (or ``x``)."""
         x = np.asarray(x, dtype=float)
+        return x if self.input_map is None else x @ self.input_map.T
+
+    def clamped(self, x: np.ndarray) -> np.ndarray:
+        """``(N, m)`` offset-free counts ``x (N, m)``, mapped (:meth:`mapped`) and drawn back along their
+        ray from zero into the fitted box (unchanged inside it, or without a box)."""
+        x = self.mapped(x)
         if self.lower is None:
             return x
-        lo, hi = self.lower * self.scale, self.upper * self.scale
-        with np.errstate(divide="ignore", invalid="ignore"):
-            t = np.where(x > hi, hi / x, np.where(x < lo, lo / x, 1.0))
-        t = np.clip(np.nan_to_num(t, nan=1.0), 0.0, 1.0).min(axis=1, initial=1.0)
+        t = _ray_into(x, self.lower * self.scale, self.upper * self.scale)
+        if self.domain is not None:  # inside either box
+            t = np.maximum(t, _ray_into(x @ self.domain.T, self.domain_lower, self.domain_upper))
         return x * t[:, None]
 
     def _features_t(self, x: np.ndarray, pairs: np.ndarray, cubes: np.ndarray) -> np.ndarray:
@@ -122,12 +165,23 @@ class PolyCorrection:
         return poly_features_t(uT, pairs, cubes)
 
     def beyond(self, x: np.ndarray) -> np.ndarray | None:
-        """``(N, m)`` ``x_c − x``: how far offset-free counts ``x (N, m)`` lie beyond the fitted range
-        along their ray (counts; zero inside), or None when there is no range or no ``edge_matrix``."""
+        """``(N, m)`` ``x_c − x``: where the correction reads offset-free counts ``x (N, m)`` (mapped and
+        drawn back into the fitted box; counts), less ``x``; zero inside the box without ``input_map``.
+        None when there is no box or no ``edge_matrix``. ``edge_matrix (x_c − x)`` moves the corrected
+        model's slopes, beyond the linear fit's, to that point: what they add is read there too."""
         if self.lower is None or self.edge_matrix is None:
             return None
-        x = np.asarray(x, dtype=float)
-        return self.clamped(x) - x
+        return self.clamped(x) - np.asarray(x, dtype=float)
+
+    def terms(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
+        """``(features (N, P + Q), beyond (N, m) or None)`` of offset-free counts ``x (N, m)``: what
+        :meth:`features` and :meth:`beyond` give, drawn back once."""
+        xc = self.clamped(x)
+        phi = poly_features_t(np.ascontiguousarray((xc / self.scale).T), self.pairs, self.cubes).T
+        if self.lower is None or self.edge_matrix is None:
+            return phi, None
+        xc -= np.asarray(x, dtype=float)
+        return phi, xc
 
     @property
     def n_features(self) -> int:

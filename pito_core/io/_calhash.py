@@ -35,7 +35,8 @@ def calibration_hash(cal) -> str:
     _arr(h, "core_edge", [float(cal.core.edge)])
     corr = getattr(cal, "correction", None)
     if corr is not None:  # the polynomial model (linear calibrations keep the hash they always had)
-        for name in ("scale", "pairs", "cubes", "coef", "lower", "upper", "edge_matrix"):
+        for name in ("scale", "pairs", "cubes", "coef", "lower", "upper", "edge_matrix", "domain",
+                     "domain_lower", "domain_upper", "input_map"):
             if getattr(corr, name, None) is not None:  # the range: files written before it hash as they did
                 _arr(h, f"correction.{name}", getattr(corr, name))
     meta = json.loads(json_attr(cal.meta or {}))

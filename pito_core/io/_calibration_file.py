@@ -25,8 +25,12 @@ Layout (docs/file-formats.md)::
         cubes             (Q,) int64 gauges of the cubes u_i³
         coef              (6·F, P + Q) float64: N, N·m per feature, rows as /matrix
         linear_matrix     (6·F, 36) float64, linear_offset (36,): the papers' linear fit of the same data
-        lower, upper      (36,) float64: range of u fitted; a sample beyond it is drawn back along its ray (_poly.py)
+        lower, upper      (36,) float64: range of u fitted; a sample beyond it (and beyond the domain's box)
+                          is drawn back along its ray (_poly.py)
         edge_matrix       (6·F, 36) float64: the corrected slopes less the linear fit's, used beyond the range
+        domain            (d, 36) float64, optional: a second box's coordinates (rows of the linear fit), N, N·m
+                          per count; domain_lower, domain_upper (d,): its range in training
+        input_map         (36, 36) float64, optional: the counts the correction reads, P x (face_to_face)
 """
 
 from __future__ import annotations
@@ -47,7 +51,8 @@ CALIBRATION_VERSION = 6
 CALIBRATION_READ_VERSIONS = {6}
 _CORRECTION_FIELDS = ("scale", "pairs", "cubes", "coef")
 #: The range the correction was fitted on, and its slopes beyond.
-_CORRECTION_RANGE = ("lower", "upper", "edge_matrix")
+_CORRECTION_RANGE = ("lower", "upper", "edge_matrix", "domain", "domain_lower", "domain_upper",
+                     "input_map")
 _GROUP_FIELDS = ("inputs", "rows", "design_pinv", "residual_cov", "center", "weights")
 
 

@@ -11,6 +11,8 @@ from gen import CASES, FULL_SCALE, make_session, true_sensitivity
 
 from pito_core.calibration import calibrate, fit_sensor
 from pito_core.calibration._cv import FoldedGram, Problem, cross_validate
+from pito_core.calibration._gramfit import load_groups
+from pito_core.calibration._nlfit import input_map
 from pito_core.calibration._poly import PolyCorrection, poly_terms
 from pito_core.sim import VirtualCube, simulate_calibration, simulate_squeeze
 
@@ -105,6 +107,53 @@ def test_correction_beyond_its_range_follows_the_linear_fit_s_slope():
         PolyCorrection(scale, pairs, cubes, coef, hi, lo)
     with pytest.raises(ValueError, match="edge_matrix"):
         PolyCorrection(scale, pairs, cubes, coef, lo, hi, E[:, :2])
+
+
+
+def test_correction_is_drawn_back_only_beyond_both_boxes():
+    """Inside the channels' box or the domain's (the linear fit's wrenches), the plain polynomial;
+    beyond both, drawn back along the ray to the farther of their edges."""
+    rng = np.random.default_rng(5)
+    pairs, cubes = poly_terms([range(2)])
+    coef = rng.normal(size=(1, pairs.shape[0] + cubes.size))
+    one = np.ones(2)
+    dom = np.array([[1.0, 1.0]])  # z = x0 + x1
+    corr = PolyCorrection(one, pairs, cubes, coef, -one, one, np.zeros((1, 2)), domain=dom, domain_lower=[-1.5],
+                          domain_upper=[1.5])
+    plain = PolyCorrection(one, pairs, cubes, coef)
+    for x, xc in [([1.2, 0.0], [1.2, 0.0]),  # beyond the channels' box, inside the domain's
+                  ([0.9, 0.9], [0.9, 0.9]),  # beyond the domain's box, inside the channels'
+                  ([2.0, 2.0], [1.0, 1.0]),  # beyond both: the channels' edge is the farther
+                  ([3.0, 0.0], [1.5, 0.0])]:  # beyond both: the domain's edge is the farther
+        np.testing.assert_allclose(corr.clamped(np.array([x]))[0], xc, rtol=1e-12)
+        np.testing.assert_allclose(corr.features(np.array([x])), plain.features(np.array([xc])), rtol=1e-12)
+    with pytest.raises(ValueError, match="domain_lower"):
+        PolyCorrection(one, pairs, cubes, coef, -one, one, domain=dom, domain_lower=[1.0], domain_upper=[-1.0])
+    with pytest.raises(ValueError, match="input_map"):
+        PolyCorrection(one, pairs, cubes, coef, input_map=np.eye(3))
+
+
+def test_face_to_face_correction_reads_a_face_s_own_loads_under_squeeze():
+    """``input_map``: from single-face loads alone (a linear cube with 10 % coupling), a face's gauges
+    less what they read of another face's load, under a squeeze of both: within 1 % of the crosstalk."""
+    K = true_sensitivity(7, coupling=0.10)
+    rng = np.random.default_rng(7)
+    grams = np.zeros((7, 36, 36))
+    for f in range(7):  # 0: at rest; f: face f alone
+        F = np.zeros((400, 36))
+        if f:
+            F[:, 6 * (f - 1) : 6 * f] = rng.uniform(-1, 1, size=(400, 6)) * FULL_SCALE
+        x = F @ K.T + rng.normal(scale=2.0, size=(400, 36))
+        grams[f] = x.T @ x
+    assert load_groups(np.eye(6, dtype=bool)).tolist() == [1, 2, 3, 4, 5, 6]
+    P = input_map(grams, np.eye(7, 6, -1, dtype=bool))  # group f: face f carries
+    F = np.zeros((300, 36))
+    F[:, :12] = rng.uniform(-1, 1, size=(300, 12)) * np.tile(FULL_SCALE, 2)  # faces 1 and 2 at once
+    own = F.copy()
+    own[:, 6:] = 0.0
+    x, x_own = F @ K.T, own @ K.T
+    left = np.linalg.norm((x @ P.T - x_own)[:, :6]) / np.linalg.norm((x - x_own)[:, :6])
+    assert left < 0.01, left  # measured 9e-5
 
 
 def _sensor(seed, n_seg=300, seg_len=20, sat_force=0.0, quad=0.0, m=8):
