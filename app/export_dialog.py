@@ -1,8 +1,8 @@
 """File → Export: a recording to NWB, ROS 2 MCAP, CSV or MATLAB .mat, with a progress bar.
 
-The export runs in the thread pool (:func:`app.tasks.run_task`): the pipeline over the whole
-recording, the contacts, then each file; a :class:`~app.tasks.TaskBar` shows the progress and
-can cancel. Files and their contents are those of ``pito export`` (docs/interop.md).
+The export runs in the thread pool (:func:`app.tasks.run_task`): the raw streams, then one
+streamed pass of the pipeline and the contacts into NWB and MCAP (bounded memory); a
+:class:`~app.tasks.TaskBar` shows the progress and can cancel. Files and their contents are those of ``pito export`` (docs/interop.md).
 """
 
 from __future__ import annotations
@@ -15,8 +15,8 @@ from PySide6.QtWidgets import (
 )
 
 from pito_core.calibration import load_calibration
-from pito_core.interop import export_data, write_mcap, write_nwb
-from pito_core.io import export_recording_files, read_recording
+from pito_core.interop import export_files
+from pito_core.io import RecordingChunks, export_recording_files
 from pito_core.pipeline import recording_times
 
 from .file_menu import add_dialog_action
@@ -43,7 +43,7 @@ def export_recording(recording, formats, out_prefix, calibration_path=None, subj
     out = []
     prefix = str(out_prefix)
     if "csv" in formats or "mat" in formats:
-        rec = read_recording(recording)
+        rec = RecordingChunks(recording)  # read block by block: bounded memory at any length
         # the one time base of every export (device clock), as `pito export` writes it
         out += export_recording_files(rec, prefix if "csv" in formats else None,
                                       prefix + ".mat" if "mat" in formats else None, recording_times(rec))
@@ -52,19 +52,13 @@ def export_recording(recording, formats, out_prefix, calibration_path=None, subj
         cal = None
         if calibration_path:
             cal = load_calibration(calibration_path)
-        data = export_data(recording, cal, calibration_source=calibration_path, progress=progress)
-        both = "nwb" in formats and "mcap" in formats
-
-        def phase(lo, hi):  # the writers report 0.7 .. 1.0: map onto [lo, hi] so the bar never goes back
-            return lambda f, t: progress(lo + (hi - lo) * min(1.0, max(0.0, (f - 0.7) / 0.3)), t)
-
-        if "nwb" in formats:
-            write_nwb(data, prefix + ".nwb", subject_id=subject_id or None,
-                      experimenter=[experimenter] if experimenter else None, progress=phase(0.7, 0.8 if both else 1.0))
-            out.append(prefix + ".nwb")
-        if "mcap" in formats:
-            write_mcap(data, prefix + ".mcap", progress=phase(0.8 if both else 0.7, 1.0))
-            out.append(prefix + ".mcap")
+        meta = {k: v for k, v in (("subject_id", subject_id), ("experimenter", [experimenter] if experimenter else None))
+                if v}
+        # one streamed pass to both files, as `pito export`: bounded memory at any length
+        export_files(recording, nwb=prefix + ".nwb" if "nwb" in formats else None,
+                     mcap=prefix + ".mcap" if "mcap" in formats else None, calibration=cal,
+                     calibration_source=calibration_path, nwb_metadata=meta, progress=progress)
+        out += [prefix + s for s in (".nwb", ".mcap") if s[1:] in formats]
     progress(1.0, "done")
     return out
 

@@ -8,7 +8,7 @@ import sys
 from .. import analysis
 from ..calibration import load_calibration
 from ..interop import export_files, missing_metadata
-from ..io import export_recording_files, read_recording
+from ..io import RecordingChunks, export_recording_files
 from ..pipeline import recording_times
 from ._analyze import add_study_options, run_many
 
@@ -102,7 +102,7 @@ def run(args) -> int:
         raise ValueError("output: give at least one of --nwb, --mcap, --csv, --mat")
     _require_writers(nwb=bool(args.nwb), mcap=bool(args.mcap))
     if args.csv or args.mat:
-        rec = read_recording(args.file, recover=args.recover)
+        rec = RecordingChunks(args.file, recover=args.recover)  # block by block: bounded memory at any length
         for written in export_recording_files(rec, args.csv, args.mat, recording_times(rec)):
             print(f"wrote {written}")
     if not (args.nwb or args.mcap):

@@ -1,4 +1,4 @@
-"""Export recordings to CSV (one file per stream) and MATLAB ``.mat``.
+"""Export recordings to CSV (one file per stream) and MATLAB ``.mat``, block by block (bounded memory).
 
 CSV columns (header row, SI units, floats written with 17 significant digits so they read
 back exactly):
@@ -26,7 +26,8 @@ import numpy as np
 
 from ..frames import N_GAUGES
 from ._csv import CSV_COUNTS, CSV_REFERENCE
-from ._recording import RECORDING_FORMAT, RECORDING_VERSION
+from ._mat import Mat5Writer
+from ._recording import NETFT_ROW, PITO_ROW, RECORDING_FORMAT, RECORDING_VERSION
 
 __all__ = ["export_recording_files", "export_recording_csv", "export_recording_mat", "read_recording_csv", "RECORDING_CSV_COLUMNS"]
 
@@ -37,41 +38,57 @@ RECORDING_CSV_COLUMNS = {
 }
 
 
-def _table(recording, stream: str, time=None) -> tuple[list, list[str], set]:
-    """Columns, names and the indices of the float columns of one stream (``time``: its times, s, or None)."""
+#: Rows per block: the exports read and write a recording this many rows at a time.
+BLOCK = 65536
+
+
+def _rows(recording, stream: str, start: int, stop: int) -> np.ndarray:
+    """Rows ``start:stop`` of a :class:`Recording` (in memory) or a :class:`RecordingChunks` (read from the file)."""
+    if hasattr(recording, "rows"):
+        return recording.rows(stream, start, stop)
+    return (recording.pito if stream == "pito" else recording.netft)[start:stop]
+
+
+def _n_rows(recording, stream: str) -> int:
+    if hasattr(recording, "rows"):
+        return recording.n_pito if stream == "pito" else recording.n_netft
+    return int((recording.pito if stream == "pito" else recording.netft).size)
+
+
+def _columns(rows: np.ndarray, stream: str) -> list:
     if stream == "pito":
-        r = recording.pito
-        cols = [r["host_time"], r["seq"], r["time_us"]] + [r["counts"][:, j] for j in range(N_GAUGES)]
-        floats = {0}
-    elif stream == "netft":
-        r = recording.netft
-        cols = [r["host_time"], r["rdt_seq"], r["ft_seq"], r["status"]] + [r["wrench"][:, j] for j in range(6)]
-        floats = {0, 4, 5, 6, 7, 8, 9}
-    else:
-        raise ValueError(f"stream: expected 'pito' or 'netft', got {stream!r}")
-    names = RECORDING_CSV_COLUMNS[stream]
-    if time is None:
-        return cols, names[1:], floats
-    time = np.asarray(time, float)
-    if time.shape != (r.size,):
-        raise ValueError(f"time: expected shape ({r.size},) for the {stream} stream, got {time.shape}")
-    return [time] + cols, names, {0} | {j + 1 for j in floats}
+        return [rows["host_time"], rows["seq"], rows["time_us"]] + [rows["counts"][:, j] for j in range(N_GAUGES)]
+    return [rows["host_time"], rows["rdt_seq"], rows["ft_seq"], rows["status"]] + [rows["wrench"][:, j] for j in range(6)]
 
 
 def export_recording_csv(recording, path, stream: str = "pito", time=None) -> None:
-    """Write one stream of ``recording`` (a :class:`Recording`) to exactly ``path`` as CSV.
+    """Write one stream of ``recording`` to exactly ``path`` as CSV, :data:`BLOCK` rows at a time.
 
-    ``time``: the stream's sample times ``(n,)`` s (:func:`pito_core.pipeline.recording_times`), the first column.
+    ``recording``: a :class:`Recording` or a :class:`RecordingChunks` (bounded memory: an hour's
+    recording is never held whole). ``time``: the stream's sample times ``(n,)`` s
+    (:func:`pito_core.pipeline.recording_times`), the first column.
     """
-    cols, names, float_cols = _table(recording, stream, time)
-    n = len(cols[0])
+    if stream not in RECORDING_CSV_COLUMNS:
+        raise ValueError(f"stream: expected 'pito' or 'netft', got {stream!r}")
+    n = _n_rows(recording, stream)
+    names = RECORDING_CSV_COLUMNS[stream]
+    floats = {0} if stream == "pito" else {0, 4, 5, 6, 7, 8, 9}
+    if time is None:
+        names = names[1:]
+    else:
+        time = np.asarray(time, float)
+        if time.shape != (n,):
+            raise ValueError(f"time: expected shape ({n},) for the {stream} stream, got {time.shape}")
+        floats = {0} | {j + 1 for j in floats}
+    fmt = ",".join("%.17g" if j in floats else "%d" for j in range(len(names)))
     with open(os.fspath(path), "w", newline="") as fh:
         fh.write(",".join(names) + "\n")
-        if n:
-            fmt = ",".join("%.17g" if j in float_cols else "%d" for j in range(len(cols)))
-            table = np.empty((n, len(cols)), dtype=object)
+        for a in range(0, n, BLOCK):
+            rows = _rows(recording, stream, a, a + BLOCK)
+            cols = _columns(rows, stream) if time is None else [time[a:a + len(rows)]] + _columns(rows, stream)
+            table = np.empty((len(rows), len(cols)), dtype=object)
             for j, c in enumerate(cols):
-                table[:, j] = c.astype(float) if j in float_cols else c.astype(np.int64)
+                table[:, j] = c.astype(float) if j in floats else c.astype(np.int64)
             np.savetxt(fh, table, fmt=fmt)
 
 
@@ -92,43 +109,45 @@ def read_recording_csv(path, stream: str = "pito") -> dict:
     return {name: data[:, j] for j, name in enumerate(names)}
 
 
-def export_recording_mat(recording, path, times=None) -> None:
-    """Write ``recording`` to exactly ``path`` as a MATLAB ``.mat`` file (v5, scipy.io.savemat).
+#: The .mat variables of each stream: (name, field of the row, columns).
+_MAT_VARS = {
+    "pito": (("pito_seq", "seq", 1), ("pito_time_us", "time_us", 1), ("pito_host_time", "host_time", 1),
+             ("pito_counts", "counts", N_GAUGES)),
+    "netft": (("ati_rdt_seq", "rdt_seq", 1), ("ati_ft_seq", "ft_seq", 1), ("ati_status", "status", 1),
+              ("ati_host_time", "host_time", 1), ("ati_wrench", "wrench", 6)),
+}
 
+
+def export_recording_mat(recording, path, times=None) -> None:
+    """Write ``recording`` to exactly ``path`` as a MATLAB v5 ``.mat`` file, :data:`BLOCK` rows at a time.
+
+    ``recording``: a :class:`Recording` or a :class:`RecordingChunks` (bounded memory). The file is
+    uncompressed (:class:`Mat5Writer` says why); ``scipy.io.loadmat`` and MATLAB read it.
     ``times``: ``(cube times (n,), reference times (m,))`` s (:func:`pito_core.pipeline.recording_times`):
     the variables ``pito_time`` and ``ati_time``.
     """
-    # deferred: scipy.io loads its MATLAB, NetCDF and Harwell-Boeing readers (~0.1 s) and this
-    # module loads with every `pito` command
-    from scipy.io import savemat
-
-    p, a = recording.pito, recording.netft
-    extra = {}
+    n = {s: _n_rows(recording, s) for s in ("pito", "netft")}
     if times is not None:
-        tc, tr = (np.asarray(t, float) for t in times)
-        if tc.shape != (p.size,) or tr.shape != (a.size,):
-            raise ValueError(f"times: expected shapes ({p.size},) and ({a.size},), got {tc.shape} and {tr.shape}")
-        extra = {"pito_time": tc.reshape(-1, 1), "ati_time": tr.reshape(-1, 1)}
-    with open(os.fspath(path), "wb") as fh:  # exactly the name given: savemat adds ".mat" to str paths
-        savemat(
-            fh,
-            {
-                **extra,
-                "format": RECORDING_FORMAT,
-                "version": RECORDING_VERSION,
-                "meta_json": json.dumps(recording.meta),
-                "pito_seq": p["seq"].reshape(-1, 1),
-                "pito_time_us": p["time_us"].reshape(-1, 1),
-                "pito_host_time": p["host_time"].reshape(-1, 1),
-                "pito_counts": p["counts"].reshape(-1, N_GAUGES),
-                "ati_rdt_seq": a["rdt_seq"].reshape(-1, 1),
-                "ati_ft_seq": a["ft_seq"].reshape(-1, 1),
-                "ati_status": a["status"].reshape(-1, 1),
-                "ati_host_time": a["host_time"].reshape(-1, 1),
-                "ati_wrench": a["wrench"].reshape(-1, 6),
-            },
-            do_compression=True,
-        )
+        times = tuple(np.asarray(t, float) for t in times)
+        if times[0].shape != (n["pito"],) or times[1].shape != (n["netft"],):
+            raise ValueError(f"times: expected shapes ({n['pito']},) and ({n['netft']},), "
+                             f"got {times[0].shape} and {times[1].shape}")
+    with open(os.fspath(path), "w+b") as fh:  # exactly the name given
+        w = Mat5Writer(fh, f"MATLAB 5.0 MAT-file, {RECORDING_FORMAT} version {RECORDING_VERSION}, written by pito")
+        w.value("format", RECORDING_FORMAT)
+        w.value("version", np.int64(RECORDING_VERSION))
+        w.value("meta_json", json.dumps(recording.meta))
+        if times is not None:
+            w.value("pito_time", times[0].reshape(-1, 1))
+            w.value("ati_time", times[1].reshape(-1, 1))
+        for stream, variables in _MAT_VARS.items():
+            dtype = (PITO_ROW if stream == "pito" else NETFT_ROW)
+            mats = [(w.matrix(name, (n[stream], k), dtype[field].base), field) for name, field, k in variables]
+            for a in range(0, n[stream], BLOCK):
+                rows = _rows(recording, stream, a, a + BLOCK)
+                for m, field in mats:
+                    w.fill(m, a, rows[field])
+        w.close()
 
 
 def export_recording_files(recording, csv_prefix=None, mat=None, times=None) -> list[str]:

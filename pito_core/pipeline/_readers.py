@@ -11,6 +11,7 @@ import time
 from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -299,6 +300,11 @@ def recording_times(recording) -> tuple[np.ndarray, np.ndarray]:
     """``(cube times (n,), reference times (m,))`` s of a :class:`~pito_core.io.Recording`, row for row.
 
     The one time base of every export (:func:`device_time_base`): CSV/MAT ``time``, NWB, MCAP, analysis.
+    A :class:`~pito_core.io.RecordingChunks` gives the same from its clock columns alone.
     """
+    if hasattr(recording, "rows"):  # RecordingChunks: the clocks only, counts and wrenches stay in the file
+        recording = SimpleNamespace(meta=recording.meta, events=recording.events,
+                                    pito={**recording.pito, "counts": np.zeros((recording.n_pito, 0))},
+                                    netft={**recording.netft, "wrench": np.zeros((recording.n_netft, 0))})
     cube, ref = recording_samples(recording)
     return device_time_base(cube, ref if ref["time"].size else None)
