@@ -108,9 +108,9 @@ class Mat5Writer:
             self.fh.write(data)
             return
         a = np.asarray(value)
-        a = a.reshape(1, 1) if a.ndim == 0 else a.reshape(a.shape[0], -1) if a.ndim <= 2 else None
-        if a is None:
+        if a.ndim > 2:
             raise ValueError(f"{name}: expected a number, a 1-D or a 2-D array")
+        a = a.reshape(1, 1) if a.ndim == 0 else a.reshape(-1, 1) if a.ndim == 1 else a
         m = self.matrix(name, a.shape, a.dtype)
         self.fill(m, 0, a)
 

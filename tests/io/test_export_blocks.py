@@ -74,3 +74,16 @@ def test_mat_writer_refuses_a_variable_beyond_4_GiB_and_rows_outside(tmp_path):
     got = loadmat(tmp_path / "x.mat")
     np.testing.assert_array_equal(got["a"], [[1, 2], [3, 4], [5, 6]])
     assert str(got["s"][0]) == "héllo"
+
+
+def test_a_recording_without_reference_exports_empty_reference_variables(tmp_path):
+    from pito_core.io import RecordingWriter
+
+    path = tmp_path / "cube_only.pitorec"
+    with RecordingWriter(path, {"simulated": True}) as w:
+        n = 50
+        w.append_pito(np.arange(n), np.arange(n) * 1000, np.arange(n) * 1e-3, np.ones((n, 36), np.int32))
+    rec = RecordingChunks(path)
+    export_recording_mat(rec, tmp_path / "r.mat", recording_times(rec))
+    m = loadmat(tmp_path / "r.mat")
+    assert m["pito_counts"].shape == (50, 36) and m["ati_wrench"].size == 0 and m["ati_time"].size == 0
