@@ -38,7 +38,10 @@ def test_the_recording_is_a_minute_on_one_strictly_increasing_clock(day):
     rec = read_recording(day["rec"])
     t, t_ref = recording_times(rec)
     assert t.size == day["n"] and t_ref.size == day["m"]
-    assert t[-1] - t[0] >= 0.9 * SIM_SPEED * WALL_S  # about a minute of device time
+    # about a minute of device time (the simulator runs at SIM_SPEED × real time when the machine
+    # keeps up: 0.77 of it seen at load 11 on 2 cores); the clock agrees with the frame sequence
+    assert t[-1] - t[0] >= 0.5 * SIM_SPEED * WALL_S
+    assert t[-1] - t[0] == pytest.approx((int(rec.pito['seq'][-1]) - int(rec.pito['seq'][0])) % 2**32 * 1e-3, abs=1e-5)
     assert (np.diff(t) > 0).all() and (np.diff(t_ref) > 0).all()  # never a repeated time
     # the device clock keeps a gap where a frame is missing: its steps are whole periods of the sequence
     steps = np.diff(rec.pito["seq"].astype(np.int64)) % 2**32
