@@ -92,6 +92,17 @@ def run_study_export(args) -> int:
                     assembly=args.object, contacts=not args.no_contacts, overwrite=args.overwrite)
 
 
+def _progress(fraction, text) -> None:
+    """Long exports (an hour's recording: minutes) show where they are, on a terminal only."""
+    if sys.stderr.isatty():
+        print(f"\r{text} ({100 * fraction:.0f} %)\033[K", end="", file=sys.stderr, flush=True)
+
+
+def _progress_done() -> None:
+    if sys.stderr.isatty():
+        print("\r\033[K", end="", file=sys.stderr, flush=True)
+
+
 def run(args) -> int:
     if args.out:
         return run_study_export(args)
@@ -103,7 +114,8 @@ def run(args) -> int:
     _require_writers(nwb=bool(args.nwb), mcap=bool(args.mcap))
     if args.csv or args.mat:
         rec = RecordingChunks(args.file, recover=args.recover)  # block by block: bounded memory at any length
-        for written in export_recording_files(rec, args.csv, args.mat, recording_times(rec)):
+        for written in export_recording_files(rec, args.csv, args.mat, recording_times(rec), progress=_progress):
+            _progress_done()
             print(f"wrote {written}")
     if not (args.nwb or args.mcap):
         return 0
@@ -119,7 +131,8 @@ def run(args) -> int:
                         institution=args.institution, lab=args.lab)
     out = export_files(args.file, nwb=args.nwb, mcap=args.mcap, calibration=cal, assembly=args.object,
                        calibration_source=args.calibration, contacts=not args.no_contacts, recover=args.recover,
-                       nwb_metadata=nwb_metadata)
+                       nwb_metadata=nwb_metadata, progress=_progress)
+    _progress_done()
     n, sec = out["n"], out["seconds"]
     label = " (simulated)" if out["simulated"] else ""
     print(f"{args.file}: {n} cube samples, {out['m']} reference samples{label}; {out['note']}")

@@ -61,12 +61,13 @@ def _columns(rows: np.ndarray, stream: str) -> list:
     return [rows["host_time"], rows["rdt_seq"], rows["ft_seq"], rows["status"]] + [rows["wrench"][:, j] for j in range(6)]
 
 
-def export_recording_csv(recording, path, stream: str = "pito", time=None) -> None:
+def export_recording_csv(recording, path, stream: str = "pito", time=None, progress=None) -> None:
     """Write one stream of ``recording`` to exactly ``path`` as CSV, :data:`BLOCK` rows at a time.
 
     ``recording``: a :class:`Recording` or a :class:`RecordingChunks` (bounded memory: an hour's
     recording is never held whole). ``time``: the stream's sample times ``(n,)`` s
-    (:func:`pito_core.pipeline.recording_times`), the first column.
+    (:func:`pito_core.pipeline.recording_times`), the first column. ``progress(fraction, text)``,
+    optional, after each block.
     """
     if stream not in RECORDING_CSV_COLUMNS:
         raise ValueError(f"stream: expected 'pito' or 'netft', got {stream!r}")
@@ -90,6 +91,8 @@ def export_recording_csv(recording, path, stream: str = "pito", time=None) -> No
             for j, c in enumerate(cols):
                 table[:, j] = c.astype(float) if j in floats else c.astype(np.int64)
             np.savetxt(fh, table, fmt=fmt)
+            if progress is not None:
+                progress(min(1.0, (a + len(rows)) / n), f"{path}: {a + len(rows)} of {n} rows")
 
 
 def read_recording_csv(path, stream: str = "pito") -> dict:
@@ -118,15 +121,16 @@ _MAT_VARS = {
 }
 
 
-def export_recording_mat(recording, path, times=None) -> None:
+def export_recording_mat(recording, path, times=None, progress=None) -> None:
     """Write ``recording`` to exactly ``path`` as a MATLAB v5 ``.mat`` file, :data:`BLOCK` rows at a time.
 
     ``recording``: a :class:`Recording` or a :class:`RecordingChunks` (bounded memory). The file is
     uncompressed (:class:`Mat5Writer` says why); ``scipy.io.loadmat`` and MATLAB read it.
     ``times``: ``(cube times (n,), reference times (m,))`` s (:func:`pito_core.pipeline.recording_times`):
-    the variables ``pito_time`` and ``ati_time``.
+    the variables ``pito_time`` and ``ati_time``. ``progress(fraction, text)``, optional, after each block.
     """
     n = {s: _n_rows(recording, s) for s in ("pito", "netft")}
+    total, done = max(1, n["pito"] + n["netft"]), 0
     if times is not None:
         times = tuple(np.asarray(t, float) for t in times)
         if times[0].shape != (n["pito"],) or times[1].shape != (n["netft"],):
@@ -147,22 +151,26 @@ def export_recording_mat(recording, path, times=None) -> None:
                 rows = _rows(recording, stream, a, a + BLOCK)
                 for m, field in mats:
                     w.fill(m, a, rows[field])
+                done += len(rows)
+                if progress is not None:
+                    progress(done / total, f"{path}: {done} of {total} rows")
         w.close()
 
 
-def export_recording_files(recording, csv_prefix=None, mat=None, times=None) -> list[str]:
+def export_recording_files(recording, csv_prefix=None, mat=None, times=None, progress=None) -> list[str]:
     """Write ``recording`` as ``{csv_prefix}_pito.csv`` + ``{csv_prefix}_ati.csv`` and/or ``mat``.
 
     The one export path of ``pito replay --csv/--mat`` and ``pito export``; returns the paths written.
     ``times``: ``(cube times, reference times)`` s (:func:`pito_core.pipeline.recording_times`).
+    ``progress(fraction, text)``, optional: each file's blocks.
     """
     written = []
     tc, tr = (None, None) if times is None else times
     if csv_prefix:
-        export_recording_csv(recording, f"{csv_prefix}_pito.csv", "pito", tc)
-        export_recording_csv(recording, f"{csv_prefix}_ati.csv", "netft", tr)
+        export_recording_csv(recording, f"{csv_prefix}_pito.csv", "pito", tc, progress)
+        export_recording_csv(recording, f"{csv_prefix}_ati.csv", "netft", tr, progress)
         written += [f"{csv_prefix}_pito.csv", f"{csv_prefix}_ati.csv"]
     if mat:
-        export_recording_mat(recording, mat, times)
+        export_recording_mat(recording, mat, times, progress)
         written.append(str(mat))
     return written

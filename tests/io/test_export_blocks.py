@@ -87,3 +87,15 @@ def test_a_recording_without_reference_exports_empty_reference_variables(tmp_pat
     export_recording_mat(rec, tmp_path / "r.mat", recording_times(rec))
     m = loadmat(tmp_path / "r.mat")
     assert m["pito_counts"].shape == (50, 36) and m["ati_wrench"].size == 0 and m["ati_time"].size == 0
+
+
+def test_progress_goes_forward_to_the_end_of_each_file(recorded, tmp_path):
+    from pito_core.io import export_recording_files
+
+    rec = RecordingChunks(recorded)
+    seen = []
+    export_recording_files(rec, str(tmp_path / "r"), str(tmp_path / "r.mat"), recording_times(rec),
+                           progress=lambda f, text: seen.append((f, text.split(":")[0])))
+    for name in ("r_pito.csv", "r_ati.csv", "r.mat"):
+        fractions = [f for f, file in seen if file.endswith(name)]
+        assert len(fractions) > 5 and fractions == sorted(fractions) and fractions[-1] == 1.0, name
