@@ -1,4 +1,12 @@
-"""Per-trial figures (matplotlib, Agg canvas; no pyplot state, safe in worker threads).
+"""Figures of an analysis (matplotlib, Agg canvas; no pyplot state, safe in worker threads).
+
+:func:`overview_figure`: one figure per recording (``overview.png``, drawn by default): the
+grip and load force over the whole recording with every trial's phases shaded and the
+phases that are not single contacts hatched red, and every trial's grip and load force
+overlaid, aligned on its lift-off. It costs one figure (~0.1 s) whatever the number of
+trials; curves are decimated to the pixels they fill (min and max of each pixel column).
+
+Per-trial figures (``trial_NN.png``, on request: ``pito analyze --figures trials``):
 
 One figure is built per recording and redrawn for each trial (:class:`_TrialCanvas`): the
 axes, ticks and legends are made once, each trial only moves the lines' data, the phase
@@ -17,7 +25,7 @@ from ..frames import FACE_COLORS
 from ._grasp import norm3
 from ._series import FIGURE_PAD_S, FIGURE_POINTS
 
-__all__ = ["trial_figure", "save_trial_figures"]
+__all__ = ["trial_figure", "save_trial_figures", "overview_figure", "save_overview_figure"]
 
 _MAX_POINTS = FIGURE_POINTS
 _PHASE_COLOURS = {"load": "#dbe9f6", "lift": "#fde3c8", "hold": "#e2f0d9", "replace": "#fde3c8", "release": "#ececec"}
@@ -169,3 +177,107 @@ def save_trial_figures(analysis, directory, dpi: int = 90) -> list:
         canvas.draw(tr).savefig(path, dpi=dpi, pil_kwargs={"compress_level": 1})  # fast zlib
         out.append(path)
     return out
+
+
+def _envelope(t, y, columns: int):
+    """``(t, y)`` reduced to the min and max of ``y`` in each of ``columns`` index buckets (what a line of that
+    many pixels shows), in time order; unchanged when it has fewer than ``2 * columns`` points."""
+    n = t.size
+    if n <= 2 * columns:
+        return t, y
+    edges = np.linspace(0, n, columns + 1).astype(np.intp)
+    yy = np.where(np.isfinite(y), y, np.nan)
+    lo = np.fmin.reduceat(yy, edges[:-1])
+    hi = np.fmax.reduceat(yy, edges[:-1])
+    tt = np.repeat(t[edges[:-1]], 2)
+    tt[1::2] = t[edges[1:] - 1]
+    yy = np.empty(2 * columns)
+    yy[0::2], yy[1::2] = lo, hi
+    return tt, yy
+
+
+def _implausible_phases(analysis) -> dict:
+    """``{trial: [phase, ...]}`` of the phases whose contacts are not single contacts."""
+    ph = analysis.phases
+    rows = ph[ph["plausible"].eq(False).fillna(False)]
+    out = {}
+    for tr, name in zip(rows["trial"], rows["phase"]):
+        out.setdefault(int(tr), []).append(str(name))
+    return out
+
+
+def overview_figure(analysis, columns: int = 700) -> Figure:
+    """One figure of a whole recording: its trials on one time axis and overlaid (module docstring).
+
+    ``columns``: points per curve (about the pixel width of a panel); longer curves are reduced to
+    each column's min and max, so no peak is lost.
+    """
+    from matplotlib.collections import LineCollection
+
+    a, g = analysis, analysis.series
+    base = a.settings.base_face
+    fingers = np.array([i + 1 != base for i in range(6)])
+    t = np.asarray(g.time, float)
+    grip = (np.asarray(g.f_n, float) * fingers).sum(axis=1)
+    load = (np.asarray(g.f_t, float) * fingers).sum(axis=1)
+    bad = _implausible_phases(a)
+    fig = Figure(figsize=(8, 6))
+    fig.subplots_adjust(left=0.08, right=0.98, bottom=0.08, top=0.86, hspace=0.3)
+    FigureCanvasAgg(fig)
+    ax0, ax1 = fig.subplots(2, 1)
+    ax0.plot(*_envelope(t, grip, columns), lw=0.8, color="#1f77b4", label="grip force (Σ finger normal)")
+    ax0.plot(*_envelope(t, load, columns), lw=0.8, color="#ff7f0e", label="load force (Σ finger tangential)")
+    spans = {}
+    hatched = []
+    for tr in a.trials:
+        for name, (x0, x1) in tr.phases.items():
+            spans.setdefault(name, []).append((x0, x1 - x0))
+            if name in bad.get(tr.index, ()):
+                hatched.append((x0, x1 - x0))
+    for name, xs in spans.items():
+        ax0.broken_barh(xs, (0, 1), transform=ax0.get_xaxis_transform(), facecolor=_PHASE_COLOURS.get(name, "#eee"),
+                        lw=0, zorder=0, label=name)
+    if hatched:
+        ax0.broken_barh(hatched, (0, 1), transform=ax0.get_xaxis_transform(), facecolor="none", edgecolor="#c0392b",
+                        hatch="///", lw=0, zorder=1, label="not single contacts")
+    ax0.set_xlabel("time (s)", labelpad=1)
+    ax0.set_ylabel("force (N)")
+    ax0.legend(fontsize=7, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=4, frameon=False)
+    segs, colours = [], []
+    per = max(2, 4 * columns // max(1, len(a.trials)))  # points per trial curve: the panel's pixels shared
+    for tr in a.trials:
+        zero = tr.lift_off if np.isfinite(tr.lift_off) else tr.start
+        i0, i1 = np.searchsorted(t, (tr.start - _PAD_S, tr.stop + _PAD_S))
+        if i1 - i0 < 2:
+            continue
+        m = np.arange(i0, i1)[:: max(1, (i1 - i0) // per)]
+        red = tr.index in bad
+        for y, c in ((grip, "#1f77b4"), (load, "#ff7f0e")):
+            segs.append(np.column_stack([t[m] - zero, y[m]]))
+            colours.append("#c0392b" if red else c)
+    if segs:
+        ax1.add_collection(LineCollection(segs, colors=colours, linewidths=0.6, alpha=0.6))
+        ax1.autoscale_view()
+    ax1.set_ylabel("force (N)")
+    ax1.grid(alpha=0.3)
+    ax1.set_xlabel("time from lift-off (s; from the first contact without one)")
+    ax1.set_title("every trial overlaid: grip (blue), load (orange); red: a trial with a phase not single contacts",
+                  fontsize=8, pad=2)
+    sim = "SIMULATED — " if a.simulated else ""
+    title = f"{sim}{len(a.trials)} trials, {t[-1] - t[0] if t.size else 0:.0f} s"
+    src = a.meta.get("source")
+    if src:
+        title = f"{Path(str(src)).name}: {title}"
+    if bad:
+        names = [f"{k} ({', '.join(v)})" for k, v in list(bad.items())[:6]]
+        more = f" and {len(bad) - 6} more" if len(bad) > 6 else ""
+        title += f"\nnot single contacts (hatched) in trial {', '.join(names)}{more}"
+    fig.suptitle(title, fontsize=10, color="#c0392b" if bad else "black")
+    return fig
+
+
+def save_overview_figure(analysis, directory, dpi: int = 90) -> Path:
+    """Write ``overview.png`` (:func:`overview_figure`) into ``directory``; its path."""
+    path = Path(directory) / "overview.png"
+    overview_figure(analysis).savefig(path, dpi=dpi, pil_kwargs={"compress_level": 1})
+    return path
