@@ -244,7 +244,7 @@ def overview_figure(analysis, columns: int = 700) -> Figure:
     ax0.set_ylabel("force (N)")
     ax0.legend(fontsize=7, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=4, frameon=False)
     segs, colours = [], []
-    per = max(2, 4 * columns // max(1, len(a.trials)))  # points per trial curve: the panel's pixels shared
+    per = max(150, 4 * columns // max(1, len(a.trials)))  # points per trial curve (a 6 s trial: 40 ms apart)
     for tr in a.trials:
         zero = tr.lift_off if np.isfinite(tr.lift_off) else tr.start
         i0, i1 = np.searchsorted(t, (tr.start - _PAD_S, tr.stop + _PAD_S))
