@@ -15,6 +15,7 @@ spans and the limits, so a figure costs its drawing only.
 
 from __future__ import annotations
 
+import threading
 from pathlib import Path
 
 import numpy as np
@@ -206,78 +207,119 @@ def _implausible_phases(analysis) -> dict:
     return out
 
 
+class _OverviewCanvas:
+    """The overview figure (:func:`overview_figure`), built once and redrawn for each recording (a thread's own)."""
+
+    def __init__(self):
+        from matplotlib.collections import LineCollection
+
+        fig = Figure(figsize=(8, 6))
+        fig.subplots_adjust(left=0.08, right=0.98, bottom=0.08, top=0.86, hspace=0.3)
+        FigureCanvasAgg(fig)
+        self.fig = fig
+        self.ax0, self.ax1 = ax0, ax1 = fig.subplots(2, 1)
+        self.grip = ax0.plot([], [], lw=0.8, color="#1f77b4", label="grip force (Σ finger normal)")[0]
+        self.load = ax0.plot([], [], lw=0.8, color="#ff7f0e", label="load force (Σ finger tangential)")[0]
+        ax0.set_xlabel("time (s)", labelpad=1)
+        ax0.set_ylabel("force (N)")
+        self.overlay = LineCollection([], linewidths=0.6, alpha=0.6)
+        ax1.add_collection(self.overlay)
+        ax1.set_ylabel("force (N)")
+        ax1.grid(alpha=0.3)
+        ax1.set_xlabel("time from lift-off (s; from the first contact without one)")
+        ax1.set_title("every trial overlaid: grip (blue), load (orange); red: a trial with a phase not single contacts",
+                      fontsize=8, pad=2)
+        self.title = fig.suptitle("", fontsize=10)
+        self.spans = []
+        self._legends = {}
+
+    def draw(self, analysis, columns: int = 700) -> Figure:
+        a, g = analysis, analysis.series
+        ax0, ax1 = self.ax0, self.ax1
+        base = a.settings.base_face
+        fingers = np.array([i + 1 != base for i in range(6)])
+        t = np.asarray(g.time, float)
+        grip = (np.asarray(g.f_n, float) * fingers).sum(axis=1)
+        load = (np.asarray(g.f_t, float) * fingers).sum(axis=1)
+        bad = _implausible_phases(a)
+        self.grip.set_data(*_envelope(t, grip, columns))
+        self.load.set_data(*_envelope(t, load, columns))
+        for c in self.spans:
+            c.remove()
+        self.spans = []
+        spans, hatched = {}, []
+        for tr in a.trials:
+            for name, (x0, x1) in tr.phases.items():
+                spans.setdefault(name, []).append((x0, x1 - x0))
+                if name in bad.get(tr.index, ()):
+                    hatched.append((x0, x1 - x0))
+        for name in sorted(spans, key=lambda n: list(_PHASE_COLOURS).index(n) if n in _PHASE_COLOURS else 9):
+            self.spans.append(ax0.broken_barh(spans[name], (0, 1), transform=ax0.get_xaxis_transform(),
+                                              facecolor=_PHASE_COLOURS.get(name, "#eee"), lw=0, zorder=0, label=name))
+        if hatched:
+            self.spans.append(ax0.broken_barh(hatched, (0, 1), transform=ax0.get_xaxis_transform(), facecolor="none",
+                                              edgecolor="#c0392b", hatch="///", lw=0, zorder=1,
+                                              label="not single contacts"))
+        handles = [self.grip, self.load, *self.spans]
+        key = tuple(h.get_label() for h in handles)
+        if key not in self._legends:
+            ax0.legend(handles=handles, fontsize=7, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=4,
+                       frameon=False)
+            self._legends[key] = ax0.legend_
+        ax0.legend_ = self._legends[key]
+        ax0.relim(visible_only=True)
+        ax0.autoscale_view()
+        segs, colours = [], []
+        per = max(150, 4 * columns // max(1, len(a.trials)))  # points per trial curve (a 6 s trial: 40 ms apart)
+        for tr in a.trials:
+            zero = tr.lift_off if np.isfinite(tr.lift_off) else tr.start
+            i0, i1 = np.searchsorted(t, (tr.start - _PAD_S, tr.stop + _PAD_S))
+            if i1 - i0 < 2:
+                continue
+            m = np.arange(i0, i1)[:: max(1, (i1 - i0) // per)]
+            red = tr.index in bad
+            for y, c in ((grip, "#1f77b4"), (load, "#ff7f0e")):
+                segs.append(np.column_stack([t[m] - zero, y[m]]))
+                colours.append("#c0392b" if red else c)
+        self.overlay.set_segments(segs)
+        self.overlay.set_color(colours or "#1f77b4")
+        if segs:  # the limits autoscaling gives (5 % margins), of every curve's finite points
+            xy = np.concatenate(segs)
+            xy = xy[np.isfinite(xy).all(axis=1)]
+            if xy.size:
+                ax1.set_xlim(*_padded(xy[:, 0].min(), xy[:, 0].max()))
+                ax1.set_ylim(*_padded(xy[:, 1].min(), xy[:, 1].max()))
+        sim = "SIMULATED — " if a.simulated else ""
+        title = f"{sim}{len(a.trials)} trials, {t[-1] - t[0] if t.size else 0:.0f} s"
+        src = a.meta.get("source")
+        if src:
+            title = f"{Path(str(src)).name}: {title}"
+        if bad:
+            names = [f"{k} ({', '.join(v)})" for k, v in list(bad.items())[:6]]
+            more = f" and {len(bad) - 6} more" if len(bad) > 6 else ""
+            title += f"\nnot single contacts (hatched) in trial {', '.join(names)}{more}"
+        self.title.set_text(title)
+        self.title.set_color("#c0392b" if bad else "black")
+        return self.fig
+
+
 def overview_figure(analysis, columns: int = 700) -> Figure:
     """One figure of a whole recording: its trials on one time axis and overlaid (module docstring).
 
     ``columns``: points per curve (about the pixel width of a panel); longer curves are reduced to
-    each column's min and max, so no peak is lost.
+    each column's min and max, so no peak is lost. (:func:`save_overview_figure` redraws one
+    figure per thread instead of building one each time.)
     """
-    from matplotlib.collections import LineCollection
+    return _OverviewCanvas().draw(analysis, columns)
 
-    a, g = analysis, analysis.series
-    base = a.settings.base_face
-    fingers = np.array([i + 1 != base for i in range(6)])
-    t = np.asarray(g.time, float)
-    grip = (np.asarray(g.f_n, float) * fingers).sum(axis=1)
-    load = (np.asarray(g.f_t, float) * fingers).sum(axis=1)
-    bad = _implausible_phases(a)
-    fig = Figure(figsize=(8, 6))
-    fig.subplots_adjust(left=0.08, right=0.98, bottom=0.08, top=0.86, hspace=0.3)
-    FigureCanvasAgg(fig)
-    ax0, ax1 = fig.subplots(2, 1)
-    ax0.plot(*_envelope(t, grip, columns), lw=0.8, color="#1f77b4", label="grip force (Σ finger normal)")
-    ax0.plot(*_envelope(t, load, columns), lw=0.8, color="#ff7f0e", label="load force (Σ finger tangential)")
-    spans = {}
-    hatched = []
-    for tr in a.trials:
-        for name, (x0, x1) in tr.phases.items():
-            spans.setdefault(name, []).append((x0, x1 - x0))
-            if name in bad.get(tr.index, ()):
-                hatched.append((x0, x1 - x0))
-    for name, xs in spans.items():
-        ax0.broken_barh(xs, (0, 1), transform=ax0.get_xaxis_transform(), facecolor=_PHASE_COLOURS.get(name, "#eee"),
-                        lw=0, zorder=0, label=name)
-    if hatched:
-        ax0.broken_barh(hatched, (0, 1), transform=ax0.get_xaxis_transform(), facecolor="none", edgecolor="#c0392b",
-                        hatch="///", lw=0, zorder=1, label="not single contacts")
-    ax0.set_xlabel("time (s)", labelpad=1)
-    ax0.set_ylabel("force (N)")
-    ax0.legend(fontsize=7, loc="lower center", bbox_to_anchor=(0.5, 1.0), ncol=4, frameon=False)
-    segs, colours = [], []
-    per = max(150, 4 * columns // max(1, len(a.trials)))  # points per trial curve (a 6 s trial: 40 ms apart)
-    for tr in a.trials:
-        zero = tr.lift_off if np.isfinite(tr.lift_off) else tr.start
-        i0, i1 = np.searchsorted(t, (tr.start - _PAD_S, tr.stop + _PAD_S))
-        if i1 - i0 < 2:
-            continue
-        m = np.arange(i0, i1)[:: max(1, (i1 - i0) // per)]
-        red = tr.index in bad
-        for y, c in ((grip, "#1f77b4"), (load, "#ff7f0e")):
-            segs.append(np.column_stack([t[m] - zero, y[m]]))
-            colours.append("#c0392b" if red else c)
-    if segs:
-        ax1.add_collection(LineCollection(segs, colors=colours, linewidths=0.6, alpha=0.6))
-        ax1.autoscale_view()
-    ax1.set_ylabel("force (N)")
-    ax1.grid(alpha=0.3)
-    ax1.set_xlabel("time from lift-off (s; from the first contact without one)")
-    ax1.set_title("every trial overlaid: grip (blue), load (orange); red: a trial with a phase not single contacts",
-                  fontsize=8, pad=2)
-    sim = "SIMULATED — " if a.simulated else ""
-    title = f"{sim}{len(a.trials)} trials, {t[-1] - t[0] if t.size else 0:.0f} s"
-    src = a.meta.get("source")
-    if src:
-        title = f"{Path(str(src)).name}: {title}"
-    if bad:
-        names = [f"{k} ({', '.join(v)})" for k, v in list(bad.items())[:6]]
-        more = f" and {len(bad) - 6} more" if len(bad) > 6 else ""
-        title += f"\nnot single contacts (hatched) in trial {', '.join(names)}{more}"
-    fig.suptitle(title, fontsize=10, color="#c0392b" if bad else "black")
-    return fig
+
+_local = threading.local()
 
 
 def save_overview_figure(analysis, directory, dpi: int = 90) -> Path:
     """Write ``overview.png`` (:func:`overview_figure`) into ``directory``; its path."""
     path = Path(directory) / "overview.png"
-    overview_figure(analysis).savefig(path, dpi=dpi, pil_kwargs={"compress_level": 1})
+    if getattr(_local, "overview", None) is None:
+        _local.overview = _OverviewCanvas()
+    _local.overview.draw(analysis).savefig(path, dpi=dpi, pil_kwargs={"compress_level": 1})
     return path
