@@ -214,7 +214,7 @@ class _OverviewCanvas:
         from matplotlib.collections import LineCollection
 
         fig = Figure(figsize=(8, 6))
-        fig.subplots_adjust(left=0.08, right=0.98, bottom=0.08, top=0.86, hspace=0.3)
+        fig.subplots_adjust(left=0.08, right=0.98, bottom=0.08, top=0.83, hspace=0.3)
         FigureCanvasAgg(fig)
         self.fig = fig
         self.ax0, self.ax1 = ax0, ax1 = fig.subplots(2, 1)
@@ -229,7 +229,7 @@ class _OverviewCanvas:
         ax1.set_xlabel("time from lift-off (s; from the first contact without one)")
         ax1.set_title("every trial overlaid: grip (blue), load (orange); red: a trial with a phase not single contacts",
                       fontsize=8, pad=2)
-        self.title = fig.suptitle("", fontsize=10)
+        self.title = fig.suptitle("", fontsize=10, y=0.995, va="top")
         self.spans = []
         self._legends = {}
 
@@ -290,7 +290,7 @@ class _OverviewCanvas:
                 ax1.set_xlim(*_padded(xy[:, 0].min(), xy[:, 0].max()))
                 ax1.set_ylim(*_padded(xy[:, 1].min(), xy[:, 1].max()))
         sim = "SIMULATED — " if a.simulated else ""
-        title = f"{sim}{len(a.trials)} trials, {t[-1] - t[0] if t.size else 0:.0f} s"
+        title = f"{sim}{len(a.trials)} trial{'s' * (len(a.trials) != 1)}, {t[-1] - t[0] if t.size else 0:.0f} s"
         src = a.meta.get("source")
         if src:
             title = f"{Path(str(src)).name}: {title}"
