@@ -10,12 +10,15 @@ one-thread worker, each stage timed alone (best of ``repeat``, CPU time of the w
 - ``contacts``: ``solve_object`` of the face wrenches without the single-contact test;
 - ``single-contact test``: ``solve_object`` with it, less ``contacts``;
 - ``metrics``: ``analyze_contacts`` (series, trials, phase metrics, tables);
-- ``figures``: ``save_trial_figures`` (one PNG per trial);
+- ``figures``: ``save_overview_figure`` (``overview.png``, the one figure ``pito analyze``
+  draws per recording by default);
+- (beside the table: ``trial_figures_s``, ``save_trial_figures``, one PNG per trial, ``--figures trials``);
 - ``write``: ``write_analysis`` without figures (CSV tables, summary).
 
 Every stage is given in samples per second and as a share of the bare read's rate; the
 whole ``analyze_recording`` (no figures) is timed end to end beside them, and the figures'
-cost as a share of it. Peak resident memory of the worker is reported with the section.
+cost as a share of it (``figures_share``: the default overview; ``trial_figures_share``: with
+a figure per trial as well). Peak resident memory of the worker is reported with the section.
 """
 
 from __future__ import annotations
@@ -51,6 +54,10 @@ def task_analysis(n_trials: int = 5, repeat: int = 3, seed: int = 0) -> dict:
     """Seconds and samples/s of every stage of the analysis of one simulated lift recording."""
     from pito_core.analysis import (analyze_contacts, analyze_recording, recording_contacts, save_trial_figures,
                                     write_analysis)
+    try:
+        from pito_core.analysis import save_overview_figure
+    except ImportError:  # a pito_core before the overview figure: its only figures were per trial
+        save_overview_figure = save_trial_figures
     from pito_core.contact import solve_object
     from pito_core.interop import recording_calibration
     from pito_core.io import read_recording
@@ -82,7 +89,8 @@ def task_analysis(n_trials: int = 5, repeat: int = 3, seed: int = 0) -> dict:
                                                                     meta=meta), repeat, clock=clock)
         out = tmp / "out"
         out.mkdir()
-        t["figures"], _ = best_time(lambda: save_trial_figures(analysis, out), repeat, clock=clock)
+        t["figures"], _ = best_time(lambda: save_overview_figure(analysis, out), repeat, clock=clock)
+        t_trials, _ = best_time(lambda: save_trial_figures(analysis, out), repeat, clock=clock)
         t["write"], _ = best_time(lambda: write_analysis(analysis, out, figures=False), repeat, clock=clock)
         t_all, a2 = best_time(lambda: analyze_recording(path), repeat, clock=clock)
         assert a2.meta["n_samples"] == n, "samples in = samples out"
@@ -94,6 +102,7 @@ def task_analysis(n_trials: int = 5, repeat: int = 3, seed: int = 0) -> dict:
                     "ratio_read": t["read"] / t_test})
     return {"samples": n, "trials": n_trials, "rows": rows, "analyze_recording_s": t_all,
             "analyze_recording_samples_per_s": n / t_all, "figures_share": t["figures"] / t_all,
+            "trial_figures_s": t_trials, "trial_figures_share": (t["figures"] + t_trials) / t_all,
             "read_samples_per_s": n / t["read"]}
 
 

@@ -20,12 +20,17 @@ from ._grasp import grasp_decomposition, net_wrench, normal_tangential
 from ._metrics import GRAVITY_MS2, PATCH_COLUMNS, PHASE_COLUMNS
 from ._segment import PHASES, AnalysisSettings, Trial, contact_runs, segment_trials, trials_from_contacts
 
+#: What ``write_analysis(figures=…)`` and ``pito analyze --figures`` draw: nothing, one overview figure per
+#: recording (the default), or the overview and a figure per trial.
+FIGURE_CHOICES = ("none", "overview", "trials")
+
 #: Names loaded on first use → their module.
 _LAZY = {
     "GraspAnalysis": "_analyze", "analyze_contacts": "_analyze", "analyze_data": "_analyze",
     "analyze_recording": "_analyze", "recording_contacts": "_analyze", "require_pandas": "_analyze",
     "GraspSeries": "_series", "check_contacts": "_series", "grasp_series": "_series", "smooth_paths": "_series",
-    "save_trial_figures": "_figures", "trial_figure": "_figures",
+    "save_trial_figures": "_figures", "trial_figure": "_figures", "overview_figure": "_figures",
+    "save_overview_figure": "_figures",
     "analyze_to_dir": "_output", "atomic_dir": "_output", "export_to_dir": "_output", "output_dir": "_output",
     "write_analysis": "_output", "peak_rss_mib": "_output", "cpu_seconds": "_output",
     "StudyResult": "_study", "local_cluster": "_study", "require_distributed": "_study", "run_serial": "_study",
@@ -33,6 +38,7 @@ _LAZY = {
 }
 
 __all__ = [
+    "FIGURE_CHOICES",
     "AnalysisSettings",
     "GRAVITY_MS2",
     "PATCH_COLUMNS",

@@ -21,7 +21,7 @@ from pathlib import Path
 from ..calibration import load_calibration
 from ..interop import append_grasp_phases, export_data, write_mcap, write_nwb
 from ._analyze import GraspAnalysis, analyze_data, analyze_recording
-from ._figures import save_trial_figures
+from ._figures import save_overview_figure, save_trial_figures
 from ._metrics import PATCH_COLUMNS, PHASE_COLUMNS
 from ._segment import AnalysisSettings
 
@@ -83,13 +83,33 @@ def _alive(pid: str) -> bool:
     return True
 
 
-def write_analysis(analysis: GraspAnalysis, directory, *, figures: bool = True) -> list[Path]:
-    """Write the tables (CSV), the per-trial figures (PNG) and ``summary.json`` into ``directory``."""
+def figure_choice(figures) -> str:
+    """``figures`` as one of :data:`~pito_core.analysis.FIGURE_CHOICES` (True: ``"trials"``, False/None: ``"none"``)."""
+    from . import FIGURE_CHOICES
+
+    if figures is True:
+        return "trials"
+    if figures is False or figures is None:
+        return "none"
+    if figures not in FIGURE_CHOICES:
+        raise ValueError(f"figures: expected one of {', '.join(FIGURE_CHOICES)}, got {figures!r}")
+    return figures
+
+
+def write_analysis(analysis: GraspAnalysis, directory, *, figures="trials") -> list[Path]:
+    """Write the tables (CSV), the figures (PNG) and ``summary.json`` into ``directory``.
+
+    ``figures``: ``"none"``, ``"overview"`` (``overview.png``, one per recording) or ``"trials"``
+    (the overview and ``trial_NN.png`` per trial); True means ``"trials"``, False ``"none"``.
+    """
+    figures = figure_choice(figures)
     d = Path(directory)
     out = [d / "phases.csv", d / "patches.csv"]
     analysis.phases.to_csv(out[0], index=False)
     analysis.patches.to_csv(out[1], index=False)
-    if figures:
+    if figures != "none":
+        out.append(save_overview_figure(analysis, d))
+    if figures == "trials":
         out += save_trial_figures(analysis, d)
     summary = {k: v for k, v in analysis.meta.items()}
     summary["settings"] = {k: getattr(analysis.settings, k) for k in analysis.settings.__dataclass_fields__}
@@ -107,9 +127,10 @@ def _load_calibration(calibration):
 
 
 def analyze_to_dir(recording, out_root, *, calibration=None, assembly=None, settings: AnalysisSettings | None = None,
-                   nwb: bool = False, figures: bool = True, overwrite: bool = False, recover: bool = False) -> dict:
+                   nwb: bool = False, figures="overview", overwrite: bool = False, recover: bool = False) -> dict:
     """Analyse ``recording`` into ``output_dir(recording, out_root)`` atomically; skip it if done.
 
+    ``figures`` as :func:`write_analysis` (default one overview figure per recording).
     ``recover``: read an incomplete (killed) recording's intact part.
 
     A pure function of its arguments (a Dask task): ``calibration`` is a file path (or a
@@ -121,6 +142,7 @@ def analyze_to_dir(recording, out_root, *, calibration=None, assembly=None, sett
     if target.exists() and not overwrite:
         return {"recording": str(recording), "status": "skipped", "out": str(target), "samples": 0, "trials": None,
                 "seconds": 0.0, "simulated": None}
+    figure_choice(figures)  # a wrong choice fails before the recording is read
     t0, c0 = time.perf_counter(), cpu_seconds()
     cal = _load_calibration(calibration)
     source = str(calibration) if isinstance(calibration, (str, os.PathLike)) else None

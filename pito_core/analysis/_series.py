@@ -93,7 +93,7 @@ class GraspSeries:
     net_moment: np.ndarray
     path: np.ndarray
     single: np.ndarray | None
-    #: The samples are already those a figure draws (a long recording's, :mod:`._stream`).
+    #: The samples are already those a figure draws (a long recording's, :mod:`._stream`; floats float32).
     decimated: bool = False
 
 

@@ -23,9 +23,18 @@ Each recording goes through the same pipeline as the app and `pito replay` (its 
 calibration, or --calibration FILE), its contacts are solved on the patch assembly, and
   OUT/<recording stem>/phases.csv    one row per trial x phase (object-level metrics)
   OUT/<recording stem>/patches.csv   one row per trial x phase x patch in contact
-  OUT/<recording stem>/trial_NN.png  per-trial figure: forces, normal force per patch, contact
-                                     displacement; phases shaded, phases whose contacts are not
-                                     single contacts hatched red
+  OUT/<recording stem>/overview.png  one figure of the recording (--figures overview, the
+                                     default): grip and load force over the whole recording,
+                                     every trial's phases shaded, phases whose contacts are not
+                                     single contacts hatched red and named in the title; below,
+                                     every trial overlaid, aligned on its lift-off (a trial
+                                     with such a phase in red). One figure, ~0.1 s, whatever
+                                     the number of trials
+  OUT/<recording stem>/trial_NN.png  with --figures trials: also a figure per trial (forces,
+                                     normal force per patch, contact displacement; phases
+                                     shaded and hatched as above), ~0.1 s each: 3-4x the
+                                     analysis itself. The app (File > Analyse recording...)
+                                     draws any trial's figure on screen
   OUT/<recording stem>/summary.json  settings, calibration note, column descriptions
   OUT/<recording stem>/<stem>.nwb    with --nwb: the NWB export plus intervals/grasp_phases
 are written atomically: a finished recording is skipped when run again (--overwrite redoes
@@ -92,7 +101,9 @@ def register(sub) -> None:
                    help="fraction of samples flagged single contacts for a plausible phase "
                         f"(default {defaults.SINGLE_CONTACT_MIN_FRACTION})")
     p.add_argument("--nwb", action="store_true", help="also write the NWB export with intervals/grasp_phases")
-    p.add_argument("--no-figures", action="store_true", help="tables only (faster)")
+    p.add_argument("--figures", choices=analysis.FIGURE_CHOICES, default="overview",
+                   help="none; overview: overview.png per recording (default); trials: also trial_NN.png per trial")
+    p.add_argument("--no-figures", action="store_true", help="tables only (the same as --figures none)")
     p.add_argument("--recover", action="store_true", help="analyse the intact part of an incomplete (killed) recording")
     add_study_options(p)
     p.set_defaults(func=run)
@@ -146,5 +157,5 @@ def run(args) -> int:
     analysis.require_pandas()  # before any recording is read: a missing extra is one line, exit 2
     settings = settings_from(args)
     return run_many(analysis.analyze_to_dir, args, out_root=args.out, calibration=args.calibration, assembly=args.object,
-                    settings=settings, nwb=args.nwb, figures=not args.no_figures, overwrite=args.overwrite,
+                    settings=settings, nwb=args.nwb, figures="none" if args.no_figures else args.figures, overwrite=args.overwrite,
                     recover=args.recover)

@@ -24,13 +24,13 @@ def test_help_explains_every_column(capsys):
 def test_analyze_one_recording_in_process_with_nwb(tmp_path, capsys):
     pytest.importorskip("pynwb")
     (rec, task, _), = make_recordings(tmp_path, 1, n_trials=2)
-    assert main(["analyze", str(rec), "--out", str(tmp_path / "out"), "--nwb"]) == 0
+    assert main(["analyze", str(rec), "--out", str(tmp_path / "out"), "--nwb", "--figures", "trials"]) == 0
     out = capsys.readouterr().out
     assert "done" in out and "in process" in out and "(simulated)" in out
     d = tmp_path / "out" / rec.stem
     phases = pd.read_csv(d / "phases.csv")
     assert list(phases.columns[:3]) == ["trial", "phase", "start_s"] and phases["simulated"].all()
-    assert sorted(p.name for p in d.glob("trial_*.png")) == ["trial_01.png", "trial_02.png"]
+    assert sorted(p.name for p in d.glob("*.png")) == ["overview.png", "trial_01.png", "trial_02.png"]
     from pynwb import NWBHDF5IO
 
     with NWBHDF5IO(str(d / f"{rec.stem}.nwb"), "r") as io:

@@ -6,7 +6,7 @@ The counts are made here from face wrenches edited by hand (the lift task's, plu
 
 import numpy as np
 
-from pito_core.analysis import analyze_recording, trial_figure
+from pito_core.analysis import analyze_recording, overview_figure, trial_figure
 from pito_core.interop import assembly_record, calibration_record
 from pito_core.io import RecordingWriter
 from pito_core.sim import LiftTask, VirtualCube
@@ -38,3 +38,7 @@ def test_two_fingers_on_one_patch_mark_the_hold_only(tmp_path):
     hold = a.patches[a.patches["phase"] == "hold"].set_index("face")
     assert hold.loc[1, "plausible"] == False and hold.loc[3, "plausible"] == True  # noqa: E712
     assert "not single contacts (hatched): hold" in trial_figure(a, a.trials[0])._suptitle.get_text()
+    fig = overview_figure(a)  # the recording's one figure names it too, and hatches its span
+    assert "not single contacts (hatched) in trial 1 (hold)" in fig._suptitle.get_text()
+    hatched = [c for c in fig.axes[0].collections if c.get_hatch()]
+    assert len(hatched) == 1 and len(hatched[0].get_paths()) == 1
