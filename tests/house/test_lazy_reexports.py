@@ -11,7 +11,7 @@ import pytest
 
 from pito_core._lazy import reexports
 
-PACKAGES = ["pito_core", "pito_core.calibration", "pito_core.contact", "pito_core.devices", "pito_core.frames",
+PACKAGES = ["pito_core", "pito_core.calibration", "pito_core.contact", "pito_core.devices", "pito_core.frames", "pito_core.interop",
             "pito_core.io", "pito_core.pipeline", "pito_core.sim"]
 
 
