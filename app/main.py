@@ -105,13 +105,27 @@ def main(argv=None) -> int:
 
 
 def _boot_demo_devices(seed: int, period: float):
-    """Start the demo's simulated devices in a thread: a future of :class:`~app.demo.DemoDevices`."""
+    """Start the demo's simulated devices: a future of :class:`~app.demo.DemoDevices`.
+
+    Both child processes (the simulated devices, the pipeline) start here, from the main thread,
+    with the standard library only, and import while this process imports Qt, VTK and the core;
+    a thread waits for their announcements and connects them."""
     from concurrent.futures import ThreadPoolExecutor  # deferred: `pito-app --help` starts no thread
+
+    from pito_core.pipeline import PipelineLaunch  # deferred: stdlib-only modules (pito_core/_lazy.py)
+    from pito_core.sim import DevicesLaunch
+
+    sim = DevicesLaunch(seed=seed, period=period)
+    try:
+        pipe = PipelineLaunch()
+    except BaseException:
+        sim.close()
+        raise
 
     def boot():
         from .demo import DemoDevices  # deferred: the core's imports run beside the main thread's Qt ones
 
-        return DemoDevices(seed=seed, period=period)
+        return DemoDevices(seed=seed, period=period, launches=(sim, pipe))
 
     pool = ThreadPoolExecutor(1, thread_name_prefix="demo-boot")
     future = pool.submit(boot)

@@ -20,6 +20,7 @@ if TYPE_CHECKING:  # re-exported, each loaded on first use (pito_core/_lazy.py)
     from ._bundle import LiveBundle, face_sums
     from ._pipeline import Pipeline
     from ._open import open_acquisition, open_reader
+    from ._launch import PipelineLaunch
     from ._process import PipelineProcess, PipelineProcessError
     from ._readers import (AcquisitionReader, NewSamples, RecordingReader, device_time_base, recording_samples,
                            recording_times)
@@ -38,6 +39,7 @@ __all__ = [
     "NewSamples",
     "PAIRING_RULE",
     "Pipeline",
+    "PipelineLaunch",
     "PipelineProcess",
     "PipelineProcessError",
     "PipelineThread",

@@ -32,6 +32,7 @@ if TYPE_CHECKING:  # re-exported, each loaded on first use (pito_core/_lazy.py)
     from ._signals import KeypointTrajectory, play_operator
     from ._touches import TouchTruth, simulate_touches
     from ._world import SCENARIOS, DemoWorld, SwitchedLiveSource
+    from ._launch import DevicesLaunch
     from ._process import SimulatedDevices, SimulatorError, run_devices
     from ._transport import open_simulated_devices
     from ._transport_netft import SimulatedNetFT
@@ -52,6 +53,7 @@ __all__ = [
     "random_sensor_session",
     "DemoWorld",
     "SCENARIOS",
+    "DevicesLaunch",
     "SimulatedDevices",
     "SimulatorError",
     "SwitchedLiveSource",

@@ -59,3 +59,11 @@ def test_the_device_child_processes_import_no_calibration_code():
         assert "scipy.optimize" not in mods, child
         if child == "pito_core.sim._child":
             assert not any(m.startswith("pito_core.calibration") for m in mods)
+
+
+def test_the_launchers_of_the_demo_processes_load_the_standard_library_only():
+    # pito-app --demo starts both children on its first line, before importing numpy, Qt or the core
+    mods = _modules_after("from pito_core.sim import DevicesLaunch\nfrom pito_core.pipeline import PipelineLaunch")
+    assert "numpy" not in mods
+    assert not any(m.startswith("pito_core.") and m.split(".")[-1] not in ("_lazy", "_version", "sim", "pipeline",
+                                                                           "_launch") for m in mods)
