@@ -1,6 +1,6 @@
 """Start the pipeline's child process before its devices are known, with the standard library only.
 
-:class:`PipelineLaunch` starts ``python -m pito_core.pipeline._process_child - FD``: the child
+:class:`PipelineLaunch` starts ``python -m pito_core.pipeline._process_child START_JSON FD``: the child
 imports the drivers and the pipeline at once and waits for its configuration (the devices'
 addresses), the first message on the socket; ``PipelineProcess(pito, ati, launch=...)`` sends
 it (:mod:`._process`: the protocol). ``pito-app --demo`` launches it on its first line, beside

@@ -6,7 +6,7 @@ patches) a few milliseconds per read. In the desktop app all of that would share
 interpreter lock with the drawing: the window would wait for the lock on every paint call
 and the devices would wait for the window. So :class:`PipelineProcess` runs the drivers, the
 collecting thread, :class:`~pito_core.pipeline.Pipeline` and the recorder in a child process
-(``python -m pito_core.pipeline._process_child CONFIG FD``, :mod:`._process_child`: the
+(``python -m pito_core.pipeline._process_child START_JSON FD``, :mod:`._process_child`: the
 child's loop) and sends the caller one
 :class:`~pito_core.pipeline.LiveBundle` over a socket pair as soon as new rows arrive (the
 collecting thread wakes the child's loop through a pipe; at most one bundle per
