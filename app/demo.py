@@ -43,16 +43,26 @@ class DemoDevices:
         Simulated seconds per wall second.
     period : float
         Seconds per move-and-hold of the simulated operator.
+    launches : (DevicesLaunch, PipelineLaunch), optional
+        The two child processes, started earlier (``app.main``): they boot while
+        the caller imports; default: start them now, one after the other.
     """
 
     simulated = True
 
-    def __init__(self, seed: int = 0, speed: float = 1.0, period: float = 1.5):
-        self.sim = SimulatedDevices(seed=seed, speed=speed, period=period)
+    def __init__(self, seed: int = 0, speed: float = 1.0, period: float = 1.5, launches=None):
+        sim_launch, pipe_launch = launches or (None, None)
+        try:
+            self.sim = SimulatedDevices(seed=seed, speed=speed, period=period, launch=sim_launch)
+        except BaseException:
+            if pipe_launch is not None:
+                pipe_launch.close()
+            raise
         try:
             # the drivers and the pipeline in a process of their own, as for hardware (MainWindow.connect_devices);
             # buffered RDT (10 records per packet), as a real box allows: a tenth of the packets
-            self.process = PipelineProcess(self.sim.port, self.sim.ati, simulated=True, buffered=True)
+            self.process = PipelineProcess(self.sim.port, self.sim.ati, simulated=True, buffered=True,
+                                           launch=pipe_launch)
         except BaseException:
             self.sim.close()
             raise

@@ -105,13 +105,31 @@ def main(argv=None) -> int:
 
 
 def _boot_demo_devices(seed: int, period: float):
-    """Start the demo's simulated devices in a thread: a future of :class:`~app.demo.DemoDevices`."""
+    """Start the demo's simulated devices: a future of :class:`~app.demo.DemoDevices`.
+
+    Both child processes (the simulated devices, the pipeline) start here, from the main thread,
+    with the standard library only, and import while this process imports the core, Qt and VTK;
+    a thread waits for their announcements and connects them."""
     from concurrent.futures import ThreadPoolExecutor  # deferred: `pito-app --help` starts no thread
 
-    def boot():
-        from .demo import DemoDevices  # deferred: the core's imports run beside the main thread's Qt ones
+    from pito_core.pipeline import PipelineLaunch  # deferred: stdlib-only modules (pito_core/_lazy.py)
+    from pito_core.sim import DevicesLaunch
 
-        return DemoDevices(seed=seed, period=period)
+    sim, pipe = DevicesLaunch(seed=seed, period=period), None
+    try:
+        pipe = PipelineLaunch()
+        # deferred (`pito-app --help` loads no core), and here, in the main thread: imports in two
+        # threads at once broke PySide6's first import (shiboken's signature bootstrap walks a
+        # dictionary the other thread's imports grow: "dictionary changed size during iteration")
+        from .demo import DemoDevices
+    except BaseException:
+        sim.close()
+        if pipe is not None:
+            pipe.close()
+        raise
+
+    def boot():  # waits for the children's announcements (no interpreter lock held)
+        return DemoDevices(seed=seed, period=period, launches=(sim, pipe))
 
     pool = ThreadPoolExecutor(1, thread_name_prefix="demo-boot")
     future = pool.submit(boot)

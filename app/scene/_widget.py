@@ -69,6 +69,13 @@ def native_plotter(parent) -> pv.Plotter:
     composition cost more than the scene itself, and every plot repaint paid it too. The
     widget is ``plotter.interactor``; call :meth:`QWidget.update` on it to repaint.
     """
+    # pyvista checks once per process that a display exists (``xset -q``, else an off-screen OpenGL
+    # context: 0.5 s of software GL at start-up where xset is missing) only to warn; this widget
+    # lives in a Qt window on a display, so the answer is known: set pyvista's cached result
+    from pyvista.plotting.plotter import _warn_xserver  # deferred: pyvista.plotting loads matplotlib
+
+    if not hasattr(_warn_xserver, "has_support"):
+        _warn_xserver.has_support = True
     plotter = pv.Plotter(off_screen=False, window_size=(640, 480))
     plotter.ren_win.SetMultiSamples(0)  # MSAA multiplies the fill cost in software GL
     # colour only to the window's back buffer: the default also copies VTK's depth buffer there

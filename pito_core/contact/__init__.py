@@ -13,33 +13,40 @@ on the patch produce this wrench within its noise?), its p-value ``single_contac
 ``single_contact_reason``. See ``docs/contact.md``.
 """
 
-from ._accuracy import ACCURACY_SQUARE, AccuracyResult, accuracy_points, flat_patch_accuracy
-from ._boundary import BOUNDARY_TOL, PatchBoundary
-from ._crb import ContactCovariance
-from ._display import patch_solid
-from ._estimate import CONTACT_FRAMES, ContactEstimate
-from ._object import solve_object
-from ._patches import (
-    Assembly,
-    Patch,
-    list_assemblies,
-    list_patches,
-    load_assembly,
-    load_patch,
-    patches_dir,
-    surface_from_dict,
-    surface_to_dict,
-)
-from ._plausibility import (
-    DEFAULT_FRICTION,
-    DEFAULT_TORSION_RADIUS,
-    SINGLE_CONTACT_ALPHA,
-    SingleContactReason,
-    reason_names,
-)
-from ._pointcontact import DEFAULT_WRENCH_COV
-from ._solve import DEFAULT_FORCE_THRESHOLD, contact_crb, solve
-from ._surfaces import BARYCENTRIC_TOL, Ellipsoid, MeshSurface, Plane, Sphere, Surface
+from typing import TYPE_CHECKING
+
+from .._lazy import attach
+
+if TYPE_CHECKING:  # re-exported, each loaded on first use (pito_core/_lazy.py)
+    from ._accuracy import ACCURACY_SQUARE, AccuracyResult, accuracy_points, flat_patch_accuracy
+    from ._boundary import BOUNDARY_TOL, PatchBoundary
+    from ._crb import ContactCovariance
+    from ._display import patch_solid
+    from ._estimate import CONTACT_FRAMES, ContactEstimate
+    from ._object import solve_object
+    from ._patches import (
+        Assembly,
+        Patch,
+        list_assemblies,
+        list_patches,
+        load_assembly,
+        load_patch,
+        patches_dir,
+        surface_from_dict,
+        surface_to_dict,
+    )
+    from ._plausibility import (
+        DEFAULT_FRICTION,
+        DEFAULT_TORSION_RADIUS,
+        SINGLE_CONTACT_ALPHA,
+        SingleContactReason,
+        reason_names,
+    )
+    from ._pointcontact import DEFAULT_WRENCH_COV
+    from ._solve import DEFAULT_FORCE_THRESHOLD, contact_crb, solve
+    from ._surfaces import BARYCENTRIC_TOL, Ellipsoid, MeshSurface, Plane, Sphere, Surface
+
+__getattr__, __dir__ = attach(__name__, __file__)
 
 __all__ = [
     "ACCURACY_SQUARE",

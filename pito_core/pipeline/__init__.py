@@ -11,15 +11,23 @@ The app (devices: :class:`PipelineProcess`; a replay: :class:`PipelineThread`), 
 :mod:`pito_core.devices._clock` (docs/devices.md, "Pairing the cube and the reference").
 """
 
-from ..devices import PAIRING_RULE, TareCheck, TareRefused, TareSupport, check_tare
-from ._bundle import LiveBundle, face_sums
-from ._pipeline import Pipeline
-from ._open import open_acquisition, open_reader
-from ._process import PipelineProcess, PipelineProcessError
-from ._readers import (AcquisitionReader, NewSamples, RecordingReader, device_time_base, recording_samples,
-                       recording_times)
-from ._replay import concatenate_bundles, replay_blocks, replay_recording
-from ._thread import PipelineThread
+from typing import TYPE_CHECKING
+
+from .._lazy import attach
+
+if TYPE_CHECKING:  # re-exported, each loaded on first use (pito_core/_lazy.py)
+    from ..devices import PAIRING_RULE, TareCheck, TareRefused, TareSupport, check_tare
+    from ._bundle import LiveBundle, face_sums
+    from ._pipeline import Pipeline
+    from ._open import open_acquisition, open_reader
+    from ._launch import PipelineLaunch
+    from ._process import PipelineProcess, PipelineProcessError
+    from ._readers import (AcquisitionReader, NewSamples, RecordingReader, device_time_base, recording_samples,
+                           recording_times)
+    from ._replay import concatenate_bundles, replay_blocks, replay_recording
+    from ._thread import PipelineThread
+
+__getattr__, __dir__ = attach(__name__, __file__)
 
 __all__ = [
     "TareCheck",
@@ -31,6 +39,7 @@ __all__ = [
     "NewSamples",
     "PAIRING_RULE",
     "Pipeline",
+    "PipelineLaunch",
     "PipelineProcess",
     "PipelineProcessError",
     "PipelineThread",

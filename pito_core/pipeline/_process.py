@@ -6,7 +6,7 @@ patches) a few milliseconds per read. In the desktop app all of that would share
 interpreter lock with the drawing: the window would wait for the lock on every paint call
 and the devices would wait for the window. So :class:`PipelineProcess` runs the drivers, the
 collecting thread, :class:`~pito_core.pipeline.Pipeline` and the recorder in a child process
-(``python -m pito_core.pipeline._process_child CONFIG FD``, :mod:`._process_child`: the
+(``python -m pito_core.pipeline._process_child START_JSON FD``, :mod:`._process_child`: the
 child's loop) and sends the caller one
 :class:`~pito_core.pipeline.LiveBundle` over a socket pair as soon as new rows arrive (the
 collecting thread wakes the child's loop through a pipe; at most one bundle per
@@ -19,6 +19,8 @@ It is the same pipeline, with the same pairing rule, as ``pito record``, replay 
 both processes).
 
 Protocol (``multiprocessing.connection.Connection`` on a socket pair, pickled tuples)
+    parent → child first: ``("config", cfg)`` (the devices and settings; the child, started by
+    :class:`~pito_core.pipeline.PipelineLaunch`, imports while it waits for it).
     child → parent: ``("ready", info)`` or ``("failed", message)`` once; then ``("bundle",
     LiveBundle)`` with its ``stats`` and ``recorded`` filled, and ``("reply", id, ok, value,
     tare_in_force)`` to each request (``value`` is the request's exception, pickled, when ``ok``
@@ -38,20 +40,17 @@ No orphans
 from __future__ import annotations
 
 import contextlib
-import json
 import os
 import pickle
-import socket
 import subprocess
-import sys
 import threading
 import time
-from multiprocessing.connection import Connection
 
 import numpy as np
 
 from ._bundle import LiveBundle
 from ._controls import PipelineControls
+from ._launch import PipelineLaunch
 from ._outlet import BundleOutlet
 
 __all__ = ["PipelineProcess", "PipelineProcessError"]
@@ -84,6 +83,8 @@ class PipelineProcess(PipelineControls, BundleOutlet):
         cost one pipeline run per frame).
     startup_timeout : float
         Seconds to wait for the devices to open.
+    launch : PipelineLaunch, optional
+        A child started earlier, before the devices' addresses were known; default: start one now.
 
     Raises
     ------
@@ -111,7 +112,7 @@ class PipelineProcess(PipelineControls, BundleOutlet):
 
     def __init__(self, pito: str, ati: str | None = None, *, simulated: bool = False, buffered: bool = False,
                  reference_rate_hz: float = 1000.0, edge: float | None = None, push_interval: float = 0.005,
-                 startup_timeout: float = 30.0):
+                 startup_timeout: float = 30.0, launch: PipelineLaunch | None = None):
         if not push_interval > 0:
             raise ValueError(f"push_interval: expected > 0 s, got {push_interval!r}")
         BundleOutlet.__init__(self)
@@ -127,17 +128,12 @@ class PipelineProcess(PipelineControls, BundleOutlet):
         self.tare_in_force: dict | None = None
         cfg = {"pito": pito, "ati": ati, "buffered": bool(buffered), "reference_rate_hz": float(reference_rate_hz),
                "simulated": self.simulated, "edge": None if edge is None else float(edge),
-               "push_interval": float(push_interval),
-               "pdeathsig": threading.current_thread() is threading.main_thread()}
-        mine, theirs = socket.socketpair()
-        try:
-            self._proc = subprocess.Popen([sys.executable, "-m", "pito_core.pipeline._process_child", json.dumps(cfg),
-                                           str(theirs.fileno())], pass_fds=(theirs.fileno(),), stdin=subprocess.DEVNULL)
-        finally:
-            theirs.close()
+               "push_interval": float(push_interval)}
+        launch = PipelineLaunch() if launch is None else launch
+        self._proc, self._conn = launch.proc, launch.conn
         self.pid = self._proc.pid
-        self._conn = Connection(mine.detach())
         try:
+            self._conn.send(("config", cfg))  # the child has been importing meanwhile
             if not self._conn.poll(startup_timeout):
                 raise PipelineProcessError(f"the pipeline process did not start within {startup_timeout} s")
             msg = self._conn.recv()

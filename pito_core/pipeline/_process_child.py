@@ -1,4 +1,4 @@
-"""The pipeline process's side: ``python -m pito_core.pipeline._process_child CONFIG_JSON FD``.
+"""The pipeline process's side: ``python -m pito_core.pipeline._process_child START_JSON FD``.
 
 The devices, the acquisition's collecting thread, the one :class:`~pito_core.pipeline.Pipeline`
 and the recorder, served over the socket ``FD`` to the parent's
@@ -135,12 +135,20 @@ def _plain(d):
 
 
 def main(argv=None) -> int:
-    """The child's entry point: ``argv`` is ``[CONFIG_JSON, FD]`` (the parent's socket's file descriptor)."""
+    """The child's entry point: ``argv`` is ``[START_JSON, FD]`` (``{"pdeathsig": bool}``; the parent's
+    socket's file descriptor); the configuration is the first message on the socket."""
     argv = sys.argv[1:] if argv is None else argv
-    cfg = json.loads(argv[0])
-    if cfg.get("pdeathsig"):
+    if json.loads(argv[0]).get("pdeathsig"):
         die_with_parent()
-    _serve(Connection(int(argv[1])), cfg)
+    conn = Connection(int(argv[1]))
+    try:
+        kind, cfg = conn.recv()  # the devices' addresses: the parent may learn them after starting us
+    except (EOFError, OSError):
+        return 0  # the parent gave up before configuring us
+    if kind != "config":
+        conn.send(("failed", f"expected the configuration first, got {kind!r}"))
+        return 1
+    _serve(conn, cfg)
     return 0
 
 

@@ -5,33 +5,41 @@ Nothing here is measured: every array comes from a seeded physical model
 calibration code.
 """
 
-from ._grasp import FINGER_LAYOUTS, GRAVITY, GraspRun, GraspScenario, GraspState, simulate_free_grasp
-from ._lift import LIFT_HEIGHT, LIFT_TIMELINE, LIFT_TRIAL_S, LiftTask, LiftTruth, write_lift_recording
-from ._handfed import IdleDevice, push_samples
-from ._live import CalibrationLiveSource, GraspLiveSource, LiveSource, default_live_source
-from ._model import VirtualCube, hub_sensitivity
-from ._mount import MOUNTS, face_wrenches_from_applied
-from ._params import FULL_SCALE_FACE, FULL_SCALE_FRAME, SimParams
-from ._protocols import (
-    PATCH_HEIGHT,
-    PATCH_SIZE,
-    SQUEEZE_PAIRS,
-    TOUCH_POINTS,
-    SimTruth,
-    default_faces,
-    simulate_calibration,
-    simulate_squeeze,
-)
-from ._random_sensor import RandomSensor, random_sensor, random_sensor_session
-from ._reference import FLANGE_HEIGHT, REFERENCE_PRESETS, ReferenceSensor, ReferenceSpec, reference_pose
-from ._signals import KeypointTrajectory, play_operator
-from ._touches import TouchTruth, simulate_touches
-from ._world import SCENARIOS, DemoWorld, SwitchedLiveSource
-from ._process import SimulatedDevices, SimulatorError, run_devices
-from ._transport import open_simulated_devices
-from ._transport_netft import SimulatedNetFT
-from ._transport_pito import SimulatedPitoPort
-from ._transport_source import Source, TestSignalSource, default_simulated_source
+from typing import TYPE_CHECKING
+
+from .._lazy import attach
+
+if TYPE_CHECKING:  # re-exported, each loaded on first use (pito_core/_lazy.py)
+    from ._grasp import FINGER_LAYOUTS, GRAVITY, GraspRun, GraspScenario, GraspState, simulate_free_grasp
+    from ._lift import LIFT_HEIGHT, LIFT_TIMELINE, LIFT_TRIAL_S, LiftTask, LiftTruth, write_lift_recording
+    from ._handfed import IdleDevice, push_samples
+    from ._live import CalibrationLiveSource, GraspLiveSource, LiveSource, default_live_source
+    from ._model import VirtualCube, hub_sensitivity
+    from ._mount import MOUNTS, face_wrenches_from_applied
+    from ._params import FULL_SCALE_FACE, FULL_SCALE_FRAME, SimParams
+    from ._protocols import (
+        PATCH_HEIGHT,
+        PATCH_SIZE,
+        SQUEEZE_PAIRS,
+        TOUCH_POINTS,
+        SimTruth,
+        default_faces,
+        simulate_calibration,
+        simulate_squeeze,
+    )
+    from ._random_sensor import RandomSensor, random_sensor, random_sensor_session
+    from ._reference import FLANGE_HEIGHT, REFERENCE_PRESETS, ReferenceSensor, ReferenceSpec, reference_pose
+    from ._signals import KeypointTrajectory, play_operator
+    from ._touches import TouchTruth, simulate_touches
+    from ._world import SCENARIOS, DemoWorld, SwitchedLiveSource
+    from ._launch import DevicesLaunch
+    from ._process import SimulatedDevices, SimulatorError, run_devices
+    from ._transport import open_simulated_devices
+    from ._transport_netft import SimulatedNetFT
+    from ._transport_pito import SimulatedPitoPort
+    from ._transport_source import Source, TestSignalSource, default_simulated_source
+
+__getattr__, __dir__ = attach(__name__, __file__)
 
 __all__ = [
     "LIFT_HEIGHT",
@@ -45,6 +53,7 @@ __all__ = [
     "random_sensor_session",
     "DemoWorld",
     "SCENARIOS",
+    "DevicesLaunch",
     "SimulatedDevices",
     "SimulatorError",
     "SwitchedLiveSource",

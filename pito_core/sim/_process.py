@@ -45,6 +45,7 @@ import threading
 import time
 
 from ..devices import die_with_parent, install_stop_signals
+from ._launch import DevicesLaunch
 from ._transport_netft import SimulatedNetFT
 from ._transport_pito import SimulatedPitoPort
 from ._world import DemoWorld
@@ -201,6 +202,8 @@ class SimulatedDevices:
         As :func:`run_devices`.
     startup_timeout : float
         Seconds to wait for the child's announcement.
+    launch : DevicesLaunch, optional
+        A child started earlier (its settings win over the ones above); default: start one now.
 
     Attributes
     ----------
@@ -222,17 +225,13 @@ class SimulatedDevices:
     label = "simulated cube and Net F/T (pito_core.sim, own process)"
 
     def __init__(self, seed: int = 0, speed: float = 1.0, period: float = 1.5, scenario: str = "grasp",
-                 assembly: str | None = None, rate_hz: float = 1000.0, startup_timeout: float = 60.0):
-        if not speed > 0 or speed == float("inf"):
-            raise ValueError(f"speed: expected a finite speed > 0 (simulated s per wall s), got {speed!r}")
-        # PR_SET_PDEATHSIG fires when the *thread* that started the child ends: ask for it only
-        # from the main thread (the stdin pipe and the getppid poll cover every other case)
-        cfg = {"seed": int(seed), "speed": float(speed), "period": float(period), "scenario": scenario,
-               "assembly": assembly, "rate_hz": float(rate_hz),
-               "pdeathsig": threading.current_thread() is threading.main_thread()}
-        self.seed, self.speed, self.period = int(seed), float(speed), float(period)
-        self._proc = subprocess.Popen([sys.executable, "-m", "pito_core.sim._child", json.dumps(cfg)],
-                                      stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+                 assembly: str | None = None, rate_hz: float = 1000.0, startup_timeout: float = 60.0,
+                 launch: DevicesLaunch | None = None):
+        if launch is None:
+            launch = DevicesLaunch(seed, speed, period, scenario, assembly, rate_hz)
+        cfg = launch.cfg  # a launch started earlier (pito-app's first line) carries its own settings
+        self.seed, self.speed, self.period = cfg["seed"], cfg["speed"], cfg["period"]
+        self._proc = launch.proc
         self.pid = self._proc.pid
         self._lock = threading.Lock()
         self._conn = self._file = None

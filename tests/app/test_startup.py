@@ -6,6 +6,7 @@ neither the wizard nor matplotlib.
 """
 
 import os
+import time
 import subprocess
 import sys
 
@@ -59,3 +60,27 @@ def test_the_window_module_loads_neither_the_wizard_nor_matplotlib():
                          env={**os.environ, "QT_QPA_PLATFORM": "offscreen"})
     assert out.returncode == 0, out.stderr
     assert out.stdout.strip() == "[]"
+
+
+def test_the_demo_boot_starts_both_children_at_once_and_connects_them():
+    from app.main import _boot_demo_devices
+
+    rig = _boot_demo_devices(0, 1.5).result(timeout=90)
+    try:
+        src = rig.open_source()
+        assert rig.process.has_reference and rig.sim.alive()
+        deadline = time.monotonic() + 30
+        while (b := src.take()) is None or len(b) == 0:
+            assert time.monotonic() < deadline, "no samples from the demo's pipeline process"
+            time.sleep(0.05)
+    finally:
+        rig.close()
+    assert rig.process._proc.poll() is not None and not rig.sim.alive()
+
+
+def test_a_pipeline_launch_never_configured_ends_with_its_socket():
+    from pito_core.pipeline import PipelineLaunch
+
+    launch = PipelineLaunch()
+    launch.close()
+    assert launch.proc.returncode == 0
