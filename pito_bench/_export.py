@@ -73,7 +73,7 @@ def tiled_recording(source, path, seconds: float, chunk_s: float = 0.5) -> dict:
 
     src = read_recording(source)
     p, a = src.pito, src.netft
-    span = {  # one copy's extent on each counter: a period past its last row (as scripts/bench_hour_export.py)
+    span = {  # one copy's extent on each counter: a period past its last row
         "time_us": int((np.diff(p["time_us"].astype(np.int64)) % 2**32).sum()) + 1000,
         "seq": int((np.diff(p["seq"].astype(np.int64)) % 2**32).sum()) + 1,
         "rdt_seq": int((np.diff(a["rdt_seq"].astype(np.int64)) % 2**32).sum()) + 1 if a.size else 0}
