@@ -73,10 +73,7 @@ class RecordingContacts:
         if assembly is None:
             assembly = (meta.get("assembly") or {}).get("name") or "cube"
         self.path = path
-        columns = SimpleNamespace(meta=rec.meta, events=rec.events,
-                                  pito={**rec.pito, "counts": np.zeros((rec.n_pito, 0))},
-                                  netft={**rec.netft, "wrench": np.zeros((rec.n_netft, 0))})
-        cube, ref = recording_samples(columns)  # the clocks only
+        cube, ref = recording_samples(rec)  # the clocks only
         if cube["time"].size == 0:
             raise ValueError("recording: no cube samples")
         has_ref = ref["time"].size > 0
@@ -84,8 +81,8 @@ class RecordingContacts:
         for d in (cube, ref):  # what the replay does not read (8 B a sample each)
             for k in ("device_time", "host_time", "seq", "rdt_seq"):
                 d.pop(k, None)
-        cube["counts"] = _Rows(rec, "pito", "counts")
-        ref["wrench"] = _Rows(rec, "netft", "wrench")
+        cube["counts"] = rec.column("pito", "counts")
+        ref["wrench"] = rec.column("netft", "wrench")
         rec.pito, rec.netft = {}, {}  # its clocks are in cube and ref now; rows are read by position
         self.reader = SimpleNamespace(cube=cube, reference=ref, has_reference=has_ref, events=[
             e for e in rec.events if e.get("type") == "tare" and e.get("from_tick") is not None])
@@ -129,15 +126,6 @@ class RecordingContacts:
             raise RuntimeError(f"{self.path}: the pipeline's cube samples differ from the recording's at {done}")
         return done + k
 
-
-class _Rows:
-    """One field of a recording's stream read from the file by slice (``column[i:j]``, float64)."""
-
-    def __init__(self, rec: RecordingChunks, stream: str, name: str):
-        self.rec, self.stream, self.name = rec, stream, name
-
-    def __getitem__(self, sl: slice) -> np.ndarray:
-        return np.asarray(self.rec.rows(self.stream, sl.start or 0, sl.stop)[self.name], np.float64)
 
 
 def contact_blocks(path, calibration=None, assembly=None, **kwargs) -> RecordingContacts:

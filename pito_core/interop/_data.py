@@ -123,14 +123,11 @@ class ExportStream:
         if assembly is None:
             assembly = (meta.get("assembly") or {}).get("name") or "cube"
         self._assembly = assembly
-        columns = SimpleNamespace(meta=rec.meta, events=rec.events,
-                                  pito={**rec.pito, "counts": np.zeros((rec.n_pito, 0))},
-                                  netft={**rec.netft, "wrench": np.zeros((rec.n_netft, 0))})
-        cube, ref = recording_samples(columns)  # the clocks only: counts and wrenches are read per block
+        cube, ref = recording_samples(rec)  # the clocks only: counts and wrenches are read per block
         if cube["time"].size == 0:
             raise ValueError("recording: no cube samples")
-        cube["counts"] = _Rows(rec, "pito", "counts")
-        ref["wrench"] = _Rows(rec, "netft", "wrench")
+        cube["counts"] = rec.column("pito", "counts")
+        ref["wrench"] = rec.column("netft", "wrench")
         has_ref = ref["time"].size > 0
         self._reader = SimpleNamespace(cube=cube, reference=ref, has_reference=has_ref, events=[
             e for e in rec.events if e.get("type") == "tare" and e.get("from_tick") is not None])
@@ -198,15 +195,6 @@ class ExportStream:
             face_wrenches=W, contacts=cont, calibration=self.calibration, assembly=self.assembly,
             note=self.note, meta=self.meta, simulated=self.simulated)
 
-
-class _Rows:
-    """One field of a recording's stream, read from the file by slice (``column[i:j]``, float64)."""
-
-    def __init__(self, rec: RecordingChunks, stream: str, name: str):
-        self.rec, self.stream, self.name = rec, stream, name
-
-    def __getitem__(self, sl: slice) -> np.ndarray:
-        return np.asarray(self.rec.rows(self.stream, sl.start or 0, sl.stop)[self.name], np.float64)
 
 
 def export_data(path, calibration=None, assembly=None, *, calibration_source: str | None = None,

@@ -519,6 +519,10 @@ class RecordingChunks:
     def simulated(self) -> bool:
         return bool(self.meta.get("simulated", False))
 
+    def column(self, stream: str, name: str) -> "_Column":
+        """Field ``name`` of ``stream`` (``"pito"``, ``"netft"``) read by slice: ``column[i:j]`` float64 rows."""
+        return _Column(self, stream, name)
+
     def rows(self, stream: str, start: int, stop: int) -> np.ndarray:
         """Rows ``start:stop`` of ``stream`` (``"pito"`` or ``"netft"``): :data:`PITO_ROW` / :data:`NETFT_ROW` array."""
         kind = {"pito": KIND_PITO, "netft": KIND_NETFT}.get(stream)
@@ -543,6 +547,16 @@ class RecordingChunks:
                     raise FileFormatError(f"{self.path}: the file changed while it was read")
                 at += b - a
         return out
+
+
+class _Column:
+    """One field of a :class:`RecordingChunks` stream, read from the file by slice (``column[i:j]``, float64)."""
+
+    def __init__(self, rec: RecordingChunks, stream: str, name: str):
+        self.rec, self.stream, self.name = rec, stream, name
+
+    def __getitem__(self, sl: slice) -> np.ndarray:
+        return np.asarray(self.rec.rows(self.stream, sl.start or 0, sl.stop)[self.name], np.float64)
 
 
 def read_recording(path, *, recover: bool = False) -> Recording:

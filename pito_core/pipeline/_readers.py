@@ -11,7 +11,6 @@ import time
 from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 
@@ -143,9 +142,14 @@ def recording_samples(recording) -> tuple[dict, dict]:
     reference ``time, tick, wrench, host_time, rdt_seq``; each with ``device_time`` (s, the
     device's own clock: cube ``tick`` · 10⁻⁶, reference ``tick`` / RDT rate). The same clock as the live
     acquisition: continued from the state it had when the recording began (the recording's
-    ``clock`` event), or started at the recording's first row (recordings without one).
+    ``clock`` event), or started at the recording's first row (recordings without one). A
+    :class:`~pito_core.io.RecordingChunks` gives its clocks, with zero-width ``counts`` and ``wrench``
+    (those stay in the file, read by rows).
     """
     p, a = recording.pito, recording.netft
+    chunked = hasattr(recording, "rows")  # a RecordingChunks: its clocks; counts and wrenches stay in the file
+    counts = np.zeros((recording.n_pito, 0)) if chunked else np.asarray(p["counts"], dtype=np.float64)
+    wrench = np.zeros((recording.n_netft, 0)) if chunked else np.asarray(a["wrench"], dtype=np.float64)
     rate = float(recording.meta.get("reference_rate_hz", 1000.0))
     start = next((e for e in recording.events if e.get("type") == "clock"), None)
 
@@ -157,12 +161,12 @@ def recording_samples(recording) -> tuple[dict, dict]:
     unwrap, clock = clocks("pito")
     tick = unwrap(p["time_us"])
     cube = {"tick": tick, "time": clock(tick * 1e-6, p["host_time"], unwrap.restarts),
-            "counts": np.asarray(p["counts"], dtype=np.float64), "host_time": np.asarray(p["host_time"]),
+            "counts": counts, "host_time": np.asarray(p["host_time"]),
             "seq": np.asarray(p["seq"]), "device_time": tick * 1e-6}
     unwrap, clock = clocks("netft")
     rtick = unwrap(a["rdt_seq"])
     ref = {"tick": rtick, "time": clock(rtick / rate, a["host_time"], unwrap.restarts),
-           "wrench": np.asarray(a["wrench"], dtype=np.float64), "host_time": np.asarray(a["host_time"]),
+           "wrench": wrench, "host_time": np.asarray(a["host_time"]),
            "rdt_seq": np.asarray(a["rdt_seq"]), "device_time": rtick / rate}
     return cube, ref
 
@@ -302,9 +306,5 @@ def recording_times(recording) -> tuple[np.ndarray, np.ndarray]:
     The one time base of every export (:func:`device_time_base`): CSV/MAT ``time``, NWB, MCAP, analysis.
     A :class:`~pito_core.io.RecordingChunks` gives the same from its clock columns alone.
     """
-    if hasattr(recording, "rows"):  # RecordingChunks: the clocks only, counts and wrenches stay in the file
-        recording = SimpleNamespace(meta=recording.meta, events=recording.events,
-                                    pito={**recording.pito, "counts": np.zeros((recording.n_pito, 0))},
-                                    netft={**recording.netft, "wrench": np.zeros((recording.n_netft, 0))})
     cube, ref = recording_samples(recording)
     return device_time_base(cube, ref if ref["time"].size else None)
