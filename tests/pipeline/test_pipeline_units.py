@@ -145,3 +145,20 @@ def test_every_arrived_sample_gets_its_contacts_when_asked(calibration):
     b3 = pipe.process({k: v[220:] + (0.5 if k == "time" else 500_000 if k == "tick" else 0) for k, v in rows.items()})
     assert b3.arrived_contacts is None and b3.contacts is not None
     assert b2.merged(b3).arrived_contacts is None  # not every sample has its own: none rather than misaligned
+
+
+def test_a_reference_later_than_max_wait_passes_samples_with_nan_and_a_late_one_pairs():
+    """The pairing's wait: a cube sample waits for the reference up to ``max_wait`` s of sample
+    time (then passes with a NaN reference, as it did live); with ``max_wait=inf`` it always
+    waits, so a late reference still pairs (what a whole-file replay sees)."""
+    t = 1.0 + np.arange(3000) * 1e-3  # s: 3 s of cube samples
+    cube = {"time": t, "counts": np.zeros((t.size, 36)), "tick": np.rint(t * 1e6).astype(np.int64)}
+    ref = {"time": t.copy(), "wrench": np.tile(np.arange(6.0), (t.size, 1))}
+    for wait, n_nan in ((1.0, 2000), (float("inf"), 0)):
+        pipe = Pipeline(has_reference=True, max_wait=wait)
+        b1 = pipe.feed(NewSamples(cube, {k: v[:0] for k, v in ref.items()}))  # the reference lags 3 s
+        assert len(b1) == n_nan and np.isnan(b1.reference).all()  # samples > max_wait old: NaN
+        assert pipe.waiting == t.size - n_nan
+        b2 = pipe.feed(NewSamples({k: v[:0] for k, v in cube.items()}, ref), flush=True)
+        assert len(b2) == t.size - n_nan
+        np.testing.assert_array_equal(b2.reference, ref["wrench"][n_nan:])  # paired once it arrives
