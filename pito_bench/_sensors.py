@@ -187,6 +187,8 @@ def fit_auto(X, Y, groups):
         return fit.predict(Z)
     ra = fit.choice.row_alpha or []
     predict.corrected_rows = sum(a is not None for a in ra) if fit.model == "poly" else 0
+    sc = fit.choice.cv_score or {}
+    predict.cv_ratio = sc["chosen"] / sc["linear"] if sc.get("linear") else None  # its inner CV's forecast
     return predict
 
 
@@ -213,7 +215,12 @@ def _run_split(ds: Dataset, methods, train, test) -> tuple[dict, dict]:
     for name, fit in methods.items():
         p = fit(X, Y, g)
         preds[name] = p(ds.channels[test])
-        info[name] = {"corrected_rows": getattr(p, "corrected_rows", None)}
+        info[name] = {"corrected_rows": getattr(p, "corrected_rows", None), "cv_ratio": getattr(p, "cv_ratio", None)}
+    if "auto" in preds and "ls" in preds:  # the same dimensionless score on this split: RMSE / target std, pooled
+        s = ds.target.std(axis=0)
+        s = np.where(s > 0, s, 1.0)
+        score = {m: np.sqrt(np.mean(((preds[m] - ds.target[test]) / s) ** 2)) for m in ("auto", "ls")}
+        info["auto"]["held_out_ratio"] = float(score["auto"] / score["ls"]) if score["ls"] > 0 else None
     return preds, info
 
 
@@ -242,7 +249,7 @@ def evaluate(ds: Dataset, methods=None) -> dict:
     methods = METHODS if methods is None else methods
     scheme, test_sets = outer_folds(ds.group)
     preds = {m: np.full(ds.target.shape, np.nan) for m in methods}
-    folds, corrected = [], []
+    folds, corrected, forecast = [], [], []
     for test_groups in test_sets:
         te = np.isin(ds.group, test_groups)
         tr = ~te
@@ -251,9 +258,12 @@ def evaluate(ds: Dataset, methods=None) -> dict:
             preds[m][te] = p[m]
         folds.append({"train": np.unique(ds.group[tr]).tolist(), "test": np.unique(ds.group[te]).tolist()})
         corrected.append(info.get("auto", {}).get("corrected_rows"))
+        a = info.get("auto", {})
+        if a.get("corrected_rows"):
+            forecast.append([a.get("cv_ratio"), a.get("held_out_ratio")])
     out = {"name": ds.name, "n": int(ds.channels.shape[0]), "stride": ds.stride, "m": int(ds.channels.shape[1]),
            "groups": int(np.unique(ds.group).size), "scheme": scheme, "folds": folds,
-           "auto_corrected_rows": corrected, "n_outputs": int(ds.target.shape[1]), "source": ds.source,
+           "auto_corrected_rows": corrected, "auto_forecast": forecast, "n_outputs": int(ds.target.shape[1]), "source": ds.source,
            "license": ds.license, "rows": _table(ds, methods, ds.target, preds), "beyond": None}
     if ds.level is not None and np.unique(ds.level).size >= 2:
         lv = np.unique(ds.level)
@@ -312,6 +322,12 @@ def sensor_tables(sec: dict) -> list[str]:
                   f"{d['scheme']}; auto corrected {sum(corr)}/{n_out * len(corr)} output rows over the folds",
                   f"    source {d['source']}", f"    license {d['license']}"]
         lines += _rows_text(d["rows"])
+        fc = [f for f in d.get("auto_forecast", []) if None not in f]
+        if fc:
+            f = np.array(fc)
+            lines.append(f"    on the {len(fc)} fold(s) where auto corrected: its inner CV forecast {np.median(f[:, 0]):.2f}× LS "
+                         f"(median; range {f[:, 0].min():.2f}–{f[:, 0].max():.2f}), held out {np.median(f[:, 1]):.2f}× "
+                         f"({f[:, 1].min():.2f}–{f[:, 1].max():.2f}); RMSE/std pooled over outputs")
         b = d["beyond"]
         if b:
             lines.append(f"    beyond range: trained on {b['level_name']} ≤ {max(b['train_levels']):.4g} "
