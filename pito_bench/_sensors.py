@@ -318,7 +318,8 @@ def sensor_tables(sec: dict) -> list[str]:
     for d in sec["datasets"]:
         n_out = d["n_outputs"]
         corr = [c for c in d["auto_corrected_rows"] if c is not None]
-        lines += [f"  {d['name']}: {d['n']:,} rows (every {d['stride']}th) × {d['m']} channels, {d['groups']} groups, "
+        rows = "all rows" if d["stride"] == 1 else f"every {d['stride']}th row"
+        lines += [f"  {d['name']}: {d['n']:,} rows ({rows}) × {d['m']} channels, {d['groups']} groups, "
                   f"{d['scheme']}; auto corrected {sum(corr)}/{n_out * len(corr)} output rows over the folds",
                   f"    source {d['source']}", f"    license {d['license']}"]
         lines += _rows_text(d["rows"])
