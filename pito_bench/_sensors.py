@@ -17,8 +17,8 @@ Three fits, each trained only on the training groups of a fold:
   grouped cross-validation over the training groups only (inner folds).
 
 Hold-out: leave-one-group-out up to :data:`MAX_LOGO` groups, else grouped K-fold
-(:data:`K_FOLDS` folds, the groups dealt round-robin in a fixed shuffled order). Held-out
-predictions of all folds are pooled: RMSE per target column, and per kind (force: the RMS over
+(:data:`K_FOLDS` folds, the groups dealt round-robin in a fixed shuffled order, repeated over
+:data:`REPEATS` shuffles). Held-out predictions of all folds (and shuffles) are pooled: RMSE per target column, and per kind (force: the RMS over
 the N columns; torque: over the N·m ones). Where a data set has ``level`` with two or more values,
 "beyond range" trains on the levels up to the median level and tests on the higher ones.
 """
@@ -40,6 +40,8 @@ DEFAULT_DIR = "/work/shared/datasets"
 #: Leave-one-group-out up to this many groups; grouped K-fold beyond.
 MAX_LOGO = 12
 K_FOLDS = 10
+#: Shuffles of the grouped K-fold (the split of few groups moves the figures by several per cent).
+REPEATS = 3
 #: Inner folds of the quadratic baseline's ridge choice (leave-one-group-out when fewer groups).
 INNER_FOLDS = 5
 #: Ridge strengths of the quadratic products (relative to the sample count; 0 = unpenalised) and an
@@ -107,12 +109,14 @@ def _dealt(groups, k: int, seed: int = 0) -> list[np.ndarray]:
     return [u[i::k] for i in range(k)]
 
 
-def outer_folds(groups, max_logo: int = MAX_LOGO, k: int = K_FOLDS) -> tuple[str, list[np.ndarray]]:
-    """``(scheme, [test groups of each fold])``: leave-one-group-out, or grouped K-fold beyond ``max_logo``."""
+def outer_folds(groups, max_logo: int = MAX_LOGO, k: int = K_FOLDS,
+                repeats: int = REPEATS) -> tuple[str, list[list[np.ndarray]]]:
+    """``(scheme, rounds)``, each round a list of the test groups of its folds: leave-one-group-out
+    (one round), or beyond ``max_logo`` groups grouped K-fold repeated over ``repeats`` shuffles."""
     u = np.unique(groups)
     if u.size <= max_logo:
-        return "leave-one-group-out", [u[i : i + 1] for i in range(u.size)]
-    return f"grouped {k}-fold", _dealt(groups, k)
+        return "leave-one-group-out", [[u[i : i + 1] for i in range(u.size)]]
+    return f"grouped {k}-fold × {repeats} shuffles", [_dealt(groups, k, seed) for seed in range(repeats)]
 
 
 # --- the three fits: each takes training rows only and returns predict(channels) -> target ------------------
@@ -247,24 +251,26 @@ def evaluate(ds: Dataset, methods=None) -> dict:
     ``beyond`` (the same for the level split, or None).
     """
     methods = METHODS if methods is None else methods
-    scheme, test_sets = outer_folds(ds.group)
-    preds = {m: np.full(ds.target.shape, np.nan) for m in methods}
+    scheme, rounds = outer_folds(ds.group)
+    preds = {m: np.full((len(rounds),) + ds.target.shape, np.nan) for m in methods}
     folds, corrected, forecast = [], [], []
-    for test_groups in test_sets:
+    for r, test_groups in ((r, t) for r, test_sets in enumerate(rounds) for t in test_sets):
         te = np.isin(ds.group, test_groups)
         tr = ~te
         p, info = _run_split(ds, methods, tr, te)
         for m in methods:
-            preds[m][te] = p[m]
+            preds[m][r, te] = p[m]
         folds.append({"train": np.unique(ds.group[tr]).tolist(), "test": np.unique(ds.group[te]).tolist()})
         corrected.append(info.get("auto", {}).get("corrected_rows"))
         a = info.get("auto", {})
         if a.get("corrected_rows"):
             forecast.append([a.get("cv_ratio"), a.get("held_out_ratio")])
+    stacked = {m: P.reshape(-1, P.shape[-1]) for m, P in preds.items()}  # every round's held-out predictions
+    Y = np.tile(ds.target, (len(rounds), 1))
     out = {"name": ds.name, "n": int(ds.channels.shape[0]), "stride": ds.stride, "m": int(ds.channels.shape[1]),
            "groups": int(np.unique(ds.group).size), "scheme": scheme, "folds": folds,
-           "auto_corrected_rows": corrected, "auto_forecast": forecast, "n_outputs": int(ds.target.shape[1]), "source": ds.source,
-           "license": ds.license, "rows": _table(ds, methods, ds.target, preds), "beyond": None}
+           "auto_corrected_rows": corrected, "auto_forecast": forecast, "n_outputs": int(ds.target.shape[1]),
+           "source": ds.source, "license": ds.license, "rows": _table(ds, methods, Y, stacked), "beyond": None}
     if ds.level is not None and np.unique(ds.level).size >= 2:
         lv = np.unique(ds.level)
         cut = np.median(lv)
