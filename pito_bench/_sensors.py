@@ -218,7 +218,7 @@ def _rmse_rows(ds: Dataset, Y, P) -> dict:
     out = {name: float(np.sqrt(v)) for name, v in zip(ds.target_names, mse)}
     for kind, unit in (("force", "N"), ("torque", "N·m")):
         cols = [i for i, u in enumerate(ds.units) if u == unit]
-        if cols and len(cols) < len(ds.units):
+        if len(cols) >= 2:
             out[kind] = float(np.sqrt(mse[cols].mean()))
     return out
 
