@@ -11,6 +11,7 @@ from pito_bench import SECTIONS, run_bench
 
 from ._export import EXPORT_HELP, export_tables, run_export
 from ._report import format_report, write_plots
+from ._run import json_safe
 from ._sensors import ENV as DATASETS_ENV, SENSORS_HELP, run_sensors, sensor_tables
 
 HELP = """\
@@ -103,7 +104,7 @@ def run(args) -> int:
     if export:
         result["export"] = run_export(quick=args.quick, threads=args.threads, progress=progress)
     if sensors:
-        result["sensors"] = run_sensors(args.datasets, progress=progress)
+        result["sensors"] = json_safe(run_sensors(args.datasets, progress=progress))
     text = format_report(result) + ("\n" + "\n".join(export_tables(result["export"])) + "\n" if export else "") \
         + ("\n" + "\n".join(sensor_tables(result["sensors"])) + "\n" if sensors else "")
     if args.out:
