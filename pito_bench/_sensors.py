@@ -315,16 +315,19 @@ def _fmt(x) -> str:
     return f"{x:10.4g}" if x is not None and np.isfinite(x) else f"{'—':>10s}"
 
 
+def _r(x) -> str:
+    return f"{x:8.2f}" if x is not None and np.isfinite(x) else f"{'—':>8s}"
+
+
 def _rows_text(rows) -> list[str]:
     lines = [f"    {'column':8s} {'unit':4s} {'auto':>10s} {'LS':>10s} {'quad':>10s} {'poly':>10s} {'auto/LS':>8s} "
              f"{'auto/best':>9s} {'quad/LS':>8s} {'poly/LS':>8s}"]
     for r in rows:
         m = r["rmse"]
-        poly_ls = m["poly"] / m["ls"] if m.get("poly") is not None and m.get("ls") else float("nan")
+        poly_ls = m["poly"] / m["ls"] if m.get("poly") is not None and m.get("ls") else None
         lines.append(f"    {r['column']:8s} {r['unit']:4s} {_fmt(m.get('auto'))} {_fmt(m.get('ls'))} {_fmt(m.get('quad'))} "
-                     f"{_fmt(m.get('poly'))} {r.get('auto_over_ls', float('nan')):8.2f} "
-                     f"{r.get('auto_over_best', float('nan')):9.2f} {r.get('quad_over_ls', float('nan')):8.2f} "
-                     f"{poly_ls:8.2f}")
+                     f"{_fmt(m.get('poly'))} {_r(r.get('auto_over_ls'))}  {_r(r.get('auto_over_best'))} "
+                     f"{_r(r.get('quad_over_ls'))} {_r(poly_ls)}")
     return lines
 
 
