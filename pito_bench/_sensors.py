@@ -20,9 +20,10 @@ Four fits, each trained only on the training groups of a fold:
 
 Hold-out: leave-one-group-out up to :data:`MAX_LOGO` groups, else grouped K-fold
 (:data:`K_FOLDS` folds, the groups dealt round-robin in a fixed shuffled order, repeated over
-:data:`REPEATS` shuffles). Held-out predictions of all folds (and shuffles) are pooled: RMSE per target column, and per kind (force: the RMS over
-the N columns; torque: over the N·m ones). Where a data set has ``level`` with two or more values,
-"beyond range" trains on the levels up to the median level and tests on the higher ones.
+:data:`REPEATS` shuffles). Held-out predictions of all folds (and shuffles) are pooled: RMSE per
+target column, and per kind (force: the RMS over the N columns; torque: over the N·m ones). Where
+a data set has ``level`` with two or more values, "beyond range" trains on the levels up to the
+median level and tests on the higher ones.
 """
 
 from __future__ import annotations
@@ -34,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["DEFAULT_DIR", "ENV", "Dataset", "load_dataset", "find_datasets", "outer_folds", "fit_ls", "fit_quad",
-           "fit_auto", "METHODS", "evaluate", "run_sensors", "sensor_tables", "SENSORS_HELP"]
+           "fit_auto", "fit_poly", "METHODS", "evaluate", "run_sensors", "sensor_tables", "SENSORS_HELP"]
 
 #: Environment variable naming the data-set folder; then this default.
 ENV = "PITO_DATASETS"
@@ -122,7 +123,7 @@ def outer_folds(groups, max_logo: int = MAX_LOGO, k: int = K_FOLDS,
     return f"grouped {k}-fold × {repeats} shuffles", [_dealt(groups, k, seed) for seed in range(repeats)]
 
 
-# --- the three fits: each takes training rows only and returns predict(channels) -> target ------------------
+# --- the fits: each takes training rows only and returns predict(channels) -> target ------------------
 
 def fit_ls(X, Y, groups=None):
     """Plain affine least squares (numpy.linalg.lstsq), channels centred for conditioning."""
@@ -325,8 +326,8 @@ def _rows_text(rows) -> list[str]:
     for r in rows:
         m = r["rmse"]
         poly_ls = m["poly"] / m["ls"] if m.get("poly") is not None and m.get("ls") else None
-        lines.append(f"    {r['column']:8s} {r['unit']:4s} {_fmt(m.get('auto'))} {_fmt(m.get('ls'))} {_fmt(m.get('quad'))} "
-                     f"{_fmt(m.get('poly'))} {_r(r.get('auto_over_ls'))}  {_r(r.get('auto_over_best'))} "
+        lines.append(f"    {r['column']:8s} {r['unit']:4s} {_fmt(m.get('auto'))} {_fmt(m.get('ls'))} "
+                     f"{_fmt(m.get('quad'))} {_fmt(m.get('poly'))} {_r(r.get('auto_over_ls'))}  {_r(r.get('auto_over_best'))} "
                      f"{_r(r.get('quad_over_ls'))} {_r(poly_ls)}")
     return lines
 
@@ -349,9 +350,10 @@ def sensor_tables(sec: dict) -> list[str]:
         fc = [f for f in d.get("auto_forecast", []) if None not in f]
         if fc:
             f = np.array(fc)
-            lines.append(f"    on the {len(fc)} fold(s) where auto corrected: its inner CV forecast {np.median(f[:, 0]):.2f}× LS "
-                         f"(median; range {f[:, 0].min():.2f}–{f[:, 0].max():.2f}), held out {np.median(f[:, 1]):.2f}× "
-                         f"({f[:, 1].min():.2f}–{f[:, 1].max():.2f}); RMSE/std pooled over outputs")
+            lines.append(f"    on the {len(fc)} fold(s) where auto corrected: its inner CV forecast "
+                         f"{np.median(f[:, 0]):.2f}× LS (median; range {f[:, 0].min():.2f}–{f[:, 0].max():.2f}), "
+                         f"held out {np.median(f[:, 1]):.2f}× ({f[:, 1].min():.2f}–{f[:, 1].max():.2f}); "
+                         "RMSE/std pooled over outputs")
         b = d["beyond"]
         if b:
             lines.append(f"    beyond range: trained on {b['level_name']} ≤ {max(b['train_levels']):.4g} "
