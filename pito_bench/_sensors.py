@@ -327,8 +327,8 @@ def _rows_text(rows) -> list[str]:
         m = r["rmse"]
         poly_ls = m["poly"] / m["ls"] if m.get("poly") is not None and m.get("ls") else None
         lines.append(f"    {r['column']:8s} {r['unit']:4s} {_fmt(m.get('auto'))} {_fmt(m.get('ls'))} "
-                     f"{_fmt(m.get('quad'))} {_fmt(m.get('poly'))} {_r(r.get('auto_over_ls'))}  {_r(r.get('auto_over_best'))} "
-                     f"{_r(r.get('quad_over_ls'))} {_r(poly_ls)}")
+                     f"{_fmt(m.get('quad'))} {_fmt(m.get('poly'))} {_r(r.get('auto_over_ls'))}  "
+                     f"{_r(r.get('auto_over_best'))} {_r(r.get('quad_over_ls'))} {_r(poly_ls)}")
     return lines
 
 
