@@ -301,8 +301,8 @@ def run_sensors(directory=None, progress=None, max_rows: int = MAX_ROWS) -> dict
     progress = progress or (lambda s: None)
     directory, paths = find_datasets(directory)
     if not paths:
-        return {"dir": directory, "status": f"skipped: no data sets found in {directory}; see docs/calibration.md "
-                                            f"(real sensors) for the format, or set {ENV}"}
+        return {"dir": directory, "status": f"skipped: no data sets found in {directory}; see docs/performance.md "
+                                            f"(Real sensors) for the .npz format, or set {ENV}"}
     results = []
     for path in paths:
         ds = load_dataset(path, max_rows)
