@@ -11,6 +11,8 @@ from pito_bench import SECTIONS, run_bench
 
 from ._export import EXPORT_HELP, export_tables, run_export
 from ._report import format_report, write_plots
+from ._run import json_safe
+from ._sensors import ENV as DATASETS_ENV, SENSORS_HELP, run_sensors, sensor_tables
 
 HELP = """\
 Measure what pito exists for and print tables with units.
@@ -56,7 +58,7 @@ Measure what pito exists for and print tables with units.
                time to the first grab showing it — needs the app extras (PySide6,
                pyvista) and Xvfb; otherwise reported as skipped.
 
-""" + EXPORT_HELP + """
+""" + EXPORT_HELP + SENSORS_HELP + """
 Every figure is measured in the same run as its baseline and given as a ratio, since
 machines are noisy; each measurement runs in a fresh subprocess limited to --threads
 BLAS threads (default 1: "one core"). A full run takes several minutes (10⁷ samples are
@@ -71,8 +73,10 @@ def register(sub) -> None:
     p.add_argument("--json", action="store_true", help="print the results as JSON instead of tables (SI units, s, MB)")
     p.add_argument("--out", metavar="DIR",
                    help="also write bench.json, bench.txt (tables) and speed-vs-error plots (PNG) into DIR")
-    p.add_argument("--sections", default=",".join(SECTIONS + ("export",)), metavar="LIST",
-                   help=f"comma-separated sections to run (default: all of {','.join(SECTIONS)}; also: soak = a 10-minute recording soak, 1 min with --quick; export = pito export's rates and a 1-hour export)")
+    p.add_argument("--sections", default=",".join(SECTIONS + ("export", "sensors")), metavar="LIST",
+                   help=f"comma-separated sections to run (default: all of {','.join(SECTIONS)}, export, sensors; also: soak = a 10-minute recording soak, 1 min with --quick; export = pito export's rates and a 1-hour export; sensors = real public sensor data sets)")
+    p.add_argument("--datasets", metavar="DIR",
+                   help=f"folder of the sensors section's .npz data sets (default: ${DATASETS_ENV}, else /work/shared/datasets)")
     p.add_argument("--sizes", metavar="K,K,...",
                    help="calibration sizes k in samples (default 1000,…,10000000; quick: up to 100000)")
     p.add_argument("--threads", type=int, default=1, help="BLAS/OpenMP threads per measurement (default 1)")
@@ -94,11 +98,15 @@ def run(args) -> int:
         raise ValueError(f"--threads: expected at least 1, got {args.threads}")
     progress = (lambda s: print(s, file=sys.stderr, flush=True))
     export = "export" in sections  # its own module (pito_bench._export), beside run_bench's sections
-    result = run_bench(quick=args.quick, sections=tuple(s for s in sections if s != "export"), sizes=sizes,
-                       threads=args.threads, workdir=args.workdir, progress=progress)
+    sensors = "sensors" in sections  # likewise (pito_bench._sensors): real data sets, no timing
+    result = run_bench(quick=args.quick, sections=tuple(s for s in sections if s not in ("export", "sensors")),
+                       sizes=sizes, threads=args.threads, workdir=args.workdir, progress=progress)
     if export:
         result["export"] = run_export(quick=args.quick, threads=args.threads, progress=progress)
-    text = format_report(result) + ("\n" + "\n".join(export_tables(result["export"])) + "\n" if export else "")
+    if sensors:
+        result["sensors"] = json_safe(run_sensors(args.datasets, progress=progress))
+    text = format_report(result) + ("\n" + "\n".join(export_tables(result["export"])) + "\n" if export else "") \
+        + ("\n" + "\n".join(sensor_tables(result["sensors"])) + "\n" if sensors else "")
     if args.out:
         os.makedirs(args.out, exist_ok=True)
         with open(os.path.join(args.out, "bench.json"), "w") as f:

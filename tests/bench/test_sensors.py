@@ -1,0 +1,86 @@
+"""pito bench's sensors section on a small SIMULATED data set (the real ones live outside the repo)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pito_bench import _sensors
+
+
+def _simulated_npz(path, n_groups: int = 8, per: int = 60, seed: int = 3):
+    """A SIMULATED 6-channel sensor: affine in the wrench plus a mild quadratic, 8 loading groups, 4 levels."""
+    rng = np.random.default_rng(seed)
+    level = np.repeat(np.arange(n_groups) % 4 + 1.0, per)
+    W = rng.normal(size=(n_groups * per, 6)) * level[:, None] * np.array([5, 5, 5, 0.2, 0.2, 0.2])
+    A = np.eye(6) * 100 + rng.normal(scale=5, size=(6, 6))
+    c = W @ A.T / np.array([5, 5, 5, 0.2, 0.2, 0.2]) + 2000
+    c += 0.02 * (c - 2000) ** 2 / 100 + rng.normal(scale=0.5, size=c.shape)
+    np.savez(path, channels=c, target=W, group=np.repeat(np.arange(n_groups), per), level=level,
+             level_name=np.array("load_step"), target_names=np.array(["fx", "fy", "fz", "tx", "ty", "tz"]),
+             units=np.array(["N", "N", "N", "N·m", "N·m", "N·m"]), source=np.array("SIMULATED for a test"),
+             license=np.array("n/a (simulated)"))
+    return path
+
+
+def _spies(log):
+    """The section's fits, each recording the groups and levels it was trained on."""
+    def wrap(name, fit):
+        def spy(X, Y, g):
+            log.append((name, set(np.unique(g).tolist()), X.shape[0]))
+            return fit(X, Y, g)
+        return spy
+    return {name: wrap(name, fit) for name, fit in _sensors.METHODS.items()}
+
+
+def test_hold_out_never_trains_on_a_test_group_and_table_has_every_column(tmp_path):
+    ds = _sensors.load_dataset(_simulated_npz(tmp_path / "sim.npz"))
+    log = []
+    out = _sensors.evaluate(ds, methods=_spies(log))
+    assert out["scheme"] == "leave-one-group-out" and len(out["folds"]) == 8
+    tested = []
+    for k, fold in enumerate(out["folds"]):
+        assert not set(fold["train"]) & set(fold["test"])
+        tested += fold["test"]
+        for name, seen, _ in log[4 * k : 4 * k + 4]:  # each method saw exactly the fold's training groups
+            assert seen == set(fold["train"]), name
+    assert sorted(tested) == list(range(8))  # every group held out once
+    # rows: six columns, then force (N) and torque (N·m); every method's RMSE and the ratios
+    assert [r["column"] for r in out["rows"]] == ["fx", "fy", "fz", "tx", "ty", "tz", "force", "torque"]
+    for r in out["rows"]:
+        assert set(r["rmse"]) == {"auto", "ls", "quad", "poly"}
+        assert all(np.isfinite(v) and v > 0 for v in r["rmse"].values())
+        assert r["auto_over_best"] == pytest.approx(r["rmse"]["auto"] / min(r["rmse"]["ls"], r["rmse"]["quad"]))
+    # beyond range: trained on levels ≤ the median level (groups 0, 1, 4, 5 have levels 1, 2), tested above
+    b = out["beyond"]
+    assert b["train_levels"] == [1.0, 2.0] and b["test_levels"] == [3.0, 4.0]
+    assert all(seen == {0, 1, 4, 5} for _, seen, _ in log[-4:])
+    assert len(b["rows"]) == 8
+
+
+def test_quadratic_baseline_spans_the_quadratic_and_ls_is_affine():
+    rng = np.random.default_rng(1)
+    X = rng.normal(size=(300, 3))
+    Y = np.c_[X[:, 0] + 0.5 * X[:, 1] ** 2, X[:, 2]]
+    g = np.repeat(np.arange(6), 50)
+    p = _sensors.fit_quad(X, Y, g)
+    assert np.sqrt(np.mean((p(X) - Y) ** 2)) < 1e-6  # the quadratic is in its span
+    assert np.isfinite(p.alphas[0])  # the quadratic output keeps its products (an infinite ridge drops them)
+    ls = _sensors.fit_ls(X, Y)
+    assert np.allclose(ls(X)[:, 1], Y[:, 1])
+
+
+def test_run_sensors_tables_and_skip(tmp_path, capsys):
+    empty = tmp_path / "none"
+    empty.mkdir()
+    sec = _sensors.run_sensors(str(empty))
+    assert sec["status"].startswith("skipped: no data sets found in")
+    assert any("skipped" in ln for ln in _sensors.sensor_tables(sec))
+    _simulated_npz(tmp_path / "sim.npz", n_groups=4, per=40)
+    sec = _sensors.run_sensors(str(tmp_path))
+    text = "\n".join(_sensors.sensor_tables(sec))
+    assert "sim:" in text and "SIMULATED" in text and "beyond range" in text and "auto/best" in text
+
+    from pito_core.cli import main
+    assert main(["bench", "--sections", "sensors", "--datasets", str(empty)]) == 0
+    assert "no data sets found" in capsys.readouterr().out
