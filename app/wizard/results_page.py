@@ -28,39 +28,62 @@ use_app_font_in_matplotlib()  # the app's font in this module's figures (app/fon
 #: Width of the figures of merit's names, px (wrapped): the values beside them get the rest.
 NAME_WIDTH = 190
 
-__all__ = ["ResultsPage", "fit_job", "render_figures", "per_face_text"]
+__all__ = ["ResultsPage", "fit_job", "render_figures", "per_face_text", "identification_text"]
 
 #: samples per block of the streamed QR in the wizard's fit (keeps each GIL-holding LAPACK call short)
 FIT_BLOCK = 8192
 
 
 def per_face_text(figures, heldout=None, reaction=None, completed=(), measured=None) -> str:
-    """Each face's validation RMSE (N, mN·m), one line each; a face the validation pass did not load
-    directly says what stands for it: ``heldout``, the evaluation of the held-out part of the second
-    mount's loads, for its ``completed`` faces (optimistic: no fresh loads), or the reactions it
-    carried on the main mount; ``measured`` (6,) bool: the faces the calibration outputs (default all)."""
+    """Each face's validation RMSE (N, mN·m), one line each.
+
+    A face loaded on the second mount (``completed``) says so, and where its figure is worse than the
+    worst of the faces validated on the main mount, says that too (⚠, with both figures). A face without
+    fresh loads says what stands for it: ``heldout``, the evaluation of the held-out part of the second
+    mount's loads, for its ``completed`` faces (optimistic: no fresh loads), or the reactions it carried on
+    the main mount; ``measured`` (6,) bool: the faces the calibration outputs (default all)."""
     lines = []
     hf = ht = None
     if heldout is not None:
         hf, ht = heldout.rmse_force(), heldout.rmse_torque()
+    main = [i for i in range(6) if i + 1 not in completed and np.isfinite(figures.rmse_force[i])]
+    worst_main = max((figures.rmse_force[i] for i in main), default=float("nan"))
+    main_names = ", ".join(str(i + 1) for i in main)
+
+    def worse(f):
+        if not np.isfinite(worst_main) or not f > worst_main:
+            return ""
+        return f" ⚠ less accurate than faces {main_names} (worst {worst_main:.3f} N; {f / worst_main:.1f}×)"
+
     for i in range(6):
         f, t = figures.rmse_force[i], figures.rmse_torque[i]
         if measured is not None and not measured[i]:
             lines.append(f"{i + 1}: {NOT_MEASURED_TEXT}")
         elif np.isfinite(f):
-            lines.append(f"{i + 1}: {f:.3f} N, {t * 1000:.2f} mN·m")
+            where = " — second mount" if i + 1 in completed else ""
+            lines.append(f"{i + 1}: {f:.3f} N, {t * 1000:.2f} mN·m{where}{worse(f) if where else ''}")
         elif i + 1 in completed and hf is not None and np.isfinite(hf[i]):
-            worse = ""
-            if np.isfinite(figures.worst_force) and hf[i] > figures.worst_force:
-                worse = f" ⚠ less accurate than the validated faces (worst {figures.worst_force:.3f} N)"
             lines.append(f"{i + 1}: {hf[i]:.3f} N, {ht[i] * 1000:.2f} mN·m — second mount, held-out of its "
-                         f"captures (no fresh loads: optimistic){worse}")
+                         f"captures (no fresh loads: optimistic){worse(hf[i])}")
         elif i + 1 == reaction:
             lines.append(f"{i + 1}: reactions only, {figures.reaction_force:.3f} N, "
                          f"{figures.reaction_torque * 1000:.2f} mN·m — not validated under a load of its own")
         else:
             lines.append(f"{i + 1}: not loaded in the validation pass")
     return "\n".join(lines)
+
+
+def identification_text(evaluation, completed=()) -> str:
+    """The papers' identification figure (single-face loads by force, squeeze by torque) and, for single-face
+    loads, the figure by loaded face (``completed``: the faces loaded on the second mount, said so)."""
+    head = evaluation.identification_headline()
+    text = "; ".join(h["text"] for h in head) if head else "n/a"
+    by = evaluation.identification.get("by_loaded_face", {}).get("force")
+    if by is not None and any(h["kind"] == "single" for h in head):
+        parts = [f"{f + 1}: {100 * a:.1f} %" + (" (2nd mount)" if f + 1 in completed else "")
+                 for f, a in enumerate(by) if a is not None and np.isfinite(a)]
+        text += "; by loaded face — " + ", ".join(parts)
+    return text
 
 
 def fit_job(sessions, method: str, sizes: dict, validation=None, model: str = "auto", progress=None):
@@ -337,7 +360,7 @@ class ResultsPage(WizardPage):
         if self.fitting:
             self.task.cancel()
         sessions = self.model.training_sessions() if session is None else session
-        validation = self.model.validation_session() if session is None else None
+        validation = (self.model.validation_sessions() or None) if session is None else None
         self._rmse_options = rmse_options(sessions, validation)
         method = self.model.method
         self.note = ""
@@ -409,6 +432,7 @@ class ResultsPage(WizardPage):
         main = m.stages[0]
         reaction = main.connected_face if main.flange == "face" else None
         fig = getattr(self, "figures", None)
+        completed = tuple(f for st in m.stages if st.kind == "completing" for f in st.faces)
         self._worst = None
         faces = cal.output_faces
         out = f"faces {faces[0]}–{faces[-1]}" if faces == tuple(range(faces[0], faces[-1] + 1)) else \
@@ -426,7 +450,6 @@ class ResultsPage(WizardPage):
                                 f"{fig.worst_torque_ci[0] * 1000:.2f}–{fig.worst_torque_ci[1] * 1000:.2f}")
             v["reactions"].setText(f"face {reaction}: {fig.reaction_force:.2f} N, {fig.reaction_torque * 1000:.1f} mN·m"
                                    if reaction else "—")
-            completed = tuple(f for st in m.stages if st.kind == "completing" for f in st.faces)
             v["per_face"].setText(per_face_text(fig, getattr(self, "completing", None), reaction, completed,
                                                 cal.has_output))
             v["reactions"].setToolTip("The flange's face carried the reactions of the other faces' loads, never a "
@@ -436,9 +459,8 @@ class ResultsPage(WizardPage):
             v["torque"].setText("n/a (no validation pass)")
             v["per_face"].setText("n/a (no validation pass)")
             v["reactions"].setText("—")
-        head = ev.identification_headline()  # the papers' rule: single by force, squeeze by torque
         note = report.identification_note(ev, reaction)  # what holds the figure down, on the page
-        text = ("; ".join(h["text"] for h in head) if head else "n/a") + (f" — {note}" if note else "")
+        text = identification_text(ev, completed) + (f" — {note}" if note else "")
         if fig is None:  # no fresh loads: the fit's own held-out samples, said as such (they score higher)
             text = f"n/a (no validation pass); on held-out samples of the fit (optimistic): {text}"
         v["ident"].setText(text)

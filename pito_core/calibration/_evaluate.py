@@ -53,7 +53,9 @@ class Evaluation:
         (loaded face or 0 for squeeze) — subsampled to at most ``MAX_SERIES``.
     identified : dict
         ``force_norm (M, 6)`` N and ``torque_norm (M, 6)`` N·m of every face for the
-        same samples as ``comparison``, and ``true_loaded (M, 6)`` (by force, as above).
+        same samples as ``comparison``, ``true_loaded (M, 6)`` (by force, as above) and
+        ``evaluable (M, 6)``: the faces identification scores (not a ``face`` flange's face, which
+        carries reactions, nor a ``frame`` flange's, which carries nothing).
     inverse_condition_number : float
     face_inverse_condition_numbers : ndarray (6,)
     uncertainty95 : ndarray (6, 6) or None
@@ -167,7 +169,7 @@ class _Tally:
         self.single, self.cross, self.squeeze = _Acc((6, 6)), _Acc((6, 6)), _Acc((6,))
         self.rng = np.random.default_rng(seed)
         self.series = {"predicted": [], "reference": [], "kind": [], "face": [], "force_norm": [], "torque_norm": [],
-                       "true_loaded": []}
+                       "true_loaded": [], "evaluable": []}
         self.id_counts = {k: {m: [0, 0] for m in ("force", "torque", "either")} for k in ("single", "squeeze")}
         self.per_face = {m: [np.zeros(6), np.zeros(6)] for m in ("force", "torque", "either")}
         self.by_loaded = {m: [np.zeros(6), np.zeros(6)] for m in ("force", "torque", "either")}
@@ -199,7 +201,7 @@ class _Tally:
         # comparison series (subsampled)
         pick = ((one & sensed) | many) & (self.rng.random(len(one)) < self.keep_p)
         if pick.any():
-            self._keep(pick, pred, resultant, b, one, many, truth["force"])
+            self._keep(pick, pred, resultant, b, one, many, truth["force"], evaluable)
 
     def _truth(self, targets, loaded, one, mode) -> np.ndarray:
         """``(n, 6)`` bool: the faces truly loaded, by ``mode``'s norms and thresholds.
@@ -231,7 +233,7 @@ class _Tally:
             np.add.at(self.by_loaded[mode][0], face[rows], hit[rows])
             np.add.at(self.by_loaded[mode][1], face[rows], 1)
 
-    def _keep(self, pick, pred, resultant, b, one, many, true_loaded) -> None:
+    def _keep(self, pick, pred, resultant, b, one, many, true_loaded, evaluable) -> None:
         series = self.series
         single_pred = np.where(one[:, None], resultant, np.nan)
         series["predicted"].append(np.where(many[:, None], resultant, single_pred)[pick])
@@ -241,6 +243,7 @@ class _Tally:
         series["force_norm"].append(np.linalg.norm(pred[pick][..., :3], axis=-1))
         series["torque_norm"].append(np.linalg.norm(pred[pick][..., 3:], axis=-1))
         series["true_loaded"].append(true_loaded[pick])
+        series["evaluable"].append(np.broadcast_to(evaluable, (int(pick.sum()), 6)))
 
     def identification(self) -> dict:
         """:attr:`Evaluation.identification`."""
@@ -310,7 +313,7 @@ def evaluate(calibration: Calibration, sessions, *, tare: bool = True,
         n_squeeze=tally.n_squeeze,
         identification=tally.identification(),
         comparison={k: cat[k] for k in ("predicted", "reference", "kind", "face")},
-        identified={k: cat[k] for k in ("force_norm", "torque_norm", "true_loaded")},
+        identified={k: cat[k] for k in ("force_norm", "torque_norm", "true_loaded", "evaluable")},
         inverse_condition_number=calibration.inverse_condition_number,
         face_inverse_condition_numbers=calibration.face_inverse_condition_numbers(),
         simulated=bool(calibration.meta.get("simulated")) or any(bool(s.meta.get("simulated")) for s in sessions),

@@ -18,7 +18,8 @@ def identification_breakdown(evaluation, reaction: int | None = None) -> dict | 
         Its ``identified`` series (``force_norm (M, 6)`` N, ``true_loaded (M, 6)``) and
         ``comparison["kind"]`` are read.
     reaction : int, optional
-        The flange's face (1–6), left out (it carries reactions, not loads).
+        The flange's face (1–6), left out (it carries reactions, not loads) where the evaluation
+        does not say per sample which faces count (``identified["evaluable"]``).
 
     Returns
     -------
@@ -32,17 +33,21 @@ def identification_breakdown(evaluation, reaction: int | None = None) -> dict | 
     fn = np.asarray(evaluation.identified["force_norm"], dtype=float)
     true = np.asarray(evaluation.identified["true_loaded"], dtype=bool)
     kind = np.asarray(evaluation.comparison["kind"])
-    keep = np.ones(6, dtype=bool)
-    if reaction:
-        keep[reaction - 1] = False
-    rows = (kind == "single") & (true.sum(axis=1) == 1) & np.isfinite(fn[:, keep]).all(axis=1)
+    keep = np.ones(fn.shape, dtype=bool)
+    if "evaluable" in evaluation.identified:  # per sample: each session's mount says which faces count
+        keep &= np.asarray(evaluation.identified["evaluable"], dtype=bool)
+    elif reaction:
+        keep[:, reaction - 1] = False
+    fn = np.where(keep, fn, np.nan)  # faces that do not count: neither loaded nor unloaded
+    true &= keep
+    rows = (kind == "single") & (true.sum(axis=1) == 1) & (np.isfinite(fn) | ~keep).all(axis=1)
     if thr <= 0 or not rows.any():
         return None
-    fn, true = fn[rows][:, keep], true[rows][:, keep]
-    off = np.where(true, np.nan, fn)
+    fn, true, keep = fn[rows], true[rows], keep[rows]
+    off = np.where(true | ~keep, np.nan, fn)
 
     def accuracy(t):
-        return float(((fn > t) == true).all(axis=1).mean())
+        return float((((fn > t) == true) | ~keep).all(axis=1).mean())
 
     return {"threshold": thr, "n": int(rows.sum()),
             "missed": float((np.where(true, fn, np.inf) <= thr).any(axis=1).mean()),
