@@ -15,7 +15,7 @@ from wizard_sim import run_wizard_model
 from pito_core.calibration import calibrate, evaluate, validation_figures
 from pito_core.frames import CUBE_ADC_LIMIT
 from pito_core.pipeline import Pipeline
-from pito_core.sim import VirtualCube, simulate_calibration, simulate_free_grasp
+from pito_core.sim import CalibrationLiveSource, VirtualCube, simulate_calibration, simulate_free_grasp
 
 CUBE = VirtualCube()
 #: 99 % radius of a 3-D Gaussian error, in σ of its largest axis (√χ²₃(0.99) = 3.37)
@@ -190,6 +190,40 @@ def test_the_second_mount_can_be_skipped_and_the_results_say_partial(qtbot, styl
         qtbot.waitUntil(lambda: model.calibration is not None, timeout=120_000)
         text = wiz.pages["results"].values["coverage"].text()
         assert text.startswith("⚠ partial") and "net load" in text
+    finally:
+        for name in ("mount", "load"):
+            wiz.pages[name].scene.close_scene()
+
+
+@pytest.mark.needs_display
+def test_the_second_mount_has_its_own_validation_pass(qtbot, styled):
+    """Issue 45, point 2: after the second mount's loads, Next brings its validation pass (fresh loads on
+    the same mount, its tare), said on the step list and the loading page; Back returns to its loads."""
+    from app.wizard.model import WizardModel
+    from app.wizard.wizard import CalibrationWizard
+
+    model = WizardModel()
+    model.set_mount(method="unloaded_frame", flange="face", connected_face=6)
+    model.set_stage(2)  # the second mount, its tare recorded on the simulated cube (SIMULATED)
+    src = CalibrationLiveSource("frame_hole", 6, seed=3, model=CUBE)
+    t = 1.0 + np.arange(500) / 1000.0
+    model.set_tare(src.counts_at(t), src.reference_at(t), True)
+    wiz = CalibrationWizard(model)
+    qtbot.addWidget(wiz)
+    try:
+        assert model.current.kind == "completing"
+        wiz.go("load")
+        wiz.forward()
+        st = model.current
+        assert wiz.current_name == "load" and st.kind == "validation" and st.of == "completing"
+        assert (st.flange, st.connected_face, st.faces) == ("frame_hole", 6, (6,)) and model.has_tare
+        assert "2nd mount, validation" in wiz.steps.item(4).text()
+        note = wiz.pages["load"].stage_note
+        assert note.isVisibleTo(wiz) and "through the hole" in note.text() and "not used in the fit" in note.text()
+        assert np.allclose(model.stage_session(st).counts[:10], model.stages[2].tare_counts[:10])  # its mount's tare
+        assert not wiz.next.isEnabled()  # its loads first
+        wiz.backward()
+        assert wiz.current_name == "load" and model.current.kind == "completing"
     finally:
         for name in ("mount", "load"):
             wiz.pages[name].scene.close_scene()
