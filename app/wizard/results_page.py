@@ -30,6 +30,8 @@ NAME_WIDTH = 190
 
 __all__ = ["ResultsPage", "fit_job", "render_figures", "per_face_text", "identification_text"]
 
+identification_text = report.identification_text  # the page's words are the report's
+
 #: samples per block of the streamed QR in the wizard's fit (keeps each GIL-holding LAPACK call short)
 FIT_BLOCK = 8192
 
@@ -73,19 +75,6 @@ def per_face_text(figures, heldout=None, reaction=None, completed=(), measured=N
     return "\n".join(lines)
 
 
-def identification_text(evaluation, completed=()) -> str:
-    """The papers' identification figure (single-face loads by force, squeeze by torque) and, for single-face
-    loads, the figure by loaded face (``completed``: the faces loaded on the second mount, said so)."""
-    head = evaluation.identification_headline()
-    text = "; ".join(h["text"] for h in head) if head else "n/a"
-    by = evaluation.identification.get("by_loaded_face", {}).get("force")
-    if by is not None and any(h["kind"] == "single" for h in head):
-        parts = [f"{f + 1}: {100 * a:.1f} %" + (" (2nd mount)" if f + 1 in completed else "")
-                 for f, a in enumerate(by) if a is not None and np.isfinite(a)]
-        text += "; by loaded face — " + ", ".join(parts)
-    return text
-
-
 def fit_job(sessions, method: str, sizes: dict, validation=None, model: str = "auto", progress=None):
     """Fit, evaluate and draw the figures (any process): ``(calibration, headline, note, heldout, figures, completing,
     images)``.
@@ -102,15 +91,16 @@ def fit_job(sessions, method: str, sizes: dict, validation=None, model: str = "a
     completing = fit.heldout_by_session[1] if len(fit.heldout_by_session) > 1 else None
     if progress is not None:
         progress(0.9, "drawing the figures")
-    images = render_figures(fit.headline, sizes, rmse_options(sessions, validation))
+    images = render_figures(fit.headline, sizes, {**rmse_options(sessions, validation), "figures": fit.figures})
     return fit.calibration, fit.headline, fit.note, fit.heldout, fit.figures, completing, images
 
 
 def rmse_options(sessions, validation) -> dict:
-    """The RMSE figure's labels: the flange's face as "reactions", and where the figures come from."""
+    """The RMSE figure's labels: the flange's face as "reactions", and where the figures come from
+    (``validation``: a session, a list of them, or None)."""
     main = sessions if hasattr(sessions, "flange") else sessions[0]
     return {"reactions": main.connected_face if main.flange == "face" else None,
-            "kind": "validation" if validation is not None else "held-out"}
+            "kind": "validation" if validation else "held-out"}
 
 
 def render_figures(evaluation, sizes: dict, rmse: dict | None = None) -> dict:
@@ -367,6 +357,7 @@ class ResultsPage(WizardPage):
 
         def done(result):
             cal, ev, self.note, heldout, self.figures, self.completing, images = result
+            self._rmse_options["figures"] = self.figures  # the face figures the page shows, redrawn alike
             self.forget_export()  # a report exported before describes the previous fit
             self._images_for = ev
             self._show_images(images)
@@ -537,6 +528,7 @@ class ResultsPage(WizardPage):
         }
         cal, ev = m.calibration, m.evaluation
         rmse, figures = dict(getattr(self, "_rmse_options", None) or {}), getattr(self, "figures", None)
+        rmse["completed"] = tuple(f for st in m.stages if st.kind == "completing" for f in st.faces)
 
         def work(progress):  # the page's words, intervals and reactions (rmse_options, the validation figures)
             return report.export_report(folder, cal, ev, info, progress=progress, rmse=rmse, figures=figures)

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["identification_breakdown", "identification_why", "identification_note"]
+__all__ = ["identification_breakdown", "identification_why", "identification_note", "identification_text"]
 
 
 def identification_breakdown(evaluation, reaction: int | None = None) -> dict | None:
@@ -88,3 +88,17 @@ def identification_note(evaluation, reaction: int | None = None) -> str:
     else:
         why = f"light loads: the loaded face read ≤ {t:g} N in {100 * b['missed']:.0f} %"
     return f"not a labelling error, {why}; {100 * b['accuracy'][2.0]:.1f} % at a {2 * t:g} N threshold"
+
+
+def identification_text(evaluation, completed=()) -> str:
+    """The papers' identification figure (single-face loads by force, squeeze by torque) and, for single-face
+    loads, the figure by loaded face (``completed``: faces loaded on the second mount, said so) — the results
+    page's words and the report's."""
+    head = evaluation.identification_headline()
+    text = "; ".join(h["text"] for h in head) if head else "n/a"
+    by = evaluation.identification.get("by_loaded_face", {}).get("force")
+    if by is not None and any(h["kind"] == "single" for h in head):
+        parts = [f"{f + 1}: {100 * a:.1f} %" + (" (2nd mount)" if f + 1 in completed else "")
+                 for f, a in enumerate(by) if a is not None and np.isfinite(a)]
+        text += "; by loaded face — " + ", ".join(parts)
+    return text
