@@ -49,13 +49,16 @@ def per_face_text(figures, heldout=None, reaction=None, completed=(), measured=N
     if heldout is not None:
         hf, ht = heldout.rmse_force(), heldout.rmse_torque()
     main = [i for i in range(6) if i + 1 not in completed and np.isfinite(figures.rmse_force[i])]
-    worst_main = max((figures.rmse_force[i] for i in main), default=float("nan"))
+    worst_f = max((figures.rmse_force[i] for i in main), default=float("nan"))
+    worst_t = max((figures.rmse_torque[i] for i in main), default=float("nan"))
     main_names = ", ".join(str(i + 1) for i in main)
 
-    def worse(f):
-        if not np.isfinite(worst_main) or not f > worst_main:
-            return ""
-        return f" ⚠ less accurate than faces {main_names} (worst {worst_main:.3f} N; {f / worst_main:.1f}×)"
+    def worse(f, t):
+        """' ⚠ …' where the force or torque figure exceeds the worst of the main mount's faces, with both figures."""
+        said = [f"{what} {x / w:.1f}× their worst ({w * k:.3g} {unit})"
+                for what, x, w, k, unit in (("force", f, worst_f, 1.0, "N"), ("torque", t, worst_t, 1e3, "mN·m"))
+                if np.isfinite(w) and x > w]
+        return f" ⚠ less accurate than faces {main_names}: {'; '.join(said)}" if said else ""
 
     for i in range(6):
         f, t = figures.rmse_force[i], figures.rmse_torque[i]
@@ -63,10 +66,10 @@ def per_face_text(figures, heldout=None, reaction=None, completed=(), measured=N
             lines.append(f"{i + 1}: {NOT_MEASURED_TEXT}")
         elif np.isfinite(f):
             where = " — second mount" if i + 1 in completed else ""
-            lines.append(f"{i + 1}: {f:.3f} N, {t * 1000:.2f} mN·m{where}{worse(f) if where else ''}")
+            lines.append(f"{i + 1}: {f:.3f} N, {t * 1000:.2f} mN·m{where}{worse(f, t) if where else ''}")
         elif i + 1 in completed and hf is not None and np.isfinite(hf[i]):
             lines.append(f"{i + 1}: {hf[i]:.3f} N, {ht[i] * 1000:.2f} mN·m — second mount, held-out of its "
-                         f"captures (no fresh loads: optimistic){worse(hf[i])}")
+                         f"captures (no fresh loads: optimistic){worse(hf[i], ht[i])}")
         elif i + 1 == reaction:
             lines.append(f"{i + 1}: reactions only, {figures.reaction_force:.3f} N, "
                          f"{figures.reaction_torque * 1000:.2f} mN·m — not validated under a load of its own")

@@ -109,7 +109,7 @@ class CalibrationWizard(QWidget):
         """The stage a step list item runs now (a second line), or ""."""
         st = self.model.current
         if st.kind == "validation" and page == "load":
-            return "\n     2nd mount, validation" if st.of == "completing" else "\n     validation"
+            return "\n     2nd mount\n     validation" if st.of == "completing" else "\n     validation"
         if st.kind == "completing" and page in ("mount", "tare", "load"):
             return "\n     2nd mount"
         return ""

@@ -88,12 +88,17 @@ def test_every_face_has_its_figure_or_says_what_stands_for_it():
     lines = text.splitlines()
     assert len(lines) == 6 and lines[0] == "1: 0.200 N, 1.00 mN·m"
     assert lines[5].startswith("6: 0.450 N, 4.00 mN·m — second mount") and "no fresh loads" in lines[5]
-    assert "⚠ less accurate than faces 1, 2, 3, 4, 5 (worst 0.300 N; 1.5×)" in lines[5]  # said, with the figure
+    assert "⚠ less accurate than faces 1, 2, 3, 4, 5: force 1.5× their worst (0.3 N); torque 4.0× their worst (1 mN·m)" \
+        in lines[5]  # said, with the figures
     fresh = ValidationFigures(np.array([0.2, 0.3, 0.25, 0.22, 0.21, 2.1]), np.array([1e-3] * 5 + [0.02]),
                               (0.2, 3.0), (1e-3, 0.03), (1.07, 0.03), 1200, 38)  # face 6 with its own validation pass
     six = per_face_text(fresh, heldout, reaction=6, completed=(6,)).splitlines()[5]
-    assert six == "6: 2.100 N, 20.00 mN·m — second mount ⚠ less accurate than faces 1, 2, 3, 4, 5 (worst 0.300 N; 7.0×)"
-    fresh.rmse_force[5] = 0.25
-    assert per_face_text(fresh, heldout, reaction=6, completed=(6,)).splitlines()[5] == "6: 0.250 N, 20.00 mN·m — second mount"
+    assert six == ("6: 2.100 N, 20.00 mN·m — second mount ⚠ less accurate than faces 1, 2, 3, 4, 5: "
+                   "force 7.0× their worst (0.3 N); torque 20.0× their worst (1 mN·m)")
+    fresh.rmse_force[5] = 0.25  # as accurate in force, not in torque: said for the torque alone
+    assert per_face_text(fresh, heldout, reaction=6, completed=(6,)).splitlines()[5] == (
+        "6: 0.250 N, 20.00 mN·m — second mount ⚠ less accurate than faces 1, 2, 3, 4, 5: torque 20.0× their worst (1 mN·m)")
+    fresh.rmse_torque[5] = 1e-3
+    assert per_face_text(fresh, heldout, reaction=6, completed=(6,)).splitlines()[5] == "6: 0.250 N, 1.00 mN·m — second mount"
     alone = per_face_text(fig, heldout, reaction=6).splitlines()[5]  # no second mount: the reactions
     assert alone.startswith("6: reactions only, 1.070 N") and "not validated" in alone
