@@ -25,7 +25,8 @@ def identification_breakdown(evaluation, reaction: int | None = None) -> dict | 
     -------
     dict or None
         ``threshold`` N; ``n`` single-face samples; ``missed`` fraction whose loaded face reads
-        ‖F‖ ≤ threshold; ``phantom`` fraction where an unloaded face reads ‖F‖ > threshold;
+        ‖F‖ ≤ threshold; ``phantom`` fraction where an unloaded face reads ‖F‖ > threshold
+        (``phantom_by_loaded`` (6,): the same by loaded face, NaN where none was loaded);
         ``unloaded_median`` and ``unloaded_p90`` ‖F‖ of the unloaded faces, N; ``accuracy`` at
         1 and 2 × the threshold (fractions). None without single-face samples.
     """
@@ -49,11 +50,35 @@ def identification_breakdown(evaluation, reaction: int | None = None) -> dict | 
     def accuracy(t):
         return float((((fn > t) == true) | ~keep).all(axis=1).mean())
 
+    phantom = (np.nan_to_num(off, nan=-1.0) > thr).any(axis=1)
+    face = np.argmax(true, axis=1)
+    n_by = np.bincount(face, minlength=6)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        phantom_by = np.where(n_by > 0, np.bincount(face, weights=phantom, minlength=6) / np.maximum(n_by, 1), np.nan)
+
     return {"threshold": thr, "n": int(rows.sum()),
             "missed": float((np.where(true, fn, np.inf) <= thr).any(axis=1).mean()),
-            "phantom": float((np.nan_to_num(off, nan=-1.0) > thr).any(axis=1).mean()),
+            "phantom": float(phantom.mean()), "phantom_by_loaded": phantom_by,
             "unloaded_median": float(np.nanmedian(off)), "unloaded_p90": float(np.nanpercentile(off, 90)),
             "accuracy": {1.0: accuracy(thr), 2.0: accuracy(2 * thr)}}
+
+
+def _where(b: dict, short: bool = False) -> str:
+    """Under which faces' loads the crosstalk shows, where it is not alike under all: the faces whose rate
+    is at least half the highest, against the rest (``""`` otherwise)."""
+    by = b["phantom_by_loaded"]
+    ok = np.isfinite(by)
+    top = np.nanmax(by) if ok.any() else 0.0
+    worst = ok & (by >= top / 2)
+    if top <= 0 or worst.sum() == ok.sum():
+        return ""
+    names = ", ".join(str(f + 1) for f in np.flatnonzero(worst))
+    rest = float(np.nanmean(np.where(worst, np.nan, by)))
+    mean_worst = float(np.nanmean(np.where(worst, by, np.nan)))
+    if short:
+        return f" — under face {names}'s loads {100 * mean_worst:.0f} %, the others' {100 * rest:.1f} %"
+    return (f" Under face {names}'s loads an unloaded face read above the threshold in {100 * mean_worst:.1f} % of "
+            f"the samples, under the other faces' in {100 * rest:.1f} %.")
 
 
 def identification_why(evaluation, reaction: int | None = None) -> str:
@@ -67,8 +92,8 @@ def identification_why(evaluation, reaction: int | None = None) -> str:
             f"threshold in {100 * b['missed']:.1f} %; an unloaded face read above it in {100 * b['phantom']:.1f} % "
             f"(unloaded faces: median {b['unloaded_median']:.2f} N, 90th percentile {b['unloaded_p90']:.2f} N — the "
             f"calibration's crosstalk). With a {2 * t:g} N threshold, {100 * b['accuracy'][2.0]:.1f} % would be "
-            f"identified. Fresh loads show this crosstalk; held-out samples of the fitted captures share the fit's "
-            f"errors and score higher. More samples per face (k) lower it.")
+            f"identified.{_where(b)} Fresh loads show this crosstalk; held-out samples of the fitted captures share "
+            f"the fit's errors and score higher.")
 
 
 def identification_note(evaluation, reaction: int | None = None) -> str:
@@ -83,11 +108,11 @@ def identification_note(evaluation, reaction: int | None = None) -> str:
         return ""
     t = b["threshold"]
     if b["phantom"] >= b["missed"]:
-        why = (f"crosstalk: an unloaded face read > {t:g} N in {100 * b['phantom']:.0f} % (unloaded faces: median "
-               f"{b['unloaded_median']:.2f} N, 90th percentile {b['unloaded_p90']:.2f} N)")
+        why = (f"crosstalk: an unloaded face read > {t:g} N in {100 * b['phantom']:.0f} %{_where(b, short=True)} "
+               f"(unloaded faces: median {b['unloaded_median']:.2f} N, 90th percentile {b['unloaded_p90']:.2f} N)")
     else:
         why = f"light loads: the loaded face read ≤ {t:g} N in {100 * b['missed']:.0f} %"
-    return f"not a labelling error, {why}; {100 * b['accuracy'][2.0]:.1f} % at a {2 * t:g} N threshold"
+    return f"{why}; {100 * b['accuracy'][2.0]:.1f} % at a {2 * t:g} N threshold"
 
 
 def identification_text(evaluation, completed=()) -> str:

@@ -46,9 +46,9 @@ def test_each_figure_is_shown_at_the_size_it_was_drawn(page, qtbot):
         h, w = label.image.shape[:2]
         assert w >= 500 and h >= 300, f"tab {k}: drawn at {w}×{h} px, too small for 9 pt text"
     assert "crosstalk" in page.values["ident"].toolTip()  # why the identification figure is what it is
-    # issue 45: a low figure (the simulator's crosstalk, not a labelling error) says why on the page itself
+    # issue 45: a low figure (the simulator's crosstalk) says why on the page itself
     text = page.values["ident"].text()
-    assert "identified by force" in text and "not a labelling error" in text and "crosstalk" in text
+    assert "identified by force" in text and "crosstalk" in text
     # identification on fresh loads only: this fit has no validation pass, and the row says so
     assert text.startswith("n/a (no validation pass); on held-out samples of the fit (optimistic): ")
     # a resize draws them again at the new size (debounced), never leaves them shrunk

@@ -58,3 +58,22 @@ def test_the_note_names_what_holds_the_figure_down():
     quiet = _evaluation(crosstalk=0.01)
     quiet.identified["force_norm"][quiet.identified["true_loaded"]] = 5.0
     assert identification_note(quiet) == ""  # nothing to explain
+
+
+def test_the_note_names_the_loaded_face_under_which_crosstalk_shows():
+    """Issue 45: the crosstalk that holds the pooled figure down shows under one face's loads (the
+    second mount's, on the simulator): the note and the paragraph name it, with both rates."""
+    ev = _evaluation(crosstalk=0.05)
+    fn, true = ev.identified["force_norm"], ev.identified["true_loaded"]
+    six = true[:, 5]
+    fn[six, 0] = 0.9  # under face 6's loads face 1 reads 0.9 N
+    b = identification_breakdown(ev)
+    single = ev.comparison["kind"] == "single"
+    assert np.isclose(b["phantom_by_loaded"][5], 1.0) and np.nanmax(b["phantom_by_loaded"][:5]) < 0.01
+    assert np.isclose(b["phantom"], (six & single).sum() / single.sum())
+    note = identification_note(ev)
+    assert "under face 6's loads 100 %" in note and note.startswith("crosstalk")
+    assert "Under face 6's loads an unloaded face read above the threshold in 100.0 %" in identification_why(ev)
+    ev.identified["evaluable"] = np.ones((len(six), 6), bool)  # per sample: which faces count (the mounts)
+    ev.identified["evaluable"][:, 0] = False  # face 1 does not count: no crosstalk left
+    assert identification_breakdown(ev)["phantom"] < 0.01 and identification_note(ev) == ""
