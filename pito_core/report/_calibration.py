@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import json
+import warnings
 from pathlib import Path
 
 from typing import TYPE_CHECKING
@@ -167,21 +168,29 @@ def _interval_marks(evaluation, unit: str) -> np.ndarray:
 
 
 def identification_figure(evaluation, fig: Figure | None = None, dark: bool = True) -> Figure:
-    """Face identification: mean ‖F‖ on every face (rows) when one face is loaded (columns)."""
+    """Face identification: mean ‖F‖ on every scored face (rows) when one face is loaded (columns; under
+    each, the share of its loads identified). A face that is not scored under a load (a face flange's
+    face carrying the reactions) is left blank."""
     fig = fig or _figure(figsize=(3.6, 3.0), dpi=100)
     fig.clear()
     ax = fig.subplots()
     fn = np.asarray(evaluation.identified.get("force_norm", np.zeros((0, 6))), dtype=float)
+    if "evaluable" in evaluation.identified:
+        fn = np.where(np.asarray(evaluation.identified["evaluable"], dtype=bool), fn, np.nan)
     face = np.asarray(evaluation.comparison.get("face", np.zeros(0)), dtype=int)
     M = np.full((6, 6), np.nan)
-    for j in range(1, 7):
-        rows = face == j
-        if rows.any():
-            M[:, j - 1] = np.nanmean(fn[rows], axis=0)
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # a face never scored under a load: NaN, blank
+        for j in range(1, 7):
+            rows = face == j
+            if rows.any():
+                M[:, j - 1] = np.nanmean(fn[rows], axis=0)
     im = ax.imshow(M, cmap="magma", origin="upper", vmin=0)
-    ax.set_xticks(range(6), [str(i) for i in range(1, 7)])
+    by = (evaluation.identification.get("by_loaded_face") or {}).get("force") or [None] * 6
+    ax.set_xticks(range(6), [f"{i}\n{100 * a:.0f} %" if a is not None and np.isfinite(a) else str(i)
+                             for i, a in zip(range(1, 7), by)])
     ax.set_yticks(range(6), [str(i) for i in range(1, 7)])
-    ax.set_xlabel("loaded face", fontsize=SMALL)
+    ax.set_xlabel("loaded face (identified)", fontsize=SMALL)
     ax.set_ylabel("face reading a force", fontsize=SMALL)
     for i in range(6):
         for j in range(6):

@@ -77,3 +77,26 @@ def test_the_note_names_the_loaded_face_under_which_crosstalk_shows():
     ev.identified["evaluable"] = np.ones((len(six), 6), bool)  # per sample: which faces count (the mounts)
     ev.identified["evaluable"][:, 0] = False  # face 1 does not count: no crosstalk left
     assert identification_breakdown(ev)["phantom"] < 0.01 and identification_note(ev) == ""
+
+
+def test_the_identification_figure_leaves_the_reactions_blank_and_says_each_loaded_face():
+    """Issue 45: the face carrying the flange's reactions is not drawn as crosstalk; under each loaded face
+    the share of its loads identified."""
+    from matplotlib.figure import Figure
+
+    from pito_core.report import identification_figure
+
+    ev = _evaluation()
+    n = len(ev.comparison["kind"])
+    true = ev.identified["true_loaded"]
+    ev.comparison["face"] = np.argmax(true, axis=1) + 1
+    ev.identified["force_norm"][:, 5] = np.where(true[:, 5], 8.0, 9.0)  # face 6: reactions under the others' loads
+    ev.identified["evaluable"] = np.ones((n, 6), bool)
+    ev.identified["evaluable"][~true[:, 5], 5] = False  # scored only under its own loads (the second mount)
+    ev.identification.update({"single": {"force": 0.9}, "by_loaded_face": {"force": [1.0] * 5 + [0.345]}})
+    fig = identification_figure(ev, Figure(), dark=False)
+    M = fig.axes[0].images[0].get_array()
+    assert np.ma.getmaskarray(M)[5, :5].all() or np.isnan(np.ma.filled(M, np.nan)[5, :5]).all()
+    assert np.isclose(M[5, 5], 8.0) and M[:5, :5].max() > 1.0
+    labels = [t.get_text() for t in fig.axes[0].get_xticklabels()]
+    assert labels[0] == "1\n100 %" and labels[5] == "6\n34 %"
