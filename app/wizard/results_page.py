@@ -385,8 +385,10 @@ class ResultsPage(WizardPage):
         m = self.model
         cal, ev = m.calibration, m.evaluation
         self.redo_face.clear()
-        for f in m.stages[0].faces:
-            self.redo_face.addItem(f"face {f}", f)
+        for st in m.stages:  # the fitted mounts' faces: the main mount's, then the second mount's
+            if st.kind != "validation":
+                for f in st.faces:
+                    self.redo_face.addItem(f"face {f}" + (" (2nd mount)" if st.kind == "completing" else ""), f)
         has = cal is not None and ev is not None
         for b in (self.accept_btn, self.save_btn, self.export_btn):
             b.setEnabled(has)
@@ -485,8 +487,9 @@ class ResultsPage(WizardPage):
             self.redo(int(face))
 
     def redo(self, face: int) -> None:
-        """Drop the face's captures and go back to loading it."""
-        self.model.set_stage(0)  # the method's mount: the faces the fit rests on
+        """Drop the face's captures and go back to loading it (on the mount that loads it: the main one, or the second)."""
+        m = self.model
+        m.set_stage(next((i for i, st in enumerate(m.stages) if st.kind != "validation" and face in st.faces), 0))
         self.model.clear_face(face)
         self.model.set_current_face(face)
         if self.redo_requested is not None:

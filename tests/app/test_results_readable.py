@@ -102,3 +102,23 @@ def test_every_face_has_its_figure_or_says_what_stands_for_it():
     assert per_face_text(fresh, heldout, reaction=6, completed=(6,)).splitlines()[5] == "6: 0.250 N, 1.00 mN·m — second mount"
     alone = per_face_text(fig, heldout, reaction=6).splitlines()[5]  # no second mount: the reactions
     assert alone.startswith("6: reactions only, 1.070 N") and "not validated" in alone
+
+
+def test_the_second_mounts_face_can_be_redone_on_its_mount(qtbot, styled):
+    """Issue 45, point 2: the face flagged on the second mount can be redone there (it was not offered)."""
+    from app.wizard.model import WizardModel
+    from app.wizard.results_page import ResultsPage
+
+    model = WizardModel()
+    model.set_mount(method="unloaded_frame", flange="face", connected_face=6)
+    page = ResultsPage(model)
+    qtbot.addWidget(page)
+    page.refresh()
+    items = [page.redo_face.itemText(i) for i in range(page.redo_face.count())]
+    assert items == [f"face {f}" for f in range(1, 6)] + ["face 6 (2nd mount)"]
+    asked = []
+    page.redo_requested = asked.append
+    page.redo(6)
+    assert model.current.kind == "completing" and model.current_face == 6 and asked == [6]
+    page.redo(2)
+    assert model.stage == 0 and model.current_face == 2
