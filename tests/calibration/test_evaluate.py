@@ -84,6 +84,8 @@ def test_cli_calibrate_and_evaluate(tmp_path, capsys):
     assert main(["evaluate", str(cal), str(test)]) == 0
     out = capsys.readouterr().out
     assert "RMSE, squeeze resultant" in out and "face 5" in out
+    # the wizard's words: the figure by loaded face (issue 45; report.identification_text)
+    assert "single-face loads by loaded face: 1: " in out and "5: " in out.split("by loaded face")[1]
     assert main(["evaluate", str(cal), str(test), "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
     assert d["method"] == "unloaded_frame" and d["n_squeeze"] == 300 and len(d["rmse_single"]) == 6
