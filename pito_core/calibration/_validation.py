@@ -188,6 +188,6 @@ def confirm_model(calibration: Calibration, session: CalibrationSession, *, seed
             linear = calibrate(sessions, calibration.method, **{**(fit_options or {}), "model": "linear"})
     linear.model = dataclasses.replace(
         linear.model, requested=calibration.model.requested,
-        reason="the papers' linear fit: the polynomial correction chosen by cross-validation lost on the "
+        reason="the polynomial correction chosen by cross-validation lost on the "
                f"validation pass ({'; '.join(lost)})")
     return linear, lin_figures
