@@ -194,8 +194,8 @@ class ResultsPage(WizardPage):
     """
     title = "6 · Results"
     help = (f"The calibration was fitted on {100 * (1 - HOLDOUT):.0f} % of the kept samples (as pito calibrate fits); "
-            "its figures come from the validation pass of "
-            "fresh loads (the held-out rest is a secondary line). "
+            "its figures come from the validation passes of "
+            "fresh loads, on each mount (the held-out rest is a secondary line). "
             "Accept it, or redo a face whose error is too high; then save the calibration and export the report.")
 
     def __init__(self, model, parent=None):
@@ -282,6 +282,7 @@ class ResultsPage(WizardPage):
         self.accept_btn = QPushButton("Accept calibration")
         self.accept_btn.setObjectName("primary")
         self.redo_face = QComboBox()
+        self.redo_face.setSizeAdjustPolicy(QComboBox.SizeAdjustPolicy.AdjustToContents)  # "face 6 (2nd mount)" whole
         self.redo_btn = QPushButton("Redo face")
         self.save_btn = QPushButton("Save calibration…")
         self.export_btn = QPushButton("Export report…")

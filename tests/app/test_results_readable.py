@@ -104,18 +104,29 @@ def test_every_face_has_its_figure_or_says_what_stands_for_it():
     assert alone.startswith("6: reactions only, 1.070 N") and "not validated" in alone
 
 
+@pytest.mark.needs_display
 def test_the_second_mounts_face_can_be_redone_on_its_mount(qtbot, styled):
     """Issue 45, point 2: the face flagged on the second mount can be redone there (it was not offered)."""
     from app.wizard.model import WizardModel
     from app.wizard.results_page import ResultsPage
 
     model = WizardModel()
-    model.set_mount(method="unloaded_frame", flange="face", connected_face=6)
+    model.set_mount(method="loaded_frame", flange="frame_hole", connected_face=6)
     page = ResultsPage(model)
     qtbot.addWidget(page)
+    page.resize(1200, 800)
+    page.show()  # shown first with other items (another method): the combo must still fit the new ones
+    qtbot.waitExposed(page)
+    page.refresh()
+    qtbot.wait(100)  # laid out with those items
+    model.set_mount(method="unloaded_frame", flange="face", connected_face=6)
     page.refresh()
     items = [page.redo_face.itemText(i) for i in range(page.redo_face.count())]
     assert items == [f"face {f}" for f in range(1, 6)] + ["face 6 (2nd mount)"]
+    page.redo_face.setCurrentIndex(5)
+    qtbot.wait(50)
+    need = page.redo_face.fontMetrics().horizontalAdvance("face 6 (2nd mount)")
+    assert page.redo_face.width() >= need + 20, "the combo cuts its item"  # + the arrow
     asked = []
     page.redo_requested = asked.append
     page.redo(6)
