@@ -54,9 +54,9 @@ def _prepare_load(window) -> None:
 
 
 def _prepare_results(window) -> None:
-
+    """The results of the recommended method with its second mount and both validation passes (k = 600)."""
     window.tabs.setCurrentWidget(window.wizard)
-    run_to_page(window, "results", k=600)
+    run_to_page(window, "results", method="unloaded_frame", flange="face", connected_face=6, k=600, timeout=200)
 
 
 PREPARE = {"first": _prepare_first, "live": _prepare_live, "mount": _prepare_mount, "load": _prepare_load, "results": _prepare_results}

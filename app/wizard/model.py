@@ -13,7 +13,7 @@ from pito_core.frames import FACES, CubeCore, invert_pose
 from pito_core.devices import CaptureRules, FaceCaptures
 
 __all__ = ["WizardModel", "Stage", "faces_to_load", "validation_rules", "RECOMMENDED_METHOD", "RECOMMENDED_WHY",
-           "VALIDATION_WHY"]
+           "VALIDATION_WHY", "completing_validation_why"]
 
 #: The wizard's default: the method the PITO paper recommends (III-B).
 RECOMMENDED_METHOD = "unloaded_frame"
@@ -28,6 +28,13 @@ VALIDATION_WHY = ("Validation: load each face again with fresh loads. They are n
                   "headline these figures, which is what a new session will show.")
 
 
+def completing_validation_why(faces) -> str:
+    """One line for the operator: the second mount's validation pass (fresh loads on ``faces``)."""
+    names = ", ".join(map(str, faces))
+    return (f"Validation of the second mount: load face {names} again through the hole with fresh loads. They are not "
+            f"used in the fit: face {names}'s figures on the results page come from them.")
+
+
 def validation_rules(rules: CaptureRules) -> CaptureRules:
     """The capture rules of the validation pass: a quarter of the samples, fewer distinct loads."""
     return replace(rules, k=max(100, rules.k // 4), min_captures=max(6, rules.min_captures // 2))
@@ -37,8 +44,9 @@ def validation_rules(rules: CaptureRules) -> CaptureRules:
 class Stage:
     """One pass of the wizard on one mount: its tare and its captures per face.
 
-    ``kind``: ``main`` (the method's mount), ``validation`` (fresh loads on the main mount,
-    not fitted) or ``completing`` (the extra mount that measures the rest; ``why`` says why).
+    ``kind``: ``main`` (the method's mount), ``completing`` (the extra mount that measures the
+    rest; ``why`` says why) or ``validation`` (fresh loads, not fitted, on the mount of the stage
+    of kind ``of``: ``main`` or ``completing``; it uses that stage's tare).
     """
 
     kind: str
@@ -49,6 +57,7 @@ class Stage:
     why: str = ""
     T_core_ati: np.ndarray = field(default_factory=lambda: np.eye(4))
     captures: dict = field(default_factory=dict)
+    of: str = ""
     tare_counts: np.ndarray = field(default_factory=lambda: np.zeros((0, 36)))
     tare_reference: np.ndarray = field(default_factory=lambda: np.zeros((0, 6)))
     tare_still: bool = False
@@ -161,10 +170,9 @@ class WizardModel(QObject):
     @T_core_ati.setter
     def T_core_ati(self, value) -> None:
         self.current.T_core_ati = np.asarray(value, dtype=float)
-        if self.current.kind == "main":  # the validation pass runs on the same mount
-            for st in self.stages:
-                if st.kind == "validation":
-                    st.T_core_ati = self.current.T_core_ati
+        for st in self.stages:  # a validation pass runs on the mount it validates
+            if st.kind == "validation" and st.of == self.current.kind:
+                st.T_core_ati = self.current.T_core_ati
 
     def _reset_captures(self) -> None:
         flange, c = self.main_flange, self.main_connected_face
@@ -172,11 +180,14 @@ class WizardModel(QObject):
         old_T = self.stages[0].T_core_ati if self.stages else np.eye(4)
         self.stages = [Stage("main", flange, c, faces, self.base_rules, T_core_ati=old_T),
                        Stage("validation", flange, c, faces, validation_rules(self.base_rules), VALIDATION_WHY,
-                             T_core_ati=old_T)]
+                             T_core_ati=old_T, of="main")]
         extra = self.completing
-        if extra is not None:
+        if extra is not None:  # the second mount, and fresh loads on it: every face gets a validation figure
             self.stages.append(Stage("completing", extra.flange, extra.connected_face, extra.faces, self.base_rules,
                                      extra.why))
+            self.stages.append(Stage("validation", extra.flange, extra.connected_face, extra.faces,
+                                     validation_rules(self.base_rules), completing_validation_why(extra.faces),
+                                     of="completing"))
         self.stage = 0
         self.current_face = self.faces[0]
         self.calibration = None
@@ -195,7 +206,7 @@ class WizardModel(QObject):
 
     def skip_completing(self) -> None:
         """Leave the second mount out: the calibration will not measure what it would have (and says so)."""
-        self.stages = [st for st in self.stages if st.kind != "completing"]
+        self.stages = [st for st in self.stages if "completing" not in (st.kind, st.of)]
         self.set_stage(len(self.stages) - 1)
 
     def set_current_face(self, face: int) -> None:
@@ -229,8 +240,8 @@ class WizardModel(QObject):
         self.tare_changed.emit()
 
     def _tare_stage(self, stage: Stage) -> Stage:
-        """The stage whose tare ``stage`` uses (the validation pass: the main mount's)."""
-        return self.stages[0] if stage.kind == "validation" else stage
+        """The stage whose tare ``stage`` uses (a validation pass: that of the mount it validates)."""
+        return next(st for st in self.stages if st.kind == stage.of) if stage.kind == "validation" else stage
 
     @property
     def has_tare(self) -> bool:
@@ -275,11 +286,16 @@ class WizardModel(QObject):
         return [self.stage_session(st) for st in self.stages if st.kind != "validation"]
 
     def validation_session(self) -> CalibrationSession | None:
-        """The validation pass (fresh loads on the main mount, not fitted), or None if it has no capture."""
-        st = next((s for s in self.stages if s.kind == "validation"), None)
+        """The main mount's validation pass (fresh loads, not fitted), or None if it has no capture."""
+        st = next((s for s in self.stages if s.kind == "validation" and s.of == "main"), None)
         if st is None or not any(fc.captures for fc in st.captures.values()):
             return None
         return self.stage_session(st)
+
+    def validation_sessions(self) -> list:
+        """Every validation pass with captures (the main mount's, then the second mount's): fresh loads, not fitted."""
+        return [self.stage_session(st) for st in self.stages
+                if st.kind == "validation" and any(fc.captures for fc in st.captures.values())]
 
     def set_result(self, calibration, evaluation, heldout=None) -> None:
         """A new fit (or none): not accepted, and not saved — a file saved before holds another calibration."""

@@ -28,33 +28,48 @@ use_app_font_in_matplotlib()  # the app's font in this module's figures (app/fon
 #: Width of the figures of merit's names, px (wrapped): the values beside them get the rest.
 NAME_WIDTH = 190
 
-__all__ = ["ResultsPage", "fit_job", "render_figures", "per_face_text"]
+__all__ = ["ResultsPage", "fit_job", "render_figures", "per_face_text", "identification_text"]
+
+identification_text = report.identification_text  # the page's words are the report's
 
 #: samples per block of the streamed QR in the wizard's fit (keeps each GIL-holding LAPACK call short)
 FIT_BLOCK = 8192
 
 
 def per_face_text(figures, heldout=None, reaction=None, completed=(), measured=None) -> str:
-    """Each face's validation RMSE (N, mN·m), one line each; a face the validation pass did not load
-    directly says what stands for it: ``heldout``, the evaluation of the held-out part of the second
-    mount's loads, for its ``completed`` faces (optimistic: no fresh loads), or the reactions it
-    carried on the main mount; ``measured`` (6,) bool: the faces the calibration outputs (default all)."""
+    """Each face's validation RMSE (N, mN·m), one line each.
+
+    A face loaded on the second mount (``completed``) says so, and where its figure is worse than the
+    worst of the faces validated on the main mount, says that too (⚠, with both figures). A face without
+    fresh loads says what stands for it: ``heldout``, the evaluation of the held-out part of the second
+    mount's loads, for its ``completed`` faces (optimistic: no fresh loads), or the reactions it carried on
+    the main mount; ``measured`` (6,) bool: the faces the calibration outputs (default all)."""
     lines = []
     hf = ht = None
     if heldout is not None:
         hf, ht = heldout.rmse_force(), heldout.rmse_torque()
+    main = [i for i in range(6) if i + 1 not in completed and np.isfinite(figures.rmse_force[i])]
+    worst_f = max((figures.rmse_force[i] for i in main), default=float("nan"))
+    worst_t = max((figures.rmse_torque[i] for i in main), default=float("nan"))
+    main_names = ", ".join(str(i + 1) for i in main)
+
+    def worse(f, t):
+        """' ⚠ …' where the force or torque figure exceeds the worst of the main mount's faces, with both figures."""
+        said = [f"{what} {x / w:.1f}× their worst ({w * k:.3g} {unit})"
+                for what, x, w, k, unit in (("force", f, worst_f, 1.0, "N"), ("torque", t, worst_t, 1e3, "mN·m"))
+                if np.isfinite(w) and x > w]
+        return f" ⚠ less accurate than faces {main_names}: {'; '.join(said)}" if said else ""
+
     for i in range(6):
         f, t = figures.rmse_force[i], figures.rmse_torque[i]
         if measured is not None and not measured[i]:
             lines.append(f"{i + 1}: {NOT_MEASURED_TEXT}")
         elif np.isfinite(f):
-            lines.append(f"{i + 1}: {f:.3f} N, {t * 1000:.2f} mN·m")
+            where = " — second mount" if i + 1 in completed else ""
+            lines.append(f"{i + 1}: {f:.3f} N, {t * 1000:.2f} mN·m{where}{worse(f, t) if where else ''}")
         elif i + 1 in completed and hf is not None and np.isfinite(hf[i]):
-            worse = ""
-            if np.isfinite(figures.worst_force) and hf[i] > figures.worst_force:
-                worse = f" ⚠ less accurate than the validated faces (worst {figures.worst_force:.3f} N)"
             lines.append(f"{i + 1}: {hf[i]:.3f} N, {ht[i] * 1000:.2f} mN·m — second mount, held-out of its "
-                         f"captures (no fresh loads: optimistic){worse}")
+                         f"captures (no fresh loads: optimistic){worse(hf[i], ht[i])}")
         elif i + 1 == reaction:
             lines.append(f"{i + 1}: reactions only, {figures.reaction_force:.3f} N, "
                          f"{figures.reaction_torque * 1000:.2f} mN·m — not validated under a load of its own")
@@ -79,15 +94,16 @@ def fit_job(sessions, method: str, sizes: dict, validation=None, model: str = "a
     completing = fit.heldout_by_session[1] if len(fit.heldout_by_session) > 1 else None
     if progress is not None:
         progress(0.9, "drawing the figures")
-    images = render_figures(fit.headline, sizes, rmse_options(sessions, validation))
+    images = render_figures(fit.headline, sizes, {**rmse_options(sessions, validation), "figures": fit.figures})
     return fit.calibration, fit.headline, fit.note, fit.heldout, fit.figures, completing, images
 
 
 def rmse_options(sessions, validation) -> dict:
-    """The RMSE figure's labels: the flange's face as "reactions", and where the figures come from."""
+    """The RMSE figure's labels: the flange's face as "reactions", and where the figures come from
+    (``validation``: a session, a list of them, or None)."""
     main = sessions if hasattr(sessions, "flange") else sessions[0]
     return {"reactions": main.connected_face if main.flange == "face" else None,
-            "kind": "validation" if validation is not None else "held-out"}
+            "kind": "validation" if validation else "held-out"}
 
 
 def render_figures(evaluation, sizes: dict, rmse: dict | None = None) -> dict:
@@ -178,8 +194,8 @@ class ResultsPage(WizardPage):
     """
     title = "6 · Results"
     help = (f"The calibration was fitted on {100 * (1 - HOLDOUT):.0f} % of the kept samples (as pito calibrate fits); "
-            "its figures come from the validation pass of "
-            "fresh loads (the held-out rest is a secondary line). "
+            "its figures come from the validation passes of "
+            "fresh loads, on each mount (the held-out rest is a secondary line). "
             "Accept it, or redo a face whose error is too high; then save the calibration and export the report.")
 
     def __init__(self, model, parent=None):
@@ -266,6 +282,7 @@ class ResultsPage(WizardPage):
         self.accept_btn = QPushButton("Accept calibration")
         self.accept_btn.setObjectName("primary")
         self.redo_face = QComboBox()
+        self.redo_face.setSizeAdjustPolicy(QComboBox.SizeAdjustPolicy.AdjustToContents)  # "face 6 (2nd mount)" whole
         self.redo_btn = QPushButton("Redo face")
         self.save_btn = QPushButton("Save calibration…")
         self.export_btn = QPushButton("Export report…")
@@ -337,13 +354,14 @@ class ResultsPage(WizardPage):
         if self.fitting:
             self.task.cancel()
         sessions = self.model.training_sessions() if session is None else session
-        validation = self.model.validation_session() if session is None else None
+        validation = (self.model.validation_sessions() or None) if session is None else None
         self._rmse_options = rmse_options(sessions, validation)
         method = self.model.method
         self.note = ""
 
         def done(result):
             cal, ev, self.note, heldout, self.figures, self.completing, images = result
+            self._rmse_options["figures"] = self.figures  # the face figures the page shows, redrawn alike
             self.forget_export()  # a report exported before describes the previous fit
             self._images_for = ev
             self._show_images(images)
@@ -368,8 +386,10 @@ class ResultsPage(WizardPage):
         m = self.model
         cal, ev = m.calibration, m.evaluation
         self.redo_face.clear()
-        for f in m.stages[0].faces:
-            self.redo_face.addItem(f"face {f}", f)
+        for st in m.stages:  # the fitted mounts' faces: the main mount's, then the second mount's
+            if st.kind != "validation":
+                for f in st.faces:
+                    self.redo_face.addItem(f"face {f}" + (" (2nd mount)" if st.kind == "completing" else ""), f)
         has = cal is not None and ev is not None
         for b in (self.accept_btn, self.save_btn, self.export_btn):
             b.setEnabled(has)
@@ -409,6 +429,7 @@ class ResultsPage(WizardPage):
         main = m.stages[0]
         reaction = main.connected_face if main.flange == "face" else None
         fig = getattr(self, "figures", None)
+        completed = tuple(f for st in m.stages if st.kind == "completing" for f in st.faces)
         self._worst = None
         faces = cal.output_faces
         out = f"faces {faces[0]}–{faces[-1]}" if faces == tuple(range(faces[0], faces[-1] + 1)) else \
@@ -426,7 +447,6 @@ class ResultsPage(WizardPage):
                                 f"{fig.worst_torque_ci[0] * 1000:.2f}–{fig.worst_torque_ci[1] * 1000:.2f}")
             v["reactions"].setText(f"face {reaction}: {fig.reaction_force:.2f} N, {fig.reaction_torque * 1000:.1f} mN·m"
                                    if reaction else "—")
-            completed = tuple(f for st in m.stages if st.kind == "completing" for f in st.faces)
             v["per_face"].setText(per_face_text(fig, getattr(self, "completing", None), reaction, completed,
                                                 cal.has_output))
             v["reactions"].setToolTip("The flange's face carried the reactions of the other faces' loads, never a "
@@ -436,9 +456,8 @@ class ResultsPage(WizardPage):
             v["torque"].setText("n/a (no validation pass)")
             v["per_face"].setText("n/a (no validation pass)")
             v["reactions"].setText("—")
-        head = ev.identification_headline()  # the papers' rule: single by force, squeeze by torque
         note = report.identification_note(ev, reaction)  # what holds the figure down, on the page
-        text = ("; ".join(h["text"] for h in head) if head else "n/a") + (f" — {note}" if note else "")
+        text = identification_text(ev, completed) + (f" — {note}" if note else "")
         if fig is None:  # no fresh loads: the fit's own held-out samples, said as such (they score higher)
             text = f"n/a (no validation pass); on held-out samples of the fit (optimistic): {text}"
         v["ident"].setText(text)
@@ -469,8 +488,9 @@ class ResultsPage(WizardPage):
             self.redo(int(face))
 
     def redo(self, face: int) -> None:
-        """Drop the face's captures and go back to loading it."""
-        self.model.set_stage(0)  # the method's mount: the faces the fit rests on
+        """Drop the face's captures and go back to loading it (on the mount that loads it: the main one, or the second)."""
+        m = self.model
+        m.set_stage(next((i for i, st in enumerate(m.stages) if st.kind != "validation" and face in st.faces), 0))
         self.model.clear_face(face)
         self.model.set_current_face(face)
         if self.redo_requested is not None:
@@ -515,6 +535,7 @@ class ResultsPage(WizardPage):
         }
         cal, ev = m.calibration, m.evaluation
         rmse, figures = dict(getattr(self, "_rmse_options", None) or {}), getattr(self, "figures", None)
+        rmse["completed"] = tuple(f for st in m.stages if st.kind == "completing" for f in st.faces)
 
         def work(progress):  # the page's words, intervals and reactions (rmse_options, the validation figures)
             return report.export_report(folder, cal, ev, info, progress=progress, rmse=rmse, figures=figures)

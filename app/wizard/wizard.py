@@ -107,10 +107,10 @@ class CalibrationWizard(QWidget):
 
     def _stage_text(self, page: str) -> str:
         """The stage a step list item runs now (a second line), or ""."""
-        kind = self.model.current.kind
-        if kind == "validation" and page == "load":
-            return "\n     validation"
-        if kind == "completing" and page in ("mount", "tare", "load"):
+        st = self.model.current
+        if st.kind == "validation" and page == "load":
+            return "\n     2nd mount\n     validation" if st.of == "completing" else "\n     validation"
+        if st.kind == "completing" and page in ("mount", "tare", "load"):
             return "\n     2nd mount"
         return ""
 

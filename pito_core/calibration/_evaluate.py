@@ -42,14 +42,20 @@ class Evaluation:
     identification : dict
         Face identification accuracy: ``single`` and ``squeeze``, by ``force``,
         ``torque`` and ``either`` (fractions of samples whose identified set of loaded
-        faces equals the true one), the thresholds, and per-face accuracies.
+        faces equals the true one: for single-face loads the labelled face if the
+        reference's load on it exceeds the threshold, so a load passing near zero is
+        not counted as a miss), the thresholds, per-face accuracies (``per_face``) and,
+        over single-face loads, the accuracy by loaded face (``by_loaded_face``, six
+        fractions per mode, NaN where that face was not loaded; ``by_loaded_face_n``).
     comparison : dict
         Per-axis series for plots: ``predicted (M, 6)`` and ``reference (M, 6)`` in the
         reference frame (N, N·m), ``kind (M,)`` ("single"/"squeeze"), ``face (M,)``
         (loaded face or 0 for squeeze) — subsampled to at most ``MAX_SERIES``.
     identified : dict
         ``force_norm (M, 6)`` N and ``torque_norm (M, 6)`` N·m of every face for the
-        same samples as ``comparison``, and ``true_loaded (M, 6)``.
+        same samples as ``comparison``, ``true_loaded (M, 6)`` (by force, as above) and
+        ``evaluable (M, 6)``: the faces identification scores (not a ``face`` flange's face, which
+        carries reactions, nor a ``frame`` flange's, which carries nothing).
     inverse_condition_number : float
     face_inverse_condition_numbers : ndarray (6,)
     uncertainty95 : ndarray (6, 6) or None
@@ -163,9 +169,10 @@ class _Tally:
         self.single, self.cross, self.squeeze = _Acc((6, 6)), _Acc((6, 6)), _Acc((6,))
         self.rng = np.random.default_rng(seed)
         self.series = {"predicted": [], "reference": [], "kind": [], "face": [], "force_norm": [], "torque_norm": [],
-                       "true_loaded": []}
+                       "true_loaded": [], "evaluable": []}
         self.id_counts = {k: {m: [0, 0] for m in ("force", "torque", "either")} for k in ("single", "squeeze")}
         self.per_face = {m: [np.zeros(6), np.zeros(6)] for m in ("force", "torque", "either")}
+        self.by_loaded = {m: [np.zeros(6), np.zeros(6)] for m in ("force", "torque", "either")}
         self.n_single = self.n_squeeze = 0
 
     def add(self, pred, b, s, mount, evaluable) -> None:
@@ -189,17 +196,32 @@ class _Tally:
         if many.any():
             self.squeeze.add(resultant[many] - b.reference[many])
             self.n_squeeze += int(many.sum())
-        self._identify(pred, b.loaded, n_loaded, one, many, evaluable)
+        truth = {mode: self._truth(targets, b.loaded, one, mode) for mode in ("force", "torque", "either")}
+        self._identify(pred, truth, b.loaded, n_loaded, one, many, evaluable)
         # comparison series (subsampled)
         pick = ((one & sensed) | many) & (self.rng.random(len(one)) < self.keep_p)
         if pick.any():
-            self._keep(pick, pred, resultant, b, one, many)
+            self._keep(pick, pred, resultant, b, one, many, truth["force"], evaluable)
 
-    def _identify(self, pred, loaded, n_loaded, one, many, evaluable) -> None:
-        """Identification against the loaded mask, on the evaluable faces."""
-        true = loaded[:, evaluable]
+    def _truth(self, targets, loaded, one, mode) -> np.ndarray:
+        """``(n, 6)`` bool: the faces truly loaded, by ``mode``'s norms and thresholds.
+
+        Single-face samples: the labelled face, if the reference's load on it exceeds the
+        threshold (a load passing near zero — a ramp, a release — is a load no calibration
+        can identify, so it is not counted as one). Squeeze samples: the labels."""
+        true = loaded.copy()
+        if one.any():
+            above = identify_loaded_faces(np.nan_to_num(targets[one]), self.force_threshold, self.torque_threshold,
+                                          by=mode)
+            true[one] &= above
+        return true
+
+    def _identify(self, pred, truth, loaded, n_loaded, one, many, evaluable) -> None:
+        """Identification against the true loads (:meth:`_truth`), on the evaluable faces."""
         loaded_rows = n_loaded >= 1
+        face = np.argmax(loaded, axis=1)
         for mode in ("force", "torque", "either"):
+            true = truth[mode][:, evaluable]
             got = identify_loaded_faces(pred, self.force_threshold, self.torque_threshold, by=mode)[:, evaluable]
             hit = (got == true).all(axis=1)
             for kind, rows in (("single", one & loaded_rows), ("squeeze", many)):
@@ -207,8 +229,11 @@ class _Tally:
                 self.id_counts[kind][mode][1] += int(rows.sum())
             self.per_face[mode][0][evaluable] += (got == true)[loaded_rows].sum(axis=0)
             self.per_face[mode][1][evaluable] += loaded_rows.sum()
+            rows = one & loaded_rows
+            np.add.at(self.by_loaded[mode][0], face[rows], hit[rows])
+            np.add.at(self.by_loaded[mode][1], face[rows], 1)
 
-    def _keep(self, pick, pred, resultant, b, one, many) -> None:
+    def _keep(self, pick, pred, resultant, b, one, many, true_loaded, evaluable) -> None:
         series = self.series
         single_pred = np.where(one[:, None], resultant, np.nan)
         series["predicted"].append(np.where(many[:, None], resultant, single_pred)[pick])
@@ -217,7 +242,8 @@ class _Tally:
         series["face"].append(np.where(one[pick], np.argmax(b.loaded[pick], axis=1) + 1, 0))
         series["force_norm"].append(np.linalg.norm(pred[pick][..., :3], axis=-1))
         series["torque_norm"].append(np.linalg.norm(pred[pick][..., 3:], axis=-1))
-        series["true_loaded"].append(b.loaded[pick])
+        series["true_loaded"].append(true_loaded[pick])
+        series["evaluable"].append(np.broadcast_to(evaluable, (int(pick.sum()), 6)))
 
     def identification(self) -> dict:
         """:attr:`Evaluation.identification`."""
@@ -228,6 +254,10 @@ class _Tally:
         identification["per_face"] = {
             mode: np.where(n > 0, h / np.maximum(n, 1), np.nan).tolist() for mode, (h, n) in self.per_face.items()
         }
+        identification["by_loaded_face"] = {
+            mode: np.where(n > 0, h / np.maximum(n, 1), np.nan).tolist() for mode, (h, n) in self.by_loaded.items()
+        }
+        identification["by_loaded_face_n"] = self.by_loaded["force"][1].astype(int).tolist()
         identification["force_threshold_N"] = self.force_threshold
         identification["torque_threshold_Nm"] = self.torque_threshold
         return identification
@@ -283,7 +313,7 @@ def evaluate(calibration: Calibration, sessions, *, tare: bool = True,
         n_squeeze=tally.n_squeeze,
         identification=tally.identification(),
         comparison={k: cat[k] for k in ("predicted", "reference", "kind", "face")},
-        identified={k: cat[k] for k in ("force_norm", "torque_norm", "true_loaded")},
+        identified={k: cat[k] for k in ("force_norm", "torque_norm", "true_loaded", "evaluable")},
         inverse_condition_number=calibration.inverse_condition_number,
         face_inverse_condition_numbers=calibration.face_inverse_condition_numbers(),
         simulated=bool(calibration.meta.get("simulated")) or any(bool(s.meta.get("simulated")) for s in sessions),

@@ -35,9 +35,10 @@ class FitResult:
         On each session's held-out samples, in the order of ``sessions`` (empty with ``holdout=0``;
         with one session, ``[heldout]``).
     validation : Evaluation or None
-        On the validation pass (fresh loads, not fitted), if one was given.
+        On the validation passes (fresh loads, not fitted), pooled, if any was given.
     figures : ValidationFigures or None
-        The validation pass's RMSE per loaded face with intervals.
+        The validation passes' RMSE per loaded face with intervals (each face from the pass that
+        loads it directly).
     note : str
         Why the fit is minimum-norm, if it is ("" otherwise).
     n_fit, n_heldout : int
@@ -60,7 +61,7 @@ class FitResult:
 
 
 def fit_and_evaluate(sessions, method: str, *, holdout: float = HOLDOUT, block: int = HOLDOUT_BLOCK, seed: int = 0,
-                     model: str = "auto", validation: CalibrationSession | None = None, rank_deficient: str = "raise",
+                     model: str = "auto", validation=None, rank_deficient: str = "raise",
                      prior: str | None = None, block_size: int | None = None, progress=None) -> FitResult:
     """Split every session, fit ``method`` on the training parts, evaluate on the held-out parts and the validation pass.
 
@@ -75,8 +76,9 @@ def fit_and_evaluate(sessions, method: str, *, holdout: float = HOLDOUT, block: 
     model : {"auto", "linear", "poly"}
         With ``"auto"`` and a validation pass, a correction the pass does not confirm gives way
         to the linear fit (:func:`confirm_model`).
-    validation : CalibrationSession or None
-        Fresh loads not used in the fit.
+    validation : CalibrationSession, sequence of them, or None
+        Fresh loads not used in the fit: one pass per mount (the wizard: the main mount's and the
+        second mount's), scored together; none (None or empty): the held-out samples only.
     rank_deficient : {"raise", "allow", "fallback"}
         Unexcited directions: raise :class:`RankDeficientError`, fit minimum-norm with a warning,
         or try the full fit and fall back to minimum-norm with ``note`` saying why.
@@ -118,8 +120,10 @@ def fit_and_evaluate(sessions, method: str, *, holdout: float = HOLDOUT, block: 
             cal = calibrate(train, method, progress=fit_progress, **options)
         note = f"minimum-norm fit — {exc}"
     figures = checked = None
-    if validation is not None:
-        progress(0.7, f"validating on {len(validation)} fresh samples")
+    validation = [] if validation is None else [validation] if isinstance(validation, CalibrationSession) \
+        else list(validation)
+    if validation:
+        progress(0.7, f"validating on {sum(len(s) for s in validation)} fresh samples")
         if model == "auto":
             cal, figures = confirm_model(cal, validation, seed=seed, sessions=train, fit_options=options)
         else:

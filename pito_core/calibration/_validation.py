@@ -71,17 +71,9 @@ def _rmse(sse, n, pick):
         return np.where(m > 0, np.sqrt(s / np.maximum(m, 1)), np.nan)
 
 
-def validation_figures(calibration: Calibration, session: CalibrationSession, *, seed: int = 0) -> ValidationFigures:
-    """RMSE of each directly loaded face on ``session`` (tared on its own unloaded samples), with intervals.
-
-    Parameters
-    ----------
-    calibration : Calibration
-    session : CalibrationSession
-        Fresh single-face loads, not used in the fit (and its unloaded samples, the offset).
-    seed : int
-        Seed of the bootstrap.
-    """
+def _session_errors(calibration: Calibration, session: CalibrationSession):
+    """Per capture of ``session``: squared errors ``(n_cap, 7, 2)`` and counts of the directly loaded faces
+    (faces 0..5) and of a ``face`` flange's reactions (6), forces (0) and torques (1); and the face of each capture."""
     offset = session_offsets(session)
     counts, reference = np.asarray(session.counts[:], float), np.asarray(session.reference[:], float)
     loaded = np.asarray(session.loaded[:], bool)
@@ -94,29 +86,53 @@ def validation_figures(calibration: Calibration, session: CalibrationSession, *,
     face = np.where(one, np.argmax(loaded, axis=1), -1)
     cap = _captures(None if session.time is None else np.asarray(session.time[:], float), face)
     err2 = (pred - targets) ** 2  # (n, 6, 6)
-    n_cap = int(cap.max()) + 1 if cap.size else 0
-    sse = np.zeros((n_cap, 7, 2))  # faces 0..5 loaded directly, 6: reactions of the connected face
-    cnt = np.zeros((n_cap, 7, 2))
     rows = np.flatnonzero(one)
+    used, cap_rows = np.unique(cap[rows], return_inverse=True)  # captures with single-face loads, renumbered
+    sse = np.zeros((used.size, 7, 2))
+    cnt = np.zeros((used.size, 7, 2))
     for part, ax in ((0, slice(0, 3)), (1, slice(3, 6))):
-        e_own = err2[rows, face[rows], ax].sum(axis=1)
-        np.add.at(sse[:, :, part], (cap[rows], face[rows]), e_own)
-        np.add.at(cnt[:, :, part], (cap[rows], face[rows]), 3)
+        np.add.at(sse[:, :, part], (cap_rows, face[rows]), err2[rows, face[rows], ax].sum(axis=1))
+        np.add.at(cnt[:, :, part], (cap_rows, face[rows]), 3)
         if session.flange == "face":
-            e_re = err2[rows, c, ax].sum(axis=1)
-            np.add.at(sse[:, 6, part], cap[rows], e_re)
-            np.add.at(cnt[:, 6, part], cap[rows], 3)
-    used = np.unique(cap[rows])
+            np.add.at(sse[:, 6, part], cap_rows, err2[rows, c, ax].sum(axis=1))
+            np.add.at(cnt[:, 6, part], cap_rows, 3)
+    cap_face = np.full(used.size, -1)
+    cap_face[cap_rows] = face[rows]
+    return sse, cnt, cap_face, rows.size
+
+
+def validation_figures(calibration: Calibration, session, *, seed: int = 0) -> ValidationFigures:
+    """RMSE of each directly loaded face on ``session`` (tared on its own unloaded samples), with intervals.
+
+    Parameters
+    ----------
+    calibration : Calibration
+    session : CalibrationSession or sequence of them
+        Fresh single-face loads, not used in the fit (and their unloaded samples, each session's
+        offset). Several sessions (the validation passes of a main and a second mount) pool their
+        captures: each face's figure comes from the sessions that load it directly.
+    seed : int
+        Seed of the bootstrap.
+    """
+    sessions = [session] if isinstance(session, CalibrationSession) else list(session)
+    if not sessions:
+        raise ValueError("session: expected at least one validation session, got none")
+    parts = [_session_errors(calibration, s) for s in sessions]
+    sse = np.concatenate([p[0] for p in parts])
+    cnt = np.concatenate([p[1] for p in parts])
+    cap_face = np.concatenate([p[2] for p in parts])
+    n_samples = sum(p[3] for p in parts)
+    used = np.arange(cap_face.size)
     point = _rmse(sse, cnt, used)
     rng = np.random.default_rng(seed)
     worst = np.full((N_BOOT, 2), np.nan)
-    by_face = [used[np.isin(used, np.unique(cap[rows][face[rows] == f]))] for f in range(6)]
+    by_face = [used[cap_face == f] for f in range(6)]
     for b in range(N_BOOT):
         pick = np.concatenate([rng.choice(ix, ix.size) for ix in by_face if ix.size] or [np.zeros(0, int)])
         r = _rmse(sse[:, :6], cnt[:, :6], pick)
         worst[b] = np.nanmax(r, axis=0) if np.isfinite(r).any() else np.nan
     lo, hi = np.nanpercentile(worst, [2.5, 97.5], axis=0) if np.isfinite(worst).any() else (np.full(2, np.nan),) * 2
-    return ValidationFigures(point[:6, 0], point[:6, 1], (lo[0], hi[0]), (lo[1], hi[1]), point[6], rows.size, used.size)
+    return ValidationFigures(point[:6, 0], point[:6, 1], (lo[0], hi[0]), (lo[1], hi[1]), point[6], n_samples, used.size)
 
 
 def _corrected_groups(calibration: Calibration) -> list[tuple[int, int]]:
@@ -135,7 +151,8 @@ def confirm_model(calibration: Calibration, session: CalibrationSession, *, seed
     drift). Each face's forces or torques that the correction serves are compared on
     ``session`` (fresh loads, not fitted) with the papers' linear fit of the same data; if
     the correction is worse on any of them, the linear fit is used, and its
-    ``model.reason`` says where the correction lost. The choice looks at the validation
+    ``model.reason`` says where the correction lost (``session``: one or several validation
+    sessions, as :func:`validation_figures` takes them). The choice looks at the validation
     pass, so that pass's figures are then, by a little, optimistic for the choice made.
 
     ``sessions`` (the training sessions; ``fit_options``: more arguments of :func:`calibrate`):
@@ -153,11 +170,12 @@ def confirm_model(calibration: Calibration, session: CalibrationSession, *, seed
         return calibration, figures
     linear = calibration.linear_alternative()
     lin_figures = validation_figures(linear, session, seed=seed)
-    c = session.connected_face - 1
     lost = []
     for face, part in _corrected_groups(calibration):
-        pick = (lambda fig: (fig.rmse_force, fig.rmse_torque)[part][face - 1]) if face - 1 != c or session.flange != "face" \
-            else (lambda fig: (fig.reaction_force, fig.reaction_torque)[part])
+        def pick(fig):  # the face's own loads; a face flange's face without any: its reactions
+            direct = (fig.rmse_force, fig.rmse_torque)[part][face - 1]
+            return direct if np.isfinite(direct) else (fig.reaction_force, fig.reaction_torque)[part]
+
         a, b = pick(figures), pick(lin_figures)
         if np.isfinite(a) and np.isfinite(b) and a > b:
             unit, k = ("N", 1.0) if part == 0 else ("mN·m", 1e3)
@@ -170,6 +188,6 @@ def confirm_model(calibration: Calibration, session: CalibrationSession, *, seed
             linear = calibrate(sessions, calibration.method, **{**(fit_options or {}), "model": "linear"})
     linear.model = dataclasses.replace(
         linear.model, requested=calibration.model.requested,
-        reason="the papers' linear fit: the polynomial correction chosen by cross-validation lost on the "
+        reason="the polynomial correction chosen by cross-validation lost on the "
                f"validation pass ({'; '.join(lost)})")
     return linear, lin_figures

@@ -19,7 +19,7 @@ from ..defaults import LOADED_FORCE_N, LOADED_TORQUE_NM
 from ..io import calibration_hash, short_hash
 from ._sessions import load_sessions
 from ._model import print_model
-from ..report import fmt, table
+from ..report import fmt, identification_note, identification_text, table
 
 HELP = """\
 Evaluate a calibration on held-out sessions with the papers' figures of merit:
@@ -87,6 +87,12 @@ def print_evaluation(ev, calibration=None) -> None:
         print("face identification (the papers' rule: single-face loads by force, squeeze loads by torque):")
         for h in head:
             print(f"  {h['text']}")
+        by = identification_text(ev).partition("; by loaded face — ")[2]  # as the wizard's results page
+        if by:
+            print(f"  single-face loads by loaded face: {by}")
+        note = identification_note(ev)
+        if note:
+            print(f"  ({note})")
     idn = ev.identification
     rows = []
     for kind in ("single", "squeeze"):

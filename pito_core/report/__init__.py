@@ -18,15 +18,17 @@ from ._calibration import (
     SMALL,
     comparison_figure,
     export_report,
+    face_rmse,
     identification_figure,
     model_summary,
     rmse_figure,
     style_figure,
 )
 from ._figures import new_figure, save_png, write_csv
-from ._identification import identification_breakdown, identification_note, identification_why
+from ._identification import identification_breakdown, identification_note, identification_text, identification_why
 from ._text import fmt, table
 
 __all__ = ["fmt", "table", "new_figure", "save_png", "write_csv", "rmse_figure", "identification_figure",
            "comparison_figure", "style_figure", "model_summary", "export_report", "SMALL", "SCREEN_DPI",
-           "identification_breakdown", "identification_why", "identification_note"]
+           "identification_breakdown", "identification_why", "identification_note", "identification_text",
+           "face_rmse"]

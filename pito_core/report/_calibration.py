@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import datetime as _dt
 import json
+import warnings
 from pathlib import Path
 
 from typing import TYPE_CHECKING
@@ -15,7 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..frames import FACE_COLORS, WRENCH_COMPONENTS, WRENCH_UNITS
-from ._identification import identification_note
+from ._identification import identification_note, identification_text
 
 if TYPE_CHECKING:
     from matplotlib.figure import Figure
@@ -83,20 +84,40 @@ def style_figure(fig: Figure, dark: bool = True) -> None:
         ax.title.set_color(DARK["fg"])
 
 
+def face_rmse(evaluation, reactions: int | None = None, figures=None):
+    """``(force (6,) N, torque (6,) N·m, reactions)``: each face's RMSE, the figures of the results page.
+
+    With ``figures`` (:class:`~pito_core.calibration.ValidationFigures`), each face's own loads in the
+    validation passes, and a face flange's face without loads of its own its reactions (``reactions``
+    stays that face, else None: the face was validated under its own loads, on the second mount);
+    without, the evaluation's RMSE per loaded face.
+    """
+    if figures is None:
+        return evaluation.rmse_force(), evaluation.rmse_torque(), reactions
+    f, t = np.array(figures.rmse_force, float), np.array(figures.rmse_torque, float)
+    if reactions is not None:
+        if np.isfinite(f[reactions - 1]):
+            reactions = None
+        else:
+            f[reactions - 1], t[reactions - 1] = figures.reaction_force, figures.reaction_torque
+    return f, t, reactions
+
+
 def rmse_figure(evaluation, fig: Figure | None = None, dark: bool = True, *, reactions: int | None = None,
-                kind: str = "held-out") -> Figure:
+                kind: str = "held-out", figures=None) -> Figure:
     """RMSE per face: force (N) and torque (mN·m), each bar one face's loads.
 
     ``reactions``: the connected face of a face flange, which carried only the reactions of the
     others' loads (its bar is hatched and labelled so); ``kind``: what the figures come from
-    ("validation", "held-out"), in the titles.
+    ("validation", "held-out"), in the titles; ``figures``: the validation passes' figures per face
+    (:func:`face_rmse`: a face loaded on the second mount has its own bar).
     """
     fig = fig or _figure(figsize=(6.4, 2.8), dpi=100)
     fig.clear()
     axf, axt = fig.subplots(1, 2)
     faces = np.arange(1, 7)
-    f = evaluation.rmse_force()
-    t = evaluation.rmse_torque() * 1000
+    f, t, reactions = face_rmse(evaluation, reactions, figures)
+    t = t * 1000
     colors = [FACE_COLORS[i] for i in faces]
     for ax, v, title, unit in ((axf, f, "force RMSE", "N"), (axt, t, "torque RMSE", "mN·m")):
         ok = np.isfinite(v)
@@ -147,21 +168,29 @@ def _interval_marks(evaluation, unit: str) -> np.ndarray:
 
 
 def identification_figure(evaluation, fig: Figure | None = None, dark: bool = True) -> Figure:
-    """Face identification: mean ‖F‖ on every face (rows) when one face is loaded (columns)."""
+    """Face identification: mean ‖F‖ on every scored face (rows) when one face is loaded (columns; under
+    each, the share of its loads identified). A face that is not scored under a load (a face flange's
+    face carrying the reactions) is left blank."""
     fig = fig or _figure(figsize=(3.6, 3.0), dpi=100)
     fig.clear()
     ax = fig.subplots()
     fn = np.asarray(evaluation.identified.get("force_norm", np.zeros((0, 6))), dtype=float)
+    if "evaluable" in evaluation.identified:
+        fn = np.where(np.asarray(evaluation.identified["evaluable"], dtype=bool), fn, np.nan)
     face = np.asarray(evaluation.comparison.get("face", np.zeros(0)), dtype=int)
     M = np.full((6, 6), np.nan)
-    for j in range(1, 7):
-        rows = face == j
-        if rows.any():
-            M[:, j - 1] = np.nanmean(fn[rows], axis=0)
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # a face never scored under a load: NaN, blank
+        for j in range(1, 7):
+            rows = face == j
+            if rows.any():
+                M[:, j - 1] = np.nanmean(fn[rows], axis=0)
     im = ax.imshow(M, cmap="magma", origin="upper", vmin=0)
-    ax.set_xticks(range(6), [str(i) for i in range(1, 7)])
+    by = (evaluation.identification.get("by_loaded_face") or {}).get("force") or [None] * 6
+    ax.set_xticks(range(6), [f"{i}\n{100 * a:.0f} %" if a is not None and np.isfinite(a) else str(i)
+                             for i, a in zip(range(1, 7), by)])
     ax.set_yticks(range(6), [str(i) for i in range(1, 7)])
-    ax.set_xlabel("loaded face", fontsize=SMALL)
+    ax.set_xlabel("loaded face (identified)", fontsize=SMALL)
     ax.set_ylabel("face reading a force", fontsize=SMALL)
     for i in range(6):
         for j in range(6):
@@ -228,9 +257,11 @@ def export_report(folder, calibration, evaluation, info: dict | None = None, pro
         ``progress(fraction 0..1, text)`` after each file written.
     rmse : dict, optional
         The results page's RMSE options (``reactions``: the flange's face, ``kind``: "validation"
-        or "held-out"): the report says and draws what the page does.
+        or "held-out"; ``completed``: the faces loaded on the second mount): the report says and
+        draws what the page does.
     figures : ValidationFigures, optional
-        The page's headline (worst face, 95 % intervals, the reactions' face).
+        The page's headline (worst face, 95 % intervals, the reactions' face) and each face's figure
+        (:func:`face_rmse`).
 
     Returns
     -------
@@ -245,7 +276,9 @@ def export_report(folder, calibration, evaluation, info: dict | None = None, pro
             progress(k / 5, text)
 
     rmse = dict(rmse or {})
-    draw = {"rmse.png": lambda ev, dark: rmse_figure(ev, dark=dark, **rmse),
+    rmse.setdefault("figures", figures)
+    options = {k: v for k, v in rmse.items() if k != "completed"}  # rmse_figure's
+    draw = {"rmse.png": lambda ev, dark: rmse_figure(ev, dark=dark, **options),
             "identification.png": identification_figure, "comparison.png": comparison_figure}
     for k, (name, figure) in enumerate(draw.items()):
         step(k, f"drawing {folder / name}")
@@ -278,14 +311,12 @@ def _numbers(calibration, evaluation, info: dict) -> dict:
 
 
 def _report_lines(calibration, evaluation, info: dict, generated: str, rmse: dict | None = None,
-                  figures=None) -> list[str]:
+                  figures=None) -> list[str]:  # rmse: rmse_figure's options, and "completed" (second mount's faces)
     """The lines of ``report.md`` (Markdown): the facts, RMSE per face (the results page's words: validation
     or held-out, 95 % intervals, the flange's face as reactions), identification, the figures."""
     rmse = rmse or {}
     kind = rmse.get("kind", "held-out")
-    reaction = rmse.get("reactions")
-    f = evaluation.rmse_force()
-    t = evaluation.rmse_torque()
+    f, t, reaction = face_rmse(evaluation, rmse.get("reactions"), figures)
     uf, ut = _interval_marks(evaluation, "N"), _interval_marks(evaluation, "mN·m")
     lines = [
         f"# PITO calibration report — {calibration.method}",
@@ -340,7 +371,7 @@ def _report_lines(calibration, evaluation, info: dict, generated: str, rmse: dic
     note = identification_note(evaluation, reaction)  # what holds it down: the results page's line
     lines += [
         "",
-        ("Face identification (the papers' rule): " + "; ".join(h["text"] for h in head)
+        ("Face identification (the papers' rule): " + identification_text(evaluation, rmse.get("completed", ()))
          + (f" — {note}" if note else "") + ".") if head else "",
         "",
         f"![{kind} RMSE per face](rmse.png)",

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["identification_breakdown", "identification_why", "identification_note"]
+__all__ = ["identification_breakdown", "identification_why", "identification_note", "identification_text"]
 
 
 def identification_breakdown(evaluation, reaction: int | None = None) -> dict | None:
@@ -18,13 +18,15 @@ def identification_breakdown(evaluation, reaction: int | None = None) -> dict | 
         Its ``identified`` series (``force_norm (M, 6)`` N, ``true_loaded (M, 6)``) and
         ``comparison["kind"]`` are read.
     reaction : int, optional
-        The flange's face (1–6), left out (it carries reactions, not loads).
+        The flange's face (1–6), left out (it carries reactions, not loads) where the evaluation
+        does not say per sample which faces count (``identified["evaluable"]``).
 
     Returns
     -------
     dict or None
         ``threshold`` N; ``n`` single-face samples; ``missed`` fraction whose loaded face reads
-        ‖F‖ ≤ threshold; ``phantom`` fraction where an unloaded face reads ‖F‖ > threshold;
+        ‖F‖ ≤ threshold; ``phantom`` fraction where an unloaded face reads ‖F‖ > threshold
+        (``phantom_by_loaded`` (6,): the same by loaded face, NaN where none was loaded);
         ``unloaded_median`` and ``unloaded_p90`` ‖F‖ of the unloaded faces, N; ``accuracy`` at
         1 and 2 × the threshold (fractions). None without single-face samples.
     """
@@ -32,23 +34,51 @@ def identification_breakdown(evaluation, reaction: int | None = None) -> dict | 
     fn = np.asarray(evaluation.identified["force_norm"], dtype=float)
     true = np.asarray(evaluation.identified["true_loaded"], dtype=bool)
     kind = np.asarray(evaluation.comparison["kind"])
-    keep = np.ones(6, dtype=bool)
-    if reaction:
-        keep[reaction - 1] = False
-    rows = (kind == "single") & (true.sum(axis=1) == 1) & np.isfinite(fn[:, keep]).all(axis=1)
+    keep = np.ones(fn.shape, dtype=bool)
+    if "evaluable" in evaluation.identified:  # per sample: each session's mount says which faces count
+        keep &= np.asarray(evaluation.identified["evaluable"], dtype=bool)
+    elif reaction:
+        keep[:, reaction - 1] = False
+    fn = np.where(keep, fn, np.nan)  # faces that do not count: neither loaded nor unloaded
+    true &= keep
+    rows = (kind == "single") & (true.sum(axis=1) == 1) & (np.isfinite(fn) | ~keep).all(axis=1)
     if thr <= 0 or not rows.any():
         return None
-    fn, true = fn[rows][:, keep], true[rows][:, keep]
-    off = np.where(true, np.nan, fn)
+    fn, true, keep = fn[rows], true[rows], keep[rows]
+    off = np.where(true | ~keep, np.nan, fn)
 
     def accuracy(t):
-        return float(((fn > t) == true).all(axis=1).mean())
+        return float((((fn > t) == true) | ~keep).all(axis=1).mean())
+
+    phantom = (np.nan_to_num(off, nan=-1.0) > thr).any(axis=1)
+    face = np.argmax(true, axis=1)
+    n_by = np.bincount(face, minlength=6)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        phantom_by = np.where(n_by > 0, np.bincount(face, weights=phantom, minlength=6) / np.maximum(n_by, 1), np.nan)
 
     return {"threshold": thr, "n": int(rows.sum()),
             "missed": float((np.where(true, fn, np.inf) <= thr).any(axis=1).mean()),
-            "phantom": float((np.nan_to_num(off, nan=-1.0) > thr).any(axis=1).mean()),
+            "phantom": float(phantom.mean()), "phantom_by_loaded": phantom_by,
             "unloaded_median": float(np.nanmedian(off)), "unloaded_p90": float(np.nanpercentile(off, 90)),
             "accuracy": {1.0: accuracy(thr), 2.0: accuracy(2 * thr)}}
+
+
+def _where(b: dict, short: bool = False) -> str:
+    """Under which faces' loads the crosstalk shows, where it is not alike under all: the faces whose rate
+    is at least half the highest, against the rest (``""`` otherwise)."""
+    by = b["phantom_by_loaded"]
+    ok = np.isfinite(by)
+    top = np.nanmax(by) if ok.any() else 0.0
+    worst = ok & (by >= top / 2)
+    if top <= 0 or worst.sum() == ok.sum():
+        return ""
+    names = ", ".join(str(f + 1) for f in np.flatnonzero(worst))
+    rest = float(np.nanmean(np.where(worst, np.nan, by)))
+    mean_worst = float(np.nanmean(np.where(worst, by, np.nan)))
+    if short:
+        return f" — under face {names}'s loads {100 * mean_worst:.0f} %, the others' {100 * rest:.1f} %"
+    return (f" Under face {names}'s loads an unloaded face read above the threshold in {100 * mean_worst:.1f} % of "
+            f"the samples, under the other faces' in {100 * rest:.1f} %.")
 
 
 def identification_why(evaluation, reaction: int | None = None) -> str:
@@ -62,8 +92,8 @@ def identification_why(evaluation, reaction: int | None = None) -> str:
             f"threshold in {100 * b['missed']:.1f} %; an unloaded face read above it in {100 * b['phantom']:.1f} % "
             f"(unloaded faces: median {b['unloaded_median']:.2f} N, 90th percentile {b['unloaded_p90']:.2f} N — the "
             f"calibration's crosstalk). With a {2 * t:g} N threshold, {100 * b['accuracy'][2.0]:.1f} % would be "
-            f"identified. Fresh loads show this crosstalk; held-out samples of the fitted captures share the fit's "
-            f"errors and score higher. More samples per face (k) lower it.")
+            f"identified.{_where(b)} Fresh loads show this crosstalk; held-out samples of the fitted captures share "
+            f"the fit's errors and score higher.")
 
 
 def identification_note(evaluation, reaction: int | None = None) -> str:
@@ -78,8 +108,22 @@ def identification_note(evaluation, reaction: int | None = None) -> str:
         return ""
     t = b["threshold"]
     if b["phantom"] >= b["missed"]:
-        why = (f"crosstalk: an unloaded face read > {t:g} N in {100 * b['phantom']:.0f} % (unloaded faces: median "
-               f"{b['unloaded_median']:.2f} N, 90th percentile {b['unloaded_p90']:.2f} N)")
+        why = (f"crosstalk: an unloaded face read > {t:g} N in {100 * b['phantom']:.0f} %{_where(b, short=True)} "
+               f"(unloaded faces: median {b['unloaded_median']:.2f} N, 90th percentile {b['unloaded_p90']:.2f} N)")
     else:
         why = f"light loads: the loaded face read ≤ {t:g} N in {100 * b['missed']:.0f} %"
-    return f"not a labelling error, {why}; {100 * b['accuracy'][2.0]:.1f} % at a {2 * t:g} N threshold"
+    return f"{why}; {100 * b['accuracy'][2.0]:.1f} % at a {2 * t:g} N threshold"
+
+
+def identification_text(evaluation, completed=()) -> str:
+    """The papers' identification figure (single-face loads by force, squeeze by torque) and, for single-face
+    loads, the figure by loaded face (``completed``: faces loaded on the second mount, said so) — the results
+    page's words and the report's."""
+    head = evaluation.identification_headline()
+    text = "; ".join(h["text"] for h in head) if head else "n/a"
+    by = evaluation.identification.get("by_loaded_face", {}).get("force")
+    if by is not None and any(h["kind"] == "single" for h in head):
+        parts = [f"{f + 1}: {100 * a:.1f} %" + (" (2nd mount)" if f + 1 in completed else "")
+                 for f, a in enumerate(by) if a is not None and np.isfinite(a)]
+        text += "; by loaded face — " + ", ".join(parts)
+    return text

@@ -41,3 +41,23 @@ def test_the_model_in_use_is_named_beside_its_own_figure():
     used = re.search(r"\(in use\)</b>: forces ([\d.]+) N", text)
     assert used and used.group(1) == "0.728", text
     assert re.search(r"on every output group: forces 1\.588 N", text)  # the candidate not used, named as such
+
+
+def test_the_refused_correction_is_said_once():
+    """Issue 45, point 4: after the validation pass refused the correction, the model text names the papers'
+    linear fit once, then why (it read "the papers' linear fit (C = W S⁺) — the papers' linear fit: …")."""
+    import numpy as np
+
+    from pito_core.calibration import calibrate, confirm_model
+    from pito_core.report import model_summary
+    from pito_core.sim import VirtualCube, simulate_calibration
+
+    cube = VirtualCube()
+    train = simulate_calibration("frame_hole", 6, k=300, seed=1, model=cube)  # SIMULATED
+    forced = calibrate(train, "loaded_frame", model="poly")
+    fresh = simulate_calibration("frame_hole", 6, k=200, seed=9, model=cube, t0=100.0)
+    cal, _ = confirm_model(forced, fresh)
+    assert cal.correction is None  # the forced correction loses on fresh loads of this cube
+    text = model_summary(cal.model, cal.output_faces)
+    assert text.count("papers' linear fit") == 1 and "lost on the validation pass" in text
+    assert np.isfinite(cal.matrix).all()

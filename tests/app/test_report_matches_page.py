@@ -10,15 +10,23 @@ def test_the_report_uses_the_pages_words_intervals_and_reactions(fitted, tmp_pat
     from pito_core.sim import simulate_calibration
 
     cal, ev = fitted
-    figures = validation_figures(cal, simulate_calibration("frame_hole", 6, k=120, seed=4))  # SIMULATED
+    main = simulate_calibration("face", 6, k=120, seed=4, faces=(1, 2, 3, 4, 5))  # SIMULATED
+    figures = validation_figures(cal, main)
     path = export_report(tmp_path, cal, ev, {"simulated": True}, rmse={"reactions": 6, "kind": "validation"},
                          figures=figures)
     text = path.read_text()
     assert "## Validation RMSE per loaded face" in text and "Held-out RMSE" not in text
     assert "validation single-face samples" in text and "In use:" in text  # the page's model words too
     assert f"{figures.worst_force:.4f} N (face" in text and "95 %:" in text
-    assert "| 6 (reactions only) |" in text and "reactions (face 6)" in text
+    assert f"| 6 (reactions only) | {figures.reaction_force:.4f} |" in text and "reactions (face 6)" in text
+    assert f"| 1 | {figures.rmse_force[0]:.4f} |" in text  # the page's per-face figures, not the held-out ones
     assert "± 95 %: half-width" in text
+    # with the second mount's validation pass, face 6 has its own figure, as on the page (issue 45, point 2)
+    both = validation_figures(cal, [main, simulate_calibration("frame_hole", 6, k=120, seed=5, faces=(6,))])
+    text = export_report(tmp_path / "both", cal, ev, {"simulated": True}, figures=both,
+                         rmse={"reactions": 6, "kind": "validation", "completed": (6,)}).read_text()
+    assert f"| 6 | {both.rmse_force[5]:.4f} |" in text and "reactions only" not in text.split("## Validation")[1]
+    assert "by loaded face — 1: " in text and "6: " in text.split("by loaded face")[1] and "(2nd mount)" in text
 
 
 def test_value_labels_sit_above_the_interval_marks(fitted):

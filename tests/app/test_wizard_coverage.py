@@ -12,10 +12,10 @@ import pytest
 
 from wizard_sim import run_wizard_model
 
-from pito_core.calibration import calibrate, evaluate
+from pito_core.calibration import calibrate, evaluate, validation_figures
 from pito_core.frames import CUBE_ADC_LIMIT
 from pito_core.pipeline import Pipeline
-from pito_core.sim import VirtualCube, simulate_calibration, simulate_free_grasp
+from pito_core.sim import CalibrationLiveSource, VirtualCube, simulate_calibration, simulate_free_grasp
 
 CUBE = VirtualCube()
 #: 99 % radius of a 3-D Gaussian error, in σ of its largest axis (√χ²₃(0.99) = 3.37)
@@ -38,7 +38,7 @@ def run_method(method, k=600):
     model.set_mount(method=method, flange=MOUNTS[method], connected_face=6)
     model.set_k(k)
     run_wizard_model(model, CUBE, seed=1)
-    fit = fit_and_evaluate(model.training_sessions(), method, validation=model.validation_session(),
+    fit = fit_and_evaluate(model.training_sessions(), method, validation=model.validation_sessions(),
                            rank_deficient="fallback")  # as the results page fits (app.wizard.results_page.fit_job)
     completing = fit.heldout_by_session[1] if len(fit.heldout_by_session) > 1 else None
     return model, fit.calibration, fit.headline, fit.heldout, fit.figures, completing
@@ -71,20 +71,26 @@ def live_errors(cal, grasp, rows):
 def test_every_method_through_the_wizard_ends_complete_or_says_so(qapp, grasp, method):
     model, cal, headline, heldout, figures, completing = run_method(method)
     kinds = [s.kind for s in model.stages]
-    if "completing" in kinds:  # issue 45, point 2: the connected face's own loads are tested, and shown
-        from app.wizard.results_page import per_face_text
+    if "completing" in kinds:  # issue 45, point 2: the connected face's own fresh loads are scored, and shown
+        from app.wizard.results_page import identification_text, per_face_text
         from pito_core.calibration import NOT_MEASURED_TEXT
 
         done = [f for f in model.stages[2].faces if cal.has_output[f - 1]]
-        assert completing is not None and all(np.isfinite(completing.rmse_force()[f - 1]) for f in done)
+        assert completing is not None and all(np.isfinite(figures.rmse_force[f - 1]) for f in done)
         text = per_face_text(figures, completing, 6 if MOUNTS[method] == "face" else None, done,
                              cal.has_output).splitlines()
         assert all(NOT_MEASURED_TEXT in text[i] for i in range(6) if not cal.has_output[i])
-        assert all(text[f - 1].startswith(f"{f}: ") for f in done)
-        assert not done or "second mount" in text[done[0] - 1] or np.isfinite(figures.rmse_force[done[0] - 1])
+        main = [i for i in range(6) if i + 1 not in done]
+        worst_f, worst_t = np.nanmax(figures.rmse_force[main]), np.nanmax(figures.rmse_torque[main])
+        for f in done:  # its validation figure, from the second mount; said when worse than the other faces'
+            assert text[f - 1].startswith(f"{f}: {figures.rmse_force[f - 1]:.3f} N") and "second mount" in text[f - 1]
+            assert ("⚠" in text[f - 1]) == (figures.rmse_force[f - 1] > worst_f or figures.rmse_torque[f - 1] > worst_t)
+        ident = identification_text(headline, tuple(done))
+        assert all(f"{f}: " in ident.split("by loaded face")[1] for f in done)  # identification on its fresh loads
     cov = cal.coverage
     if method in ("face_to_face", "quasi_total", "unloaded_frame"):  # their mount leaves readings unmeasured
-        assert kinds == ["main", "validation", "completing"] and model.stages[2].why
+        assert kinds == ["main", "validation", "completing", "validation"] and model.stages[2].why
+        assert model.stages[3].of == "completing" and len(model.validation_sessions()) == 2
     else:
         assert kinds == ["main", "validation"]
     if method == "quasi_total":  # 30×36: face 6 has no output, so neither has the net load — and it says so
@@ -116,14 +122,23 @@ def test_every_method_through_the_wizard_ends_complete_or_says_so(qapp, grasp, m
 
 def test_validation_headline_agrees_with_evaluate_on_a_new_session(qapp):
     model, cal, headline, heldout, figures, _ = run_method("unloaded_frame")
-    # what `pito evaluate` reports for the saved file on a new simulated session of the main mount
+    # what `pito evaluate` reports for the saved file on new simulated sessions of both mounts: faces 1–5
+    # on the face flange, face 6 through the hole (issue 45, point 2: every face validated on fresh loads)
     new = simulate_calibration("face", 6, k=2000, seed=31, model=CUBE, faces=model.stages[0].faces, t0=100.0)
-    ev = evaluate(cal, new)
+    hole = simulate_calibration("frame_hole", 6, k=1000, seed=32, model=CUBE, faces=(6,), t0=150.0)
+    ev, ev6 = evaluate(cal, new), evaluate(cal, hole)
     f, t = ev.rmse_force(), ev.rmse_torque()
-    f[5] = t[5] = np.nan  # face 6 carried the reactions: reported apart, as in the wizard
+    f[5], t[5] = ev6.rmse_force()[5], ev6.rmse_torque()[5]  # face 6 on the main mount: reactions, apart
+    for i, (a, b) in enumerate(zip(f, figures.rmse_force)):
+        assert (a > 0.3) == (b > 0.3), f"face {i + 1}: pito evaluate {a:.3f} N, the wizard's validation {b:.3f} N"
     lo, hi = figures.worst_force_ci
+    assert figures.worst_force == figures.rmse_force[5] and 5 == np.nanargmax(f)  # the second mount's face, both
+    assert lo / 2 <= np.nanmax(f) <= 2 * hi, f"pito evaluate {np.nanmax(f):.3f} N against the headline's [{lo:.3f}, {hi:.3f}] N"
+    f[5] = t[5] = np.nan  # the main mount's faces: within the interval of their own worst
+    main = validation_figures(cal, model.validation_session())
+    lo, hi = main.worst_force_ci
     assert lo <= np.nanmax(f) <= hi, f"pito evaluate {np.nanmax(f):.3f} N outside the headline's [{lo:.3f}, {hi:.3f}] N"
-    lo, hi = figures.worst_torque_ci
+    lo, hi = main.worst_torque_ci
     assert lo <= np.nanmax(t) <= hi, f"pito evaluate {np.nanmax(t) * 1e3:.2f} mN·m outside [{lo * 1e3:.2f}, {hi * 1e3:.2f}]"
     assert np.isfinite(figures.reaction_force)  # the connected face: reactions, apart
 
@@ -172,9 +187,44 @@ def test_the_second_mount_can_be_skipped_and_the_results_say_partial(qtbot, styl
         assert page.skip.isVisibleTo(page) and "face 6" in page.flange_label.text()
         page.skip.click()
         assert wiz.current_name == "results" and [s.kind for s in model.stages] == ["main", "validation"]
+        assert len(model.validation_sessions()) == 1
         qtbot.waitUntil(lambda: model.calibration is not None, timeout=120_000)
         text = wiz.pages["results"].values["coverage"].text()
         assert text.startswith("⚠ partial") and "net load" in text
+    finally:
+        for name in ("mount", "load"):
+            wiz.pages[name].scene.close_scene()
+
+
+@pytest.mark.needs_display
+def test_the_second_mount_has_its_own_validation_pass(qtbot, styled):
+    """Issue 45, point 2: after the second mount's loads, Next brings its validation pass (fresh loads on
+    the same mount, its tare), said on the step list and the loading page; Back returns to its loads."""
+    from app.wizard.model import WizardModel
+    from app.wizard.wizard import CalibrationWizard
+
+    model = WizardModel()
+    model.set_mount(method="unloaded_frame", flange="face", connected_face=6)
+    model.set_stage(2)  # the second mount, its tare recorded on the simulated cube (SIMULATED)
+    src = CalibrationLiveSource("frame_hole", 6, seed=3, model=CUBE)
+    t = 1.0 + np.arange(500) / 1000.0
+    model.set_tare(src.counts_at(t), src.reference_at(t), True)
+    wiz = CalibrationWizard(model)
+    qtbot.addWidget(wiz)
+    try:
+        assert model.current.kind == "completing"
+        wiz.go("load")
+        wiz.forward()
+        st = model.current
+        assert wiz.current_name == "load" and st.kind == "validation" and st.of == "completing"
+        assert (st.flange, st.connected_face, st.faces) == ("frame_hole", 6, (6,)) and model.has_tare
+        assert wiz.steps.item(4).text().endswith("2nd mount\n     validation")
+        note = wiz.pages["load"].stage_note
+        assert note.isVisibleTo(wiz) and "through the hole" in note.text() and "not used in the fit" in note.text()
+        assert np.allclose(model.stage_session(st).counts[:10], model.stages[2].tare_counts[:10])  # its mount's tare
+        assert not wiz.next.isEnabled()  # its loads first
+        wiz.backward()
+        assert wiz.current_name == "load" and model.current.kind == "completing"
     finally:
         for name in ("mount", "load"):
             wiz.pages[name].scene.close_scene()

@@ -84,6 +84,8 @@ def test_cli_calibrate_and_evaluate(tmp_path, capsys):
     assert main(["evaluate", str(cal), str(test)]) == 0
     out = capsys.readouterr().out
     assert "RMSE, squeeze resultant" in out and "face 5" in out
+    # the wizard's words: the figure by loaded face (issue 45; report.identification_text)
+    assert "single-face loads by loaded face: 1: " in out and "5: " in out.split("by loaded face")[1]
     assert main(["evaluate", str(cal), str(test), "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
     assert d["method"] == "unloaded_frame" and d["n_squeeze"] == 300 and len(d["rmse_single"]) == 6
@@ -131,3 +133,25 @@ def test_cli_evaluate_headlines_the_papers_rule_and_shows_uncertainty(tmp_path, 
     free = u[:5]  # the five free faces are fitted: finite, positive intervals in N and N·m
     assert np.all(np.isfinite(free)) and np.all(free > 0)
     assert np.all(free[:, :3] < 5.0) and np.all(free[:, 3:] < 0.1)
+
+
+def test_identification_counts_a_load_only_where_the_reference_shows_one():
+    """A calibration of a linear cube identifies every single-face load (SIMULATED, issue 45): a
+    sample labelled loaded while the load passes near zero (ramps) is no miss, since the
+    reference shows no load on the face either; squeeze samples keep their labels."""
+    from pito_core.calibration import evaluate
+    from pito_core.sim import SimParams, VirtualCube, simulate_calibration
+
+    cube = VirtualCube(params=SimParams(element_nonlinearity=0.0, frame_nonlinearity=0.0, frame_hysteresis=0.0))
+    face = simulate_calibration("face", 6, k=600, seed=1, model=cube, faces=(1, 2, 3, 4, 5))
+    hole = simulate_calibration("frame_hole", 6, k=600, seed=2, model=cube, faces=(6,), t0=100.0)
+    cal = calibrate([face, hole], "unloaded_frame", model="linear")
+    new = simulate_calibration("face", 6, k=1000, seed=3, model=cube, faces=(1, 2, 3, 4, 5), t0=200.0)
+    loaded, ref = np.asarray(new.loaded[:]), np.asarray(new.reference[:])
+    light = loaded.any(axis=1) & (np.linalg.norm(ref[:, :3], axis=1) < 0.5)
+    assert light.sum() > 50  # labelled loaded, the reference shows < 0.5 N: counted as misses before
+    ev = evaluate(cal, new)
+    assert ev.identification["single"]["force"] == 1.0
+    np.testing.assert_array_equal(ev.identification["by_loaded_face"]["force"][:5], 1.0)
+    assert np.isnan(ev.identification["by_loaded_face"]["force"][5]) and ev.identification["by_loaded_face_n"][5] == 0
+    assert sum(ev.identification["by_loaded_face_n"]) == ev.identification["single"]["n"]

@@ -58,3 +58,45 @@ def test_the_note_names_what_holds_the_figure_down():
     quiet = _evaluation(crosstalk=0.01)
     quiet.identified["force_norm"][quiet.identified["true_loaded"]] = 5.0
     assert identification_note(quiet) == ""  # nothing to explain
+
+
+def test_the_note_names_the_loaded_face_under_which_crosstalk_shows():
+    """Issue 45: the crosstalk that holds the pooled figure down shows under one face's loads (the
+    second mount's, on the simulator): the note and the paragraph name it, with both rates."""
+    ev = _evaluation(crosstalk=0.05)
+    fn, true = ev.identified["force_norm"], ev.identified["true_loaded"]
+    six = true[:, 5]
+    fn[six, 0] = 0.9  # under face 6's loads face 1 reads 0.9 N
+    b = identification_breakdown(ev)
+    single = ev.comparison["kind"] == "single"
+    assert np.isclose(b["phantom_by_loaded"][5], 1.0) and np.nanmax(b["phantom_by_loaded"][:5]) < 0.01
+    assert np.isclose(b["phantom"], (six & single).sum() / single.sum())
+    note = identification_note(ev)
+    assert "under face 6's loads 100 %" in note and note.startswith("crosstalk")
+    assert "Under face 6's loads an unloaded face read above the threshold in 100.0 %" in identification_why(ev)
+    ev.identified["evaluable"] = np.ones((len(six), 6), bool)  # per sample: which faces count (the mounts)
+    ev.identified["evaluable"][:, 0] = False  # face 1 does not count: no crosstalk left
+    assert identification_breakdown(ev)["phantom"] < 0.01 and identification_note(ev) == ""
+
+
+def test_the_identification_figure_leaves_the_reactions_blank_and_says_each_loaded_face():
+    """Issue 45: the face carrying the flange's reactions is not drawn as crosstalk; under each loaded face
+    the share of its loads identified."""
+    from matplotlib.figure import Figure
+
+    from pito_core.report import identification_figure
+
+    ev = _evaluation()
+    n = len(ev.comparison["kind"])
+    true = ev.identified["true_loaded"]
+    ev.comparison["face"] = np.argmax(true, axis=1) + 1
+    ev.identified["force_norm"][:, 5] = np.where(true[:, 5], 8.0, 9.0)  # face 6: reactions under the others' loads
+    ev.identified["evaluable"] = np.ones((n, 6), bool)
+    ev.identified["evaluable"][~true[:, 5], 5] = False  # scored only under its own loads (the second mount)
+    ev.identification.update({"single": {"force": 0.9}, "by_loaded_face": {"force": [1.0] * 5 + [0.345]}})
+    fig = identification_figure(ev, Figure(), dark=False)
+    M = fig.axes[0].images[0].get_array()
+    assert np.ma.getmaskarray(M)[5, :5].all() or np.isnan(np.ma.filled(M, np.nan)[5, :5]).all()
+    assert np.isclose(M[5, 5], 8.0) and M[:5, :5].max() > 1.0
+    labels = [t.get_text() for t in fig.axes[0].get_xticklabels()]
+    assert labels[0] == "1\n100 %" and labels[5] == "6\n34 %"
