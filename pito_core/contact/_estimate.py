@@ -14,6 +14,65 @@ import numpy as np
 
 __all__ = ["ContactEstimate", "CONTACT_FRAMES"]
 
+
+class _Deferred:
+    """An array field computed on its first read: its ``shape`` now, its values from ``make()`` once.
+
+    ``solve`` decides ``single_contact`` at once and leaves ``single_contact_p`` to this (the
+    p-values cost more than the decision; most callers never read them). ``make`` works on
+    copies the solve took, so later writes into the estimate's arrays do not change it.
+    Indexing and ``reshape`` stay deferred; anything else reads the values (``np.asarray``).
+    """
+
+    __slots__ = ("shape", "_make", "_value")
+
+    def __init__(self, shape, make):
+        self.shape = tuple(shape)
+        self._make = make
+        self._value = None
+
+    def value(self) -> np.ndarray:
+        if self._make is not None:
+            self._value = self._make()
+            self._make = None  # drop the copies it held
+        return self._value
+
+    @property
+    def ndim(self) -> int:
+        return len(self.shape)
+
+    def __len__(self) -> int:
+        return self.shape[0]
+
+    def map(self, fn, shape) -> _Deferred:
+        """The deferred ``fn(values)`` of shape ``shape``."""
+        return _Deferred(shape, lambda: fn(self.value()))
+
+    def __getitem__(self, index) -> _Deferred:
+        shape = np.broadcast_to(np.empty((), np.int8), self.shape)[index].shape  # no copy but a mask's
+        return self.map(lambda v: v[index], shape)
+
+    def reshape(self, shape) -> _Deferred:
+        shape = tuple(int(k) for k in shape)
+        if -1 in shape:
+            rest = int(np.prod([k for k in shape if k != -1]))
+            shape = tuple(int(np.prod(self.shape)) // max(rest, 1) if k == -1 else k for k in shape)
+        if int(np.prod(shape)) != int(np.prod(self.shape)):
+            raise ValueError(f"cannot reshape an array of shape {self.shape} into shape {shape}")
+        return self.map(lambda v: v.reshape(shape), shape)
+
+    def __array__(self, dtype=None, copy=None):
+        return np.asarray(self.value(), dtype=dtype)
+
+    def __reduce__(self):  # pickled (e.g. to a Dask client) as its values
+        return (np.asarray, (self.value(),))
+
+
+def _values(v):
+    """``v``'s values: a deferred field read, anything else as it is."""
+    return v.value() if isinstance(v, _Deferred) else v
+
+
 #: The frames a :class:`ContactEstimate` can be in: ``"face"`` (``solve``: the frame of the
 #: wrenches, a face frame) and ``"core"`` (``solve_object``: the core frame, with a face axis).
 CONTACT_FRAMES = ("face", "core")
@@ -61,6 +120,8 @@ class ContactEstimate:
         limits (``Φ(margin / σ)`` per limit; with ``point_contact`` also ``P(χ²₁ ≥ r²)`` for
         the residual, and the smallest is doubled, capped at 1: Bonferroni);
         ``single_contact = single_contact_p >= alpha`` (default 0.05). NaN where no force.
+        ``solve`` computes it on the first read (the decision ``single_contact`` needs only
+        the limits' signs on most rows; the p-values cost more than the decision).
     single_contact_reason : ndarray of int8, shape B, or None
         :class:`SingleContactReason` code of the failing limit: 0 ``NONE`` (plausible),
         1 ``NO_FORCE``, 2 ``NO_SOLUTION``, 3 ``OUTSIDE``, 4 ``PULLING``, 5 ``FRICTION``,
@@ -91,8 +152,9 @@ class ContactEstimate:
             raise ValueError(f"frame: expected one of {CONTACT_FRAMES}, got {self.frame!r}")
 
     def _arrays(self):
-        """``(name, array or None)`` of every array field."""
-        return ((name, getattr(self, name)) for name in _ARRAY_FIELDS)
+        """``(name, array or None)`` of every array field (a deferred ``single_contact_p`` not read)."""
+        return ((name, self.__dict__[_P_STORE] if name == "single_contact_p" else getattr(self, name))
+                for name in _ARRAY_FIELDS)
 
     def flagged(self) -> np.ndarray:
         """Bool, shape B: valid contacts that one fingertip cannot explain (False without the test)."""
@@ -134,3 +196,21 @@ class ContactEstimate:
 
 #: the array fields of :class:`ContactEstimate`, in order (all but ``frame``)
 _ARRAY_FIELDS = tuple(f.name for f in fields(ContactEstimate) if f.name != "frame")
+#: where ``single_contact_p`` keeps its array or its :class:`_Deferred` values
+_P_STORE = "_single_contact_p"
+
+
+def _get_p(self):
+    v = self.__dict__[_P_STORE]
+    if isinstance(v, _Deferred):
+        v = self.__dict__[_P_STORE] = v.value()
+    return v
+
+
+def _set_p(self, v):
+    self.__dict__[_P_STORE] = v
+
+
+# a property in place of the plain field, set after the dataclass is made (the generated __init__
+# assigns through it; a property in the class body would be taken for the field's default)
+ContactEstimate.single_contact_p = property(_get_p, _set_p, doc="See the class docstring (read on first access).")

@@ -7,7 +7,7 @@ import numpy as np
 from ..defaults import IDENTIFY_FORCE_N
 from ..frames import check_vectors
 from ._crb import ContactCovariance, check_wrench_cov, covariance_from_jacobian, wrench_jacobian
-from ._estimate import ContactEstimate
+from ._estimate import ContactEstimate, _Deferred
 from ._plausibility import (
     DEFAULT_FRICTION,
     DEFAULT_TORSION_RADIUS,
@@ -18,7 +18,7 @@ from ._plausibility import (
 )
 from ._pointcontact import DEFAULT_WRENCH_COV, refine_point_contact
 from ._quadric import solve_ellipsoid, solve_plane, solve_sphere
-from ._soft_test import soft_finger_test
+from ._soft_screen import soft_finger_flags
 from ._surfaces import Ellipsoid, MeshSurface, Plane, Sphere, Surface, check_positive
 
 __all__ = ["solve", "contact_crb", "DEFAULT_FORCE_THRESHOLD"]
@@ -201,12 +201,12 @@ def _solve_checked(parts, w, thr, S, *, point_contact, single_contact, alpha):
 
     c, n, force, tau, ok, facet, cov, test = _solve_rows(
         surfaces, f, m, ws, Sn, with_cov=S is not None, point_contact=point_contact, single_contact=single_contact,
-        mesh=mesh, mu=mu, torsion_radius=e, alpha=alpha)
+        mesh=mesh, mu=mu, torsion_radius=e, alpha=alpha, own_cov=Sn is not S and Sn.ndim == 3)
     return _assemble(N, strong, all_strong, c, n, force, tau, ok, facet, cov, test)
 
 
 def _solve_rows(surfaces, f, m, ws, Sn, *, with_cov, point_contact, single_contact, mesh, mu, torsion_radius,
-                alpha):
+                alpha, own_cov=False):
     """Solve the rows that push hard enough: ``c, n, force, tau, ok, facet, cov, test``.
 
     ``surfaces``: ``(surface, boundary, rows)`` of consecutive blocks (a slice each);
@@ -239,8 +239,10 @@ def _solve_rows(surfaces, f, m, ws, Sn, *, with_cov, point_contact, single_conta
     ok &= np.isfinite(np.einsum("ij,j->i", c, _ZERO3))  # isfinite(c).all(axis=1): 0 · ±inf and 0 · NaN are NaN
 
     test = cov = None
-    if single_contact and not point_contact:  # the soft finger's test in closed form (_soft_test)
-        test = soft_finger_test(c, n, force, tau, Sn, blocks, mu, e, alpha, ok, m)
+    if single_contact and not point_contact:  # the soft finger's test in closed form, p on first read (_soft_screen)
+        single, reason, p_later = soft_finger_flags(c, n, force, tau, Sn, blocks, mu, e, alpha, ok, m,
+                                                    own_cov=own_cov)
+        test = single, _Deferred((len(single),), p_later), reason
     elif single_contact or with_cov:
         with np.errstate(invalid="ignore", divide="ignore"):  # NaN rows stay NaN
             shape = _shape(surfaces, blocks, c, n)
@@ -336,11 +338,18 @@ def _assemble(N, strong, all_strong, c, n, force, tau, ok, facet, cov, test) -> 
     else:  # rows without force: nothing to judge
         est.single_contact = np.zeros(N, bool)
         est.single_contact[strong] = single
-        est.single_contact_p = np.full(N, np.nan)
-        est.single_contact_p[strong] = p
+        est.single_contact_p = _Deferred((N,), lambda: _scatter(N, strong, p.value())) if isinstance(p, _Deferred) \
+            else _scatter(N, strong, p)
         est.single_contact_reason = np.full(N, SingleContactReason.NO_FORCE, np.int8)
         est.single_contact_reason[strong] = reason
     return est
+
+
+def _scatter(N, strong, p):
+    """``p`` of the rows ``strong`` in ``N`` rows, NaN elsewhere (no force: nothing to judge)."""
+    out = np.full(N, np.nan)
+    out[strong] = p
+    return out
 
 
 def contact_crb(surface, point, force, wrench_cov, *, torsion=None, normal=None, point_contact=False):

@@ -1,0 +1,166 @@
+"""The soft finger's single-contact decision at the cost of its limits' signs (``soft_finger_flags``).
+
+:func:`~pito_core.contact._soft_test.soft_finger_test` gives every row ``z = g / σ_g`` of each
+limit ``g`` (pushing ``f_n``, friction ``μ f_n − s``, the boundary's margin) and
+``p = Φ(min z)``; ``single = p ≥ α``. A row whose margins are all ``≥ 0`` has every
+``z ≥ 0`` or ``+∞`` (``_z``'s rules: a zero or unbounded σ never turns a margin ``≥ 0``
+negative), so ``p ≥ Φ(0) = 1/2 ≥ α``: it is single whatever its noise, and nothing but
+the margins' signs is needed to say so. The margins here are computed with the same
+operations in the same order as in ``_soft_test`` (the same bits), so their signs are the
+full test's. Only the other rows (pulling, beyond friction, off the patch, not finite:
+usually few) get the full test, and among them ``Φ`` only where ``min z`` lies within
+``10⁻⁹`` of ``Φ⁻¹(α)`` (elsewhere the comparison of ``min z`` with that quantile decides).
+The p-values of all rows are left to a function (``p_later``) over copies of the inputs:
+the full test, run when a caller reads them. With ``α > 1/2`` every row gets the full test.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.special import ndtr, ndtri
+
+from ._soft_test import CHUNK, _finite_rows, _reasons, _z_rows, _zmin, soft_finger_test
+from ._surfaces import Plane
+
+__all__ = ["soft_finger_flags"]
+
+#: half-width of the band around Φ⁻¹(α), relative (1 + |Φ⁻¹(α)|), where Φ itself decides
+_BAND = 1e-9
+#: the largest double: a margin ≤ this is finite
+_BIG = np.finfo(float).max
+
+
+def soft_finger_flags(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha, ok=None, m=None, *,
+                      own_cov=False):
+    """``single (N,)``, ``reason (N,) int8`` and ``p_later``: :func:`soft_finger_test`'s three, p deferred.
+
+    Arguments as :func:`~pito_core.contact._soft_test.soft_finger_test`. ``p_later()`` returns
+    its ``p (N,)`` (the same values: the same code on copies of the arguments taken now);
+    ``own_cov``: ``w_cov`` is the caller's own copy (not copied again when per row).
+    Always ``single == (p_later() >= alpha)``.
+    """
+    N = len(f)
+    e = torsion_radius
+    finite = _finite_rows(c, n, ok)
+    if alpha <= 0.5:
+        keep = np.empty(N, bool)  # the rows whose margins are all >= 0 (single)
+        for a in range(0, N, CHUNK):
+            b = min(N, a + CHUNK)
+            _screen(c, n, f, tau, blocks, mu, e, m, a, b, keep[a:b])
+        if finite is not None:
+            keep &= finite
+        rest = np.flatnonzero(~keep)
+    else:
+        rest = np.arange(N)
+    single = np.ones(N, bool)
+    reason = np.zeros(N, np.int8)
+    if len(rest):
+        single[rest], reason[rest] = _full_rows(rest, c, n, f, tau, w_cov, blocks, mu, e, alpha, finite, m)
+    return single, reason, _p_later(c, n, f, tau, w_cov, blocks, mu, e, alpha, finite, m, own_cov)
+
+
+def _screen(c, n, f, tau, blocks, mu, e, m, a, b, out):
+    """``out (b − a,)``: rows ``a:b`` whose pushing, friction and boundary margins are all ``≥ 0``."""
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        for surface, boundary, sl in blocks:
+            lo, hi = max(sl.start, a), min(sl.stop, b)
+            if hi <= lo:
+                continue
+            rows = slice(lo, hi)
+            at = lambda x: x if np.ndim(x) == 0 else x[rows]  # noqa: E731
+            g1 = _friction_margin(surface, f[rows], m is not None, n[rows], at(tau), at(mu), at(e))
+            o = out[lo - a:hi - a]
+            if g1.min() >= 0 and g1.max() <= _BIG:  # the usual case: one pass each, no masks
+                o[:] = True
+            else:
+                np.greater_equal(g1, 0.0, out=o)
+                o &= g1 <= _BIG
+            if boundary is not None:
+                o &= boundary.margin(c[rows]) >= 0.0
+
+
+def _friction_margin(surface, f, with_m, n, tau, mu, e):
+    """``μ f_n − s`` of rows ``f (r, 3)``, bit for bit as ``_soft_test``'s ``_plane_z``/``_curved_z``
+    (``_dot3``'s order: ``(x0 y0 + x1 y1) + x2 y2``); its sign implies ``f_n``'s (``μ > 0``)."""
+    if isinstance(surface, Plane) and with_m:  # _plane_z: the constant normal's components
+        nv = surface.normal
+        nz = [i for i in range(3) if nv[i] != 0.0]
+        fn = f[:, nz[0]] * -nv[nz[0]]
+        for i in nz[1:]:
+            fn -= f[:, i] * nv[i]
+        if len(nz) == 1 and abs(nv[nz[0]]) == 1.0:  # a face's plane: f_t = f with that component 0
+            i, j = (k for k in range(3) if k != nz[0])  # (0 + x) and (x + 0) are x: only two terms
+            s = f[:, i] * f[:, i]
+            s += f[:, j] * f[:, j]  # (NaN, ±inf forces: a non-finite margin, never kept)
+        else:
+            ft = nv * fn[:, None]
+            ft += f
+            s = _dot_rows(ft, ft)
+    else:  # _curved_z: f_n = −(f · n)
+        fn = _dot_rows(f, n)
+        np.negative(fn, out=fn)
+        ft = n * fn[:, None]
+        ft += f
+        s = _dot_rows(ft, ft)
+    tq = np.divide(tau, e)
+    tq *= tq
+    s += tq
+    np.sqrt(s, out=s)
+    g1 = fn * mu
+    g1 -= s
+    return g1
+
+
+def _dot_rows(x, y):
+    """``x · y`` of rows ``(r, 3)`` in ``_dot3``'s order: ``(x0 y0 + x1 y1) + x2 y2``."""
+    T = x * y
+    out = T[:, 0] + T[:, 1]
+    out += T[:, 2]
+    return out
+
+
+def _full_rows(rows, c, n, f, tau, w_cov, blocks, mu, e, alpha, finite, m):
+    """``single, reason`` of the rows ``rows`` (sorted) by the full test, deciding on ``min z`` against Φ⁻¹(α)."""
+    k = len(rows)
+    at = lambda x: x if x is None or np.ndim(x) == 0 else x[rows]  # noqa: E731
+    cr, nr, fr, taur, mur, er, mr = at(c), at(n), at(f), at(tau), at(mu), at(e), at(m)
+    fin = at(finite)
+    cov = w_cov if w_cov.ndim == 2 else w_cov[rows]
+    starts = np.searchsorted(rows, [sl.start for _, _, sl in blocks])
+    stops = np.searchsorted(rows, [sl.stop for _, _, sl in blocks])
+    sub = [(s, bnd, slice(int(i), int(j))) for (s, bnd, _), i, j in zip(blocks, starts, stops) if j > i]
+    single = np.empty(k, bool)
+    reason = np.empty(k, np.int8)
+    za = float(ndtri(alpha))
+    band = _BAND * (1.0 + abs(za))
+    for a in range(0, k, CHUNK):
+        b = min(k, a + CHUNK)
+        part = [(s, bnd, slice(max(sl.start, a) - a, min(sl.stop, b) - a)) for s, bnd, sl in sub
+                if min(sl.stop, b) > max(sl.start, a)]
+        r = slice(a, b)
+        ch = lambda x: x if x is None or np.ndim(x) == 0 else x[r]  # noqa: E731
+        z0, z1, z2, fz = _z_rows(ch(cr), ch(nr), ch(fr), ch(taur), cov if cov.ndim == 2 else cov[r], part,
+                                 ch(mur), ch(er), None, ch(mr), finite=ch(fin))
+        zmin = _zmin(z0, z1, z2, fz)
+        s = zmin >= za + band
+        near = np.flatnonzero(~s & ~(zmin < za - band))  # (NaN: never; _z leaves none)
+        if len(near):
+            s[near] = ndtr(zmin[near]) >= alpha
+        single[r] = s
+        reason[r] = 0 if s.all() else _reasons(s, z0, z1, z2, fz, ch(fr), ch(nr), ch(taur), ch(er), alpha)
+    return single, reason
+
+
+def _p_later(c, n, f, tau, w_cov, blocks, mu, e, alpha, finite, m, own_cov):
+    """``p_later()``: the full test's p of every row, from copies of the arguments taken now."""
+    need_cn = any(bnd is not None or not (isinstance(s, Plane) and m is not None) for s, bnd, _ in blocks)
+    copy = lambda x: x if x is None or np.ndim(x) == 0 else np.array(x)  # noqa: E731
+    args = (copy(c) if need_cn else None, copy(n) if need_cn else None, copy(f), copy(tau),
+            w_cov if own_cov and w_cov.ndim == 3 else np.array(w_cov), list(blocks), copy(mu), copy(e),
+            copy(m) if m is not None else None, copy(finite))
+
+    def p_later():
+        c, n, f, tau, w_cov, blocks, mu, e, m, finite = args
+        return soft_finger_test(c, n, f, tau, w_cov, blocks, mu, e, alpha, None, m, finite=finite)[1]
+
+    return p_later
