@@ -10,8 +10,8 @@ operations in the same order as in ``_soft_test`` (the same bits), so their sign
 full test's. Only the other rows (pulling, beyond friction, off the patch, not finite:
 usually few) get the full test, and among them ``Φ`` only where ``min z`` lies within
 ``10⁻⁹`` of ``Φ⁻¹(α)`` (elsewhere the comparison of ``min z`` with that quantile decides).
-The p-values of all rows are left to a function (``p_later``) over copies of the inputs:
-the full test, run when a caller reads them. With ``α > 1/2`` every row gets the full test.
+The p-values are left to the caller (``solve`` runs the full test for them when they are
+first read). With ``α > 1/2`` every row gets the full test.
 """
 
 from __future__ import annotations
@@ -19,33 +19,32 @@ from __future__ import annotations
 import numpy as np
 from scipy.special import ndtr, ndtri
 
-from ._soft_test import CHUNK, _finite_rows, _reasons, _z_rows, _zmin, soft_finger_test
+from ._soft_test import CHUNK, _dot3, _finite_rows, _reasons, _work, _z_rows, _zmin
 from ._surfaces import Plane
 
 __all__ = ["soft_finger_flags"]
 
 #: half-width of the band around Φ⁻¹(α), relative (1 + |Φ⁻¹(α)|), where Φ itself decides
 _BAND = 1e-9
+#: rows per pass of the screen (a handful of ufunc calls per pass: fewer, longer passes than the full test's)
+SCREEN_CHUNK = 32768
 #: the largest double: a margin ≤ this is finite
 _BIG = np.finfo(float).max
 
 
-def soft_finger_flags(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha, ok=None, m=None, *,
-                      own_cov=False):
-    """``single (N,)``, ``reason (N,) int8`` and ``p_later``: :func:`soft_finger_test`'s three, p deferred.
+def soft_finger_flags(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha, ok=None, m=None):
+    """``single (N,)`` and ``reason (N,) int8``: those of :func:`soft_finger_test` (the same values).
 
-    Arguments as :func:`~pito_core.contact._soft_test.soft_finger_test`. ``p_later()`` returns
-    its ``p (N,)`` (the same values: the same code on copies of the arguments taken now);
-    ``own_cov``: ``w_cov`` is the caller's own copy (not copied again when per row).
-    Always ``single == (p_later() >= alpha)``.
+    Arguments as :func:`~pito_core.contact._soft_test.soft_finger_test`; its ``p`` is left to
+    the caller (``solve``: on first read).
     """
     N = len(f)
     e = torsion_radius
     finite = _finite_rows(c, n, ok)
     if alpha <= 0.5:
         keep = np.empty(N, bool)  # the rows whose margins are all >= 0 (single)
-        for a in range(0, N, CHUNK):
-            b = min(N, a + CHUNK)
+        for a in range(0, N, SCREEN_CHUNK):
+            b = min(N, a + SCREEN_CHUNK)
             _screen(c, n, f, tau, blocks, mu, e, m, a, b, keep[a:b])
         if finite is not None:
             keep &= finite
@@ -56,11 +55,12 @@ def soft_finger_flags(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha, ok
     reason = np.zeros(N, np.int8)
     if len(rest):
         single[rest], reason[rest] = _full_rows(rest, c, n, f, tau, w_cov, blocks, mu, e, alpha, finite, m)
-    return single, reason, _p_later(c, n, f, tau, w_cov, blocks, mu, e, alpha, finite, m, own_cov)
+    return single, reason
 
 
 def _screen(c, n, f, tau, blocks, mu, e, m, a, b, out):
     """``out (b − a,)``: rows ``a:b`` whose pushing, friction and boundary margins are all ``≥ 0``."""
+    W = _work()
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         for surface, boundary, sl in blocks:
             lo, hi = max(sl.start, a), min(sl.stop, b)
@@ -68,7 +68,7 @@ def _screen(c, n, f, tau, blocks, mu, e, m, a, b, out):
                 continue
             rows = slice(lo, hi)
             at = lambda x: x if np.ndim(x) == 0 else x[rows]  # noqa: E731
-            g1 = _friction_margin(surface, f[rows], m is not None, n[rows], at(tau), at(mu), at(e))
+            g1 = _friction_margin(W, surface, f[rows], m is not None, n[rows], at(tau), at(mu), at(e))
             o = out[lo - a:hi - a]
             if g1.min() >= 0 and g1.max() <= _BIG:  # the usual case: one pass each, no masks
                 o[:] = True
@@ -79,44 +79,46 @@ def _screen(c, n, f, tau, blocks, mu, e, m, a, b, out):
                 o &= boundary.margin(c[rows]) >= 0.0
 
 
-def _friction_margin(surface, f, with_m, n, tau, mu, e):
+def _friction_margin(W, surface, f, with_m, n, tau, mu, e):
     """``μ f_n − s`` of rows ``f (r, 3)``, bit for bit as ``_soft_test``'s ``_plane_z``/``_curved_z``
     (``_dot3``'s order: ``(x0 y0 + x1 y1) + x2 y2``); its sign implies ``f_n``'s (``μ > 0``)."""
+    r = len(f)
+    fn, s, t = W("fn", r), W("s", r), W("t", r)
     if isinstance(surface, Plane) and with_m:  # _plane_z: the constant normal's components
         nv = surface.normal
         nz = [i for i in range(3) if nv[i] != 0.0]
-        fn = f[:, nz[0]] * -nv[nz[0]]
+        np.multiply(f[:, nz[0]], -nv[nz[0]], out=fn)
         for i in nz[1:]:
-            fn -= f[:, i] * nv[i]
+            np.multiply(f[:, i], nv[i], out=t)
+            fn -= t
         if len(nz) == 1 and abs(nv[nz[0]]) == 1.0:  # a face's plane: f_t = f with that component 0
             i, j = (k for k in range(3) if k != nz[0])  # (0 + x) and (x + 0) are x: only two terms
-            s = f[:, i] * f[:, i]
-            s += f[:, j] * f[:, j]  # (NaN, ±inf forces: a non-finite margin, never kept)
+            np.multiply(f[:, i], f[:, i], out=s)
+            np.multiply(f[:, j], f[:, j], out=t)
+            s += t  # (NaN, ±inf forces: a non-finite margin, never kept)
         else:
-            ft = nv * fn[:, None]
-            ft += f
-            s = _dot_rows(ft, ft)
+            ft = W("ft", r, 3)
+            np.multiply(nv[:, None], fn, out=ft)
+            ft += f.T
+            _dot3(ft, ft, s, W("T3", r, 3))
     else:  # _curved_z: f_n = −(f · n)
-        fn = _dot_rows(f, n)
+        T3 = W("T3", r, 3)
+        fT, nT = W("fT", r, 3), W("nT", r, 3)
+        np.copyto(fT, f.T)
+        np.copyto(nT, n.T)
+        _dot3(fT, nT, fn, T3)
         np.negative(fn, out=fn)
-        ft = n * fn[:, None]
-        ft += f
-        s = _dot_rows(ft, ft)
-    tq = np.divide(tau, e)
-    tq *= tq
-    s += tq
+        ft = W("ft", r, 3)
+        np.multiply(nT, fn, out=ft)
+        ft += fT
+        _dot3(ft, ft, s, T3)
+    np.divide(tau, e, out=t)
+    t *= t
+    s += t
     np.sqrt(s, out=s)
-    g1 = fn * mu
-    g1 -= s
-    return g1
-
-
-def _dot_rows(x, y):
-    """``x · y`` of rows ``(r, 3)`` in ``_dot3``'s order: ``(x0 y0 + x1 y1) + x2 y2``."""
-    T = x * y
-    out = T[:, 0] + T[:, 1]
-    out += T[:, 2]
-    return out
+    np.multiply(fn, mu, out=fn)
+    fn -= s
+    return fn
 
 
 def _full_rows(rows, c, n, f, tau, w_cov, blocks, mu, e, alpha, finite, m):
@@ -149,18 +151,3 @@ def _full_rows(rows, c, n, f, tau, w_cov, blocks, mu, e, alpha, finite, m):
         single[r] = s
         reason[r] = 0 if s.all() else _reasons(s, z0, z1, z2, fz, ch(fr), ch(nr), ch(taur), ch(er), alpha)
     return single, reason
-
-
-def _p_later(c, n, f, tau, w_cov, blocks, mu, e, alpha, finite, m, own_cov):
-    """``p_later()``: the full test's p of every row, from copies of the arguments taken now."""
-    need_cn = any(bnd is not None or not (isinstance(s, Plane) and m is not None) for s, bnd, _ in blocks)
-    copy = lambda x: x if x is None or np.ndim(x) == 0 else np.array(x)  # noqa: E731
-    args = (copy(c) if need_cn else None, copy(n) if need_cn else None, copy(f), copy(tau),
-            w_cov if own_cov and w_cov.ndim == 3 else np.array(w_cov), list(blocks), copy(mu), copy(e),
-            copy(m) if m is not None else None, copy(finite))
-
-    def p_later():
-        c, n, f, tau, w_cov, blocks, mu, e, m, finite = args
-        return soft_finger_test(c, n, f, tau, w_cov, blocks, mu, e, alpha, None, m, finite=finite)[1]
-
-    return p_later

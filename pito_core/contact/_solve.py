@@ -19,6 +19,7 @@ from ._plausibility import (
 from ._pointcontact import DEFAULT_WRENCH_COV, refine_point_contact
 from ._quadric import solve_ellipsoid, solve_plane, solve_sphere
 from ._soft_screen import soft_finger_flags
+from ._soft_test import soft_finger_test
 from ._surfaces import Ellipsoid, MeshSurface, Plane, Sphere, Surface, check_positive
 
 __all__ = ["solve", "contact_crb", "DEFAULT_FORCE_THRESHOLD"]
@@ -161,16 +162,18 @@ def _solve_patches(patches, blocks, force_threshold, covs, point_contact, single
         else:
             S = np.concatenate([np.broadcast_to(c, (len(b), 6, 6)) for c, b in zip(covs, blocks)])
     return _solve_checked(parts, w, _check_threshold(force_threshold), S, point_contact=point_contact,
-                          single_contact=single_contact, alpha=SINGLE_CONTACT_ALPHA)
+                          single_contact=single_contact, alpha=SINGLE_CONTACT_ALPHA,
+                          fresh=(len(blocks) > 1, S is not None and S.ndim == 3))  # (np.concatenate's)
 
 
-def _solve_checked(parts, w, thr, S, *, point_contact, single_contact, alpha):
+def _solve_checked(parts, w, thr, S, *, point_contact, single_contact, alpha, fresh=(False, False)):
     """The body of ``solve`` on checked arguments: wrenches ``w (N, 6)``, covariance ``S`` or None.
 
     ``parts``: ``(surface, boundary, mu, torsion_radius, rows)`` of consecutive blocks of ``w``,
     one per patch (``solve``: one). Each block's closed form, shape operator and boundary are
     its own; the Jacobian, the single-contact test and the covariances run over all rows at
     once (``solve_object``: one sample's faces in one pass). Returns the flat estimate ``(N, …)``.
+    ``fresh``: ``w``, ``S`` are new arrays of the caller's making (nobody else writes them).
     """
     N = len(w)
     f_all = w[:, :3]
@@ -201,12 +204,12 @@ def _solve_checked(parts, w, thr, S, *, point_contact, single_contact, alpha):
 
     c, n, force, tau, ok, facet, cov, test = _solve_rows(
         surfaces, f, m, ws, Sn, with_cov=S is not None, point_contact=point_contact, single_contact=single_contact,
-        mesh=mesh, mu=mu, torsion_radius=e, alpha=alpha, own_cov=Sn is not S and Sn.ndim == 3)
+        mesh=mesh, mu=mu, torsion_radius=e, alpha=alpha, own=(fresh[0] or not all_strong, fresh[1] or not all_strong))
     return _assemble(N, strong, all_strong, c, n, force, tau, ok, facet, cov, test)
 
 
 def _solve_rows(surfaces, f, m, ws, Sn, *, with_cov, point_contact, single_contact, mesh, mu, torsion_radius,
-                alpha, own_cov=False):
+                alpha, own=(False, False)):
     """Solve the rows that push hard enough: ``c, n, force, tau, ok, facet, cov, test``.
 
     ``surfaces``: ``(surface, boundary, rows)`` of consecutive blocks (a slice each);
@@ -219,16 +222,7 @@ def _solve_rows(surfaces, f, m, ws, Sn, *, with_cov, point_contact, single_conta
     e = torsion_radius
     blocks = [b for b in surfaces if b[2].stop > b[2].start]  # the blocks with rows to solve
     force = np.array(f, order="C")  # ours: the kernels read it, the point-contact refinement writes it
-    mc = np.ascontiguousarray(m) if mesh else m  # the closed forms take strided moments
-    if len(surfaces) == 1:
-        c, n, tau, ok, facet = _solve_surface(surfaces[0][0], force, mc)
-    else:
-        solved = [_solve_surface(s, force[sl], mc[sl]) for s, _, sl in blocks]
-        c, n, tau, ok = (np.concatenate([r[k] for r in solved]) for k in range(4))
-        facet = np.full(len(c), -1, np.intp) if mesh else None
-        for r, (_, _, sl) in zip(solved, blocks):
-            if r[4] is not None:
-                facet[sl] = r[4]
+    c, n, tau, ok, facet = _solve_blocks(surfaces, blocks, force, m, mesh)
     W = np.linalg.inv(Sn) if point_contact else None
     if point_contact and len(c):
         for surface, _, sl in blocks:
@@ -240,9 +234,8 @@ def _solve_rows(surfaces, f, m, ws, Sn, *, with_cov, point_contact, single_conta
 
     test = cov = None
     if single_contact and not point_contact:  # the soft finger's test in closed form, p on first read (_soft_screen)
-        single, reason, p_later = soft_finger_flags(c, n, force, tau, Sn, blocks, mu, e, alpha, ok, m,
-                                                    own_cov=own_cov)
-        test = single, _Deferred((len(single),), p_later), reason
+        single, reason = soft_finger_flags(c, n, force, tau, Sn, blocks, mu, e, alpha, ok, m)
+        test = single, _deferred_p(surfaces, blocks, ws, Sn, mesh, mu, e, alpha, own), reason
     elif single_contact or with_cov:
         with np.errstate(invalid="ignore", divide="ignore"):  # NaN rows stay NaN
             shape = _shape(surfaces, blocks, c, n)
@@ -262,6 +255,36 @@ def _solve_rows(surfaces, f, m, ws, Sn, *, with_cov, point_contact, single_conta
         J[~ok] = np.nan
         cov = covariance_from_jacobian(J, T, Sn)
     return c, n, force, tau, ok, facet, cov, test
+
+
+def _solve_blocks(surfaces, blocks, force, m, mesh):
+    """The closed forms (or the mesh) block by block: ``c, n, tau, ok, facet`` of the rows ``force``, ``m``."""
+    mc = np.ascontiguousarray(m) if mesh else m  # the closed forms take strided moments
+    if len(surfaces) == 1:
+        return _solve_surface(surfaces[0][0], force, mc)
+    solved = [_solve_surface(s, force[sl], mc[sl]) for s, _, sl in blocks]
+    c, n, tau, ok = (np.concatenate([r[k] for r in solved]) for k in range(4))
+    facet = np.full(len(c), -1, np.intp) if mesh else None
+    for r, (_, _, sl) in zip(solved, blocks):
+        if r[4] is not None:
+            facet[sl] = r[4]
+    return c, n, tau, ok, facet
+
+
+def _deferred_p(surfaces, blocks, ws, Sn, mesh, mu, e, alpha, own):
+    """``single_contact_p`` of the rows ``ws`` on first read: the solve and the full test again, on a copy
+    of the wrenches taken now (``own``: ``ws``, ``Sn`` are ours already), the same code on the same numbers."""
+    ws = ws if own[0] else np.array(ws)
+    Sn = Sn if own[1] and Sn.ndim == 3 else np.array(Sn)
+
+    def p():
+        force = np.array(ws[:, :3], order="C")
+        c, n, tau, ok, _ = _solve_blocks(surfaces, blocks, force, ws[:, 3:], mesh)
+        ok &= np.isfinite(np.einsum("ij,j->i", c, _ZERO3))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return soft_finger_test(c, n, force, tau, Sn, blocks, mu, e, alpha, ok, ws[:, 3:])[1]
+
+    return _Deferred((len(ws),), p)
 
 
 def _shape(surfaces, blocks, c, n):
