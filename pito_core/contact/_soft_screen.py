@@ -27,7 +27,7 @@ __all__ = ["soft_finger_flags"]
 #: half-width of the band around Φ⁻¹(α), relative (1 + |Φ⁻¹(α)|), where Φ itself decides
 _BAND = 1e-9
 #: rows per pass of the screen (a handful of ufunc calls per pass: fewer, longer passes than the full test's)
-SCREEN_CHUNK = 32768
+SCREEN_CHUNK = 65536
 #: the largest double: a margin ≤ this is finite
 _BIG = np.finfo(float).max
 
@@ -41,21 +41,49 @@ def soft_finger_flags(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha, ok
     N = len(f)
     e = torsion_radius
     finite = _finite_rows(c, n, ok)
+    take = lambda x, rows: x if x is None or np.ndim(x) == 0 else x[rows]  # noqa: E731
+    # planes without a boundary: their z come from f, m and τ alone (the normal only names a failure)
+    need_cn = any(bnd is not None or not (isinstance(s, Plane) and m is not None) for s, bnd, _ in blocks)
+    args = (c if need_cn else None, n if need_cn else None, f, tau, w_cov if w_cov.ndim == 3 else None, mu, e,
+            finite, m)
     if alpha <= 0.5:
-        keep = np.empty(N, bool)  # the rows whose margins are all >= 0 (single)
+        keep = np.empty(min(N, SCREEN_CHUNK), bool)  # the rows whose margins are all >= 0 (single)
+        rest, got = [], []
         for a in range(0, N, SCREEN_CHUNK):
             b = min(N, a + SCREEN_CHUNK)
-            _screen(c, n, f, tau, blocks, mu, e, m, a, b, keep[a:b])
-        if finite is not None:
-            keep &= finite
-        rest = np.flatnonzero(~keep)
+            k = keep[:b - a]
+            _screen(c, n, f, tau, blocks, mu, e, m, a, b, k)
+            if finite is not None:
+                k &= finite[a:b]
+            if not k.all():  # the others' rows taken now, while the pass has them in cache
+                rows = a + np.flatnonzero(~k)
+                rest.append(rows)
+                got.append([take(x, rows) for x in args])
+        rest = np.concatenate(rest) if rest else np.empty(0, np.intp)
+        got = [x if x is None or np.ndim(x) == 0 else np.concatenate([g[i] for g in got])
+               for i, x in enumerate(args)] if got else []
     else:
         rest = np.arange(N)
+        got = list(args)
     single = np.ones(N, bool)
     reason = np.zeros(N, np.int8)
     if len(rest):
-        single[rest], reason[rest] = _full_rows(rest, c, n, f, tau, w_cov, blocks, mu, e, alpha, finite, m)
+        cr, nr, fr, taur, covr, mur, er, fin, mr = got
+        if not need_cn:
+            nr = _Rows(n, rest)
+        single[rest], reason[rest] = _full_rows(rest, cr, nr, fr, taur, w_cov if covr is None else covr, blocks,
+                                                mur, er, alpha, fin, mr)
     return single, reason
+
+
+class _Rows:
+    """``x[rows[i]]`` for ``[i]``: rows of ``x`` taken only when asked (the normals of failing rows)."""
+
+    def __init__(self, x, rows):
+        self.x, self.rows = x, rows
+
+    def __getitem__(self, i):
+        return _Rows(self.x, self.rows[i]) if isinstance(i, slice) else self.x[self.rows[i]]
 
 
 def _screen(c, n, f, tau, blocks, mu, e, m, a, b, out):
@@ -121,13 +149,12 @@ def _friction_margin(W, surface, f, with_m, n, tau, mu, e):
     return fn
 
 
-def _full_rows(rows, c, n, f, tau, w_cov, blocks, mu, e, alpha, finite, m):
-    """``single, reason`` of the rows ``rows`` (sorted) by the full test, deciding on ``min z`` against Φ⁻¹(α)."""
+def _full_rows(rows, cr, nr, fr, taur, cov, blocks, mur, er, alpha, fin, mr):
+    """``single, reason`` of the rows ``rows`` (sorted) by the full test, deciding on ``min z`` against Φ⁻¹(α).
+
+    The arguments are those rows' (``cr = c[rows]``, …; numbers and a shared ``cov`` as they are);
+    ``blocks`` index all rows."""
     k = len(rows)
-    at = lambda x: x if x is None or np.ndim(x) == 0 else x[rows]  # noqa: E731
-    cr, nr, fr, taur, mur, er, mr = at(c), at(n), at(f), at(tau), at(mu), at(e), at(m)
-    fin = at(finite)
-    cov = w_cov if w_cov.ndim == 2 else w_cov[rows]
     starts = np.searchsorted(rows, [sl.start for _, _, sl in blocks])
     stops = np.searchsorted(rows, [sl.stop for _, _, sl in blocks])
     sub = [(s, bnd, slice(int(i), int(j))) for (s, bnd, _), i, j in zip(blocks, starts, stops) if j > i]
