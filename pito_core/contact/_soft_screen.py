@@ -27,7 +27,7 @@ __all__ = ["soft_finger_flags"]
 #: half-width of the band around Φ⁻¹(α), relative (1 + |Φ⁻¹(α)|), where Φ itself decides
 _BAND = 1e-9
 #: rows per pass of the screen (a handful of ufunc calls per pass: fewer, longer passes than the full test's)
-SCREEN_CHUNK = 65536
+SCREEN_CHUNK = 32768
 #: the largest double: a margin ≤ this is finite
 _BIG = np.finfo(float).max
 
