@@ -19,7 +19,7 @@ from ._plausibility import (
 from ._pointcontact import DEFAULT_WRENCH_COV, refine_point_contact
 from ._quadric import solve_ellipsoid, solve_plane, solve_sphere
 from ._soft_screen import soft_finger_flags
-from ._soft_test import soft_finger_test
+from ._soft_test import _finite_rows, soft_finger_test
 from ._surfaces import Ellipsoid, MeshSurface, Plane, Sphere, Surface, check_positive
 
 __all__ = ["solve", "contact_crb", "DEFAULT_FORCE_THRESHOLD"]
@@ -235,7 +235,7 @@ def _solve_rows(surfaces, f, m, ws, Sn, *, with_cov, point_contact, single_conta
     test = cov = None
     if single_contact and not point_contact:  # the soft finger's test in closed form, p on first read (_soft_screen)
         single, reason = soft_finger_flags(c, n, force, tau, Sn, blocks, mu, e, alpha, ok, m)
-        test = single, _deferred_p(surfaces, blocks, ws, Sn, mesh, mu, e, alpha, own), reason
+        test = single, _deferred_p(blocks, c, n, tau, ok, ws, Sn, mu, e, alpha, own), reason
     elif single_contact or with_cov:
         with np.errstate(invalid="ignore", divide="ignore"):  # NaN rows stay NaN
             shape = _shape(surfaces, blocks, c, n)
@@ -271,18 +271,26 @@ def _solve_blocks(surfaces, blocks, force, m, mesh):
     return c, n, tau, ok, facet
 
 
-def _deferred_p(surfaces, blocks, ws, Sn, mesh, mu, e, alpha, own):
-    """``single_contact_p`` of the rows ``ws`` on first read: the solve and the full test again, on a copy
-    of the wrenches taken now (``own``: ``ws``, ``Sn`` are ours already), the same code on the same numbers."""
+def _deferred_p(blocks, c, n, tau, ok, ws, Sn, mu, e, alpha, own):
+    """``single_contact_p`` of the solved rows on first read: the full closed-form test (``soft_finger_test``)
+    on copies taken now of what it reads (``own``: ``ws``, ``Sn`` are ours already), the same numbers.
+
+    The wrench rows ``ws`` hold the forces (the solve's numbers) and the moments; the points and
+    normals are copied only for the blocks that read them (curved, or with a boundary)."""
+    need_cn = any(bnd is not None or not isinstance(s, Plane) for s, bnd, _ in blocks)
+    finite = _finite_rows(c, n, ok)
+    c, n = (np.array(c), np.array(n)) if need_cn else (None, None)
+    tau = np.array(tau)
     ws = ws if own[0] else np.array(ws)
     Sn = Sn if own[1] and Sn.ndim == 3 else np.array(Sn)
 
     def p():
-        force = np.array(ws[:, :3], order="C")
-        c, n, tau, ok, _ = _solve_blocks(surfaces, blocks, force, ws[:, 3:], mesh)
-        ok &= np.isfinite(np.einsum("ij,j->i", c, _ZERO3))
-        with np.errstate(invalid="ignore", divide="ignore"):
-            return soft_finger_test(c, n, force, tau, Sn, blocks, mu, e, alpha, ok, ws[:, 3:])[1]
+        nn = n
+        if nn is None:  # planes' normals (the solve's for every row; the test reads them to name failures)
+            nn = np.empty((len(ws), 3))
+            for s, _, sl in blocks:
+                nn[sl] = s.normal
+        return soft_finger_test(c, nn, ws[:, :3], tau, Sn, blocks, mu, e, alpha, None, ws[:, 3:], finite=finite)[1]
 
     return _Deferred((len(ws),), p)
 
