@@ -32,11 +32,12 @@ SCREEN_CHUNK = 32768
 _BIG = np.finfo(float).max
 
 
-def soft_finger_flags(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha, ok=None, m=None):
+def soft_finger_flags(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha, ok=None, m=None, f2=None):
     """``single (N,)`` and ``reason (N,) int8``: those of :func:`soft_finger_test` (the same values).
 
     Arguments as :func:`~pito_core.contact._soft_test.soft_finger_test`; its ``p`` is left to
-    the caller (``solve``: on first read).
+    the caller (``solve``: on first read). ``f2 (N,)``: ``|f|²`` of the rows if the caller has it
+    (``solve``: its force threshold's), for the faces' planes' cheaper screen (``_face_plane_keep``).
     """
     N = len(f)
     e = torsion_radius
@@ -52,7 +53,7 @@ def soft_finger_flags(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha, ok
         for a in range(0, N, SCREEN_CHUNK):
             b = min(N, a + SCREEN_CHUNK)
             k = keep[:b - a]
-            _screen(c, n, f, tau, blocks, mu, e, m, a, b, k)
+            _screen(c, n, f, tau, blocks, mu, e, m, a, b, k, ok, f2)
             if finite is not None:
                 k &= finite[a:b]
             if not k.all():  # the others' rows taken now, while the pass has them in cache
@@ -86,8 +87,9 @@ class _Rows:
         return _Rows(self.x, self.rows[i]) if isinstance(i, slice) else self.x[self.rows[i]]
 
 
-def _screen(c, n, f, tau, blocks, mu, e, m, a, b, out):
-    """``out (b − a,)``: rows ``a:b`` whose pushing, friction and boundary margins are all ``≥ 0``."""
+def _screen(c, n, f, tau, blocks, mu, e, m, a, b, out, ok=None, f2=None):
+    """``out (b − a,)``: rows ``a:b`` whose pushing, friction and boundary margins are all ``≥ 0``
+    (``ok``, ``f2``: the solve's pushing rows and ``|f|²``, for ``_face_plane_keep``)."""
     W = _work()
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         for surface, boundary, sl in blocks:
@@ -96,15 +98,63 @@ def _screen(c, n, f, tau, blocks, mu, e, m, a, b, out):
                 continue
             rows = slice(lo, hi)
             at = lambda x: x if np.ndim(x) == 0 else x[rows]  # noqa: E731
-            g1 = _friction_margin(W, surface, f[rows], m is not None, n[rows], at(tau), at(mu), at(e))
             o = out[lo - a:hi - a]
-            if g1.min() >= 0 and g1.max() <= _BIG:  # the usual case: one pass each, no masks
-                o[:] = True
-            else:
-                np.greater_equal(g1, 0.0, out=o)
-                o &= g1 <= _BIG
+            k = _face_axis(surface) if f2 is not None and ok is not None and m is not None else None
+            if k is None or not _face_plane_keep(W, k, f[rows], f2[rows], at(tau), at(mu), at(e), ok[rows], o):
+                g1 = _friction_margin(W, surface, f[rows], m is not None, n[rows], at(tau), at(mu), at(e))
+                if g1.min() >= 0 and g1.max() <= _BIG:  # the usual case: one pass each, no masks
+                    o[:] = True
+                else:
+                    np.greater_equal(g1, 0.0, out=o)
+                    o &= g1 <= _BIG
             if boundary is not None:
                 o &= boundary.margin(c[rows]) >= 0.0
+
+
+def _face_axis(surface):
+    """``k`` if ``surface`` is a plane with normal ``±e_k`` (a face's), else None."""
+    if not isinstance(surface, Plane):
+        return None
+    nz = np.flatnonzero(surface.normal)
+    return int(nz[0]) if len(nz) == 1 and abs(surface.normal[nz[0]]) == 1.0 else None
+
+
+#: the faces' planes' screen keeps a row only if its margin is this much (relative) on the safe side
+_SAFE = 2.0**-40
+#: ... and ``f_n²`` within these bounds (no underflow or overflow in the bound's arithmetic)
+_TINY, _HUGE = 1e-280, 1e280
+
+
+def _face_plane_keep(W, k, f, f2, tau, mu, e, ok, out):
+    """Rows of a face's plane (normal ``±e_k``) whose friction margin the full test finds ``≥ 0``, from
+    ``|f|²`` (the solve's): ``out``; False (``out`` unset) when the rows' scale is outside the bound's.
+
+    The full test keeps a row if ``fl(μ f_n) ≥ fl(√s²)``, ``s² = |f_t|² + (τ/e)²``. Here
+    ``a = (|f|² − f_n²) + (τ/e)²`` (``f_n² = f_k²``) and ``b = f_n² μ² (1 − δ)``, each within
+    ``6u(|f|² + (τ/e)²)`` (``u = 2⁻⁵³``) of its exact value; ``a ≤ b`` gives
+    ``s² ≤ μ² f_n² (1 − 6u)(1 − 12u)`` whenever ``δ ≥ 20u + 6u/μ²`` (``δ`` below is larger), so the
+    full test's own roundings (``≤ 3u`` relative) keep its margin ``≥ 0``: a row kept here is kept
+    there. Rows near the limit (within ``δ``) are left to the full test. Only the solve's ``ok``
+    (pushing: ``f_n > 0``) rows are kept; a non-finite ``a`` or ``b`` keeps nothing.
+    """
+    r = len(f2)
+    fk2, t = W("fn", r), W("t", r)
+    np.multiply(f[:, k], f[:, k], out=fk2)
+    if not (fk2.min() >= _TINY and fk2.max() <= _HUGE):
+        return False
+    mu_lo = mu if np.ndim(mu) == 0 else mu.min()
+    K = W("s", r)
+    np.multiply(mu, mu, out=K) if np.ndim(mu) else K.fill(mu * mu)
+    K *= 1.0 - (_SAFE + 8.0 * 2.0**-53 / (mu_lo * mu_lo))
+    K *= fk2  # b
+    np.subtract(f2, fk2, out=fk2)
+    np.divide(tau, e, out=t)
+    t *= t
+    fk2 += t  # a
+    np.less_equal(fk2, K, out=out)
+    if not ok.all():
+        out &= ok
+    return True
 
 
 def _friction_margin(W, surface, f, with_m, n, tau, mu, e):

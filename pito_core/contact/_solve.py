@@ -204,12 +204,13 @@ def _solve_checked(parts, w, thr, S, *, point_contact, single_contact, alpha, fr
 
     c, n, force, tau, ok, facet, cov, test = _solve_rows(
         surfaces, f, m, ws, Sn, with_cov=S is not None, point_contact=point_contact, single_contact=single_contact,
-        mesh=mesh, mu=mu, torsion_radius=e, alpha=alpha, own=(fresh[0] or not all_strong, fresh[1] or not all_strong))
+        mesh=mesh, mu=mu, torsion_radius=e, alpha=alpha, own=(fresh[0] or not all_strong, fresh[1] or not all_strong),
+        f2=f2 if all_strong else None)
     return _assemble(N, strong, all_strong, c, n, force, tau, ok, facet, cov, test)
 
 
 def _solve_rows(surfaces, f, m, ws, Sn, *, with_cov, point_contact, single_contact, mesh, mu, torsion_radius,
-                alpha, own=(False, False)):
+                alpha, own=(False, False), f2=None):
     """Solve the rows that push hard enough: ``c, n, force, tau, ok, facet, cov, test``.
 
     ``surfaces``: ``(surface, boundary, rows)`` of consecutive blocks (a slice each);
@@ -234,7 +235,7 @@ def _solve_rows(surfaces, f, m, ws, Sn, *, with_cov, point_contact, single_conta
 
     test = cov = None
     if single_contact and not point_contact:  # the soft finger's test in closed form, p on first read (_soft_screen)
-        single, reason = soft_finger_flags(c, n, force, tau, Sn, blocks, mu, e, alpha, ok, m)
+        single, reason = soft_finger_flags(c, n, force, tau, Sn, blocks, mu, e, alpha, ok, m, f2=f2)
         test = single, _deferred_p(blocks, c, n, tau, ok, ws, Sn, mu, e, alpha, own), reason
     elif single_contact or with_cov:
         with np.errstate(invalid="ignore", divide="ignore"):  # NaN rows stay NaN

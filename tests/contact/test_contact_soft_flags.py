@@ -104,6 +104,34 @@ def test_flags_equal_the_full_test(kind, bounded):
     assert seen > 100 and (near > 5).all()  # both outcomes, and both on the threshold
 
 
+@pytest.mark.parametrize("kind", ["plane", "plane -x"])
+def test_the_faces_planes_screen_from_the_force_magnitude(kind):
+    """With ``|f|²`` and ``ok`` (as ``solve`` passes them): the same flags, rows on the friction limit too."""
+    rng = np.random.default_rng(26)
+    surface = SURFACES[kind]
+    w = _touches(surface, 800, rng)
+    n0 = surface.normal
+    T = np.linalg.svd(n0[None])[2][1:]
+    c = surface.point + rng.uniform(-0.02, 0.02, (200, 2)) @ T
+    fn = rng.uniform(0.5, 5.0, 200)
+    ph = rng.uniform(0, 2 * np.pi, 200)
+    on = np.repeat([1.0, 1 + 1e-13, 1 - 1e-13, 1 + 1e-9, 1 - 1e-9], 40)  # on the friction cone, just in, out
+    f = -fn[:, None] * n0 + (on * MU * fn)[:, None] * (np.cos(ph)[:, None] * T[0] + np.sin(ph)[:, None] * T[1])
+    w[:200] = wrench_from_contact(c, f, np.zeros(200), n0)  # no noise
+    blocks = [(surface, None, slice(0, len(w)))]
+    c, n, f, tau, ok = _solved(blocks, w)
+    f2 = np.einsum("ij,ij->i", f, f)
+    flagged = 0
+    for S in (np.diag([0.05**2] * 3 + [5e-4**2] * 3), np.diag([1e-30] * 3 + [1e-34] * 3), _covs(rng, len(w))):
+        for alpha in (0.05, 0.3):
+            ref = soft_finger_test(c, n, f, tau, S, blocks, MU, E, alpha, ok, w[:, 3:])
+            single, reason = soft_finger_flags(c, n, f, tau, S, blocks, MU, E, alpha, ok, w[:, 3:], f2=f2)
+            np.testing.assert_array_equal(single, ref[0])
+            np.testing.assert_array_equal(reason, ref[2])
+            flagged += np.count_nonzero(~ref[0][:200])
+    assert 0 < flagged < 6 * 200  # the limit's rows: both outcomes (with the tiny noise)
+
+
 @pytest.mark.parametrize("chunk", [100, 16_000])
 def test_several_patches_per_row_friction_and_covariances(chunk, monkeypatch):
     monkeypatch.setattr("pito_core.contact._soft_test.CHUNK", chunk)  # blocks across the passes' edges
