@@ -138,15 +138,18 @@ def _face_plane_keep(W, k, f, f2, tau, mu, e, ok, out):
     (pushing: ``f_n > 0``) rows are kept; a non-finite ``a`` or ``b`` keeps nothing.
     """
     r = len(f2)
-    fk2, t = W("fn", r), W("t", r)
+    fk2, t, K = W("fn", r), W("t", r), W("s", r)
     np.multiply(f[:, k], f[:, k], out=fk2)
-    if not (fk2.min() >= _TINY and fk2.max() <= _HUGE):
+    mu_lo, mu_hi = (mu, mu) if np.ndim(mu) == 0 else (mu.min(), mu.max())
+    if not (fk2.min() >= _TINY and fk2.max() <= _HUGE and mu_hi <= 1e10):  # b finite: a inf or NaN keeps nothing
         return False
-    mu_lo = mu if np.ndim(mu) == 0 else mu.min()
-    K = W("s", r)
-    np.multiply(mu, mu, out=K) if np.ndim(mu) else K.fill(mu * mu)
-    K *= 1.0 - (_SAFE + 8.0 * 2.0**-53 / (mu_lo * mu_lo))
-    K *= fk2  # b
+    shrink = 1.0 - (_SAFE + 8.0 * 2.0**-53 / (mu_lo * mu_lo))
+    if np.ndim(mu):
+        np.multiply(mu, mu, out=K)
+        K *= shrink
+        K *= fk2
+    else:
+        np.multiply(fk2, mu * mu * shrink, out=K)  # b
     np.subtract(f2, fk2, out=fk2)
     np.divide(tau, e, out=t)
     t *= t
