@@ -8,6 +8,7 @@ read it.
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass, fields
 
 import numpy as np
@@ -24,7 +25,7 @@ class _Deferred:
     Indexing and ``reshape`` stay deferred; anything else reads the values (``np.asarray``).
     """
 
-    __slots__ = ("shape", "_make", "_value")
+    __slots__ = ("shape", "_make", "_value", "__weakref__")
 
     def __init__(self, shape, make):
         self.shape = tuple(shape)
@@ -66,6 +67,43 @@ class _Deferred:
 
     def __reduce__(self):  # pickled (e.g. to a Dask client) as its values
         return (np.asarray, (self.value(),))
+
+
+class _CopyPool:
+    """Float buffers for the copies a deferred field keeps, reused once it no longer needs them.
+
+    A solve that defers its p-values keeps a copy of what they are computed from; taken from
+    fresh memory every time, its pages cost more than the copy (and a heap that grows and
+    shrinks by it every call faults on the solve's own arrays too). A buffer comes back here
+    when its deferred values are read or the deferred field is gone (``weakref.finalize``);
+    at most ``keep`` buffers of at most ``largest`` floats wait here.
+    """
+
+    def __init__(self, keep: int = 2, largest: int = 1 << 24):
+        self._free: list = []
+        self._lock = threading.Lock()
+        self.keep, self.largest = keep, largest
+
+    def take(self, size: int) -> np.ndarray:
+        """A buffer of ``size`` floats (a free one at most twice that size, else a new one)."""
+        with self._lock:
+            fits = [i for i, b in enumerate(self._free) if size <= len(b) <= 2 * size + 4096]
+            if fits:
+                return self._free.pop(min(fits, key=lambda i: len(self._free[i])))[:size]
+        return np.empty(size)
+
+    def give(self, buf: np.ndarray) -> None:
+        base = buf if buf.base is None else buf.base
+        if len(base) > self.largest:
+            return
+        with self._lock:
+            if len(self._free) >= self.keep:
+                self._free.pop(0)
+            self._free.append(base)
+
+
+#: the copies of deferred p-values (``_solve._deferred_p``)
+COPIES = _CopyPool()
 
 
 def _values(v):

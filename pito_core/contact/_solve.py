@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from ..defaults import IDENTIFY_FORCE_N
 from ..frames import check_vectors
 from ._crb import ContactCovariance, check_wrench_cov, covariance_from_jacobian, wrench_jacobian
-from ._estimate import ContactEstimate, _Deferred
+from ._estimate import COPIES, ContactEstimate, _Deferred
 from ._plausibility import (
     DEFAULT_FRICTION,
     DEFAULT_TORSION_RADIUS,
@@ -277,23 +279,42 @@ def _deferred_p(blocks, c, n, tau, ok, ws, Sn, mu, e, alpha, own):
     on copies taken now of what it reads (``own``: ``ws``, ``Sn`` are ours already), the same numbers.
 
     The wrench rows ``ws`` hold the forces (the solve's numbers) and the moments; the points and
-    normals are copied only for the blocks that read them (curved, or with a boundary)."""
+    normals are copied only for the blocks that read them (curved, or with a boundary). The copies
+    share one buffer from ``COPIES``, given back when the p-values are read or the field is gone."""
+    N = len(ws)
     need_cn = any(bnd is not None or not isinstance(s, Plane) for s, bnd, _ in blocks)
     finite = _finite_rows(c, n, ok)
-    c, n = (np.array(c), np.array(n)) if need_cn else (None, None)
-    tau = np.array(tau)
-    ws = ws if own[0] else np.array(ws)
+    buf = COPIES.take(N * ((0 if own[0] else 6) + 1 + (6 if need_cn else 0)))
+    parts = iter(np.split(buf, np.cumsum([N] + ([] if own[0] else [6 * N]) + ([3 * N, 3 * N] if need_cn else []))))
+    tau_c = next(parts)
+    np.copyto(tau_c, tau)
+    if not own[0]:
+        ws_c = next(parts).reshape(N, 6)
+        np.copyto(ws_c, ws)
+        ws = ws_c
+    if need_cn:
+        c_c, n_c = next(parts).reshape(N, 3), next(parts).reshape(N, 3)
+        np.copyto(c_c, c)
+        np.copyto(n_c, n)
+        c, n = c_c, n_c
+    else:
+        c = n = None
+    tau = tau_c
     Sn = Sn if own[1] and Sn.ndim == 3 else np.array(Sn)
 
     def p():
         nn = n
         if nn is None:  # planes' normals (the solve's for every row; the test reads them to name failures)
-            nn = np.empty((len(ws), 3))
+            nn = np.empty((N, 3))
             for s, _, sl in blocks:
                 nn[sl] = s.normal
-        return soft_finger_test(c, nn, ws[:, :3], tau, Sn, blocks, mu, e, alpha, None, ws[:, 3:], finite=finite)[1]
+        out = soft_finger_test(c, nn, ws[:, :3], tau, Sn, blocks, mu, e, alpha, None, ws[:, 3:], finite=finite)[1]
+        done()  # the copies back to the pool
+        return out
 
-    return _Deferred((len(ws),), p)
+    deferred = _Deferred((N,), p)
+    done = weakref.finalize(deferred, COPIES.give, buf)
+    return deferred
 
 
 def _shape(surfaces, blocks, c, n):

@@ -214,3 +214,16 @@ def test_the_deferred_field_through_the_record():
     one = solve(SURFACES["sphere"], _touches(SURFACES["sphere"], 1, rng)[0])
     assert one.single_contact_p.shape == () and one.single_contact.shape == ()
     assert (one.single_contact_p >= 0.05) == one.single_contact
+
+
+def test_copies_come_back_only_when_no_longer_needed():
+    rng = np.random.default_rng(27)
+    surface = SURFACES["sphere"]
+    ws = [_touches(surface, 300, rng) for _ in range(4)]
+    ref = [solve(surface, w).single_contact_p for w in ws]  # read at once: the copies go back each time
+    ests = [solve(surface, w) for w in ws]  # none read: each holds its own copy
+    del ests[1]  # gone unread: its copy back, taken by the next solve
+    again = solve(surface, ws[1])
+    for k, e in zip((3, 2, 0), ests[::-1]):
+        np.testing.assert_array_equal(e.single_contact_p, ref[k])
+    np.testing.assert_array_equal(again.single_contact_p, ref[1])
