@@ -76,10 +76,10 @@ class _CopyPool:
     fresh memory every time, its pages cost more than the copy (and a heap that grows and
     shrinks by it every call faults on the solve's own arrays too). A buffer comes back here
     when its deferred values are read or the deferred field is gone (``weakref.finalize``);
-    at most ``keep`` buffers of at most ``largest`` floats wait here.
+    at most ``keep`` buffers of at most ``largest`` floats (32 MB) wait here.
     """
 
-    def __init__(self, keep: int = 2, largest: int = 1 << 24):
+    def __init__(self, keep: int = 2, largest: int = 1 << 22):
         self._free: list = []
         self._lock = threading.Lock()
         self.keep, self.largest = keep, largest
