@@ -207,7 +207,7 @@ def _solve_checked(parts, w, thr, S, *, point_contact, single_contact, alpha, fr
     c, n, force, tau, ok, facet, cov, test = _solve_rows(
         surfaces, f, m, ws, Sn, with_cov=S is not None, point_contact=point_contact, single_contact=single_contact,
         mesh=mesh, mu=mu, torsion_radius=e, alpha=alpha, own=(fresh[0] or not all_strong, fresh[1] or not all_strong),
-        f2=f2 if all_strong else None)
+        f2=f2 if all_strong else f2[strong])
     return _assemble(N, strong, all_strong, c, n, force, tau, ok, facet, cov, test)
 
 
