@@ -284,14 +284,10 @@ def _deferred_p(blocks, c, n, tau, ok, ws, Sn, mu, e, alpha, own):
     N = len(ws)
     need_cn = any(bnd is not None or not isinstance(s, Plane) for s, bnd, _ in blocks)
     finite = _finite_rows(c, n, ok)
-    # planes alone: the torsion again from the copy at read time (their closed form, the same bits)
-    buf = COPIES.take(N * ((0 if own[0] else 6) + (7 if need_cn else 0)))
-    parts = iter(np.split(buf, np.cumsum(([N] if need_cn else []) + ([] if own[0] else [6 * N])
-                                         + ([3 * N, 3 * N] if need_cn else []))))
-    tau_c = None
-    if need_cn:
-        tau_c = next(parts)
-        np.copyto(tau_c, tau)
+    buf = COPIES.take(N * ((0 if own[0] else 6) + 1 + (6 if need_cn else 0)))
+    parts = iter(np.split(buf, np.cumsum([N] + ([] if own[0] else [6 * N]) + ([3 * N, 3 * N] if need_cn else []))))
+    tau_c = next(parts)
+    np.copyto(tau_c, tau)
     if not own[0]:
         ws_c = next(parts).reshape(N, 6)
         np.copyto(ws_c, ws)
@@ -307,14 +303,12 @@ def _deferred_p(blocks, c, n, tau, ok, ws, Sn, mu, e, alpha, own):
     Sn = Sn if own[1] and Sn.ndim == 3 else np.array(Sn)
 
     def p():
-        nn, t = n, tau
-        if nn is None:  # planes only: their normals (the solve's for every row) and torsions
-            nn, t = np.empty((N, 3)), np.empty(N)
-            f = np.array(ws[:, :3], order="C")  # as the solve's forces
+        nn = n
+        if nn is None:  # planes' normals (the solve's for every row; the test reads them to name failures)
+            nn = np.empty((N, 3))
             for s, _, sl in blocks:
                 nn[sl] = s.normal
-                t[sl] = solve_plane(f[sl], ws[sl, 3:], s.point, s.normal)[2]
-        out = soft_finger_test(c, nn, ws[:, :3], t, Sn, blocks, mu, e, alpha, None, ws[:, 3:], finite=finite)[1]
+        out = soft_finger_test(c, nn, ws[:, :3], tau, Sn, blocks, mu, e, alpha, None, ws[:, 3:], finite=finite)[1]
         done()  # the copies back to the pool
         return out
 
