@@ -8,11 +8,108 @@ read it.
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass, fields
 
 import numpy as np
 
 __all__ = ["ContactEstimate", "CONTACT_FRAMES"]
+
+
+class _Deferred:
+    """An array field computed on its first read: its ``shape`` now, its values from ``make()`` once.
+
+    ``solve`` decides ``single_contact`` at once and leaves ``single_contact_p`` to this (the
+    p-values cost more than the decision; most callers never read them). ``make`` works on
+    copies the solve took, so later writes into the estimate's arrays do not change it.
+    Indexing and ``reshape`` stay deferred; anything else reads the values (``np.asarray``).
+    """
+
+    __slots__ = ("shape", "_make", "_value", "__weakref__")
+
+    def __init__(self, shape, make):
+        self.shape = tuple(shape)
+        self._make = make
+        self._value = None
+
+    def value(self) -> np.ndarray:
+        if self._make is not None:
+            self._value = self._make()
+            self._make = None  # drop the copies it held
+        return self._value
+
+    @property
+    def ndim(self) -> int:
+        return len(self.shape)
+
+    def __len__(self) -> int:
+        return self.shape[0]
+
+    def map(self, fn, shape) -> _Deferred:
+        """The deferred ``fn(values)`` of shape ``shape``."""
+        return _Deferred(shape, lambda: fn(self.value()))
+
+    def __getitem__(self, index) -> _Deferred:
+        shape = np.broadcast_to(np.empty((), np.int8), self.shape)[index].shape  # no copy but a mask's
+        return self.map(lambda v: v[index], shape)
+
+    def reshape(self, shape) -> _Deferred:
+        shape = tuple(int(k) for k in shape)
+        if -1 in shape:
+            rest = int(np.prod([k for k in shape if k != -1]))
+            shape = tuple(int(np.prod(self.shape)) // max(rest, 1) if k == -1 else k for k in shape)
+        if int(np.prod(shape)) != int(np.prod(self.shape)):
+            raise ValueError(f"cannot reshape an array of shape {self.shape} into shape {shape}")
+        return self.map(lambda v: v.reshape(shape), shape)
+
+    def __array__(self, dtype=None, copy=None):
+        return np.asarray(self.value(), dtype=dtype)
+
+    def __reduce__(self):  # pickled (e.g. to a Dask client) as its values
+        return (np.asarray, (self.value(),))
+
+
+class _CopyPool:
+    """Float buffers for the copies a deferred field keeps, reused once it no longer needs them.
+
+    A solve that defers its p-values keeps a copy of what they are computed from; taken from
+    fresh memory every time, its pages cost more than the copy (and a heap that grows and
+    shrinks by it every call faults on the solve's own arrays too). A buffer comes back here
+    when its deferred values are read or the deferred field is gone (``weakref.finalize``);
+    at most ``keep`` buffers of at most ``largest`` floats (32 MB) wait here.
+    """
+
+    def __init__(self, keep: int = 2, largest: int = 1 << 22):
+        self._free: list = []
+        self._lock = threading.Lock()
+        self.keep, self.largest = keep, largest
+
+    def take(self, size: int) -> np.ndarray:
+        """A buffer of ``size`` floats (a free one at most twice that size, else a new one)."""
+        with self._lock:
+            fits = [i for i, b in enumerate(self._free) if size <= len(b) <= 2 * size + 4096]
+            if fits:
+                return self._free.pop(min(fits, key=lambda i: len(self._free[i])))[:size]
+        return np.empty(size)
+
+    def give(self, buf: np.ndarray) -> None:
+        base = buf if buf.base is None else buf.base
+        if len(base) > self.largest:
+            return
+        with self._lock:
+            if len(self._free) >= self.keep:
+                self._free.pop(0)
+            self._free.append(base)
+
+
+#: the copies of deferred p-values (``_solve._deferred_p``)
+COPIES = _CopyPool()
+
+
+def _values(v):
+    """``v``'s values: a deferred field read, anything else as it is."""
+    return v.value() if isinstance(v, _Deferred) else v
+
 
 #: The frames a :class:`ContactEstimate` can be in: ``"face"`` (``solve``: the frame of the
 #: wrenches, a face frame) and ``"core"`` (``solve_object``: the core frame, with a face axis).
@@ -61,6 +158,8 @@ class ContactEstimate:
         limits (``Φ(margin / σ)`` per limit; with ``point_contact`` also ``P(χ²₁ ≥ r²)`` for
         the residual, and the smallest is doubled, capped at 1: Bonferroni);
         ``single_contact = single_contact_p >= alpha`` (default 0.05). NaN where no force.
+        ``solve`` computes it on the first read (the decision ``single_contact`` needs only
+        the limits' signs on most rows; the p-values cost more than the decision).
     single_contact_reason : ndarray of int8, shape B, or None
         :class:`SingleContactReason` code of the failing limit: 0 ``NONE`` (plausible),
         1 ``NO_FORCE``, 2 ``NO_SOLUTION``, 3 ``OUTSIDE``, 4 ``PULLING``, 5 ``FRICTION``,
@@ -91,8 +190,9 @@ class ContactEstimate:
             raise ValueError(f"frame: expected one of {CONTACT_FRAMES}, got {self.frame!r}")
 
     def _arrays(self):
-        """``(name, array or None)`` of every array field."""
-        return ((name, getattr(self, name)) for name in _ARRAY_FIELDS)
+        """``(name, array or None)`` of every array field (a deferred ``single_contact_p`` not read)."""
+        return ((name, self.__dict__[_P_STORE] if name == "single_contact_p" else getattr(self, name))
+                for name in _ARRAY_FIELDS)
 
     def flagged(self) -> np.ndarray:
         """Bool, shape B: valid contacts that one fingertip cannot explain (False without the test)."""
@@ -134,3 +234,21 @@ class ContactEstimate:
 
 #: the array fields of :class:`ContactEstimate`, in order (all but ``frame``)
 _ARRAY_FIELDS = tuple(f.name for f in fields(ContactEstimate) if f.name != "frame")
+#: where ``single_contact_p`` keeps its array or its :class:`_Deferred` values
+_P_STORE = "_single_contact_p"
+
+
+def _get_p(self):
+    v = self.__dict__[_P_STORE]
+    if isinstance(v, _Deferred):
+        v = self.__dict__[_P_STORE] = v.value()
+    return v
+
+
+def _set_p(self, v):
+    self.__dict__[_P_STORE] = v
+
+
+# a property in place of the plain field, set after the dataclass is made (the generated __init__
+# assigns through it; a property in the class body would be taken for the field's default)
+ContactEstimate.single_contact_p = property(_get_p, _set_p, doc="See the class docstring (read on first access).")

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..frames import FACES, check_vectors
 from ._crb import check_wrench_cov
-from ._estimate import ContactEstimate
+from ._estimate import ContactEstimate, _Deferred
 from ._patches import Assembly, load_assembly
 from ._solve import DEFAULT_FORCE_THRESHOLD, _check_threshold, _solve_patches
 
@@ -85,15 +85,18 @@ def _by_face(est: ContactEstimate, faces: list, M: int) -> dict:
     for f in faces:
         spans.append((start, start + M * len(f), len(f)))
         start += M * len(f)
-    out = {}
-    for name, v in est._arrays():
-        if v is None:
-            continue
+
+    def arrange(v):
         if len(faces) == 1:
             a = v.reshape((M, 6) + v.shape[1:])
         else:
             a = np.concatenate([v[i:j].reshape((M, k) + v.shape[1:]) for i, j, k in spans], axis=1)
-        out[name] = a if inv is None else a[:, inv]
+        return a if inv is None else a[:, inv]
+
+    out = {}
+    for name, v in est._arrays():
+        if v is not None:  # a deferred field (single_contact_p) stays deferred
+            out[name] = v.map(arrange, (M, 6) + v.shape[1:]) if isinstance(v, _Deferred) else arrange(v)
     return out
 
 

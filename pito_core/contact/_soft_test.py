@@ -96,7 +96,7 @@ def _work() -> _Work:
     return w
 
 
-def soft_finger_test(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha, ok=None, m=None):
+def soft_finger_test(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha, ok=None, m=None, *, finite=False):
     """Single-contact test of soft-finger estimates: ``single (N,)``, ``p (N,)``, ``reason (N,) int8``.
 
     Parameters
@@ -118,10 +118,15 @@ def soft_finger_test(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha, ok=
         only the others are checked).
     m : ndarray, shape (N, 3), optional
         The measured moments (N·m) the estimates solve exactly: on a plane ``c × f = m − τ n``.
+    finite : ndarray of bool, shape (N,), or None, optional
+        The rows with a finite point and normal, already known (None: all; ``ok`` unused);
+        then ``c`` and ``n`` may be None if every block is a plane without boundary (with ``m``).
     """
-    N = len(c)
+    N = len(f)
+    if finite is False:
+        finite = _finite_rows(c, n, ok)
     if N <= CHUNK:
-        return _test_rows(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha, ok, m)
+        return _test_rows(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha, finite, m)
     single, p, reason = np.empty(N, bool), np.empty(N), np.empty(N, np.int8)
     for a in range(0, N, CHUNK):
         b = min(N, a + CHUNK)
@@ -130,8 +135,8 @@ def soft_finger_test(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha, ok=
         rows = slice(a, b)
         at = lambda x: x if x is None or np.ndim(x) == 0 else x[rows]  # noqa: E731
         single[rows], p[rows], reason[rows] = _test_rows(
-            c[rows], n[rows], f[rows], tau[rows], w_cov if w_cov.ndim == 2 else w_cov[rows], sub, at(mu),
-            at(torsion_radius), alpha, at(ok), at(m))
+            at(c), at(n), f[rows], tau[rows], w_cov if w_cov.ndim == 2 else w_cov[rows], sub, at(mu),
+            at(torsion_radius), alpha, at(finite), at(m))
     return single, p, reason
 
 
@@ -197,10 +202,12 @@ def _limits_z(W, fn, s, mu, U0, var0, U1, w_cov, z0, z1):
         np.multiply(fn, 1.0 / np.sqrt(var0), out=z0)
     np.sqrt(var1, out=sq)
     np.divide(g1, sq, out=z1)
-    if np.isnan(z0.sum()):  # degenerate rows (rare): _z's rules
-        z0[:] = _z(fn, np.broadcast_to(var0, fn.shape))
+    if np.isnan(z0.sum()):  # degenerate rows (rare): _z's rules on them (a row's z is its own)
+        bad = np.isnan(z0)
+        z0[bad] = _z(fn[bad], var0 if np.ndim(var0) == 0 else var0[bad])
     if np.isnan(z1.sum()):
-        z1[:] = _z(g1, var1)
+        bad = np.isnan(z1)
+        z1[bad] = _z(g1[bad], var1[bad])
 
 
 def _shear(W, fn, ft, tau, e):
@@ -400,16 +407,54 @@ def _curved_z(surface, W, c, n, f, tau, w_cov, mu, e, z0, z1, edge=None):
     _limits_z(W, fn, s, mu, U0, None, U1, w_cov, z0, z1)
 
 
-def _test_rows(c, n, f, tau, w_cov, blocks, mu, e, alpha, ok, m):
-    """:func:`soft_finger_test` on at most ``CHUNK`` rows."""
-    N = len(c)
+def _test_rows(c, n, f, tau, w_cov, blocks, mu, e, alpha, finite, m):
+    """:func:`soft_finger_test` on at most ``CHUNK`` rows (``finite``: None, or the finite rows)."""
+    z0, z1, z2, _ = _z_rows(c, n, f, tau, w_cov, blocks, mu, e, None, m, finite)
+    zmin = _zmin(z0, z1, z2, finite)
+    low = zmin < _Z_ONE
+    if low.all():
+        p = ndtr(zmin)
+    else:
+        p = np.ones(len(zmin))
+        p[low] = ndtr(zmin[low])
+    if finite is not None and not finite.all():
+        p[~finite] = 0.0
+    single = p >= alpha
+    if single.all():
+        return single, p, np.zeros(len(p), np.int8)
+    return single, p, _reasons(single, z0, z1, z2, finite, f, n, tau, e, alpha)
+
+
+def _zmin(z0, z1, z2, finite):
+    """The smallest ``z`` of each row (−inf where the estimate is not finite)."""
+    zmin = np.minimum(z0, z1)
+    if z2 is not None:
+        np.minimum(zmin, z2, out=zmin)
+    if finite is not None and not finite.all():
+        zmin[~finite] = -np.inf
+    return zmin
+
+
+def _finite_rows(c, n, ok):
+    """Rows with a finite point and normal, or None for all (every row ``ok``: finite by the solve).
+
+    Row by row: an ``ok`` row's point and normal are finite (the solve's rule), so the rows
+    checked here are the others; the result is the same for any batch of the rows."""
+    if ok is not None and ok.all():
+        return None
     C = (c[:, 0], c[:, 1], c[:, 2])
     Nn = (n[:, 0], n[:, 1], n[:, 2])
+    with np.errstate(invalid="ignore", over="ignore"):
+        return np.isfinite(_dot(C, C) + _dot(Nn, Nn))
+
+
+def _z_rows(c, n, f, tau, w_cov, blocks, mu, e, ok, m, finite=False):
+    """The limits' ``z0`` (pushing), ``z1`` (friction), ``z2`` (boundary, None without one) of at most
+    ``CHUNK`` rows, and ``finite`` (None: all); ``finite`` given (not False): ``ok`` unused."""
+    N = len(f)
+    if finite is False:
+        finite = _finite_rows(c, n, ok)
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        if ok is None or not ok.all():
-            finite = np.isfinite(_dot(C, C) + _dot(Nn, Nn))
-        else:
-            finite = None
         # block by block (each row's figures depend on its own block only: grouped solves equal single ones)
         z0, z1, z2 = np.empty(N), np.empty(N), None
         W = _work()
@@ -440,23 +485,12 @@ def _test_rows(c, n, f, tau, w_cov, blocks, mu, e, alpha, ok, m):
                 np.copyto(cT, c[sl].T)
                 np.copyto(nT, n[sl].T)
                 _curved_z(surface, W, cT, nT, fT, tb, cov, mub, eb, z0[sl], z1[sl], edge)
-    zmin = np.minimum(z0, z1)
-    if z2 is not None:
-        np.minimum(zmin, z2, out=zmin)
-    if finite is not None and not finite.all():
-        zmin[~finite] = -np.inf
-    low = zmin < _Z_ONE
-    if low.all():
-        p = ndtr(zmin)
-    else:
-        p = np.ones(N)
-        p[low] = ndtr(zmin[low])
-    if finite is not None and not finite.all():
-        p[~finite] = 0.0
-    single = p >= alpha
-    if single.all():
-        return single, p, np.zeros(N, np.int8)
-    # name the failing limit on the rows that fail (the general test's rule, _decide)
+    return z0, z1, z2, finite
+
+
+def _reasons(single, z0, z1, z2, finite, f, n, tau, e, alpha):
+    """``reason (N,) int8``: the failing limit of the rows not ``single`` (the general test's rule, _decide)."""
+    N = len(single)
     bad = np.flatnonzero(~single)
     zb = np.zeros((len(bad), 4))
     zb[:, 0], zb[:, 1] = z0[bad], z1[bad]
@@ -468,13 +502,14 @@ def _test_rows(c, n, f, tau, w_cov, blocks, mu, e, alpha, ok, m):
     p_all[:, :3][lo] = ndtr(zb[:, :3][lo])
     p_all[~fin] = 0.0
     fb, nb = f[bad], n[bad]
-    ftb = fb - np.einsum("ij,ij->i", fb, nb)[:, None] * nb
-    eb = e if np.ndim(e) == 0 else e[bad]
-    shear = np.sqrt(np.einsum("ij,ij->i", ftb, ftb)) >= np.abs(tau[bad] / eb)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ftb = fb - np.einsum("ij,ij->i", fb, nb)[:, None] * nb
+        eb = e if np.ndim(e) == 0 else e[bad]
+        shear = np.sqrt(np.einsum("ij,ij->i", ftb, ftb)) >= np.abs(tau[bad] / eb)
     _, _, reason_bad = _decide(p_all, zb, fin, shear[fin], alpha, False)
     reason = np.zeros(N, np.int8)
     reason[bad] = reason_bad
-    return single, p, reason
+    return reason
 
 
 def _tangents(n):

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from ..defaults import IDENTIFY_FORCE_N
 from ..frames import check_vectors
 from ._crb import ContactCovariance, check_wrench_cov, covariance_from_jacobian, wrench_jacobian
-from ._estimate import ContactEstimate
+from ._estimate import COPIES, ContactEstimate, _Deferred
 from ._plausibility import (
     DEFAULT_FRICTION,
     DEFAULT_TORSION_RADIUS,
@@ -18,7 +20,8 @@ from ._plausibility import (
 )
 from ._pointcontact import DEFAULT_WRENCH_COV, refine_point_contact
 from ._quadric import solve_ellipsoid, solve_plane, solve_sphere
-from ._soft_test import soft_finger_test
+from ._soft_screen import soft_finger_flags
+from ._soft_test import _finite_rows, soft_finger_test
 from ._surfaces import Ellipsoid, MeshSurface, Plane, Sphere, Surface, check_positive
 
 __all__ = ["solve", "contact_crb", "DEFAULT_FORCE_THRESHOLD"]
@@ -161,16 +164,18 @@ def _solve_patches(patches, blocks, force_threshold, covs, point_contact, single
         else:
             S = np.concatenate([np.broadcast_to(c, (len(b), 6, 6)) for c, b in zip(covs, blocks)])
     return _solve_checked(parts, w, _check_threshold(force_threshold), S, point_contact=point_contact,
-                          single_contact=single_contact, alpha=SINGLE_CONTACT_ALPHA)
+                          single_contact=single_contact, alpha=SINGLE_CONTACT_ALPHA,
+                          fresh=(len(blocks) > 1, S is not None and S.ndim == 3))  # (np.concatenate's)
 
 
-def _solve_checked(parts, w, thr, S, *, point_contact, single_contact, alpha):
+def _solve_checked(parts, w, thr, S, *, point_contact, single_contact, alpha, fresh=(False, False)):
     """The body of ``solve`` on checked arguments: wrenches ``w (N, 6)``, covariance ``S`` or None.
 
     ``parts``: ``(surface, boundary, mu, torsion_radius, rows)`` of consecutive blocks of ``w``,
     one per patch (``solve``: one). Each block's closed form, shape operator and boundary are
     its own; the Jacobian, the single-contact test and the covariances run over all rows at
     once (``solve_object``: one sample's faces in one pass). Returns the flat estimate ``(N, …)``.
+    ``fresh``: ``w``, ``S`` are new arrays of the caller's making (nobody else writes them).
     """
     N = len(w)
     f_all = w[:, :3]
@@ -201,12 +206,13 @@ def _solve_checked(parts, w, thr, S, *, point_contact, single_contact, alpha):
 
     c, n, force, tau, ok, facet, cov, test = _solve_rows(
         surfaces, f, m, ws, Sn, with_cov=S is not None, point_contact=point_contact, single_contact=single_contact,
-        mesh=mesh, mu=mu, torsion_radius=e, alpha=alpha)
+        mesh=mesh, mu=mu, torsion_radius=e, alpha=alpha, own=(fresh[0] or not all_strong, fresh[1] or not all_strong),
+        f2=f2 if all_strong else f2[strong])
     return _assemble(N, strong, all_strong, c, n, force, tau, ok, facet, cov, test)
 
 
 def _solve_rows(surfaces, f, m, ws, Sn, *, with_cov, point_contact, single_contact, mesh, mu, torsion_radius,
-                alpha):
+                alpha, own=(False, False), f2=None):
     """Solve the rows that push hard enough: ``c, n, force, tau, ok, facet, cov, test``.
 
     ``surfaces``: ``(surface, boundary, rows)`` of consecutive blocks (a slice each);
@@ -219,16 +225,7 @@ def _solve_rows(surfaces, f, m, ws, Sn, *, with_cov, point_contact, single_conta
     e = torsion_radius
     blocks = [b for b in surfaces if b[2].stop > b[2].start]  # the blocks with rows to solve
     force = np.array(f, order="C")  # ours: the kernels read it, the point-contact refinement writes it
-    mc = np.ascontiguousarray(m) if mesh else m  # the closed forms take strided moments
-    if len(surfaces) == 1:
-        c, n, tau, ok, facet = _solve_surface(surfaces[0][0], force, mc)
-    else:
-        solved = [_solve_surface(s, force[sl], mc[sl]) for s, _, sl in blocks]
-        c, n, tau, ok = (np.concatenate([r[k] for r in solved]) for k in range(4))
-        facet = np.full(len(c), -1, np.intp) if mesh else None
-        for r, (_, _, sl) in zip(solved, blocks):
-            if r[4] is not None:
-                facet[sl] = r[4]
+    c, n, tau, ok, facet = _solve_blocks(surfaces, blocks, force, m, mesh)
     W = np.linalg.inv(Sn) if point_contact else None
     if point_contact and len(c):
         for surface, _, sl in blocks:
@@ -239,8 +236,9 @@ def _solve_rows(surfaces, f, m, ws, Sn, *, with_cov, point_contact, single_conta
     ok &= np.isfinite(np.einsum("ij,j->i", c, _ZERO3))  # isfinite(c).all(axis=1): 0 · ±inf and 0 · NaN are NaN
 
     test = cov = None
-    if single_contact and not point_contact:  # the soft finger's test in closed form (_soft_test)
-        test = soft_finger_test(c, n, force, tau, Sn, blocks, mu, e, alpha, ok, m)
+    if single_contact and not point_contact:  # the soft finger's test in closed form, p on first read (_soft_screen)
+        single, reason = soft_finger_flags(c, n, force, tau, Sn, blocks, mu, e, alpha, ok, m, f2=f2)
+        test = single, _deferred_p(blocks, c, n, tau, ok, ws, Sn, mu, e, alpha, own), reason
     elif single_contact or with_cov:
         with np.errstate(invalid="ignore", divide="ignore"):  # NaN rows stay NaN
             shape = _shape(surfaces, blocks, c, n)
@@ -260,6 +258,63 @@ def _solve_rows(surfaces, f, m, ws, Sn, *, with_cov, point_contact, single_conta
         J[~ok] = np.nan
         cov = covariance_from_jacobian(J, T, Sn)
     return c, n, force, tau, ok, facet, cov, test
+
+
+def _solve_blocks(surfaces, blocks, force, m, mesh):
+    """The closed forms (or the mesh) block by block: ``c, n, tau, ok, facet`` of the rows ``force``, ``m``."""
+    mc = np.ascontiguousarray(m) if mesh else m  # the closed forms take strided moments
+    if len(surfaces) == 1:
+        return _solve_surface(surfaces[0][0], force, mc)
+    solved = [_solve_surface(s, force[sl], mc[sl]) for s, _, sl in blocks]
+    c, n, tau, ok = (np.concatenate([r[k] for r in solved]) for k in range(4))
+    facet = np.full(len(c), -1, np.intp) if mesh else None
+    for r, (_, _, sl) in zip(solved, blocks):
+        if r[4] is not None:
+            facet[sl] = r[4]
+    return c, n, tau, ok, facet
+
+
+def _deferred_p(blocks, c, n, tau, ok, ws, Sn, mu, e, alpha, own):
+    """``single_contact_p`` of the solved rows on first read: the full closed-form test (``soft_finger_test``)
+    on copies taken now of what it reads (``own``: ``ws``, ``Sn`` are ours already), the same numbers.
+
+    The wrench rows ``ws`` hold the forces (the solve's numbers) and the moments; the points and
+    normals are copied only for the blocks that read them (curved, or with a boundary). The copies
+    share one buffer from ``COPIES``, given back when the p-values are read or the field is gone."""
+    N = len(ws)
+    need_cn = any(bnd is not None or not isinstance(s, Plane) for s, bnd, _ in blocks)
+    finite = _finite_rows(c, n, ok)
+    buf = COPIES.take(N * ((0 if own[0] else 6) + 1 + (6 if need_cn else 0)))
+    parts = iter(np.split(buf, np.cumsum([N] + ([] if own[0] else [6 * N]) + ([3 * N, 3 * N] if need_cn else []))))
+    tau_c = next(parts)
+    np.copyto(tau_c, tau)
+    if not own[0]:
+        ws_c = next(parts).reshape(N, 6)
+        np.copyto(ws_c, ws)
+        ws = ws_c
+    if need_cn:
+        c_c, n_c = next(parts).reshape(N, 3), next(parts).reshape(N, 3)
+        np.copyto(c_c, c)
+        np.copyto(n_c, n)
+        c, n = c_c, n_c
+    else:
+        c = n = None
+    tau = tau_c
+    Sn = Sn if own[1] and Sn.ndim == 3 else np.array(Sn)
+
+    def p():
+        nn = n
+        if nn is None:  # planes' normals (the solve's for every row; the test reads them to name failures)
+            nn = np.empty((N, 3))
+            for s, _, sl in blocks:
+                nn[sl] = s.normal
+        out = soft_finger_test(c, nn, ws[:, :3], tau, Sn, blocks, mu, e, alpha, None, ws[:, 3:], finite=finite)[1]
+        done()  # the copies back to the pool
+        return out
+
+    deferred = _Deferred((N,), p)
+    done = weakref.finalize(deferred, COPIES.give, buf)
+    return deferred
 
 
 def _shape(surfaces, blocks, c, n):
@@ -336,11 +391,18 @@ def _assemble(N, strong, all_strong, c, n, force, tau, ok, facet, cov, test) -> 
     else:  # rows without force: nothing to judge
         est.single_contact = np.zeros(N, bool)
         est.single_contact[strong] = single
-        est.single_contact_p = np.full(N, np.nan)
-        est.single_contact_p[strong] = p
+        est.single_contact_p = _Deferred((N,), lambda: _scatter(N, strong, p.value())) if isinstance(p, _Deferred) \
+            else _scatter(N, strong, p)
         est.single_contact_reason = np.full(N, SingleContactReason.NO_FORCE, np.int8)
         est.single_contact_reason[strong] = reason
     return est
+
+
+def _scatter(N, strong, p):
+    """``p`` of the rows ``strong`` in ``N`` rows, NaN elsewhere (no force: nothing to judge)."""
+    out = np.full(N, np.nan)
+    out[strong] = p
+    return out
 
 
 def contact_crb(surface, point, force, wrench_cov, *, torsion=None, normal=None, point_contact=False):
