@@ -22,7 +22,7 @@ import numpy as np
 from ..defaults import FULL_SCALE_FACE
 from ..frames import FACES, N_GAUGES
 from ._lstsq import RANK_RTOL
-from ._cv import ALPHAS, N_FOLDS, FoldedGram, MAX_SEGMENT_FRACTION, Problem, SegmentCounter, choose_model, cross_validate, \
+from ._cv import ALPHAS, N_FOLDS, N_SE_SESSION, FoldedGram, MAX_SEGMENT_FRACTION, Problem, SegmentCounter, choose_model, cross_validate, \
     fold_bounds, held_out_sse, solve_problem, tangent_rows
 from ._gramfit import load_groups
 from ._poly import PolyCorrection, poly_features_t, poly_terms
@@ -228,7 +228,7 @@ class PolyAccumulator:
         self._rescale()
         parts = self.problems(out_faces, rank_a)
         results = [(cross_validate(acc, probs, alphas), [p.weight for p in probs]) for acc, probs, _ in parts]
-        choice = choose_model(results, requested, self.counter.count, group)
+        choice = choose_model(results, requested, self.counter.count, group, N_SE_SESSION)
         if choice.name != "poly":
             return choice, None
         F = len(out_faces)

@@ -108,8 +108,9 @@ def fit_sensor(counts, wrench, groups=None, model: str = "auto", *, n_folds: int
         every fold spans the data. Default: ``DEFAULT_SEGMENTS`` contiguous pieces.
     model : {"auto", "linear", "poly"}
         ``auto`` scores, per output group (in threes: forces, torques), the affine fit and the
-        correction along its ridge path by their mean held-out score over the folds, and takes
-        the simplest within one standard error of the best (``_cv.N_SE``); ``linear`` is the
+        correction along its ridge path by their mean held-out score over the folds, and takes the
+        correction at its best ridge only where it beats the affine fit by more than ``_cv.N_SE``
+        standard errors; ``linear`` is the
         plain affine least squares everywhere, ``poly`` the correction at its best ridge.
     n_folds : int
     alphas : sequence of float
