@@ -90,3 +90,21 @@ def test_cube_correction_keeps_its_tangent_rows_through_a_file(tmp_path):
     assert calibration_hash(back) == calibration_hash(cal)
     back.correction.tangent = None
     assert calibration_hash(back) != calibration_hash(cal)
+
+
+def test_choice_is_the_best_ridge_against_the_affine_fit_by_standard_errors():
+    """The correction at its best ridge, kept only where it beats the affine fit by more than ``n_se``
+    standard errors of its fold scores; never a weaker-scoring ridge that merely sits within the bound."""
+    from pito_core.calibration._cv import _group_choice
+
+    n = np.full(5, 100)
+    affine = np.full(5, 100.0)
+    best = np.array([80.0, 82.0, 78.0, 81.0, 79.0])  # mean 80, SE ≈ 0.71
+    strong = best + 15.0  # a stronger ridge, worse than the best: never picked over it
+    e = np.stack([affine, strong, best]) * n
+    assert _group_choice(e, n, False, 1.0) == 2
+    assert _group_choice(e, n, False, 3.0) == 2
+    close = np.stack([affine, affine - 1.0 + np.array([-2, 2, -2, 2, 0.0])]) * n  # wins by 1, SE ≈ 0.9
+    assert _group_choice(close, n, False, 1.0) == 1
+    assert _group_choice(close, n, False, 3.0) == 0
+    assert _group_choice(close, n, True, 3.0) == 1
