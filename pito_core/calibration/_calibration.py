@@ -104,6 +104,7 @@ class Calibration:
         self._apply = self._build_apply()
         self._apply_nl = self._build_apply_nl()
         self._apply_edge = self._build_apply_edge()
+        self._apply_tangent = self._build_apply_tangent()
 
     def _build_adjoints(self) -> np.ndarray:
         """(6, 6, 6): each face's fitted output frame → its face frame (identity for ``face``)."""
@@ -138,6 +139,18 @@ class Calibration:
         for k, f in enumerate(self.output_faces):
             A[f - 1] = self._face_from_output[f - 1] @ self.correction.edge_matrix[6 * k : 6 * k + 6]
         return A
+
+    def _build_apply_tangent(self):
+        """``(features (6, 6, r), counts (6, 6, 36))`` maps of the correction's ``tangent`` rows alone (None without)."""
+        c = self.correction
+        if c is None or c.tangent is None or self._apply_edge is None:
+            return None
+        A, E = np.zeros((6, 6, c.n_features)), np.zeros((6, 6, N_GAUGES))
+        for k, f in enumerate(self.output_faces):
+            rows = c.tangent[6 * k : 6 * k + 6, None]
+            A[f - 1] = self._face_from_output[f - 1] @ (c.coef[6 * k : 6 * k + 6] * rows)
+            E[f - 1] = self._face_from_output[f - 1] @ (c.edge_matrix[6 * k : 6 * k + 6] * rows)
+        return A, E
 
     # ------------------------------------------------------------------ use
     @property
@@ -196,10 +209,13 @@ class Calibration:
         # wide feature maps by matrix products (BLAS), where einsum is 3-4x slower.
         W = np.einsum("fij,nj->nfi", self._apply, x)
         if self._apply_nl is not None:
-            phi, d = self.correction.terms(x)
+            phi, d, extra = self.correction.all_terms(x)
             W += (phi @ self._apply_nl.reshape(6 * 6, -1).T).reshape(n, 6, 6)
             if d is not None and self._apply_edge is not None:  # beyond the fitted range, the linear fit's slope
                 W += (d @ self._apply_edge.reshape(6 * 6, -1).T).reshape(n, 6, 6)
+            if extra is not None and self._apply_tangent is not None:  # or, on tangent rows, the polynomial's
+                A, E = self._apply_tangent
+                W += (extra[0] @ A.reshape(6 * 6, -1).T + extra[1] @ E.reshape(6 * 6, -1).T).reshape(n, 6, 6)
         W[:, ~self.has_output] = np.nan
         if not return_cov:
             return W[0] if single else W

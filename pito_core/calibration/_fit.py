@@ -311,8 +311,8 @@ class Calibrator:
         ``linear``: the papers' affine least squares ``C = W S⁺``, exactly. ``poly``: the same
         design with a ridge-regularised polynomial correction of each face's own gauges
         (docs/calibration.md). ``auto`` (default): ``poly`` only where cross-validation over
-        whole loading segments chooses it: the best mean held-out score, then the simplest
-        candidate within one standard error of it (``_cv.N_SE``), per face's forces and torques;
+        whole loading segments chooses it: the correction at its best ridge where its mean held-out
+        score beats the affine fit's by more than ``_cv.N_SE_SESSION`` standard errors, per face's forces and torques;
         the figures are in ``calibration_.model``.
 
     Attributes

@@ -22,8 +22,8 @@ import numpy as np
 from ..defaults import FULL_SCALE_FACE
 from ..frames import FACES, N_GAUGES
 from ._lstsq import RANK_RTOL
-from ._cv import ALPHAS, N_FOLDS, FoldedGram, MAX_SEGMENT_FRACTION, Problem, SegmentCounter, choose_model, cross_validate, \
-    fold_bounds, held_out_sse, solve_problem
+from ._cv import ALPHAS, N_FOLDS, N_SE_SESSION, FoldedGram, MAX_SEGMENT_FRACTION, Problem, SegmentCounter, choose_model, cross_validate, \
+    fold_bounds, held_out_sse, solve_problem, tangent_rows
 from ._gramfit import load_groups
 from ._poly import PolyCorrection, poly_features_t, poly_terms
 
@@ -37,6 +37,8 @@ CHUNK = 8192
 #: ``stride``-th of the sessions' (neighbouring samples at 1 kHz repeat one held load): its cost
 #: stays bounded beside the affine fit, which uses every sample.
 MAX_ROWS = 1 << 15
+#: The extension beyond the trained range is chosen on at most about this many of them (``_cv.tangent_rows``).
+MAX_EXTENSION_ROWS = 1 << 13
 _PAIRS, _CUBES = poly_terms([range(6 * (f - 1), 6 * f) for f in FACES])
 _N_PAIRS = _PAIRS.shape[0] // 6  # 21 per face
 _PAIRS6, _CUBES6 = poly_terms([range(6)])  # one face's own, in the order of face_features
@@ -91,6 +93,10 @@ class PolyAccumulator:
         self.group_carries = np.zeros((7, 6), dtype=bool)
         self._ss, self._ss_rows, self._final = np.zeros(N_GAUGES), 0, False  # the final scale's sums
         self._session, self._seen = None, 0
+        # every ``_keep``-th fitted row (float32, ≤ MAX_EXTENSION_ROWS): the extension's choice refits on them
+        self._rows, self._kept = [], 0
+        self._keep = max(1, int(np.ceil(sum(session_lengths) / self.stride / MAX_EXTENSION_ROWS)))
+        self.tangent = None  # (6F,) bool after fit: rows extrapolated along the polynomial's tangent
         if own:
             self.acc = {f: FoldedGram(n_int + 6 + 27, 6, n_folds) for f in FACES}
         else:
@@ -125,6 +131,10 @@ class PolyAccumulator:
                 xg = x[group == j]
                 self.count_grams[j] += xg.T @ xg
                 self.group_carries[j] |= carries[group == j].any(axis=0)
+        keep = slice((-self._kept) % self._keep, None, self._keep)
+        self._kept += x.shape[0]
+        self._rows.append((np.full(x[keep].shape[0], k), x[keep].astype(np.float32), targets[keep].astype(np.float32),
+                           usable[keep], carries[keep], loaded[keep]))
         self._ss += np.einsum("ij,ij->j", x, x)
         self._ss_rows += x.shape[0]
         for a in range(0, x.shape[0], CHUNK):  # bounded memory: features of CHUNK rows at a time
@@ -218,7 +228,7 @@ class PolyAccumulator:
         self._rescale()
         parts = self.problems(out_faces, rank_a)
         results = [(cross_validate(acc, probs, alphas), [p.weight for p in probs]) for acc, probs, _ in parts]
-        choice = choose_model(results, requested, self.counter.count, group)
+        choice = choose_model(results, requested, self.counter.count, group, N_SE_SESSION)
         if choice.name != "poly":
             return choice, None
         F = len(out_faces)
@@ -243,7 +253,49 @@ class PolyAccumulator:
                 feats = face_features(f) if self.own else self._features_of(f)
                 D[np.ix_(ri, feats)] = X[n_int + lin.size :, use].T
                 E2[ri] = self.stride * held_out_sse(acc.total(), acc.p, pr, X)[use]  # over every sample
+        self.tangent = self._tangent(parts, row, row_alpha, group)
         return choice, (C, B, D, E2)
+
+    def _tangent(self, parts, row, row_alpha, group) -> np.ndarray:
+        """``(6F,)`` bool: the corrected output groups that extrapolate along the polynomial's tangent
+        (:func:`~._cv.tangent_rows` on the fitted rows), the rest along the linear fit's slope."""
+        out = np.zeros(row_alpha.size, dtype=bool)
+        if not self._rows:
+            return out
+        k, x, targets, usable, carries, loaded = (np.concatenate(a) for a in zip(*self._rows))
+        self._rows = []
+        u_all, targets = x / self.scale, targets.astype(float)
+        n_int = self.n_int
+        for acc, probs, faces in parts:
+            for pr, f in zip(probs, faces):
+                ra = row_alpha[6 * row[f] : 6 * row[f] + 6]
+                if not np.isfinite(ra).any():
+                    continue
+                if self.own:
+                    idx = np.flatnonzero(usable & (carries[:, f - 1] | ~loaded.any(axis=1)))
+                    cols, pairs, cubes, y = np.arange(6 * (f - 1), 6 * f), _PAIRS6, _CUBES6, targets[idx, f - 1]
+                else:
+                    idx = np.flatnonzero(usable)
+                    cols, pairs, cubes = np.arange(N_GAUGES), _PAIRS, _CUBES
+                    y = targets[idx][:, [g - 1 for g in self.out_faces], :].reshape(idx.size, -1)
+                kk = k[idx]
+
+                def build(i, v, kk=kk, y=y, cols=cols, pairs=pairs, cubes=cubes):
+                    nu = cols.size
+                    ZT = np.zeros((acc.p + acc.q, i.size))
+                    ZT[kk[i], np.arange(i.size)] = 1.0
+                    vT = np.ascontiguousarray(v.T)
+                    ZT[n_int : n_int + nu] = vT
+                    poly_features_t(vT, pairs, cubes, out=ZT[n_int + nu : acc.p])
+                    ZT[acc.p :] = y[i].T
+                    return ZT
+
+                u = u_all[idx][:, cols]
+                cube_cols = acc.p - cubes.size + np.arange(cubes.size)
+                t = tangent_rows(build, acc.p, u, self.lower[cols], self.upper[cols], pr, ra, cube_cols,
+                                 6 if group == 6 else 3)
+                out[6 * row[f] : 6 * row[f] + 6] = t
+        return out
 
 
 def input_map(count_grams: np.ndarray, group_carries: np.ndarray) -> np.ndarray:
@@ -295,13 +347,13 @@ def correction(poly: PolyAccumulator, D, edge_matrix, linear_matrix, out_faces) 
     seen = poly.lower <= poly.upper
     lower, upper = np.where(seen, poly.lower, 0.0), np.where(seen, poly.upper, 0.0)
     if not poly.own:
-        return PolyCorrection(poly.scale, _PAIRS, _CUBES, D, lower, upper, edge_matrix)
+        return PolyCorrection(poly.scale, _PAIRS, _CUBES, D, lower, upper, edge_matrix, tangent=poly.tangent)
     idx = [f - 1 for f in out_faces]
     lo, hi = poly.target_lo[idx].reshape(-1), poly.target_hi[idx].reshape(-1)
     keep = hi > lo
     return PolyCorrection(poly.scale, _PAIRS, _CUBES, D, lower, upper, edge_matrix, domain=linear_matrix[keep],
                           domain_lower=lo[keep], domain_upper=hi[keep],
-                          input_map=input_map(poly.count_grams, poly.group_carries))
+                          input_map=input_map(poly.count_grams, poly.group_carries), tangent=poly.tangent)
 
 
 def mixed_offsets(C, linear_matrix, row_alpha, tare_means, linear_offsets) -> list:

@@ -95,10 +95,14 @@ class PolyCorrection:
         Its range in training (with ``domain``).
     input_map : array-like, shape (m, m), optional
         ``P``: the correction reads ``P x`` in place of the offset-free counts ``x`` (None: ``x``).
+    tangent : array-like of bool, shape (q,), optional
+        Rows that continue beyond the box along the corrected model's own tangent at the edge (the
+        polynomial's slope there, chosen on held-out largest loads: ``_cv.tangent_rows``) in place of
+        the linear fit's slope. None: none.
     """
 
     def __init__(self, scale, pairs, cubes, coef, lower=None, upper=None, edge_matrix=None, domain=None,
-                 domain_lower=None, domain_upper=None, input_map=None):
+                 domain_lower=None, domain_upper=None, input_map=None, tangent=None):
         self.scale = np.asarray(scale, dtype=float).reshape(-1)
         self.pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
         self.cubes = np.asarray(cubes, dtype=np.int64).reshape(-1)
@@ -136,6 +140,13 @@ class PolyCorrection:
             if self.lower.shape != (m,) or self.upper.shape != (m,) or np.any(np.isnan(self.lower)) \
                     or np.any(np.isnan(self.upper)) or np.any(self.lower > self.upper):
                 raise ValueError(f"lower, upper: expected ({m},) ranges with lower ≤ upper")
+        self.tangent = None
+        if tangent is not None:
+            self.tangent = np.asarray(tangent).astype(bool).reshape(-1)
+            if self.tangent.shape != (self.coef.shape[0],):
+                raise ValueError(f"tangent: expected ({self.coef.shape[0]},) flags, got {self.tangent.shape}")
+            if not self.tangent.any():
+                self.tangent = None
         self.edge_matrix = None
         if edge_matrix is not None:
             self.edge_matrix = np.asarray(edge_matrix, dtype=float)
@@ -148,16 +159,21 @@ class PolyCorrection:
         x = np.asarray(x, dtype=float)
         return x if self.input_map is None else x @ self.input_map.T
 
-    def clamped(self, x: np.ndarray) -> np.ndarray:
-        """``(N, m)`` offset-free counts ``x (N, m)``, mapped (:meth:`mapped`) and drawn back along their
-        ray from zero into the fitted box (unchanged inside it, or without a box)."""
+    def _ray(self, x: np.ndarray):
+        """``(P x (N, m), t (N,) or None)``: the mapped counts and the largest ``t ≤ 1`` that puts them in the box."""
         x = self.mapped(x)
         if self.lower is None:
-            return x
+            return x, None
         t = _ray_into(x, self.lower * self.scale, self.upper * self.scale)
         if self.domain is not None:  # inside either box
             t = np.maximum(t, _ray_into(x @ self.domain.T, self.domain_lower, self.domain_upper))
-        return x * t[:, None]
+        return x, t
+
+    def clamped(self, x: np.ndarray) -> np.ndarray:
+        """``(N, m)`` offset-free counts ``x (N, m)``, mapped (:meth:`mapped`) and drawn back along their
+        ray from zero into the fitted box (unchanged inside it, or without a box)."""
+        x, t = self._ray(x)
+        return x if t is None else x * t[:, None]
 
     def _features_t(self, x: np.ndarray, pairs: np.ndarray, cubes: np.ndarray) -> np.ndarray:
         """``(P + Q, N)`` features of offset-free counts ``x (N, m)`` drawn back into the fitted range."""
@@ -176,12 +192,29 @@ class PolyCorrection:
     def terms(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
         """``(features (N, P + Q), beyond (N, m) or None)`` of offset-free counts ``x (N, m)``: what
         :meth:`features` and :meth:`beyond` give, drawn back once."""
-        xc = self.clamped(x)
+        return self.all_terms(x)[:2]
+
+    def all_terms(self, x: np.ndarray):
+        """``(features, beyond, tangent)``: :meth:`terms`, and for the ``tangent`` rows what they add
+        beyond the box, ``(dphi (N, P + Q), dray (N, m))`` or None: ``coef · dphi + edge_matrix · dray``
+        turns the linear fit's slope into the polynomial's tangent along the ray (its squares and
+        products grow as ``2/t − 1``, its cubes as ``3/t − 2`` of their value at the edge ``x_c = t P x``,
+        first order in ``1/t``), and the corrected model's own slopes."""
+        xm, t = self._ray(x)
+        xc = xm if t is None else xm * t[:, None]
         phi = poly_features_t(np.ascontiguousarray((xc / self.scale).T), self.pairs, self.cubes).T
         if self.lower is None or self.edge_matrix is None:
-            return phi, None
+            return phi, None, None
+        extra = None
+        if self.tangent is not None and np.any(t < 1):
+            r = np.where(t > 0, 1.0 / np.where(t > 0, t, 1.0) - 1.0, 0.0)[:, None]
+            P = self.pairs.shape[0]
+            dphi = np.empty_like(phi)
+            dphi[:, :P] = 2.0 * r * phi[:, :P]
+            dphi[:, P:] = 3.0 * r * phi[:, P:]
+            extra = (dphi, xm - xc)
         xc -= np.asarray(x, dtype=float)
-        return phi, xc
+        return phi, xc, extra
 
     @property
     def n_features(self) -> int:
@@ -193,6 +226,14 @@ class PolyCorrection:
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         """``(N, q)`` correction for offset-free counts ``x (N, m)``, output units (the edge term included)."""
+        if self.tangent is not None:
+            phi, d, extra = self.all_terms(x)
+            out = phi @ self.coef.T
+            if d is not None:
+                out += d @ self.edge_matrix.T
+            if extra is not None:
+                out[:, self.tangent] += extra[0] @ self.coef[self.tangent].T + extra[1] @ self.edge_matrix[self.tangent].T
+            return out
         used = np.flatnonzero(np.any(self.coef != 0, axis=0))  # rows that keep the affine fit use none
         P = self.pairs.shape[0]
         phi = self._features_t(x, self.pairs[used[used < P]], self.cubes[used[used >= P] - P])

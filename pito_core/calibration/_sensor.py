@@ -12,7 +12,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from ._cv import ALPHAS, MODELS, N_FOLDS, FoldedGram, ModelChoice, Problem, choose_model, cross_validate, fold_bounds, \
-    fold_of_segments, solve_problem
+    fold_of_segments, solve_problem, tangent_rows
 from ._lstsq import StreamedQR
 from ._poly import PolyCorrection, poly_features_t, poly_terms
 
@@ -20,6 +20,8 @@ __all__ = ["fit_sensor", "SensorFit"]
 
 #: Channels up to which every pairwise product is a feature (beyond: squares and cubes only).
 MAX_FULL_QUADRATIC = 12
+#: Samples (every k-th) on which the extension beyond the range is chosen (``_cv.tangent_rows``).
+MAX_EXTENSION_ROWS = 1 << 15
 #: Contiguous segments a session is cut into when no ``groups`` are given.
 DEFAULT_SEGMENTS = 40
 
@@ -106,8 +108,9 @@ def fit_sensor(counts, wrench, groups=None, model: str = "auto", *, n_folds: int
         every fold spans the data. Default: ``DEFAULT_SEGMENTS`` contiguous pieces.
     model : {"auto", "linear", "poly"}
         ``auto`` scores, per output group (in threes: forces, torques), the affine fit and the
-        correction along its ridge path by their mean held-out score over the folds, and takes
-        the simplest within one standard error of the best (``_cv.N_SE``); ``linear`` is the
+        correction along its ridge path by their mean held-out score over the folds, and takes the
+        correction at its best ridge only where it beats the affine fit by more than ``_cv.N_SE``
+        standard errors; ``linear`` is the
         plain affine least squares everywhere, ``poly`` the correction at its best ridge.
     n_folds : int
     alphas : sequence of float
@@ -165,6 +168,21 @@ def fit_sensor(counts, wrench, groups=None, model: str = "auto", *, n_folds: int
     coef = (X[1 : 1 + m] / scale[:, None]).T
     u = (c - center) / scale  # the range fitted: the correction clamps its channels to it (_poly.py)
     edge = ((X[1 : 1 + m] - X_lin[1 : 1 + m]) / scale[:, None]).T  # beyond the range: the linear fit's slope
-    correction = PolyCorrection(scale, pairs, cubes, D, u.min(axis=0), u.max(axis=0), edge) if choice.name == "poly" \
-        else None
+    correction = None
+    if choice.name == "poly":
+        lo, hi = u.min(axis=0), u.max(axis=0)
+        sub = np.arange(0, c.shape[0], max(1, c.shape[0] // MAX_EXTENSION_ROWS))
+
+        def build(idx, v):
+            ZT = np.empty((1 + m + r + q, idx.size))
+            ZT[0] = 1.0
+            vT = np.ascontiguousarray(v.T)
+            ZT[1 : 1 + m] = vT
+            poly_features_t(vT, pairs, cubes, out=ZT[1 + m : 1 + m + r])
+            ZT[1 + m + r :] = w[sub[idx]].T
+            return ZT
+
+        with threadpool_limits(limits=1):
+            tangent = tangent_rows(build, 1 + m + r, u[sub], lo, hi, prob, ra, 1 + m + pairs.shape[0] + np.arange(cubes.size))
+        correction = PolyCorrection(scale, pairs, cubes, D, lo, hi, edge, tangent=tangent)
     return SensorFit(choice, coef, X[0].copy(), center, correction)
