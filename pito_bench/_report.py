@@ -174,7 +174,8 @@ def format_report(result: dict) -> str:
     parts.append(f"pito bench — {m.get('date', '')}, {m.get('cpu', '')}, {m.get('cpus', '?')} CPUs, "
                  f"load average {m.get('loadavg', '?')}, BLAS threads per measurement: {m.get('threads', 1)}"
                  f"{', QUICK' if m.get('quick') else ''}")
-    parts.append("Times are best of repeats; ratios are against baselines measured in the same process and run.")
+    parts.append("Times are best of repeats (contact speed rows: the median of rounds); ratios are against baselines "
+                 "measured in the same process and run.")
     for key, tables in (("calibration", _calibration_tables), ("contact", _contact_tables),
                         ("pipeline", _pipeline_tables), ("analysis", _analysis_tables), ("live", _live_window_tables)):
         if result.get(key):
