@@ -18,10 +18,12 @@ import os
 from pathlib import Path
 
 import pito_core
-from pito_core.calibration import calibrate, load_calibration
+import pito_core.calibration  # the fit (scipy.linalg) loads at its first use: in the child that calibrates
+import pito_core.sim
+from pito_core.calibration import load_calibration
 from pito_core.io import FileFormatError
 from pito_core.pipeline import PipelineProcess
-from pito_core.sim import SimParams, SimulatedDevices, simulate_calibration
+from pito_core.sim import SimParams, SimulatedDevices
 
 __all__ = ["DemoDevices", "demo_calibration", "cached_demo_calibration", "demo_cache_path", "cache_dir", "DEMO_METHOD",
            "DEMO_OBJECT_MASS"]
@@ -146,8 +148,8 @@ def demo_calibration(k: int = 1500, seed: int = 0, cache: bool = True):
     access hole on face 6, all six faces loaded, ``k`` samples each). SIMULATED data.
 
     With ``cache`` the result is written to :func:`demo_cache_path` for the next start."""
-    session = simulate_calibration(*DEMO_MOUNT, k=k, seed=seed)
-    cal = calibrate(session, DEMO_METHOD)
+    session = pito_core.sim.simulate_calibration(*DEMO_MOUNT, k=k, seed=seed)
+    cal = pito_core.calibration.calibrate(session, DEMO_METHOD)
     if cache:
         path = demo_cache_path(k, seed)
         try:
