@@ -13,9 +13,10 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import gc
 import sys
 
-__all__ = ["main", "build_parser"]
+__all__ = ["main", "build_parser", "make_application"]
 
 PAGES = ("live", "first", "mount", "load", "results")
 
@@ -58,22 +59,14 @@ def main(argv=None) -> int:
         print("pito-app: --screenshot needs --demo (screens are rendered on the simulated devices)", file=sys.stderr)
         return 2
     period = 0.6 if args.screenshot else 1.5
+    # no collection passes over the start-up's imports (a tenth of its CPU time); from the
+    # application on, the GUI thread's collector runs them (make_application)
+    gc.disable()
     # the demo's devices (two child processes, seconds of waiting) boot while Qt, VTK and the window load
     rig_boot = _boot_demo_devices(args.seed, period) if args.demo and not args.pito else None
-    # deferred: Qt, pyvista, VTK and the window load only once a window is made (not for --help)
-    from PySide6.QtWidgets import QApplication
+    app = make_application()
+    from .window import MainWindow  # deferred: Qt, pyvista, VTK and the window load only for a window (not --help)
 
-    app = QApplication.instance() or QApplication(sys.argv[:1])
-    app.setApplicationName("pito-app")
-    from .gc_guard import GuiThreadCollector  # deferred with QApplication (above): it imports Qt
-
-    app.gc_collector = GuiThreadCollector(app).install()  # cycles freed in the GUI thread only
-    from .fonts import install_app_font  # deferred with QApplication (above): these import Qt
-    from .theme import STYLE
-    from .window import MainWindow
-
-    install_app_font(app)  # one font with every glyph used (‖ · ± σ), for Qt and matplotlib
-    app.setStyleSheet(STYLE)
     # screenshots: a brisker simulated operator (0.6 s per move-and-hold) so the wizard fills quickly
     window = MainWindow(demo=args.demo, calibration_path=args.calibration, rate=args.rate, seed=args.seed,
                         demo_k=args.demo_k, demo_period=period, wizard_k=600 if args.screenshot else 1000,
@@ -102,6 +95,26 @@ def main(argv=None) -> int:
     window.shutdown()
     window.release_views()
     return code
+
+
+def make_application():
+    """The ``QApplication`` as ``pito-app`` sets it up (also the start-up bench's, ``pito_bench._live_window``).
+
+    Garbage cycles are collected in the GUI thread only (:mod:`app.gc_guard`; automatic collection
+    stays off), one font with every glyph the app draws (‖ · ± σ, :mod:`app.fonts`), the style sheet."""
+    # deferred: Qt loads only once a window is made (`pito-app --help` loads none)
+    from PySide6.QtWidgets import QApplication
+
+    from .fonts import install_app_font
+    from .gc_guard import GuiThreadCollector
+    from .theme import STYLE
+
+    app = QApplication.instance() or QApplication(sys.argv[:1])
+    app.setApplicationName("pito-app")
+    app.gc_collector = GuiThreadCollector(app).install()  # cycles freed in the GUI thread only
+    install_app_font(app)  # for Qt and matplotlib
+    app.setStyleSheet(STYLE)
+    return app
 
 
 def _boot_demo_devices(seed: int, period: float):

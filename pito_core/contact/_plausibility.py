@@ -32,7 +32,6 @@ from __future__ import annotations
 from enum import IntEnum
 
 import numpy as np
-from scipy.special import chdtrc, ndtr
 
 from ._quadric import _cross
 
@@ -291,6 +290,10 @@ def single_contact_test(c, n, f, tau, w, variance, T, shape_op, W=None, *,
     -------
     SingleContactTest
     """
+    # deferred: scipy.special takes 0.2 CPU s to import; a process that loads patches without testing
+    # contacts (pito-app's window: docs/app.md, "Start-up") never pays it
+    from scipy.special import chdtrc, ndtr
+
     N = len(c)
     finite = np.isfinite(c).all(axis=1) & np.isfinite(T).all(axis=(1, 2))
     nf = np.count_nonzero(finite)

@@ -38,7 +38,6 @@ from __future__ import annotations
 import threading
 
 import numpy as np
-from scipy.special import ndtr
 
 from ._plausibility import _BOUNDARY_STEP, _decide, _z
 from ._surfaces import Ellipsoid, Plane, Sphere
@@ -402,6 +401,8 @@ def _curved_z(surface, W, c, n, f, tau, w_cov, mu, e, z0, z1, edge=None):
 
 def _test_rows(c, n, f, tau, w_cov, blocks, mu, e, alpha, ok, m):
     """:func:`soft_finger_test` on at most ``CHUNK`` rows."""
+    from scipy.special import ndtr  # deferred: 0.2 CPU s to import (see _plausibility.single_contact_test)
+
     N = len(c)
     C = (c[:, 0], c[:, 1], c[:, 2])
     Nn = (n[:, 0], n[:, 1], n[:, 2])
