@@ -71,6 +71,7 @@ def main(argv=None) -> int:
     window = MainWindow(demo=args.demo, calibration_path=args.calibration, rate=args.rate, seed=args.seed,
                         demo_k=args.demo_k, demo_period=period, wizard_k=600 if args.screenshot else 1000,
                         rig_boot=rig_boot)
+    app.gc_collector.freeze_startup()  # no collection goes over the start-up's objects again
     if args.pito:
         window.connect_devices(args.pito, args.ati or "", False)
     if args.screenshot:

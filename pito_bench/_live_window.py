@@ -79,6 +79,7 @@ def _run_app(regions: str, seconds: float, warmup: float) -> int:
     from app.window import MainWindow
 
     w = MainWindow(demo=True, rig_boot=rig_boot)
+    app.gc_collector.freeze_startup()  # as pito-app's main
     w.resize(*SIZE)
     w.move(0, 0)
     w.show()
