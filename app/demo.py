@@ -48,11 +48,15 @@ class DemoDevices:
     launches : (DevicesLaunch, PipelineLaunch), optional
         The two child processes, started earlier (``app.main``): they boot while
         the caller imports; default: start them now, one after the other.
+    hold : threading.Event, optional
+        The pipeline opens the devices once it is set (``app.main``: when the window is built).
+        Until then neither child works: the cube's pty fills and its writer waits, the Net F/T
+        streams to nobody (it waits for a start request).
     """
 
     simulated = True
 
-    def __init__(self, seed: int = 0, speed: float = 1.0, period: float = 1.5, launches=None):
+    def __init__(self, seed: int = 0, speed: float = 1.0, period: float = 1.5, launches=None, hold=None):
         sim_launch, pipe_launch = launches or (None, None)
         try:
             self.sim = SimulatedDevices(seed=seed, speed=speed, period=period, launch=sim_launch)
@@ -60,6 +64,8 @@ class DemoDevices:
             if pipe_launch is not None:
                 pipe_launch.close()
             raise
+        if hold is not None:
+            hold.wait()
         try:
             # the drivers and the pipeline in a process of their own, as for hardware (MainWindow.connect_devices);
             # buffered RDT (10 records per packet), as a real box allows: a tenth of the packets

@@ -15,6 +15,8 @@ from __future__ import annotations
 import argparse
 import gc
 import sys
+import threading
+from concurrent.futures import Future
 
 __all__ = ["main", "build_parser", "make_application"]
 
@@ -124,8 +126,6 @@ def _boot_demo_devices(seed: int, period: float):
     Both child processes (the simulated devices, the pipeline) start here, from the main thread,
     with the standard library only, and import while this process imports the core, Qt and VTK;
     a thread waits for their announcements and connects them."""
-    from concurrent.futures import ThreadPoolExecutor  # deferred: `pito-app --help` starts no thread
-
     from pito_core.pipeline import PipelineLaunch  # deferred: stdlib-only modules (pito_core/_lazy.py)
     from pito_core.sim import DevicesLaunch
 
@@ -142,13 +142,34 @@ def _boot_demo_devices(seed: int, period: float):
             pipe.close()
         raise
 
-    def boot():  # waits for the children's announcements (no interpreter lock held)
-        return DemoDevices(seed=seed, period=period, launches=(sim, pipe))
+    hold = threading.Event()
 
-    pool = ThreadPoolExecutor(1, thread_name_prefix="demo-boot")
-    future = pool.submit(boot)
-    pool.shutdown(wait=False)  # the boot runs on; the thread ends with it
+    def boot():  # waits for the children's announcements and the hold (no interpreter lock held)
+        try:
+            future.set_result(DemoDevices(seed=seed, period=period, launches=(sim, pipe), hold=hold))
+        except BaseException as exc:  # noqa: BLE001 - handed to the window, which reports it
+            future.set_exception(exc)
+
+    future = _HeldBoot(hold)
+    # a daemon: a window that never asks for its devices (an error while it is built) does not keep
+    # the process from exiting (the children end with it)
+    threading.Thread(target=boot, name="demo-boot", daemon=True).start()
     return future
+
+
+class _HeldBoot(Future):
+    """The demo's devices booting: the pipeline opens them once :meth:`result` is first asked for.
+
+    The window asks once it is built (``MainWindow.start_demo``): until then the children, imported
+    and announced, do no work, so they leave the machine's cores to the window's build."""
+
+    def __init__(self, hold: threading.Event):
+        super().__init__()
+        self.hold = hold
+
+    def result(self, timeout=None):
+        self.hold.set()
+        return super().result(timeout)
 
 
 def _record_when_live(window, path) -> None:
