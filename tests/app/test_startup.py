@@ -65,7 +65,11 @@ def test_the_window_module_loads_neither_the_wizard_nor_matplotlib():
 def test_the_demo_boot_starts_both_children_at_once_and_connects_them():
     from app.main import _boot_demo_devices
 
-    rig = _boot_demo_devices(0, 1.5).result(timeout=90)
+    boot = _boot_demo_devices(0, 1.5)
+    time.sleep(1.0)
+    # the pipeline opens the devices only once the (built) window asks for them
+    assert not boot.hold.is_set() and not boot.done()
+    rig = boot.result(timeout=90)
     try:
         src = rig.open_source()
         assert rig.process.has_reference and rig.sim.alive()
