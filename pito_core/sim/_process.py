@@ -43,7 +43,6 @@ import subprocess
 import sys
 import threading
 import time
-
 from typing import TYPE_CHECKING
 
 from ..devices import die_with_parent, install_stop_signals
