@@ -35,6 +35,16 @@ import numpy as np
 
 from ._quadric import _cross
 
+
+def _ndtr(x):
+    """``scipy.special.ndtr`` (the standard normal CDF), imported at its first call: scipy.special takes
+    0.2 CPU s to import, which a process that loads patches but tests no contact never pays
+    (pito-app's window: docs/app.md, "Start-up")."""
+    from scipy.special import ndtr
+
+    return ndtr(x)
+
+
 #: row indices (1, 2, 0) and (2, 0, 1): the adjugate's rows are cyclic cross products
 _NEXT3, _PREV3 = np.array([1, 2, 0]), np.array([2, 0, 1])
 

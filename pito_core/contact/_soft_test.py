@@ -40,6 +40,7 @@ import threading
 import numpy as np
 
 from ._plausibility import _BOUNDARY_STEP, _decide, _z
+from ._plausibility import _ndtr as ndtr  # scipy.special's, imported at the first test
 from ._surfaces import Ellipsoid, Plane, Sphere
 
 __all__ = ["soft_finger_test"]
@@ -401,8 +402,6 @@ def _curved_z(surface, W, c, n, f, tau, w_cov, mu, e, z0, z1, edge=None):
 
 def _test_rows(c, n, f, tau, w_cov, blocks, mu, e, alpha, ok, m):
     """:func:`soft_finger_test` on at most ``CHUNK`` rows."""
-    from scipy.special import ndtr  # deferred: 0.2 CPU s to import (see _plausibility.single_contact_test)
-
     N = len(c)
     C = (c[:, 0], c[:, 1], c[:, 2])
     Nn = (n[:, 0], n[:, 1], n[:, 2])

@@ -92,7 +92,7 @@ def test_a_pipeline_launch_never_configured_ends_with_its_socket():
 
 def test_the_demo_start_up_loads_no_fit_no_simulation_and_no_export_writers(demo_cache):
     """What the app's process imports for its window, a cached calibration and cached display meshes:
-    not the fit (scipy.optimize, scipy.linalg), the simulated world (it runs in its own process),
+    not the fit (scipy.optimize, scipy.linalg), the contact test (scipy.special), the simulated world (it runs in its own process),
     trimesh or the MCAP/NWB writers (docs/app.md, "Start-up")."""
     from app.demo import demo_calibration
     from app.objects import display_meshes, load_assembly
@@ -103,7 +103,7 @@ def test_the_demo_start_up_loads_no_fit_no_simulation_and_no_export_writers(demo
             "from app.objects import display_meshes, load_assembly; "
             "assert cached_demo_calibration(50, 0) is not None, 'the cached calibration was not read'; "
             "display_meshes(load_assembly('pito_mixed'), 'pito_mixed'); "
-            "print(sorted(m for m in ('scipy.optimize', 'scipy.linalg', 'trimesh', 'pito_core.sim._world', "
+            "print(sorted(m for m in ('scipy.optimize', 'scipy.linalg', 'scipy.special', 'trimesh', 'pito_core.sim._world', "
             "'pito_core.calibration._fit', 'pito_core.interop._mcap', 'pito_core.interop._nwb') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
                          env={**os.environ, "QT_QPA_PLATFORM": "offscreen", "PITO_CACHE_DIR": str(demo_cache)})
