@@ -92,8 +92,8 @@ def test_a_pipeline_launch_never_configured_ends_with_its_socket():
 
 def test_the_demo_start_up_loads_no_fit_no_simulation_and_no_export_writers(demo_cache):
     """What the app's process imports for its window, a cached calibration and cached display meshes:
-    not the fit (scipy.optimize, scipy.linalg), the contact test (scipy.special), the simulated world (it runs in its own process),
-    trimesh or the MCAP/NWB writers (docs/app.md, "Start-up")."""
+    not the fit (scipy.optimize, scipy.linalg), the contact test (scipy.special), the simulated world
+    (it runs in its own process), trimesh or the MCAP/NWB writers (docs/app.md, "Start-up")."""
     from app.demo import demo_calibration
     from app.objects import display_meshes, load_assembly
 
