@@ -83,7 +83,7 @@ def _read_vtp(path: Path):
 
 
 def _write_vtp(mesh, path: Path) -> None:
-    """Write ``mesh`` to ``path`` whole or not at all (a temporary name, then a rename); a read-only cache is skipped."""
+    """Write ``mesh`` to ``path`` whole or not at all (a temporary name, then a rename); not in a read-only cache."""
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(path.stem + ".partial.vtp")

@@ -29,7 +29,8 @@ How it is measured, from outside the app's process:
   the first read showing a stamp in each view (a frame with data: the demo's calibrated forces once
   its start-up calibration is cached), over N starts after one that is not counted (it fills the
   caches a user's first start fills: the calibration, the display meshes, Python's bytecode of
-  pito's modules, which this machine's ``PYTHONDONTWRITEBYTECODE`` would have compiled at every start); the window's showing is the moment the app writes its regions;
+  pito's modules, which this machine's ``PYTHONDONTWRITEBYTECODE`` would have compiled at every
+  start); the window's showing is the moment the app writes its regions;
   the CPU seconds the app and its children had used by the first stamp (``/proc``), and the app's
   own (its process alone: the critical path), are the figures a loaded machine moves least.
 
@@ -311,7 +312,7 @@ def first_frame(runs: int = 3, display: str | None = None) -> dict:
     # compiled at every start as PYTHONDONTWRITEBYTECODE (set on the project's machine) would have it
     pycache = tempfile.TemporaryDirectory(prefix="pito_bench_pycache_")
     try:
-        _first_frame_once(display, pycache=pycache.name)  # fills the caches a first start fills (calibration, meshes, bytecode)
+        _first_frame_once(display, pycache=pycache.name)  # fills a first start's caches (calibration, meshes, bytecode)
         rows = [_first_frame_once(display, pycache=pycache.name) for _ in range(runs)]
     finally:
         pycache.cleanup()

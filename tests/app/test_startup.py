@@ -103,7 +103,8 @@ def test_the_demo_start_up_loads_no_fit_no_simulation_and_no_export_writers(demo
             "from app.objects import display_meshes, load_assembly; "
             "assert cached_demo_calibration(50, 0) is not None, 'the cached calibration was not read'; "
             "display_meshes(load_assembly('pito_mixed'), 'pito_mixed'); "
-            "print(sorted(m for m in ('scipy.optimize', 'scipy.linalg', 'scipy.special', 'trimesh', 'pito_core.sim._world', "
+            "print(sorted(m for m in ('scipy.optimize', 'scipy.linalg', 'scipy.special', 'trimesh', "
+            "'pito_core.sim._world', "
             "'pito_core.calibration._fit', 'pito_core.interop._mcap', 'pito_core.interop._nwb') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
                          env={**os.environ, "QT_QPA_PLATFORM": "offscreen", "PITO_CACHE_DIR": str(demo_cache)})
