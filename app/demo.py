@@ -18,10 +18,12 @@ import os
 from pathlib import Path
 
 import pito_core
-from pito_core.calibration import calibrate, load_calibration
+import pito_core.calibration  # the fit (scipy.linalg) loads at its first use: in the child that calibrates
+import pito_core.sim
+from pito_core.calibration import load_calibration
 from pito_core.io import FileFormatError
 from pito_core.pipeline import PipelineProcess
-from pito_core.sim import SimParams, SimulatedDevices, simulate_calibration
+from pito_core.sim import SimParams, SimulatedDevices
 
 __all__ = ["DemoDevices", "demo_calibration", "cached_demo_calibration", "demo_cache_path", "cache_dir", "DEMO_METHOD",
            "DEMO_OBJECT_MASS"]
@@ -46,11 +48,15 @@ class DemoDevices:
     launches : (DevicesLaunch, PipelineLaunch), optional
         The two child processes, started earlier (``app.main``): they boot while
         the caller imports; default: start them now, one after the other.
+    hold : threading.Event, optional
+        The pipeline opens the devices once it is set (``app.main``: when the window is built).
+        Until then neither child works: the cube's pty fills and its writer waits, the Net F/T
+        streams to nobody (it waits for a start request).
     """
 
     simulated = True
 
-    def __init__(self, seed: int = 0, speed: float = 1.0, period: float = 1.5, launches=None):
+    def __init__(self, seed: int = 0, speed: float = 1.0, period: float = 1.5, launches=None, hold=None):
         sim_launch, pipe_launch = launches or (None, None)
         try:
             self.sim = SimulatedDevices(seed=seed, speed=speed, period=period, launch=sim_launch)
@@ -58,6 +64,8 @@ class DemoDevices:
             if pipe_launch is not None:
                 pipe_launch.close()
             raise
+        if hold is not None:
+            hold.wait()
         try:
             # the drivers and the pipeline in a process of their own, as for hardware (MainWindow.connect_devices);
             # buffered RDT (10 records per packet), as a real box allows: a tenth of the packets
@@ -146,8 +154,8 @@ def demo_calibration(k: int = 1500, seed: int = 0, cache: bool = True):
     access hole on face 6, all six faces loaded, ``k`` samples each). SIMULATED data.
 
     With ``cache`` the result is written to :func:`demo_cache_path` for the next start."""
-    session = simulate_calibration(*DEMO_MOUNT, k=k, seed=seed)
-    cal = calibrate(session, DEMO_METHOD)
+    session = pito_core.sim.simulate_calibration(*DEMO_MOUNT, k=k, seed=seed)
+    cal = pito_core.calibration.calibrate(session, DEMO_METHOD)
     if cache:
         path = demo_cache_path(k, seed)
         try:

@@ -14,8 +14,8 @@ from PySide6.QtWidgets import (
     QVBoxLayout, QWidget,
 )
 
+import pito_core.interop  # the writers (MCAP, NWB; scipy) load at the first export, not with the window
 from pito_core.calibration import load_calibration
-from pito_core.interop import export_files
 from pito_core.io import RecordingChunks, export_recording_files
 from pito_core.pipeline import recording_times
 
@@ -55,7 +55,7 @@ def export_recording(recording, formats, out_prefix, calibration_path=None, subj
         meta = {k: v for k, v in (("subject_id", subject_id), ("experimenter", [experimenter] if experimenter else None))
                 if v}
         # one streamed pass to both files, as `pito export`: bounded memory at any length
-        export_files(recording, nwb=prefix + ".nwb" if "nwb" in formats else None,
+        pito_core.interop.export_files(recording, nwb=prefix + ".nwb" if "nwb" in formats else None,
                      mcap=prefix + ".mcap" if "mcap" in formats else None, calibration=cal,
                      calibration_source=calibration_path, nwb_metadata=meta, progress=progress)
         out += [prefix + s for s in (".nwb", ".mcap") if s[1:] in formats]

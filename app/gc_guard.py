@@ -53,6 +53,14 @@ class GuiThreadCollector(QObject):
         self.timer.start()
         return self
 
+    def freeze_startup(self) -> None:
+        """Move every object made so far (modules, the window) out of all later collections (``gc.freeze``).
+
+        Called once the window is built: those objects live as long as the app, and the first
+        collection over them (300 000 objects: 0.08 s of the GUI thread) fell on the first frames;
+        later collections go over new objects only."""
+        gc.freeze()
+
     def uninstall(self) -> None:
         self.timer.stop()
         if self._was_enabled:

@@ -13,9 +13,12 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import gc
 import sys
+import threading
+from concurrent.futures import Future
 
-__all__ = ["main", "build_parser"]
+__all__ = ["main", "build_parser", "make_application"]
 
 PAGES = ("live", "first", "mount", "load", "results")
 
@@ -58,26 +61,19 @@ def main(argv=None) -> int:
         print("pito-app: --screenshot needs --demo (screens are rendered on the simulated devices)", file=sys.stderr)
         return 2
     period = 0.6 if args.screenshot else 1.5
+    # no collection passes over the start-up's imports (a tenth of its CPU time); from the
+    # application on, the GUI thread's collector runs them (make_application)
+    gc.disable()
     # the demo's devices (two child processes, seconds of waiting) boot while Qt, VTK and the window load
     rig_boot = _boot_demo_devices(args.seed, period) if args.demo and not args.pito else None
-    # deferred: Qt, pyvista, VTK and the window load only once a window is made (not for --help)
-    from PySide6.QtWidgets import QApplication
+    app = make_application()
+    from .window import MainWindow  # deferred: Qt, pyvista, VTK and the window load only for a window (not --help)
 
-    app = QApplication.instance() or QApplication(sys.argv[:1])
-    app.setApplicationName("pito-app")
-    from .gc_guard import GuiThreadCollector  # deferred with QApplication (above): it imports Qt
-
-    app.gc_collector = GuiThreadCollector(app).install()  # cycles freed in the GUI thread only
-    from .fonts import install_app_font  # deferred with QApplication (above): these import Qt
-    from .theme import STYLE
-    from .window import MainWindow
-
-    install_app_font(app)  # one font with every glyph used (‖ · ± σ), for Qt and matplotlib
-    app.setStyleSheet(STYLE)
     # screenshots: a brisker simulated operator (0.6 s per move-and-hold) so the wizard fills quickly
     window = MainWindow(demo=args.demo, calibration_path=args.calibration, rate=args.rate, seed=args.seed,
                         demo_k=args.demo_k, demo_period=period, wizard_k=600 if args.screenshot else 1000,
                         rig_boot=rig_boot)
+    app.gc_collector.freeze_startup()  # no collection goes over the start-up's objects again
     if args.pito:
         window.connect_devices(args.pito, args.ati or "", False)
     if args.screenshot:
@@ -104,14 +100,32 @@ def main(argv=None) -> int:
     return code
 
 
+def make_application():
+    """The ``QApplication`` as ``pito-app`` sets it up (also the start-up bench's, ``pito_bench._live_window``).
+
+    Garbage cycles are collected in the GUI thread only (:mod:`app.gc_guard`; automatic collection
+    stays off), one font with every glyph the app draws (‖ · ± σ, :mod:`app.fonts`), the style sheet."""
+    # deferred: Qt loads only once a window is made (`pito-app --help` loads none)
+    from PySide6.QtWidgets import QApplication
+
+    from .fonts import install_app_font
+    from .gc_guard import GuiThreadCollector
+    from .theme import STYLE
+
+    app = QApplication.instance() or QApplication(sys.argv[:1])
+    app.setApplicationName("pito-app")
+    app.gc_collector = GuiThreadCollector(app).install()  # cycles freed in the GUI thread only
+    install_app_font(app)  # for Qt and matplotlib
+    app.setStyleSheet(STYLE)
+    return app
+
+
 def _boot_demo_devices(seed: int, period: float):
     """Start the demo's simulated devices: a future of :class:`~app.demo.DemoDevices`.
 
     Both child processes (the simulated devices, the pipeline) start here, from the main thread,
     with the standard library only, and import while this process imports the core, Qt and VTK;
     a thread waits for their announcements and connects them."""
-    from concurrent.futures import ThreadPoolExecutor  # deferred: `pito-app --help` starts no thread
-
     from pito_core.pipeline import PipelineLaunch  # deferred: stdlib-only modules (pito_core/_lazy.py)
     from pito_core.sim import DevicesLaunch
 
@@ -128,13 +142,34 @@ def _boot_demo_devices(seed: int, period: float):
             pipe.close()
         raise
 
-    def boot():  # waits for the children's announcements (no interpreter lock held)
-        return DemoDevices(seed=seed, period=period, launches=(sim, pipe))
+    hold = threading.Event()
 
-    pool = ThreadPoolExecutor(1, thread_name_prefix="demo-boot")
-    future = pool.submit(boot)
-    pool.shutdown(wait=False)  # the boot runs on; the thread ends with it
+    def boot():  # waits for the children's announcements and the hold (no interpreter lock held)
+        try:
+            future.set_result(DemoDevices(seed=seed, period=period, launches=(sim, pipe), hold=hold))
+        except BaseException as exc:  # noqa: BLE001 - handed to the window, which reports it
+            future.set_exception(exc)
+
+    future = _HeldBoot(hold)
+    # a daemon: a window that never asks for its devices (an error while it is built) does not keep
+    # the process from exiting (the children end with it)
+    threading.Thread(target=boot, name="demo-boot", daemon=True).start()
     return future
+
+
+class _HeldBoot(Future):
+    """The demo's devices booting: the pipeline opens them once :meth:`result` is first asked for.
+
+    The window asks once it is built (``MainWindow.start_demo``): until then the children, imported
+    and announced, do no work, so they leave the machine's cores to the window's build."""
+
+    def __init__(self, hold: threading.Event):
+        super().__init__()
+        self.hold = hold
+
+    def result(self, timeout=None):
+        self.hold.set()
+        return super().result(timeout)
 
 
 def _record_when_live(window, path) -> None:

@@ -367,7 +367,7 @@ class MainWindow(QMainWindow):
         except Exception as exc:  # noqa: BLE001
             self.statusBar().showMessage(f"assembly {name}: {exc}", 8000)
             self.assembly = None
-        self.live.scene.set_patches(display_meshes(self.assembly))
+        self.live.scene.set_patches(display_meshes(self.assembly, name))  # a library name: cached by its description
         if self.assembly is not None and self.assembly.mass:
             self.live.mass.setValue(self.assembly.mass)
         cog = getattr(self.assembly, "center_of_gravity", None)

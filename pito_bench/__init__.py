@@ -6,7 +6,29 @@ a fresh subprocess limited to one BLAS thread (one core), which also isolates it
 memory. Calibration data are simulated (``pito_core.sim``).
 """
 
-from ._pipeline import default_pipeline, run_live, tick_cost
-from ._run import SECTIONS, run_bench
+from importlib import import_module
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from ._pipeline import default_pipeline, run_live, tick_cost
+    from ._run import SECTIONS, run_bench
 
 __all__ = ["SECTIONS", "default_pipeline", "run_bench", "run_live", "tick_cost"]
+
+#: name → module, loaded on first use (PEP 562, as pito_core/_lazy.py): a process that imports one module
+#: of the bench (the app's process of the start-up bench: _live_window, _stamp) loads no other (_run: scipy.signal)
+_WHERE = {"default_pipeline": "._pipeline", "run_live": "._pipeline", "tick_cost": "._pipeline",
+          "SECTIONS": "._run", "run_bench": "._run"}
+
+
+def __getattr__(name: str):
+    try:
+        module = _WHERE[name]
+    except KeyError:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}") from None
+    value = globals()[name] = getattr(import_module(module, __name__), name)
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_WHERE))

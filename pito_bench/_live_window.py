@@ -28,9 +28,11 @@ How it is measured, from outside the app's process:
 - first frame (``--first-frame N``, also in ``run``): the time from starting the app's process to
   the first read showing a stamp in each view (a frame with data: the demo's calibrated forces once
   its start-up calibration is cached), over N starts after one that is not counted (it fills the
-  caches a user's first start fills); the window's showing is the moment the app writes its regions;
-  the CPU seconds the app and its children had used by the first stamp (``/proc``) are the figure
-  a loaded machine moves least.
+  caches a user's first start fills: the calibration, the display meshes, Python's bytecode of
+  pito's modules, which this machine's ``PYTHONDONTWRITEBYTECODE`` would have compiled at every
+  start); the window's showing is the moment the app writes its regions;
+  the CPU seconds the app and its children had used by the first stamp (``/proc``), and the app's
+  own (its process alone: the critical path), are the figures a loaded machine moves least.
 
 Figures depend on the machine and on its load: the load average before and after is in the
 result. The app and the grabber share the machine with the simulated devices.
@@ -44,6 +46,7 @@ import os
 import shutil
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -61,20 +64,23 @@ STAMP_RATE = 1000.0
 def _run_app(regions: str, seconds: float, warmup: float) -> int:
     """In the app's process: the demo window with frame stamps; writes the regions JSON when warm.
 
-    Started as ``pito-app --demo`` starts: the simulated devices boot before Qt and the window load."""
-    from app.main import _boot_demo_devices  # deferred: the app loads only in the app's process
+    Started as ``pito-app --demo`` starts (``app.main``): the simulated devices boot before Qt and the
+    window load, the application set up as pito-app's (``make_application``: the GUI thread's garbage
+    collector, the app's font, the style)."""
+    import gc
 
+    from app.main import _boot_demo_devices, make_application  # deferred: the app loads only in the app's process
+
+    gc.disable()  # as pito-app's main: no collection passes over the start-up's imports
     rig_boot = _boot_demo_devices(0, 1.5)
+    app = make_application()
     # deferred: Qt and the app load only in the app's process (the grabber and the soak import this module)
     from PySide6.QtCore import QTimer
-    from PySide6.QtWidgets import QApplication
 
-    app = QApplication(sys.argv[:1])
-    from app.theme import STYLE  # deferred with Qt (above)
     from app.window import MainWindow
 
-    app.setStyleSheet(STYLE)
     w = MainWindow(demo=True, rig_boot=rig_boot)
+    app.gc_collector.freeze_startup()  # as pito-app's main
     w.resize(*SIZE)
     w.move(0, 0)
     w.show()
@@ -215,8 +221,8 @@ class _StampLog:
         self.last = ts
 
 
-def _cpu_seconds(pid: int) -> float | None:
-    """CPU time (user + system, s) of process ``pid`` and every live descendant (Linux ``/proc``), or None."""
+def _cpu_seconds(pid: int, children: bool = True) -> float | None:
+    """CPU time (user + system, s) of process ``pid`` and (``children``) every live descendant (Linux ``/proc``), or None."""
     tick = os.sysconf("SC_CLK_TCK")
     stats = {}
     for d in Path("/proc").iterdir():
@@ -232,23 +238,30 @@ def _cpu_seconds(pid: int) -> float | None:
     while todo:
         p = todo.pop()
         total += stats[p][1]
-        todo += [c for c, (pp, _) in stats.items() if pp == p]
+        todo += [c for c, (pp, _) in stats.items() if pp == p] if children else []
     return total
 
 
-def _first_frame_once(display: str, timeout: float = 90.0) -> dict:
+def _first_frame_once(display: str, timeout: float = 90.0, pycache: str | None = None) -> dict:
     """One start of the demo app: seconds from starting its process to its window shown and to the
     first read showing a data stamp in the scene and in the plots; the CPU seconds the app and its
-    child processes (the simulated devices, the pipeline) had used when the first stamp was seen."""
+    child processes (the simulated devices, the pipeline) had used when the first stamp was seen.
+
+    ``pycache``: a folder for Python's bytecode cache (``PYTHONPYCACHEPREFIX``), written even where
+    the environment says not to (``PYTHONDONTWRITEBYTECODE``), as an install's first start writes it."""
     from ._xgrab import Grabber  # deferred: loads libX11 (ctypes) at import
 
     regions = Path(f"/tmp/pito_bench_first_{os.getpid()}.json")
     regions.unlink(missing_ok=True)
+    env = display_env(display)
+    if pycache is not None:
+        env.pop("PYTHONDONTWRITEBYTECODE", None)
+        env["PYTHONPYCACHEPREFIX"] = str(pycache)
     t0 = time.monotonic()
     app = subprocess.Popen([sys.executable, "-m", "pito_bench._live_window", "--run-app", str(regions),
-                            "--seconds", "4", "--warmup", "0"], env=display_env(display),
+                            "--seconds", "4", "--warmup", "0"], env=env,
                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    out = {"window_s": None, "scene_s": None, "plots_s": None, "cpu_s": None}
+    out = {"window_s": None, "scene_s": None, "plots_s": None, "cpu_s": None, "app_cpu_s": None}
     try:
         while not regions.exists():
             if app.poll() is not None or time.monotonic() - t0 > timeout:
@@ -271,6 +284,7 @@ def _first_frame_once(display: str, timeout: float = 90.0) -> dict:
                         out[key] = t - t0
                         if out["cpu_s"] is None:
                             out["cpu_s"] = _cpu_seconds(app.pid)
+                            out["app_cpu_s"] = _cpu_seconds(app.pid, children=False)
                 time.sleep(0.001)
         finally:
             g.close()
@@ -294,21 +308,25 @@ def first_frame(runs: int = 3, display: str | None = None) -> dict:
     xvfb = None
     if display is None:
         display, xvfb = start_xvfb()
+    # the bytecode of pito's own modules is cached as on an install (pip's for the dependencies), not
+    # compiled at every start as PYTHONDONTWRITEBYTECODE (set on the project's machine) would have it
+    pycache = tempfile.TemporaryDirectory(prefix="pito_bench_pycache_")
     try:
-        _first_frame_once(display)  # fills the caches a first start fills (calibration, meshes)
-        rows = [_first_frame_once(display) for _ in range(runs)]
+        _first_frame_once(display, pycache=pycache.name)  # fills a first start's caches (calibration, meshes, bytecode)
+        rows = [_first_frame_once(display, pycache=pycache.name) for _ in range(runs)]
     finally:
+        pycache.cleanup()
         if xvfb is not None:
             xvfb.terminate()
             xvfb.wait()
     res = {"status": "ok", "runs": rows}
-    for key in ("window_s", "scene_s", "plots_s", "cpu_s"):
+    for key in ("window_s", "scene_s", "plots_s", "cpu_s", "app_cpu_s"):
         v = [r[key] for r in rows if r[key] is not None]
         res[key] = {"median": float(np.median(v)) if v else None, "min": min(v, default=None),
                     "max": max(v, default=None), "n": len(v)}
     res["loadavg"] = list(os.getloadavg())
     res["method"] = ("process start → first read of each view's data stamp on a private Xvfb (1 ms polls), "
-                     f"{runs} starts after one not counted")
+                     f"{runs} starts after one not counted (calibration, display meshes and bytecode cached)")
     return res
 
 
@@ -426,7 +444,7 @@ def _print_first_frame(ff: dict) -> None:
         return "–" if d["median"] is None else f"{d['median']:.2f} s ({d['min']:.2f}–{d['max']:.2f}, n = {d['n']})"
     print(f"start-up (process start →, median (min–max)): window shown {fmt(ff['window_s'])}, first frame with data: "
           f"scene {fmt(ff['scene_s'])}, plots {fmt(ff['plots_s'])}; CPU used by then (app and its children) "
-          f"{fmt(ff['cpu_s'])}; load average {ff['loadavg'][0]:.1f}")
+          f"{fmt(ff['cpu_s'])}, the app's own {fmt(ff['app_cpu_s'])}; load average {ff['loadavg'][0]:.1f}")
 
 
 if __name__ == "__main__":

@@ -28,7 +28,6 @@ import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
-import scipy.optimize
 
 from ..defaults import FULL_SCALE_FACE, TARE_STILL_FORCE_STD_N, TARE_STILL_TORQUE_STD_NM
 from ..frames import N_GAUGES
@@ -250,6 +249,8 @@ def _nnls(Phi: np.ndarray, y: np.ndarray) -> np.ndarray:
     on = s > 0
     c = np.zeros(Phi.shape[1])
     if on.any():
+        import scipy.optimize  # deferred: 0.3 CPU s to import, for fits only (loading a calibration needs none)
+
         c[on] = scipy.optimize.nnls(Phi[:, on] / s[on], y)[0] / s[on]
     return c
 

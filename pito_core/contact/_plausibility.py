@@ -32,9 +32,18 @@ from __future__ import annotations
 from enum import IntEnum
 
 import numpy as np
-from scipy.special import chdtrc, ndtr
 
 from ._quadric import _cross
+
+
+def _ndtr(x):
+    """``scipy.special.ndtr`` (the standard normal CDF), imported at its first call: scipy.special takes
+    0.2 CPU s to import, which a process that loads patches but tests no contact never pays
+    (pito-app's window: docs/app.md, "Start-up")."""
+    from scipy.special import ndtr
+
+    return ndtr(x)
+
 
 #: row indices (1, 2, 0) and (2, 0, 1): the adjugate's rows are cyclic cross products
 _NEXT3, _PREV3 = np.array([1, 2, 0]), np.array([2, 0, 1])
@@ -291,6 +300,10 @@ def single_contact_test(c, n, f, tau, w, variance, T, shape_op, W=None, *,
     -------
     SingleContactTest
     """
+    # deferred: scipy.special takes 0.2 CPU s to import; a process that loads patches without testing
+    # contacts (pito-app's window: docs/app.md, "Start-up") never pays it
+    from scipy.special import chdtrc, ndtr
+
     N = len(c)
     finite = np.isfinite(c).all(axis=1) & np.isfinite(T).all(axis=(1, 2))
     nf = np.count_nonzero(finite)

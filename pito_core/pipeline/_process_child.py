@@ -20,6 +20,10 @@ from multiprocessing.connection import Connection, wait
 
 import numpy as np
 
+# the contact test's scipy.special (its import is deferred in contact/_plausibility), loaded while
+# this child waits for its devices rather than at its first bundle
+import scipy.special  # noqa: F401
+
 from ..devices import die_with_parent, install_stop_signals
 from ..frames import CubeCore
 from ._bundle import LiveBundle

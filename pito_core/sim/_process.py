@@ -43,12 +43,13 @@ import subprocess
 import sys
 import threading
 import time
+from typing import TYPE_CHECKING
 
 from ..devices import die_with_parent, install_stop_signals
 from ._launch import DevicesLaunch
-from ._transport_netft import SimulatedNetFT
-from ._transport_pito import SimulatedPitoPort
-from ._world import DemoWorld
+
+if TYPE_CHECKING:
+    from ._world import DemoWorld
 
 __all__ = ["SimulatedDevices", "SimulatorError", "run_devices"]
 
@@ -159,6 +160,12 @@ def run_devices(*, seed: int = 0, speed: float = 1.0, period: float = 1.5, scena
     pdeathsig : bool
         Child mode: ask the kernel for SIGTERM when the parent (thread) ends.
     """
+    # deferred: the simulation (world, patches, contact, scipy) loads in the devices' process only, not
+    # in a process that merely steers them (SimulatedDevices: pito-app's, docs/app.md "Start-up")
+    from ._transport_netft import SimulatedNetFT
+    from ._transport_pito import SimulatedPitoPort
+    from ._world import DemoWorld
+
     stop = stop or threading.Event()
     if watch_parent and pdeathsig:
         die_with_parent()

@@ -61,3 +61,26 @@ def test_decimated_patch_meshes_are_cached(demo_cache):
     files[0].write_bytes(b"damaged")  # dropped and made again
     display_meshes(a)
     assert files[0].stat().st_size > 100
+
+
+def test_a_library_assemblys_display_meshes_are_read_back_without_building_a_patch(demo_cache, monkeypatch):
+    from app.objects import display_meshes, load_assembly
+
+    a = load_assembly("pito_mixed")
+    first = display_meshes(a, "pito_mixed")
+    assert len(sorted(demo_cache.glob("display-*.vtp"))) == 6
+
+    def no_build(face):
+        raise AssertionError("a patch mesh was built although the description's meshes are cached")
+
+    b = load_assembly("pito_mixed")
+    monkeypatch.setattr(b, "face_mesh", no_build)
+    again = display_meshes(b, "pito_mixed")
+    for i in first:
+        np.testing.assert_allclose(np.asarray(again[i].points), np.asarray(first[i].points))
+        np.testing.assert_array_equal(np.asarray(again[i].faces), np.asarray(first[i].faces))
+    with pytest.raises(AssertionError, match="was built"):  # another assembly: another key, built
+        display_meshes(b, "cube")
+    sorted(demo_cache.glob("display-*.vtp"))[0].write_bytes(b"damaged")  # dropped, built again
+    display_meshes(load_assembly("pito_mixed"), "pito_mixed")
+    assert all(p.stat().st_size > 100 for p in demo_cache.glob("display-*.vtp"))

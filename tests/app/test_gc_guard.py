@@ -79,3 +79,19 @@ def test_uninstall_gives_back_automatic_collection(qapp):
         assert gc.isenabled()
     finally:
         (gc.enable if was else gc.disable)()
+
+
+def test_freeze_startup_leaves_the_start_ups_objects_out_of_later_collections(qapp):
+    made_at_start = [[i] for i in range(1000)]  # the start-up's long-lived containers
+    collector = GuiThreadCollector(qapp)
+    before = gc.get_freeze_count()
+    try:
+        collector.freeze_startup()
+        assert gc.get_freeze_count() >= before + len(made_at_start)
+        assert not any(o is made_at_start for o in gc.get_objects())  # in no generation a collection goes over
+        _Cycle()  # made after: still collected
+        _Cycle.freed_in.clear()
+        gc.collect()
+        assert _Cycle.freed_in == [threading.current_thread().name]
+    finally:
+        gc.unfreeze()

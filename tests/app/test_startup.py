@@ -65,7 +65,11 @@ def test_the_window_module_loads_neither_the_wizard_nor_matplotlib():
 def test_the_demo_boot_starts_both_children_at_once_and_connects_them():
     from app.main import _boot_demo_devices
 
-    rig = _boot_demo_devices(0, 1.5).result(timeout=90)
+    boot = _boot_demo_devices(0, 1.5)
+    time.sleep(1.0)
+    # the pipeline opens the devices only once the (built) window asks for them
+    assert not boot.hold.is_set() and not boot.done()
+    rig = boot.result(timeout=90)
     try:
         src = rig.open_source()
         assert rig.process.has_reference and rig.sim.alive()
@@ -84,3 +88,25 @@ def test_a_pipeline_launch_never_configured_ends_with_its_socket():
     launch = PipelineLaunch()
     launch.close()
     assert launch.proc.returncode == 0
+
+
+def test_the_demo_start_up_loads_no_fit_no_simulation_and_no_export_writers(demo_cache):
+    """What the app's process imports for its window, a cached calibration and cached display meshes:
+    not the fit (scipy.optimize, scipy.linalg), the contact test (scipy.special), the simulated world
+    (it runs in its own process), trimesh or the MCAP/NWB writers (docs/app.md, "Start-up")."""
+    from app.demo import demo_calibration
+    from app.objects import display_meshes, load_assembly
+
+    demo_calibration(50, 0)  # what a first start leaves in the cache
+    display_meshes(load_assembly("pito_mixed"), "pito_mixed")
+    code = ("import sys; import app.main, app.window; from app.demo import cached_demo_calibration; "
+            "from app.objects import display_meshes, load_assembly; "
+            "assert cached_demo_calibration(50, 0) is not None, 'the cached calibration was not read'; "
+            "display_meshes(load_assembly('pito_mixed'), 'pito_mixed'); "
+            "print(sorted(m for m in ('scipy.optimize', 'scipy.linalg', 'scipy.special', 'trimesh', "
+            "'pito_core.sim._world', "
+            "'pito_core.calibration._fit', 'pito_core.interop._mcap', 'pito_core.interop._nwb') if m in sys.modules))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120,
+                         env={**os.environ, "QT_QPA_PLATFORM": "offscreen", "PITO_CACHE_DIR": str(demo_cache)})
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip().splitlines()[-1] == "[]"
