@@ -37,9 +37,9 @@ import numpy as np
 __all__ = ["DEFAULT_DIR", "ENV", "Dataset", "load_dataset", "find_datasets", "outer_folds", "fit_ls", "fit_quad",
            "fit_auto", "fit_poly", "METHODS", "evaluate", "run_sensors", "sensor_tables", "SENSORS_HELP"]
 
-#: Environment variable naming the data-set folder; then this default.
+#: Environment variable naming the data-set folder; then this default (relative to the working folder).
 ENV = "PITO_DATASETS"
-DEFAULT_DIR = "/work/shared/datasets"
+DEFAULT_DIR = "datasets"
 #: Leave-one-group-out up to this many groups; grouped K-fold beyond.
 MAX_LOGO = 12
 K_FOLDS = 10
@@ -55,7 +55,7 @@ MAX_ROWS = 30_000
 
 SENSORS_HELP = """\
   sensors      real sensors of other kinds, measured by others (public data sets, .npz
-               in --datasets DIR, else $PITO_DATASETS, else /work/shared/datasets):
+               in --datasets DIR, else $PITO_DATASETS, else ./datasets):
                held-out RMSE (N, N·m) per target column and per force/torque of
                fit_sensor's default (auto), plain affine least squares (numpy) and a
                quadratic baseline (products of channels, ridge by inner grouped CV),
@@ -301,8 +301,8 @@ def run_sensors(directory=None, progress=None, max_rows: int = MAX_ROWS) -> dict
     progress = progress or (lambda s: None)
     directory, paths = find_datasets(directory)
     if not paths:
-        return {"dir": directory, "status": f"skipped: no data sets found in {directory}; see docs/performance.md "
-                                            f"(Real sensors) for the .npz format, or set {ENV}"}
+        return {"dir": directory, "status": f"skipped: no data sets found in {directory}; give --datasets DIR or set "
+                                            f"{ENV} (the .npz format: pito_bench/_sensors.py)"}
     results = []
     for path in paths:
         ds = load_dataset(path, max_rows)

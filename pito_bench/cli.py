@@ -76,7 +76,7 @@ def register(sub) -> None:
     p.add_argument("--sections", default=",".join(SECTIONS + ("export", "sensors")), metavar="LIST",
                    help=f"comma-separated sections to run (default: all of {','.join(SECTIONS)}, export, sensors; also: soak = a 10-minute recording soak, 1 min with --quick; export = pito export's rates and a 1-hour export; sensors = real public sensor data sets)")
     p.add_argument("--datasets", metavar="DIR",
-                   help=f"folder of the sensors section's .npz data sets (default: ${DATASETS_ENV}, else /work/shared/datasets)")
+                   help=f"folder of the sensors section's .npz data sets (default: ${DATASETS_ENV}, else ./datasets)")
     p.add_argument("--sizes", metavar="K,K,...",
                    help="calibration sizes k in samples (default 1000,…,10000000; quick: up to 100000)")
     p.add_argument("--threads", type=int, default=1, help="BLAS/OpenMP threads per measurement (default 1)")
