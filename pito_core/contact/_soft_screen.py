@@ -17,8 +17,8 @@ first read). With ``α > 1/2`` every row gets the full test.
 from __future__ import annotations
 
 import numpy as np
-from scipy.special import ndtr, ndtri
 
+from ._plausibility import _ndtr
 from ._soft_test import CHUNK, _dot3, _finite_rows, _reasons, _work, _z_rows, _zmin
 from ._surfaces import Plane
 
@@ -213,6 +213,8 @@ def _full_rows(rows, cr, nr, fr, taur, cov, blocks, mur, er, alpha, fin, mr):
     sub = [(s, bnd, slice(int(i), int(j))) for (s, bnd, _), i, j in zip(blocks, starts, stops) if j > i]
     single = np.empty(k, bool)
     reason = np.empty(k, np.int8)
+    from scipy.special import ndtri  # at the first test: pito-app's window never pays its import
+
     za = float(ndtri(alpha))
     band = _BAND * (1.0 + abs(za))
     for a in range(0, k, CHUNK):
@@ -227,7 +229,7 @@ def _full_rows(rows, cr, nr, fr, taur, cov, blocks, mur, er, alpha, fin, mr):
         s = zmin >= za + band
         near = np.flatnonzero(~s & ~(zmin < za - band))  # (NaN: never; _z leaves none)
         if len(near):
-            s[near] = ndtr(zmin[near]) >= alpha
+            s[near] = _ndtr(zmin[near]) >= alpha
         single[r] = s
         reason[r] = 0 if s.all() else _reasons(s, z0, z1, z2, fz, ch(fr), ch(nr), ch(taur), ch(er), alpha)
     return single, reason
