@@ -12,7 +12,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from ._cv import ALPHAS, MODELS, N_FOLDS, N_SE, SCORE_ATOL, FoldedGram, ModelChoice, Problem, cross_validate, \
-    fold_bounds, fold_of_segments, solve_problem, tangent_rows
+    TANGENT_GAIN, fold_bounds, fold_of_segments, solve_problem, tangent_rows
 from ._lstsq import StreamedQR
 from ._poly import PolyCorrection, poly_features_t, poly_terms
 
@@ -169,6 +169,48 @@ def _choice(cv: dict, weight: np.ndarray, picks, requested: str, n_segments: int
                        n_segments=int(n_segments), reason=why)
 
 
+def _held_out_extension(c, w, center, scale, fold, folded, probs, picks, alphas, pairs, cubes):
+    """``(2, q)`` held-out sums of squares, beyond the range of their training folds, of the chosen
+    corrections continued with the linear fit's slope (row 0) or the polynomial's tangent (row 1);
+    None when no held-out sample lies beyond its training folds' range.
+
+    Each fold's model is the chosen one refitted without it (its Gram down-dated); its correction is
+    drawn back into the range of the other folds' channels, as the fit's is into the whole range.
+    """
+    from ._cv import _paths
+    from ._poly import _ray_into
+
+    m, q, K, p = c.shape[1], w.shape[1], folded.n_folds, folded.p
+    u = (c - center) / scale
+    e = np.zeros((2, q))
+    found = False
+    for k in range(K):
+        te = fold == k
+        if not te.any() or te.all():
+            continue
+        lo, hi = u[~te].min(axis=0), u[~te].max(axis=0)
+        out = np.flatnonzero(te)[_ray_into(u[te], lo, hi) < 1.0]
+        if out.size == 0:
+            continue
+        found = True
+        G = folded.total(exclude=k)
+        X_lin = _paths(G, p, [probs[0]], [np.inf])[0][0][: 1 + m]
+        X, D = X_lin.copy(), np.zeros((q, p - 1 - m))
+        for j, pr in enumerate(probs):
+            for a in sorted({a for jj, a in picks if jj == j}):
+                rows = np.array([jj == j and aa == a for jj, aa in picks])
+                Xp = _paths(G, p, [pr], [alphas[a]])[0][0]
+                X[:, rows] = Xp[: 1 + m, rows]
+                D[np.ix_(rows, pr.b - 1 - m)] = Xp[1 + m :, rows].T
+        edge = ((X[1:] - X_lin[1:]) / scale[:, None]).T
+        x = c[out] - center
+        base = u[out] @ X[1:] + X[0]
+        for i, tan in enumerate((None, np.ones(q, dtype=bool))):
+            corr = PolyCorrection(scale, pairs, cubes, D, lo, hi, edge, tangent=tan)
+            e[i] += ((base + corr(x) - w[out]) ** 2).sum(axis=0)
+    return e if found else None
+
+
 def fit_sensor(counts, wrench, groups=None, model: str = "auto", *, n_folds: int = N_FOLDS, alphas=ALPHAS,
                block_size: int = 65536) -> SensorFit:
     """Fit a sensor's counts → wrench, choosing the model by grouped cross-validation.
@@ -275,6 +317,13 @@ def fit_sensor(counts, wrench, groups=None, model: str = "auto", *, n_folds: int
                 ra = np.array([cv["alphas"][a] if jj == j else np.nan for jj, a in picks])
                 if np.isfinite(ra).any():
                     tangent |= tangent_rows(build, 1 + m + r, u[sub], lo, hi, pr, ra, cube_cols)
+            held = _held_out_extension(c, w, center, scale, fold, folded, probs, picks, cv["alphas"], pairs, cubes)
+        if held is not None:  # the caller's held-out groups beyond their folds' range decide where they exist
+            e_slope, e_tan = held * weight**2
+            for g in range(0, q, OUTPUT_GROUP):
+                cols = slice(g, g + OUTPUT_GROUP)
+                if e_slope[cols].sum() > 0:
+                    tangent[cols] = e_tan[cols].sum() < TANGENT_GAIN * e_slope[cols].sum()
         correction = PolyCorrection(scale, pairs, cubes, D, lo, hi, edge, tangent=tangent)
     names = ("linear",) + tuple(FAMILIES)
     return SensorFit(choice, coef, X[0].copy(), center, correction, [names[j + 1] for j, _ in picks])
