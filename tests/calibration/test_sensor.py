@@ -82,7 +82,8 @@ def _bending_sensor(seed, m, n_seg, seg_len, bend, per_group=10):
     ``per_group`` held loads per group."""
     rng = np.random.default_rng(seed)
     S = rng.normal(size=(m, 6)) * 1000 / FS
-    W = np.repeat(rng.uniform(-1, 1, size=(n_seg, 6)) * FS, seg_len, axis=0) + rng.normal(scale=0.02, size=(n_seg * seg_len, 6)) * FS
+    W = np.repeat(rng.uniform(-1, 1, size=(n_seg, 6)) * FS, seg_len, axis=0)
+    W += rng.normal(scale=0.02, size=W.shape) * FS
     lin = W @ S.T
     full = np.abs(S) @ FS
     counts = lin + bend * full * (lin / full) ** 2 + rng.normal(scale=2.0, size=lin.shape)
@@ -91,7 +92,8 @@ def _bending_sensor(seed, m, n_seg, seg_len, bend, per_group=10):
 
 def test_few_groups_are_left_out_one_at_a_time():
     """10 groups: 10 folds (leave one group out); the correction (quadratic or cubic family, per output
-    group) beats the affine fit on groups never seen (measured 0.59×); 3 groups are too few for a standard error: the affine fit."""
+    group) beats the affine fit on groups never seen (measured 0.59×); 3 groups are too few for a
+    standard error: the affine fit."""
     c, w, g = _bending_sensor(3, 6, 120, 5, bend=0.1)
     train = g < 10
     auto = fit_sensor(c[train], w[train], g[train])
