@@ -11,8 +11,8 @@ from __future__ import annotations
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from ._cv import ALPHAS, MODELS, N_FOLDS, FoldedGram, ModelChoice, Problem, choose_model, cross_validate, fold_bounds, \
-    fold_of_segments, solve_problem, tangent_rows
+from ._cv import ALPHAS, MODELS, N_FOLDS, N_SE, SCORE_ATOL, FoldedGram, ModelChoice, Problem, cross_validate, \
+    TANGENT_GAIN, fold_bounds, fold_of_segments, solve_problem, tangent_rows
 from ._lstsq import StreamedQR
 from ._poly import PolyCorrection, poly_features_t, poly_terms
 
@@ -24,6 +24,16 @@ MAX_FULL_QUADRATIC = 12
 MAX_EXTENSION_ROWS = 1 << 15
 #: Contiguous segments a session is cut into when no ``groups`` are given.
 DEFAULT_SEGMENTS = 40
+#: Groups up to which each is a fold of its own (leave one group out); beyond, ``n_folds`` folds.
+MAX_LEAVE_ONE_OUT = 12
+#: The corrections scored beside the affine fit, simplest first: every square and pairwise product
+#: of the scaled channels (``MAX_FULL_QUADRATIC``); the same with each channel's cube.
+FAMILIES = ("quadratic", "cubic")
+#: Fewer folds than this: the affine fit (a standard error over fewer is itself too noisy, and each
+#: held-out group then leaves a large part of the loads untrained).
+MIN_FOLDS = 4
+#: Outputs chosen together (forces, torques).
+OUTPUT_GROUP = 3
 
 
 class SensorFit:
@@ -43,10 +53,13 @@ class SensorFit:
         Mean counts of the training data.
     correction_ : PolyCorrection or None
         The nonlinear part (of ``counts − center_``).
+    row_model_ : list of str
+        Per output: ``linear`` (the affine fit) or the correction's family (``FAMILIES``).
     """
 
-    def __init__(self, choice, coef, intercept, center, correction=None):
+    def __init__(self, choice, coef, intercept, center, correction=None, row_model=None):
         self.choice = choice
+        self.row_model_ = list(row_model or ["linear"] * np.shape(intercept)[0])
         self.coef_ = coef
         self.intercept_ = intercept
         self.center_ = center
@@ -93,6 +106,111 @@ def _check(counts, wrench, groups):
     return c, w, g
 
 
+def _choose(cv: dict, weight: np.ndarray, requested: str, n_se: float = N_SE):
+    """Per output, ``(family, ridge index)`` of the chosen candidate (family ``-1``: the affine fit).
+
+    ``cv["sse"] (A, K, J, q)``: held-out sums of squares of the ``J`` families (simplest first) along
+    the ridge path (``inf`` first: the affine fit, the same in every family), per output group of
+    ``OUTPUT_GROUP`` (weighted by ``weight``). The best correction is the family and ridge of the best
+    mean held-out score over the folds; the one-standard-error rule (Hastie et al.) keeps the affine
+    fit unless the correction's mean beats it by more than ``n_se`` standard errors (over folds) of
+    the correction's. ``poly``: the best correction.
+    """
+    ok = cv["n_rows"] > 0
+    sse = np.nan_to_num(cv["sse"])[:, ok] * weight**2  # (A, K, J, q), outputs on one footing
+    K = sse.shape[1]
+    out = []
+    for g in range(0, sse.shape[3], OUTPUT_GROUP):
+        score = sse[..., g : g + OUTPUT_GROUP].sum(axis=3) / cv["n_rows"][ok][None, :, None]  # (A, K, J)
+        mean = score.mean(axis=1)  # (A, J)
+        best_a = 1 + np.argmin(mean[1:], axis=0)  # (J,)
+        fam = mean[best_a, np.arange(best_a.size)]
+        jb = int(np.argmin(fam))
+        pick = (jb, int(best_a[jb]))
+        if requested != "poly":
+            se = float(np.std(score[best_a[jb], :, jb], ddof=1) / np.sqrt(K)) if K > 1 else np.inf
+            bound = fam[jb] + max(n_se * se, SCORE_ATOL)
+            if mean[0, 0] <= bound:
+                pick = (-1, 0)
+        out += [pick] * min(OUTPUT_GROUP, sse.shape[3] - g)
+    return out
+
+
+def _choice(cv: dict, weight: np.ndarray, picks, requested: str, n_segments: int, names) -> ModelChoice:
+    """The :class:`ModelChoice` of per-output ``picks`` (``_choose``), with its cross-validated figures."""
+    sse = np.nan_to_num(cv["sse"])  # (A, K, J, q)
+    n = max(int(cv["n_rows"].sum()), 1)
+    q = sse.shape[3]
+    best = _choose(cv, weight, "poly")
+    rows = {"linear": [(0, 0)] * q, "poly": [(a, j) for j, a in best],
+            "chosen": [(0, 0) if j < 0 else (a, j) for j, a in picks]}
+    rmse, folds = {}, {}
+    for key, aj in rows.items():
+        e = np.stack([sse[a, :, j, o] for o, (a, j) in enumerate(aj)], axis=1)  # (K, q)
+        rmse[key] = np.sqrt(e.sum(axis=0) / n).tolist()
+        folds[key] = (e * weight**2).sum(axis=1)
+    score = {key: float(np.sqrt(f.sum() / (n * q))) for key, f in folds.items()}
+    alphas = cv["alphas"]
+    row_alpha = [None if j < 0 else float(alphas[a]) for j, a in picks]
+    used = [a for a in row_alpha if a is not None]
+    K = sse.shape[1]
+    ratio = score["chosen"] / score["linear"] if score["linear"] > 0 else float("nan")
+    if requested == "auto":
+        kinds = ", ".join(f"{sum(j == i for j, _ in picks)} {name}" for i, name in enumerate(names))
+        why = (f"cross-validated over {K} folds of {n_segments} loading groups: per output group (forces, torques), "
+               f"the best correction where its mean held-out score beats the affine fit's by more than {N_SE:g} "
+               f"standard error: {q - len(used)} affine, {kinds}; held-out error {ratio:.2f}× the affine fit's")
+    else:
+        pr = score["poly"] / score["linear"] if score["linear"] > 0 else float("nan")
+        why = f"{requested} as requested (cross-validated polynomial/affine held-out error {pr:.2f}×)"
+    return ModelChoice(name="poly" if used else "linear", requested=requested, alpha=max(used) if used else None,
+                       row_alpha=row_alpha if used else [], cv_rmse=rmse, cv_score=score,
+                       folds_won=int(np.sum(folds["chosen"] < folds["linear"])), n_folds=K,
+                       n_segments=int(n_segments), reason=why)
+
+
+def _held_out_extension(c, w, center, scale, fold, folded, probs, picks, alphas, pairs, cubes):
+    """``(2, q)`` held-out sums of squares, beyond the range of their training folds, of the chosen
+    corrections continued with the linear fit's slope (row 0) or the polynomial's tangent (row 1);
+    None when no held-out sample lies beyond its training folds' range.
+
+    Each fold's model is the chosen one refitted without it (its Gram down-dated); its correction is
+    drawn back into the range of the other folds' channels, as the fit's is into the whole range.
+    """
+    from ._cv import _paths
+    from ._poly import _ray_into
+
+    m, q, K, p = c.shape[1], w.shape[1], folded.n_folds, folded.p
+    u = (c - center) / scale
+    e = np.zeros((2, q))
+    found = False
+    for k in range(K):
+        te = fold == k
+        if not te.any() or te.all():
+            continue
+        lo, hi = u[~te].min(axis=0), u[~te].max(axis=0)
+        out = np.flatnonzero(te)[_ray_into(u[te], lo, hi) < 1.0]
+        if out.size == 0:
+            continue
+        found = True
+        G = folded.total(exclude=k)
+        X_lin = _paths(G, p, [probs[0]], [np.inf])[0][0][: 1 + m]
+        X, D = X_lin.copy(), np.zeros((q, p - 1 - m))
+        for j, pr in enumerate(probs):
+            for a in sorted({a for jj, a in picks if jj == j}):
+                rows = np.array([jj == j and aa == a for jj, aa in picks])
+                Xp = _paths(G, p, [pr], [alphas[a]])[0][0]
+                X[:, rows] = Xp[: 1 + m, rows]
+                D[np.ix_(rows, pr.b - 1 - m)] = Xp[1 + m :, rows].T
+        edge = ((X[1:] - X_lin[1:]) / scale[:, None]).T
+        x = c[out] - center
+        base = u[out] @ X[1:] + X[0]
+        for i, tan in enumerate((None, np.ones(q, dtype=bool))):
+            corr = PolyCorrection(scale, pairs, cubes, D, lo, hi, edge, tangent=tan)
+            e[i] += ((base + corr(x) - w[out]) ** 2).sum(axis=0)
+    return e if found else None
+
+
 def fit_sensor(counts, wrench, groups=None, model: str = "auto", *, n_folds: int = N_FOLDS, alphas=ALPHAS,
                block_size: int = 65536) -> SensorFit:
     """Fit a sensor's counts → wrench, choosing the model by grouped cross-validation.
@@ -104,15 +222,18 @@ def fit_sensor(counts, wrench, groups=None, model: str = "auto", *, n_folds: int
     wrench : array-like, shape (N, 6)
         Reference ``[fx, fy, fz, tx, ty, tz]``, N and N·m (any number of columns works).
     groups : array-like, shape (N,), optional
-        Loading segment of each sample: folds hold whole segments, dealt round-robin so
-        every fold spans the data. Default: ``DEFAULT_SEGMENTS`` contiguous pieces.
+        Loading group of each sample: folds hold whole groups, one group per fold up to
+        ``MAX_LEAVE_ONE_OUT`` groups, else ``n_folds`` folds dealt round-robin so every fold
+        spans the data. Default: ``DEFAULT_SEGMENTS`` contiguous pieces.
     model : {"auto", "linear", "poly"}
-        ``auto`` scores, per output group (in threes: forces, torques), the affine fit and the
-        correction along its ridge path by their mean held-out score over the folds, and takes the
-        correction at its best ridge only where it beats the affine fit by more than ``_cv.N_SE``
-        standard errors; ``linear`` is the
-        plain affine least squares everywhere, ``poly`` the correction at its best ridge.
+        ``auto`` scores, per output group (forces, torques), the affine fit and each correction of
+        ``FAMILIES`` (a full quadratic of the channels; the same with cubes) along its ridge path by
+        their mean held-out score over the folds, and takes the best correction only where it beats
+        the affine fit by more than ``_cv.N_SE`` standard errors (the one-standard-error rule);
+        ``linear`` is the plain affine least squares everywhere, ``poly`` the best correction.
+        Fewer than ``MIN_FOLDS`` folds: the affine fit.
     n_folds : int
+        Folds when there are more than ``MAX_LEAVE_ONE_OUT`` groups.
     alphas : sequence of float
         Relative ridge strengths tried for the polynomial features.
 
@@ -124,7 +245,7 @@ def fit_sensor(counts, wrench, groups=None, model: str = "auto", *, n_folds: int
         raise ValueError(f"model: expected one of {MODELS}, got {model!r}")
     c, w, g = _check(counts, wrench, groups)
     n_groups = np.unique(g).size
-    K = int(min(n_folds, n_groups))
+    K = int(n_groups if n_groups <= MAX_LEAVE_ONE_OUT else min(n_folds, n_groups))
     center = c.mean(axis=0)
     scale = c.std(axis=0)
     scale = np.where(scale > 0, scale, 1.0)
@@ -132,7 +253,7 @@ def fit_sensor(counts, wrench, groups=None, model: str = "auto", *, n_folds: int
     blocks = [range(m)] if m <= MAX_FULL_QUADRATIC else [[i] for i in range(m)]
     pairs, cubes = poly_terms(blocks)
     r = pairs.shape[0] + cubes.size
-    nl = model != "linear" and K >= 2
+    nl = model != "linear" and K >= MIN_FOLDS
     qr = StreamedQR(1 + m, q)  # the affine fit, by QR: the rows that keep it are exactly least squares
     folded = FoldedGram(1 + m + r, q, K) if nl else None
     fold = fold_of_segments(g, K) if nl else None
@@ -153,14 +274,21 @@ def fit_sensor(counts, wrench, groups=None, model: str = "auto", *, n_folds: int
         X = qr.solve().X  # (1 + m, q)
         X_lin = X.copy()
         D = np.zeros((q, r))
+        picks = [(-1, 0)] * q
         if nl:
-            prob = Problem(np.arange(1 + m), np.arange(1 + m, 1 + m + r), np.arange(q), 1.0 / w.std(axis=0).clip(1e-300))
-            choice = choose_model([(cross_validate(folded, [prob], alphas), [prob.weight])], model, n_groups)
-            ra = np.array([np.nan if a is None else a for a in (choice.row_alpha or [None] * q)])
-            levels = np.unique(ra[np.isfinite(ra)])
-            for a, Xp in zip(levels, solve_problem(folded, prob, levels) if levels.size else []):
-                X[:, ra == a] = Xp[: 1 + m, ra == a]
-                D[ra == a] = Xp[1 + m :, ra == a].T
+            sd = w.std(axis=0)
+            weight = 1.0 / np.where(sd > 0, sd, 1.0)
+            n_terms = {"quadratic": pairs.shape[0], "cubic": r}
+            probs = [Problem(np.arange(1 + m), 1 + m + np.arange(n_terms[f]), np.arange(q), weight) for f in FAMILIES]
+            cv = cross_validate(folded, probs, alphas)
+            picks = _choose(cv, weight, model)
+            choice = _choice(cv, weight, picks, model, n_groups, FAMILIES)
+            for j, pr in enumerate(probs):
+                for a in sorted({a for jj, a in picks if jj == j}):
+                    rows = np.array([jj == j and aa == a for jj, aa in picks])
+                    Xp = solve_problem(folded, pr, [cv["alphas"][a]])[0]
+                    X[:, rows] = Xp[: 1 + m, rows]
+                    D[np.ix_(rows, pr.b - 1 - m)] = Xp[1 + m :, rows].T
         else:
             why = "the affine least squares, as requested" if model == "linear" else \
                 f"the affine least squares: {n_groups} loading segment(s) are too few to cross-validate"
@@ -182,7 +310,20 @@ def fit_sensor(counts, wrench, groups=None, model: str = "auto", *, n_folds: int
             ZT[1 + m + r :] = w[sub[idx]].T
             return ZT
 
+        tangent = np.zeros(q, dtype=bool)
+        cube_cols = 1 + m + pairs.shape[0] + np.arange(cubes.size)
         with threadpool_limits(limits=1):
-            tangent = tangent_rows(build, 1 + m + r, u[sub], lo, hi, prob, ra, 1 + m + pairs.shape[0] + np.arange(cubes.size))
+            for j, pr in enumerate(probs):  # each family's rows, refitted with its own features
+                ra = np.array([cv["alphas"][a] if jj == j else np.nan for jj, a in picks])
+                if np.isfinite(ra).any():
+                    tangent |= tangent_rows(build, 1 + m + r, u[sub], lo, hi, pr, ra, cube_cols)
+            held = _held_out_extension(c, w, center, scale, fold, folded, probs, picks, cv["alphas"], pairs, cubes)
+        if held is not None:  # the caller's held-out groups beyond their folds' range decide where they exist
+            e_slope, e_tan = held * weight**2
+            for g in range(0, q, OUTPUT_GROUP):
+                cols = slice(g, g + OUTPUT_GROUP)
+                if e_slope[cols].sum() > 0:
+                    tangent[cols] = e_tan[cols].sum() < TANGENT_GAIN * e_slope[cols].sum()
         correction = PolyCorrection(scale, pairs, cubes, D, lo, hi, edge, tangent=tangent)
-    return SensorFit(choice, coef, X[0].copy(), center, correction)
+    names = ("linear",) + tuple(FAMILIES)
+    return SensorFit(choice, coef, X[0].copy(), center, correction, [names[j + 1] for j, _ in picks])
