@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._plausibility import _ndtr
-from ._soft_test import CHUNK, _dot3, _finite_rows, _reasons, _work, _z_rows, _zmin
+from ._soft_test import CHUNK, _chunk_blocks, _dot3, _finite_rows, _reasons, _work, _z_rows, _zmin
 from ._surfaces import Plane
 
 __all__ = ["soft_finger_flags"]
@@ -219,8 +219,7 @@ def _full_rows(rows, cr, nr, fr, taur, cov, blocks, mur, er, alpha, fin, mr):
     band = _BAND * (1.0 + abs(za))
     for a in range(0, k, CHUNK):
         b = min(k, a + CHUNK)
-        part = [(s, bnd, slice(max(sl.start, a) - a, min(sl.stop, b) - a)) for s, bnd, sl in sub
-                if min(sl.stop, b) > max(sl.start, a)]
+        part = _chunk_blocks(sub, a, b)
         r = slice(a, b)
         ch = lambda x: x if x is None or np.ndim(x) == 0 else x[r]  # noqa: E731
         z0, z1, z2, fz = _z_rows(ch(cr), ch(nr), ch(fr), ch(taur), cov if cov.ndim == 2 else cov[r], part,

@@ -130,8 +130,7 @@ def soft_finger_test(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha, ok=
     single, p, reason = np.empty(N, bool), np.empty(N), np.empty(N, np.int8)
     for a in range(0, N, CHUNK):
         b = min(N, a + CHUNK)
-        sub = [(s, bnd, slice(max(sl.start, a) - a, min(sl.stop, b) - a)) for s, bnd, sl in blocks
-               if min(sl.stop, b) > max(sl.start, a)]
+        sub = _chunk_blocks(blocks, a, b)
         rows = slice(a, b)
         at = lambda x: x if x is None or np.ndim(x) == 0 else x[rows]  # noqa: E731
         single[rows], p[rows], reason[rows] = _test_rows(
@@ -547,3 +546,9 @@ def _boundary_z(W, c, um, w_cov, margin, z2):
     U[3:] = um
     _cross3(c, um, U[:3], W("t", r))
     z2[:] = _z(margin, _quad6(U, w_cov, W("var2", r), W))
+
+
+def _chunk_blocks(blocks, a: int, b: int) -> list:
+    """``blocks`` (``(surface, boundary, slice)``) cut to rows ``a:b``, their slices relative to ``a``."""
+    return [(s, bnd, slice(max(sl.start, a) - a, min(sl.stop, b) - a)) for s, bnd, sl in blocks
+            if min(sl.stop, b) > max(sl.start, a)]
