@@ -11,17 +11,15 @@ from __future__ import annotations
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from ._cv import ALPHAS, MODELS, N_FOLDS, N_SE, SCORE_ATOL, FoldedGram, ModelChoice, Problem, cross_validate, \
-    TANGENT_GAIN, fold_bounds, fold_of_segments, solve_problem, tangent_rows
+from ._cv import ALPHAS, MODELS, N_FOLDS, N_SE, SCORE_ATOL, FoldedGram, ModelChoice, Problem, _paths, \
+    cross_validate, fold_bounds, fold_of_segments, solve_problem
 from ._lstsq import StreamedQR
-from ._poly import PolyCorrection, poly_features_t, poly_terms
+from ._poly import PolyCorrection, _ray_into, poly_features_t, poly_terms
 
 __all__ = ["fit_sensor", "SensorFit"]
 
 #: Channels up to which every pairwise product is a feature (beyond: squares and cubes only).
 MAX_FULL_QUADRATIC = 12
-#: Samples (every k-th) on which the extension beyond the range is chosen (``_cv.tangent_rows``).
-MAX_EXTENSION_ROWS = 1 << 15
 #: Contiguous segments a session is cut into when no ``groups`` are given.
 DEFAULT_SEGMENTS = 40
 #: Groups up to which each is a fold of its own (leave one group out); beyond, ``n_folds`` folds.
@@ -34,6 +32,13 @@ FAMILIES = ("quadratic", "cubic")
 MIN_FOLDS = 4
 #: Outputs chosen together (forces, torques).
 OUTPUT_GROUP = 3
+#: How a correction continues beyond the range of its training channels (each sample drawn back
+#: along its ray from the mean counts to the range's edge, ``x_c = t x``; ``_poly.py``), simplest
+#: first: ``slope``, its value at the edge plus the linear fit's slope from there; ``tangent``, the
+#: polynomial's tangent at the edge; ``fade``, the linear fit plus ``t`` times what the correction
+#: adds at the edge (it fades to the affine fit as ``1/distance``). Chosen per output group on the
+#: held-out groups that lie beyond their folds' range (``_choose``).
+EXTENSIONS = ("slope", "tangent", "fade")
 
 
 class SensorFit:
@@ -55,15 +60,21 @@ class SensorFit:
         The nonlinear part (of ``counts − center_``).
     row_model_ : list of str
         Per output: ``linear`` (the affine fit) or the correction's family (``FAMILIES``).
+    extension_ : list of str
+        Per output: how its correction continues beyond the trained range (``EXTENSIONS``), or ``""``.
     """
 
-    def __init__(self, choice, coef, intercept, center, correction=None, row_model=None):
+    def __init__(self, choice, coef, intercept, center, correction=None, row_model=None, extension=None,
+                 linear=None, reach=1.0):
         self.choice = choice
         self.row_model_ = list(row_model or ["linear"] * np.shape(intercept)[0])
+        self.extension_ = list(extension or [""] * np.shape(intercept)[0])
         self.coef_ = coef
         self.intercept_ = intercept
         self.center_ = center
         self.correction_ = correction
+        self._linear = linear  # (coef, intercept) of the affine fit, for the ``fade`` rows
+        self.reach_ = float(reach)
 
     @property
     def model(self) -> str:
@@ -79,10 +90,32 @@ class SensorFit:
         if c.ndim != 2 or c.shape[1] != self.center_.size:
             raise ValueError(f"counts: expected shape (N, {self.center_.size}), got {c.shape}")
         x = c - self.center_
-        W = x @ self.coef_.T + self.intercept_
-        if self.correction_ is not None:
-            W += self.correction_(x)
+        W = self._predict(x)
+        if self.correction_ is None:
+            return W
+        _, t = self.correction_._ray(x)
+        s = 1.0 / np.maximum(t, 1e-300)  # how far beyond the trained range, along the ray (1: inside)
+        R = np.array([1.0 if e == "fade" else max(self.reach_, 1.0) for e in self.extension_])
+        far = s[:, None] > R  # (N, q): beyond the reach the held-out groups tested: fade to the affine fit
+        rows = np.flatnonzero(far.any(axis=1))
+        if rows.size:
+            for r in np.unique(R):
+                cols = np.flatnonzero((R == r) & far[rows].any(axis=0))
+                if cols.size == 0:
+                    continue
+                f = r / s[rows]  # x_R = f x: the reach on the ray
+                xr = x[rows] * f[:, None]
+                lin, lin_r = self._affine(x[rows])[:, cols], self._affine(xr)[:, cols]
+                faded = lin + f[:, None] * (self._predict(xr)[:, cols] - lin_r)
+                W[rows[:, None], cols] = np.where(far[rows][:, cols], faded, W[rows[:, None], cols])
         return W
+
+    def _predict(self, x):
+        W = x @ self.coef_.T + self.intercept_
+        return W if self.correction_ is None else W + self.correction_(x)
+
+    def _affine(self, x):
+        return x @ self._linear[0].T + self._linear[1]
 
     def __repr__(self) -> str:
         return f"SensorFit(model={self.model!r}, channels={self.center_.size})"
@@ -106,60 +139,131 @@ def _check(counts, wrench, groups):
     return c, w, g
 
 
-def _choose(cv: dict, weight: np.ndarray, requested: str, n_se: float = N_SE):
-    """Per output, ``(family, ridge index)`` of the chosen candidate (family ``-1``: the affine fit).
-
-    ``cv["sse"] (A, K, J, q)``: held-out sums of squares of the ``J`` families (simplest first) along
-    the ridge path (``inf`` first: the affine fit, the same in every family), per output group of
-    ``OUTPUT_GROUP`` (weighted by ``weight``). The best correction is the family and ridge of the best
-    mean held-out score over the folds; the one-standard-error rule (Hastie et al.) keeps the affine
-    fit unless the correction's mean beats it by more than ``n_se`` standard errors (over folds) of
-    the correction's. ``poly``: the best correction.
-    """
+def _best(cv: dict, weight: np.ndarray):
+    """Per output, ``(family, ridge index)`` of the best mean held-out score of the correction over the
+    folds (the ridge path without its affine end), chosen per output group of ``OUTPUT_GROUP``."""
     ok = cv["n_rows"] > 0
     sse = np.nan_to_num(cv["sse"])[:, ok] * weight**2  # (A, K, J, q), outputs on one footing
-    K = sse.shape[1]
     out = []
     for g in range(0, sse.shape[3], OUTPUT_GROUP):
         score = sse[..., g : g + OUTPUT_GROUP].sum(axis=3) / cv["n_rows"][ok][None, :, None]  # (A, K, J)
         mean = score.mean(axis=1)  # (A, J)
-        best_a = 1 + np.argmin(mean[1:], axis=0)  # (J,)
-        fam = mean[best_a, np.arange(best_a.size)]
-        jb = int(np.argmin(fam))
-        pick = (jb, int(best_a[jb]))
-        if requested != "poly":
-            se = float(np.std(score[best_a[jb], :, jb], ddof=1) / np.sqrt(K)) if K > 1 else np.inf
-            bound = fam[jb] + max(n_se * se, SCORE_ATOL)
-            if mean[0, 0] <= bound:
-                pick = (-1, 0)
-        out += [pick] * min(OUTPUT_GROUP, sse.shape[3] - g)
+        a, j = np.unravel_index(np.argmin(mean[1:]), mean[1:].shape)
+        out += [(int(j), int(a) + 1)] * min(OUTPUT_GROUP, sse.shape[3] - g)
     return out
 
 
-def _choice(cv: dict, weight: np.ndarray, picks, requested: str, n_segments: int, names) -> ModelChoice:
-    """The :class:`ModelChoice` of per-output ``picks`` (``_choose``), with its cross-validated figures."""
-    sse = np.nan_to_num(cv["sse"])  # (A, K, J, q)
+def _fold_model(G, p, m, q, probs, picks, alphas):
+    """``(X (1 + m, q), D (q, r), X_lin (1 + m, q))`` of the per-output ``picks`` (family, ridge index;
+    family ``-1``: affine) solved from the Gram ``G``: linear part, correction, and the affine fit."""
+    X_lin = _paths(G, p, [probs[0]], [np.inf])[0][0][: 1 + m]
+    X, D = X_lin.copy(), np.zeros((q, p - 1 - m))
+    for j, pr in enumerate(probs):
+        for a in sorted({a for jj, a in picks if jj == j}):
+            rows = np.array([jj == j and aa == a for jj, aa in picks])
+            Xp = _paths(G, p, [pr], [alphas[a]])[0][0]
+            X[:, rows] = Xp[: 1 + m, rows]
+            D[np.ix_(rows, pr.b - 1 - m)] = Xp[1 + m :, rows].T
+    return X, D, X_lin
+
+
+def _correction(scale, pairs, cubes, D, lo, hi, edge, ext):
+    """The correction of rows ``D`` drawn back into ``[lo, hi]``; the ``tangent`` rows of ``ext`` continue
+    along the polynomial's tangent beyond (the others with the linear fit's slope; ``fade``: ``SensorFit``)."""
+    return PolyCorrection(scale, pairs, cubes, D, lo, hi, edge, tangent=np.array([e == "tangent" for e in ext]))
+
+
+def _held_out(c, w, center, scale, fold, folded, probs, picks, alphas, pairs, cubes):
+    """``(E, K, q)`` held-out sums of squares of the corrections ``picks`` as they are used: each fold's
+    model refitted without it (its Gram down-dated), its correction continued beyond the range of the
+    other folds' channels by each of ``EXTENSIONS``; and the reach they tested: the largest factor by
+    which a held-out sample lies beyond its training folds' range, along its ray (1: none beyond)."""
+    m, q, K, p = c.shape[1], w.shape[1], folded.n_folds, folded.p
+    u = (c - center) / scale
+    sse = np.zeros((len(EXTENSIONS), K, q))
+    n_beyond = np.zeros(K, dtype=np.int64)
+    reach = 1.0
+    for k in range(K):
+        te = fold == k
+        if not te.any() or te.all():
+            continue
+        lo, hi = u[~te].min(axis=0), u[~te].max(axis=0)
+        t = _ray_into(u[te], lo, hi)
+        n_beyond[k] = int(np.sum(t < 1.0))
+        if n_beyond[k]:
+            reach = max(reach, 1.0 / max(float(t.min()), 1e-300))
+        X, D, X_lin = _fold_model(folded.total(exclude=k), p, m, q, probs, picks, alphas)
+        edge = ((X[1:] - X_lin[1:]) / scale[:, None]).T
+        x = c[te] - center
+        base = u[te] @ X[1:] + X[0]
+        for e, name in enumerate(EXTENSIONS):
+            if name == "fade":
+                lin = u[te] @ X_lin[1:] + X_lin[0]
+                pred = lin + t[:, None] * (base + slope - lin)
+            else:
+                pred = base + _correction(scale, pairs, cubes, D, lo, hi, edge, [name] * q)(x)
+                if name == "slope":
+                    slope = pred - base
+            sse[e, k] = ((pred - w[te]) ** 2).sum(axis=0)
+            if n_beyond[k] == 0:  # every extension the same
+                sse[1:, k] = sse[0, k]
+                break
+    return sse, reach
+
+
+def _choose(cv: dict, held: np.ndarray, weight: np.ndarray, requested: str, n_se: float = N_SE):
+    """Per output, ``(use, extension)``: whether the correction is kept, and how it continues beyond.
+
+    ``cv["sse"][0] (K, ·, q)`` the affine fit's held-out sums of squares, ``held (E, K, q)`` the
+    correction's as used, under each extension (``_held_out``). A candidate's score on a fold (a group,
+    or a deal of groups) is its mean weighted square over the fold, per output group of
+    ``OUTPUT_GROUP``. The extension is the one of the best mean score over the folds (ties: the
+    simplest); then the one-standard-error rule (Hastie et al.): the correction only where its mean
+    beats the affine fit's by more than ``n_se`` standard errors (over folds) of its own.
+    ``poly``: the correction, with the best extension.
+    """
+    ok = cv["n_rows"] > 0
+    n = cv["n_rows"][ok]
+    lin = np.nan_to_num(cv["sse"][0, :, 0])[ok] * weight**2  # (K, q)
+    cor = held[:, ok] * weight**2  # (E, K, q)
+    K = lin.shape[0]
+    out = []
+    for g in range(0, lin.shape[1], OUTPUT_GROUP):
+        cols = slice(g, g + OUTPUT_GROUP)
+        s_lin = lin[:, cols].sum(axis=1) / n  # (K,)
+        s = cor[:, :, cols].sum(axis=2) / n  # (E, K)
+        mean = s.mean(axis=1)
+        e = int(np.flatnonzero(mean <= mean.min() + SCORE_ATOL)[0])
+        se = float(np.std(s[e], ddof=1) / np.sqrt(K)) if K > 1 else np.inf
+        use = requested == "poly" or s_lin.mean() - mean[e] > max(n_se * se, SCORE_ATOL)
+        out += [(use, e)] * min(OUTPUT_GROUP, lin.shape[1] - g)
+    return out
+
+
+def _choice(cv: dict, held: np.ndarray, weight: np.ndarray, best, chosen, requested: str, n_segments: int,
+            names) -> ModelChoice:
+    """The :class:`ModelChoice` of the per-output ``best`` (family, ridge index) corrections and the
+    ``chosen`` ``(use, extension)`` (``_choose``), with their cross-validated figures."""
+    K = cv["sse"].shape[1]
     n = max(int(cv["n_rows"].sum()), 1)
-    q = sse.shape[3]
-    best = _choose(cv, weight, "poly")
-    rows = {"linear": [(0, 0)] * q, "poly": [(a, j) for j, a in best],
-            "chosen": [(0, 0) if j < 0 else (a, j) for j, a in picks]}
-    rmse, folds = {}, {}
-    for key, aj in rows.items():
-        e = np.stack([sse[a, :, j, o] for o, (a, j) in enumerate(aj)], axis=1)  # (K, q)
-        rmse[key] = np.sqrt(e.sum(axis=0) / n).tolist()
-        folds[key] = (e * weight**2).sum(axis=1)
+    q = held.shape[2]
+    lin = np.nan_to_num(cv["sse"][0, :, 0, :q])  # (K, q)
+    e_best = np.array([held[e, :, o] for o, (_, e) in enumerate(chosen)]).T  # (K, q)
+    per = {"linear": lin, "poly": e_best, "chosen": np.where([u for u, _ in chosen], e_best, lin)}
+    rmse = {key: np.sqrt(e.sum(axis=0) / n).tolist() for key, e in per.items()}
+    folds = {key: (e * weight**2).sum(axis=1) for key, e in per.items()}
     score = {key: float(np.sqrt(f.sum() / (n * q))) for key, f in folds.items()}
     alphas = cv["alphas"]
-    row_alpha = [None if j < 0 else float(alphas[a]) for j, a in picks]
+    row_alpha = [float(alphas[a]) if use else None for (j, a), (use, _) in zip(best, chosen)]
     used = [a for a in row_alpha if a is not None]
-    K = sse.shape[1]
     ratio = score["chosen"] / score["linear"] if score["linear"] > 0 else float("nan")
     if requested == "auto":
-        kinds = ", ".join(f"{sum(j == i for j, _ in picks)} {name}" for i, name in enumerate(names))
+        kinds = ", ".join(f"{sum(j == i and u for (j, _), (u, _) in zip(best, chosen))} {name}"
+                          for i, name in enumerate(names))
         why = (f"cross-validated over {K} folds of {n_segments} loading groups: per output group (forces, torques), "
                f"the best correction where its mean held-out score beats the affine fit's by more than {N_SE:g} "
-               f"standard error: {q - len(used)} affine, {kinds}; held-out error {ratio:.2f}× the affine fit's")
+               f"standard error of their difference: {q - len(used)} affine, {kinds}; held-out error {ratio:.2f}× "
+               "the affine fit's")
     else:
         pr = score["poly"] / score["linear"] if score["linear"] > 0 else float("nan")
         why = f"{requested} as requested (cross-validated polynomial/affine held-out error {pr:.2f}×)"
@@ -167,48 +271,6 @@ def _choice(cv: dict, weight: np.ndarray, picks, requested: str, n_segments: int
                        row_alpha=row_alpha if used else [], cv_rmse=rmse, cv_score=score,
                        folds_won=int(np.sum(folds["chosen"] < folds["linear"])), n_folds=K,
                        n_segments=int(n_segments), reason=why)
-
-
-def _held_out_extension(c, w, center, scale, fold, folded, probs, picks, alphas, pairs, cubes):
-    """``(2, q)`` held-out sums of squares, beyond the range of their training folds, of the chosen
-    corrections continued with the linear fit's slope (row 0) or the polynomial's tangent (row 1);
-    None when no held-out sample lies beyond its training folds' range.
-
-    Each fold's model is the chosen one refitted without it (its Gram down-dated); its correction is
-    drawn back into the range of the other folds' channels, as the fit's is into the whole range.
-    """
-    from ._cv import _paths
-    from ._poly import _ray_into
-
-    m, q, K, p = c.shape[1], w.shape[1], folded.n_folds, folded.p
-    u = (c - center) / scale
-    e = np.zeros((2, q))
-    found = False
-    for k in range(K):
-        te = fold == k
-        if not te.any() or te.all():
-            continue
-        lo, hi = u[~te].min(axis=0), u[~te].max(axis=0)
-        out = np.flatnonzero(te)[_ray_into(u[te], lo, hi) < 1.0]
-        if out.size == 0:
-            continue
-        found = True
-        G = folded.total(exclude=k)
-        X_lin = _paths(G, p, [probs[0]], [np.inf])[0][0][: 1 + m]
-        X, D = X_lin.copy(), np.zeros((q, p - 1 - m))
-        for j, pr in enumerate(probs):
-            for a in sorted({a for jj, a in picks if jj == j}):
-                rows = np.array([jj == j and aa == a for jj, aa in picks])
-                Xp = _paths(G, p, [pr], [alphas[a]])[0][0]
-                X[:, rows] = Xp[: 1 + m, rows]
-                D[np.ix_(rows, pr.b - 1 - m)] = Xp[1 + m :, rows].T
-        edge = ((X[1:] - X_lin[1:]) / scale[:, None]).T
-        x = c[out] - center
-        base = u[out] @ X[1:] + X[0]
-        for i, tan in enumerate((None, np.ones(q, dtype=bool))):
-            corr = PolyCorrection(scale, pairs, cubes, D, lo, hi, edge, tangent=tan)
-            e[i] += ((base + corr(x) - w[out]) ** 2).sum(axis=0)
-    return e if found else None
 
 
 def fit_sensor(counts, wrench, groups=None, model: str = "auto", *, n_folds: int = N_FOLDS, alphas=ALPHAS,
@@ -274,15 +336,18 @@ def fit_sensor(counts, wrench, groups=None, model: str = "auto", *, n_folds: int
         X = qr.solve().X  # (1 + m, q)
         X_lin = X.copy()
         D = np.zeros((q, r))
-        picks = [(-1, 0)] * q
+        chosen, picks, reach = [(False, 0)] * q, [(-1, 0)] * q, 1.0
         if nl:
             sd = w.std(axis=0)
             weight = 1.0 / np.where(sd > 0, sd, 1.0)
             n_terms = {"quadratic": pairs.shape[0], "cubic": r}
             probs = [Problem(np.arange(1 + m), 1 + m + np.arange(n_terms[f]), np.arange(q), weight) for f in FAMILIES]
             cv = cross_validate(folded, probs, alphas)
-            picks = _choose(cv, weight, model)
-            choice = _choice(cv, weight, picks, model, n_groups, FAMILIES)
+            best = _best(cv, weight)
+            held, reach = _held_out(c, w, center, scale, fold, folded, probs, best, cv["alphas"], pairs, cubes)
+            chosen = _choose(cv, held, weight, model)
+            choice = _choice(cv, held, weight, best, chosen, model, n_groups, FAMILIES)
+            picks = [pk if use else (-1, 0) for pk, (use, _) in zip(best, chosen)]
             for j, pr in enumerate(probs):
                 for a in sorted({a for jj, a in picks if jj == j}):
                     rows = np.array([jj == j and aa == a for jj, aa in picks])
@@ -294,36 +359,14 @@ def fit_sensor(counts, wrench, groups=None, model: str = "auto", *, n_folds: int
                 f"the affine least squares: {n_groups} loading segment(s) are too few to cross-validate"
             choice = ModelChoice(name="linear", requested=model, n_segments=n_groups, reason=why)
     coef = (X[1 : 1 + m] / scale[:, None]).T
-    u = (c - center) / scale  # the range fitted: the correction clamps its channels to it (_poly.py)
+    u = (c - center) / scale  # the range fitted: the correction draws its channels back into it (_poly.py)
     edge = ((X[1 : 1 + m] - X_lin[1 : 1 + m]) / scale[:, None]).T  # beyond the range: the linear fit's slope
     correction = None
+    ext = [e for _, e in chosen]
     if choice.name == "poly":
         lo, hi = u.min(axis=0), u.max(axis=0)
-        sub = np.arange(0, c.shape[0], max(1, c.shape[0] // MAX_EXTENSION_ROWS))
-
-        def build(idx, v):
-            ZT = np.empty((1 + m + r + q, idx.size))
-            ZT[0] = 1.0
-            vT = np.ascontiguousarray(v.T)
-            ZT[1 : 1 + m] = vT
-            poly_features_t(vT, pairs, cubes, out=ZT[1 + m : 1 + m + r])
-            ZT[1 + m + r :] = w[sub[idx]].T
-            return ZT
-
-        tangent = np.zeros(q, dtype=bool)
-        cube_cols = 1 + m + pairs.shape[0] + np.arange(cubes.size)
-        with threadpool_limits(limits=1):
-            for j, pr in enumerate(probs):  # each family's rows, refitted with its own features
-                ra = np.array([cv["alphas"][a] if jj == j else np.nan for jj, a in picks])
-                if np.isfinite(ra).any():
-                    tangent |= tangent_rows(build, 1 + m + r, u[sub], lo, hi, pr, ra, cube_cols)
-            held = _held_out_extension(c, w, center, scale, fold, folded, probs, picks, cv["alphas"], pairs, cubes)
-        if held is not None:  # the caller's held-out groups beyond their folds' range decide where they exist
-            e_slope, e_tan = held * weight**2
-            for g in range(0, q, OUTPUT_GROUP):
-                cols = slice(g, g + OUTPUT_GROUP)
-                if e_slope[cols].sum() > 0:
-                    tangent[cols] = e_tan[cols].sum() < TANGENT_GAIN * e_slope[cols].sum()
-        correction = PolyCorrection(scale, pairs, cubes, D, lo, hi, edge, tangent=tangent)
+        correction = _correction(scale, pairs, cubes, D, lo, hi, edge, [EXTENSIONS[e] for e in ext])
     names = ("linear",) + tuple(FAMILIES)
-    return SensorFit(choice, coef, X[0].copy(), center, correction, [names[j + 1] for j, _ in picks])
+    extension = [EXTENSIONS[e] if j >= 0 else "" for (j, _), e in zip(picks, ext)]
+    return SensorFit(choice, coef, X[0].copy(), center, correction, [names[j + 1] for j, _ in picks], extension,
+                     ((X_lin[1 : 1 + m] / scale[:, None]).T, X_lin[0].copy()), reach)
