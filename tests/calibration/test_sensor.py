@@ -106,3 +106,22 @@ def test_few_groups_are_left_out_one_at_a_time():
     assert fit_sensor(c[few], w[few], g[few]).model == "linear"
     c, w, g = _bending_sensor(3, 6, 30, 5, bend=0.1, per_group=1)
     assert fit_sensor(c, w, g).choice.n_folds == 5  # more than 12 groups: 5 dealt folds
+
+
+def test_beyond_the_reach_it_tested_the_correction_fades_to_the_affine_fit():
+    """Held-out groups beyond their folds' range choose how the correction continues (slope, tangent or
+    fade) up to the farthest reach they tested; farther out, what it adds to the affine fit shrinks as
+    1 / distance, so it never grows without bound."""
+    c, w, g, _ = sensor_data(2, 6, 40, 30, sat=0.1)
+    auto, lin = fit_sensor(c, w, g), fit_sensor(c, w, g, model="linear")
+    assert auto.model == "poly", auto.choice.reason
+    used = [a is not None for a in auto.choice.row_alpha]
+    assert [e in ("slope", "tangent", "fade") for e in auto.extension_] == used
+    assert [e == "" for e in auto.extension_] == [not u for u in used]
+    assert auto.reach_ > 1.0
+    x = c[np.argmax(np.abs(c - auto.center_).max(axis=1))] - auto.center_  # the sample farthest out
+    far = [auto.center_ + s * 4 * auto.reach_ * x for s in (1.0, 2.0, 4.0)]
+    d = np.array([(auto.predict(z[None]) - lin.predict(z[None]))[0] for z in far])
+    np.testing.assert_allclose(d[1], d[0] / 2, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(d[2], d[0] / 4, rtol=1e-9, atol=1e-12)
+    assert np.all(d[0][~np.array(used)] == 0) and np.abs(d[0][np.array(used)]).min() > 0
