@@ -181,33 +181,38 @@ def _held_out(c, w, center, scale, fold, folded, probs, picks, alphas, pairs, cu
     m, q, K, p = c.shape[1], w.shape[1], folded.n_folds, folded.p
     u = (c - center) / scale
     sse = np.zeros((len(EXTENSIONS), K, q))
-    n_beyond = np.zeros(K, dtype=np.int64)
     reach = 1.0
-    for k in range(K):
-        te = fold == k
-        if not te.any() or te.all():
+    rows = [np.flatnonzero(fold == k) for k in range(K)]
+    f_lo = np.array([u[r].min(axis=0) if r.size else np.full(m, np.inf) for r in rows])  # (K, m)
+    f_hi = np.array([u[r].max(axis=0) if r.size else np.full(m, -np.inf) for r in rows])
+    for k, te in enumerate(rows):
+        if te.size == 0 or te.size == c.shape[0]:
             continue
-        lo, hi = u[~te].min(axis=0), u[~te].max(axis=0)
-        t = _ray_into(u[te], lo, hi)
-        n_beyond[k] = int(np.sum(t < 1.0))
-        if n_beyond[k]:
-            reach = max(reach, 1.0 / max(float(t.min()), 1e-300))
+        lo, hi = np.delete(f_lo, k, axis=0).min(axis=0), np.delete(f_hi, k, axis=0).max(axis=0)
         X, D, X_lin = _fold_model(folded.total(exclude=k), p, m, q, probs, picks, alphas)
+        uk = u[te]
+        t = _ray_into(uk, lo, hi)
+        out = t < 1.0
+        pred = uk @ X[1:] + X[0]  # the fold's model, inside the range: its polynomial
+        pred[~out] += poly_features_t(np.ascontiguousarray(uk[~out].T), pairs, cubes).T @ D.T
+        res = ((pred[~out] - w[te][~out]) ** 2).sum(axis=0)
+        sse[:, k] = res
+        if not out.any():
+            continue
+        reach = max(reach, 1.0 / max(float(t[out].min()), 1e-300))
         edge = ((X[1:] - X_lin[1:]) / scale[:, None]).T
-        x = c[te] - center
-        base = u[te] @ X[1:] + X[0]
+        corr = PolyCorrection(scale, pairs, cubes, D, lo, hi, edge, tangent=np.ones(q, dtype=bool))
+        phi, back, (dphi, dray) = corr.all_terms(c[te][out] - center)
+        slope = pred[out] + phi @ D.T + back @ edge.T  # beyond: the value at the edge, the linear fit's slope
+        lin = uk[out] @ X_lin[1:] + X_lin[0]
         for e, name in enumerate(EXTENSIONS):
-            if name == "fade":
-                lin = u[te] @ X_lin[1:] + X_lin[0]
-                pred = lin + t[:, None] * (base + slope - lin)
-            else:
-                pred = base + _correction(scale, pairs, cubes, D, lo, hi, edge, [name] * q)(x)
-                if name == "slope":
-                    slope = pred - base
-            sse[e, k] = ((pred - w[te]) ** 2).sum(axis=0)
-            if n_beyond[k] == 0:  # every extension the same
-                sse[1:, k] = sse[0, k]
-                break
+            if name == "slope":
+                y = slope
+            elif name == "tangent":
+                y = slope + dphi @ D.T + dray @ edge.T
+            else:  # fade
+                y = lin + t[out][:, None] * (slope - lin)
+            sse[e, k] += ((y - w[te][out]) ** 2).sum(axis=0)
     return sse, reach
 
 
