@@ -55,9 +55,9 @@ def _show(repo_dir: str, commit: str, path: str) -> str:
     return _git(repo_dir, "show", f"{commit}:{path}")
 
 
-def _commit(repo_dir: str, short: str) -> str:
-    full = _git(repo_dir, "rev-parse", f"{short}^{{commit}}").strip()
-    return full[: len(short)]
+def _commit(repo_dir: str, rev: str) -> str:
+    """The commit ``rev`` names, abbreviated to 7 hex digits (it must exist in the clone)."""
+    return _git(repo_dir, "rev-parse", f"{rev}^{{commit}}").strip()[:7]
 
 
 def _rows(text: str) -> tuple[list[str], list[list[str]]]:
@@ -71,9 +71,9 @@ def _save(out: str, name: str, **arrays) -> str:
     return path
 
 
-def fareke_cell2(repo_dir: str, out: str) -> str:
+def fareke_cell2(repo_dir: str, out: str, commit: str = FARE_KE[1]) -> str:
     """The 3-axis cell 2: calibration session (level 1) and validation session (level 2)."""
-    commit = _commit(repo_dir, FARE_KE[1])
+    commit = _commit(repo_dir, commit)
     folder = "Calibration scripts/3 Axis Calibration"
     files = ["3axisCell2CalibrationData.csv", "validationDataCell2.csv"]
     chans, target, group, level = [], [], [], []
@@ -96,9 +96,9 @@ def fareke_cell2(repo_dir: str, out: str) -> str:
                  target_names=["fx", "fy", "fz"], units=["N"] * 3, source=src, license="none stated")
 
 
-def fareke_plate(repo_dir: str, out: str) -> str:
+def fareke_plate(repo_dir: str, out: str, commit: str = FARE_KE[1]) -> str:
     """The 6-axis plate: 6 loadings × 10 mass steps, group and level = the mass step."""
-    commit = _commit(repo_dir, FARE_KE[1])
+    commit = _commit(repo_dir, commit)
     path = "Calibration scripts/6 Axis Calibration/calibrationReadings.csv"
     head, rows = _rows(_show(repo_dir, commit, path))
     a = np.array([[float(x) for x in row[:12]] for row in rows])
@@ -110,9 +110,9 @@ def fareke_plate(repo_dir: str, out: str) -> str:
                  source=f"{FARE_KE[0]}@{commit}:{path}", license="none stated")
 
 
-def printed_fts8(repo_dir: str, out: str) -> str:
+def printed_fts8(repo_dir: str, out: str, commit: str = FTS[1]) -> str:
     """The 8-channel printed sensor: one group per file (mass placement × robot pose)."""
-    commit = _commit(repo_dir, FTS[1])
+    commit = _commit(repo_dir, commit)
     names = sorted(p for p in _git(repo_dir, "ls-tree", "--name-only", f"{commit}:{FTS_DIR}").split()
                    if p.startswith("data_") and p.endswith(".csv"))
     chans, target, group = [], [], []

@@ -115,3 +115,60 @@ def test_the_default_never_loses_to_least_squares_on_simulated_sensors(form):
         assert min(within.values()) <= 0.7, within
     else:
         assert max(within.values()) == pytest.approx(1.0, abs=1e-9)
+
+
+def _stand_in_clone(path):
+    """A git repository with SIMULATED files laid out as in the two public repositories (whose own
+    files are not ours to copy): a 3-axis cell's two sessions, a plate's 60 readings, two sensor runs."""
+    import subprocess
+
+    rng = np.random.default_rng(0)
+    files = {}
+    d3 = "Calibration scripts/3 Axis Calibration"
+    head = "force_x,force_y,force_z,sensor_x,sensor_y,sensor_z,corrected_x,corrected_y,corrected_z,,,orientation\n"
+    for name, loads in (("3axisCell2CalibrationData.csv", (0, 100, 200)), ("validationDataCell2.csv", (0, 150, 300, 450))):
+        rows = [f"{','.join(map(str, f))},{','.join(map(str, 1000 * f + 7))},{','.join(map(str, 1000 * f))},,,"
+                for axis in range(3) for f in (np.eye(3)[axis] * x for x in loads)]
+        files[f"{d3}/{name}"] = head + "\n".join(rows) + "\n"
+    plate = rng.normal(size=(60, 12)).round(4)
+    files["Calibration scripts/6 Axis Calibration/calibrationReadings.csv"] = \
+        "Fx,Fy,Fz,Mx,My,Mz,known_Fx,known_Fy,known_Fz,Known_Mx,Known_My,known_Mz\n" + \
+        "\n".join(",".join(map(str, r)) for r in plate) + "\n"
+    for name, kg in (("data_0.0_R0_P0_Y0.csv", 0.31), ("data_1.0_R1_P0_Y0.csv", 1.03)):
+        s = rng.integers(100, 900, size=(5, 8))
+        s[0, 3] = 990  # overloaded: dropped
+        rows = [f"{0.1 * i},0,0,{-kg * 9.80665},0,0,0,{','.join(map(str, r))}" for i, r in enumerate(s)]
+        files[f"Datasets/12_final_extra_bounded/data/{name}"] = \
+            "Timestamp,Fx,Fy,Fz,Mx,My,Mz,s0,s1,s2,s3,s4,s5,s6,s7\n" + "\n".join(rows) + "\n"
+    for rel, text in files.items():
+        (path / rel).parent.mkdir(parents=True, exist_ok=True)
+        (path / rel).write_text(text)
+    git = ["git", "-C", str(path), "-c", "user.name=t", "-c", "user.email=t@t"]
+    for args in (["init", "-q"], ["add", "-A"], ["commit", "-qm", "stand-in"]):
+        subprocess.run(git + args, check=True)
+    return plate
+
+
+def test_sensor_datasets_script_writes_the_bench_format_from_a_clone(tmp_path):
+    import importlib.util
+    import pathlib
+
+    script = pathlib.Path(__file__).resolve().parents[2] / "scripts" / "sensor_datasets.py"
+    spec = importlib.util.spec_from_file_location("sensor_datasets", script)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    clone, out = tmp_path / "clone", tmp_path / "out"
+    clone.mkdir()
+    plate = _stand_in_clone(clone)
+    out.mkdir()
+    cell = _sensors.load_dataset(mod.fareke_cell2(str(clone), str(out), commit="HEAD"))
+    assert cell.channels.shape == (21, 3) and np.unique(cell.group).size == 6
+    assert sorted(np.unique(cell.level)) == [1.0, 2.0] and cell.units == ["N"] * 3
+    np.testing.assert_allclose(cell.target[2], [0.2 * 9.80665, 0, 0])  # grams → N
+    assert cell.source.startswith("telenaco/FARE-KE@") and cell.license == "none stated"
+    p = _sensors.load_dataset(mod.fareke_plate(str(clone), str(out), commit="HEAD"))
+    np.testing.assert_array_equal(p.channels, plate[:, :6])
+    assert np.unique(p.group).size == 10 and p.target_names == ["fx", "fy", "fz", "tx", "ty", "tz"]
+    f = _sensors.load_dataset(mod.printed_fts8(str(clone), str(out), commit="HEAD"))
+    assert f.channels.shape == (8, 8) and f.channels.max() <= 950  # the overloaded rows dropped
+    assert sorted(np.unique(f.level)) == [0.31, 1.03] and np.unique(f.group).size == 2
