@@ -197,6 +197,8 @@ def fit_auto(X, Y, groups):
     predict.corrected_rows = sum(a is not None for a in ra) if fit.model == "poly" else 0
     sc = fit.choice.cv_score or {}
     predict.cv_ratio = sc["chosen"] / sc["linear"] if sc.get("linear") else None  # its inner CV's forecast
+    predict.extension = [e for e in fit.extension_ if e]  # how each corrected output continues beyond its range
+    predict.reach = fit.reach_  # up to this multiple of the range (as far as its held-out groups reached); then a fade
     return predict
 
 
@@ -231,7 +233,8 @@ def _run_split(ds: Dataset, methods, train, test) -> tuple[dict, dict]:
     for name, fit in methods.items():
         p = fit(X, Y, g)
         preds[name] = p(ds.channels[test])
-        info[name] = {"corrected_rows": getattr(p, "corrected_rows", None), "cv_ratio": getattr(p, "cv_ratio", None)}
+        info[name] = {"corrected_rows": getattr(p, "corrected_rows", None), "cv_ratio": getattr(p, "cv_ratio", None),
+                      "extension": getattr(p, "extension", None), "reach": getattr(p, "reach", None)}
     if "auto" in preds and "ls" in preds:  # the same dimensionless score on this split: RMSE / target std, pooled
         s = ds.target.std(axis=0)
         s = np.where(s > 0, s, 1.0)
@@ -292,6 +295,8 @@ def evaluate(ds: Dataset, methods=None) -> dict:
                          "test_levels": lv[lv > cut].tolist(), "n_train": int(tr.sum()), "n_test": int(te.sum()),
                          "train_groups": np.unique(ds.group[tr]).tolist(),
                          "auto_corrected_rows": info.get("auto", {}).get("corrected_rows"),
+                         "auto_extension": info.get("auto", {}).get("extension"),
+                         "auto_reach": info.get("auto", {}).get("reach"),
                          "rows": _table(ds, methods, ds.target[te], p)}
     return out
 
@@ -358,6 +363,8 @@ def sensor_tables(sec: dict) -> list[str]:
         if b:
             lines.append(f"    beyond range: trained on {b['level_name']} ≤ {max(b['train_levels']):.4g} "
                          f"({b['n_train']:,} rows), tested on {', '.join(f'{x:.4g}' for x in b['test_levels'])} "
-                         f"({b['n_test']:,} rows); auto corrected {b['auto_corrected_rows']}/{n_out} output rows")
+                         f"({b['n_test']:,} rows); auto corrected {b['auto_corrected_rows']}/{n_out} output rows"
+                         + (f" (beyond its range: {', '.join(sorted(set(b['auto_extension'])))} up to "
+                            f"{b['auto_reach']:.2g}× the range, then a fade)" if b.get("auto_extension") else ""))
             lines += _rows_text(b["rows"])
     return lines
