@@ -62,6 +62,9 @@ class SensorFit:
         Per output: ``linear`` (the affine fit) or the correction's family (``FAMILIES``).
     extension_ : list of str
         Per output: how its correction continues beyond the trained range (``EXTENSIONS``), or ``""``.
+    reach_ : float
+        Multiple of the trained range (along a sample's ray from ``center_``) up to which the
+        extensions hold, as far as held-out groups reached; beyond it every correction fades.
     """
 
     def __init__(self, choice, coef, intercept, center, correction=None, row_model=None, extension=None,
@@ -295,10 +298,13 @@ def fit_sensor(counts, wrench, groups=None, model: str = "auto", *, n_folds: int
     model : {"auto", "linear", "poly"}
         ``auto`` scores, per output group (forces, torques), the affine fit and each correction of
         ``FAMILIES`` (a full quadratic of the channels; the same with cubes) along its ridge path by
-        their mean held-out score over the folds, and takes the best correction only where it beats
-        the affine fit by more than ``_cv.N_SE`` standard errors (the one-standard-error rule);
-        ``linear`` is the plain affine least squares everywhere, ``poly`` the best correction.
-        Fewer than ``MIN_FOLDS`` folds: the affine fit.
+        their mean held-out score over the folds; the best is then scored as it is used, continued
+        beyond each fold's training range by each of ``EXTENSIONS``, and kept (with the extension of
+        the best mean) only where it beats the affine fit by more than ``_cv.N_SE`` standard errors
+        (the one-standard-error rule). Past the farthest reach its held-out groups tested
+        (``SensorFit.reach_``) the correction fades to the affine fit. ``linear`` is the plain affine
+        least squares everywhere, ``poly`` the best correction. Fewer than ``MIN_FOLDS`` folds: the
+        affine fit.
     n_folds : int
         Folds when there are more than ``MAX_LEAVE_ONE_OUT`` groups.
     alphas : sequence of float
