@@ -125,26 +125,39 @@ class _Layout:
         """``std_msgs/Float64MultiArray``, empty layout, ``k`` float64 (4 bytes to align the data on 8)."""
         return cls(channel, bytes([0, 1, 0, 0]) + struct.pack("<4I", 0, 0, k, 0), "<f8", k)
 
-    def fill(self, rec: np.ndarray, seq0: int, stamp_ns: np.ndarray, values) -> None:
+    def fill(self, rec: np.ndarray, seq0: int, stamps: np.ndarray, values) -> None:
         """Every byte of the records ``rec`` (``(n,)`` of :attr:`dtype`): sequences from ``seq0``, log and
-        publish times (and header stamps) ``stamp_ns (n,)``, values ``(n, k)``."""
+        publish times (and header stamps) ``stamps`` (``(n,)`` of :data:`_STAMP`), values ``(n, k)``."""
         for name, v in self.consts.items():
             rec[name] = v
-        rec["sequence"] = np.arange(seq0, seq0 + len(rec))
-        rec["log_time"] = stamp_ns
-        rec["publish_time"] = stamp_ns
+        rec["sequence"] = np.arange(seq0, seq0 + len(rec), dtype=np.uint32)
+        rec["log_time"] = stamps["ns"]
+        rec["publish_time"] = stamps["ns"]
         if self.stamped:
-            rec["sec"] = stamp_ns // 1_000_000_000
-            rec["nsec"] = stamp_ns % 1_000_000_000
+            rec["sec"] = stamps["sec"]
+            rec["nsec"] = stamps["nsec"]
         rec["values"] = values
+
+
+#: Message times: ns since the UNIX epoch, and as ``builtin_interfaces/Time`` (int32 sec, uint32 nanosec).
+_STAMP = np.dtype([("ns", "<i8"), ("sec", "<i4"), ("nsec", "<u4")])
+
+
+def _stamps(ns) -> np.ndarray:
+    """:data:`_STAMP` rows of times ``ns (n,)`` ns (computed once a block, shared by the topics)."""
+    ns = np.asarray(ns, np.int64)
+    out = np.empty(len(ns), _STAMP)
+    out["ns"] = ns
+    out["sec"] = ns // 1_000_000_000
+    out["nsec"] = ns % 1_000_000_000
+    return out
 
 
 def _cdr(layout: _Layout, stamp_ns, values) -> np.ndarray:
     """The CDR messages alone, ``(n, size)`` uint8, of ``layout`` (channel 0, sequence 0...)."""
     values = np.asarray(values)
     rec = np.empty(len(values), layout.dtype)
-    layout.fill(rec, 0, np.asarray(stamp_ns, np.int64) if stamp_ns is not None else np.zeros(len(values), np.int64),
-                values)
+    layout.fill(rec, 0, _stamps(np.zeros(len(values)) if stamp_ns is None else stamp_ns), values)
     return rec.view(np.uint8).reshape(len(values), layout.size)[:, 31:]
 
 
@@ -170,13 +183,13 @@ def _quat_xyzw(R: np.ndarray) -> list[float]:
 _MAGIC = bytes([137, 77, 67, 65, 80, 48, 13, 10])
 #: Uncompressed bytes of message records per chunk (as the ``mcap`` writer's default ``chunk_size``).
 CHUNK_BYTES = 1 << 20
-#: zstd's parameters for the chunks (``compression_level=None``): its fast strategy as level −1 uses it, with
-#: a window of one chunk, a 2¹⁴-entry hash table, matches of at least 6 bytes and a step of 2 over
-#: unmatched bytes (the float64 values). On the export's chunks (60 s, 1 MiB each), CPU time and
-#: compressed size against level −1: 0.85× and 1.00× (level −2: 0.79×, 1.03×; −3: 0.76×, 1.06×; lz4
-#: frames: 0.76×, 1.28×), docs/interop.md.
-ZSTD_PARAMETERS = dict(strategy=1, window_log=20, hash_log=14, chain_log=14, search_log=1, min_match=6,
-                       target_length=2)
+#: zstd's parameters for the chunks (``compression_level=None``): its fast strategy (as its negative levels)
+#: with a window of one chunk, a 2¹⁴-entry hash table, matches of at least 7 bytes and a step of 3 over
+#: unmatched bytes (the float64 values, which hardly compress). On the export's chunks (60 s, 1 MiB
+#: each; CPU time, median of 5 rounds) against level −1: 0.76× the time, 1.03× the size (level −3:
+#: 0.75×, 1.06×; −2: 0.81×, 1.03×; lz4 frames: 0.76×, 1.28×); docs/interop.md.
+ZSTD_PARAMETERS = dict(strategy=1, window_log=20, hash_log=14, chain_log=14, search_log=1, min_match=7,
+                       target_length=3)
 
 
 def write_mcap(data, path, *, raw_counts: bool = True, progress=None) -> dict:
@@ -292,19 +305,19 @@ class McapWriter:
                 if getattr(first.contacts, "single_contact", None) is not None:
                     self._channel(f"/pito/face_{i}/contact/single_contact", "std_msgs/msg/Float64MultiArray",
                                   lambda c: _Layout.float64_array(c, 3))
-        self._write_chunk([("/tf_static", np.array([t0]), tf)])
+        self._write_chunk([("/tf_static", _stamps([t0]), tf)])
 
     def append(self, block) -> None:
         """The messages of ``block`` (an :class:`~pito_core.interop.ExportData` of consecutive samples)."""
         if not self._started:
             self._start(block)
             self._started = True
-        stamp = _ns(block.start_unix, block.time)
+        stamp = _stamps(_ns(block.start_unix, block.time))
         parts = []  # (topic, stamps, values): the values are written straight into the chunks' records
         if self.raw_counts:
             parts.append(("/pito/raw_counts", stamp, block.counts))
         if np.size(block.reference_time):  # every reference record, at its own time (the cube's clock), tared
-            parts.append(("/pito/reference/wrench", _ns(block.start_unix, block.reference_time),
+            parts.append(("/pito/reference/wrench", _stamps(_ns(block.start_unix, block.reference_time)),
                           block.reference_wrench))
         if block.face_wrenches is not None:
             fw = block.face_wrenches
@@ -318,19 +331,19 @@ class McapWriter:
         self._write_block(parts, stamp)
 
     def _write_block(self, parts: list, stamp: np.ndarray) -> None:
-        """``parts`` ``[(topic, stamps, values)]`` as chunks of about :data:`CHUNK_BYTES`, cut at cube sample times."""
+        """``parts`` ``[(topic, stamps (_STAMP rows), values)]`` as chunks of about :data:`CHUNK_BYTES`, cut at cube sample times."""
         total = sum(len(st) * self._layouts[topic].size for topic, st, _ in parts)
         k = max(1, -(-total // CHUNK_BYTES))
         if k == 1 or stamp.size < 2:
             self._write_chunk(parts)
             return
-        cuts = stamp[np.linspace(0, stamp.size, k + 1).astype(int)[1:-1]]
-        sl = [np.concatenate([[0], np.searchsorted(st, cuts, side="left"), [st.size]]) for _, st, _ in parts]
+        cuts = stamp["ns"][np.linspace(0, stamp.size, k + 1).astype(int)[1:-1]]
+        sl = [np.concatenate([[0], np.searchsorted(st["ns"], cuts, side="left"), [st.size]]) for _, st, _ in parts]
         for c in range(k):
             self._write_chunk([(topic, st[s[c]:s[c + 1]], v[s[c]:s[c + 1]]) for (topic, st, v), s in zip(parts, sl)])
 
     def _write_chunk(self, parts: list) -> None:
-        """One chunk (zstd) of the messages ``[(topic, stamps (n,) ns, values (n, k))]`` and its indexes.
+        """One chunk (zstd) of the messages ``[(topic, stamps (n,) of _STAMP, values (n, k))]`` and its indexes.
 
         The message records are written in place in one buffer, kept from chunk to chunk."""
         from mcap.records import ChunkIndex
@@ -348,11 +361,11 @@ class McapWriter:
             n = len(st)
             cid, seq0 = self._channels[topic], self.counts[topic]
             lay.fill(data[at:at + n * lay.size].view(lay.dtype), seq0, st, values)
-            index.append((cid, st, at + lay.size * np.arange(n, dtype=np.uint64)))
+            index.append((cid, st["ns"], at + lay.size * np.arange(n, dtype=np.uint64)))
             at += n * lay.size
             self.counts[topic] = seq0 + n
-        lo = min(int(st.min()) for _, st, _ in parts)
-        hi = max(int(st.max()) for _, st, _ in parts)
+        lo = min(int(st["ns"][0]) for _, st, _ in parts)  # every topic's stamps increase
+        hi = max(int(st["ns"][-1]) for _, st, _ in parts)
         self._times = [lo if self._times[0] is None else min(self._times[0], lo), max(self._times[1] or hi, hi)]
         packed = self._zstd.compress(data)
         # the Chunk record (opcode 0x06) by hand: its compressed records written as they are, not copied
