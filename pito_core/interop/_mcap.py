@@ -105,7 +105,11 @@ class _Layout:
         fields.append(("values", (values, (k,)), 31 + len(prefix)))
         self.dtype = np.dtype({"names": [f[0] for f in fields], "formats": [f[1] for f in fields],
                                "offsets": [f[2] for f in fields], "itemsize": self.size})
-        self.consts = {name: np.frombuffer(b, f"V{len(b)}")[0] for name, b in consts.items()}
+        template = np.zeros(1, self.dtype)  # one record: the constant bytes, zeros elsewhere
+        for name, b in consts.items():
+            template[name] = np.frombuffer(b, f"V{len(b)}")[0]
+        self._template = template.view(np.uint8)
+        self._tiled = self._template  # the template repeated: records' constant bytes in one copy
 
     @classmethod
     def stamped(cls, channel: int, frame_id: str, k: int) -> _Layout:
@@ -128,8 +132,10 @@ class _Layout:
     def fill(self, rec: np.ndarray, seq0: int, stamps: np.ndarray, values) -> None:
         """Every byte of the records ``rec`` (``(n,)`` of :attr:`dtype`): sequences from ``seq0``, log and
         publish times (and header stamps) ``stamps`` (``(n,)`` of :data:`_STAMP`), values ``(n, k)``."""
-        for name, v in self.consts.items():
-            rec[name] = v
+        raw = rec.view(np.uint8)
+        if self._tiled.size < raw.size:
+            self._tiled = np.tile(self._template, len(rec))
+        np.copyto(raw, self._tiled[:raw.size])
         rec["sequence"] = np.arange(seq0, seq0 + len(rec), dtype=np.uint32)
         rec["log_time"] = stamps["ns"]
         rec["publish_time"] = stamps["ns"]
