@@ -224,7 +224,8 @@ def _sub_blocks(blocks, rows) -> list:
 
 
 def _full_rows(rows, cr, nr, fr, taur, cov, blocks, mur, er, alpha, fin, mr):
-    """``single, reason, zmin`` of the rows ``rows`` (sorted) by the full test, deciding on ``min z`` against Φ⁻¹(α).
+    """``single, reason, zmin`` of the rows ``rows`` (sorted) by the full test, deciding on ``min z`` against
+    Φ⁻¹(α).
 
     The arguments are those rows' (``cr = c[rows]``, …; numbers and a shared ``cov`` as they are);
     ``blocks`` index all rows."""

@@ -21,10 +21,12 @@ sample time on the cube's device clock, ``ExportData.time``: strictly increasing
   and the attachment ``calibration.pitocal``: the calibration file's exact bytes (the whole
   model, correction and covariance), whose content hash is the record's ``hash``.
 
-The fixed-layout messages are CDR-encoded in bulk with numpy (the generic encoder of
-``mcap_ros2`` costs ~30 µs a message; tests/interop/test_mcap.py checks the bytes against it),
-and framed as MCAP message records, chunks (zstd) and message indexes in bulk too (the ``mcap``
-writer costs ~15 µs a message): :class:`McapWriter` writes a recording block by block; the
+The fixed-layout messages are CDR-encoded and framed as MCAP message records in bulk with numpy,
+each channel's records a numpy record type (:class:`_Layout`) filled in place in the chunk's
+buffer (the generic encoder of ``mcap_ros2`` costs ~30 µs a message,
+tests/interop/test_export_stream.py checks the bytes against it; the ``mcap`` writer ~15 µs a
+message), then chunks (zstd, :data:`ZSTD_PARAMETERS`) and message indexes in bulk too:
+:class:`McapWriter` writes a recording block by block; the
 summary (schemas, channels, statistics, chunk, attachment and metadata indexes) is ``mcap``'s
 own records.
 """
@@ -97,7 +99,8 @@ class _Layout:
         fields = [("head", "V11", 0), ("sequence", "<u4", 11), ("log_time", "<u8", 15), ("publish_time", "<u8", 23)]
         consts = {"head": struct.pack("<BQH", 0x05, self.size - 9, channel)}
         if stamped:  # encapsulation, stamp, then frame_id (its length, text, NUL) and the padding
-            fields += [("encap", "V4", 31), ("sec", "<i4", 35), ("nsec", "<u4", 39), ("frame", f"V{len(prefix) - 12}", 43)]
+            fields += [("encap", "V4", 31), ("sec", "<i4", 35), ("nsec", "<u4", 39),
+                       ("frame", f"V{len(prefix) - 12}", 43)]
             consts.update(encap=prefix[:4], frame=prefix[12:])
         elif prefix:
             fields.append(("prefix", f"V{len(prefix)}", 31))
@@ -349,7 +352,8 @@ class McapWriter:
         self._write_block(parts, stamp)
 
     def _write_block(self, parts: list, stamp: np.ndarray) -> None:
-        """``parts`` ``[(topic, stamps (_STAMP rows), values)]`` as chunks of about :data:`CHUNK_BYTES`, cut at cube sample times."""
+        """``parts`` ``[(topic, stamps (_STAMP rows), values)]`` as chunks of about :data:`CHUNK_BYTES`, cut at
+        cube sample times."""
         total = sum(len(st) * self._layouts[topic].size for topic, st, _ in parts)
         k = max(1, -(-total // CHUNK_BYTES))
         if k == 1 or stamp.size < 2:
