@@ -55,6 +55,9 @@ def register(sub) -> None:
     p.add_argument("--csv", metavar="PREFIX", help="write PREFIX_pito.csv and PREFIX_ati.csv (raw streams)")
     p.add_argument("--mat", metavar="FILE", help="write a MATLAB .mat file (raw streams)")
     p.add_argument("--no-contacts", action="store_true", help="skip the contacts (faster)")
+    p.add_argument("--threads", type=int, choices=(1, 2), default=1,
+                   help="2: compress and write the MCAP chunks in a second thread (less wall time, same CPU "
+                   "time and files; default 1: one core)")
     p.add_argument("--subject-id", help="NWB subject id (e.g. the participant code)")
     p.add_argument("--species", help="NWB subject species (e.g. 'Homo sapiens')")
     p.add_argument("--sex", choices=("M", "F", "U", "O"), help="NWB subject sex (U: unknown, O: other)")
@@ -131,7 +134,7 @@ def run(args) -> int:
                         institution=args.institution, lab=args.lab)
     out = export_files(args.file, nwb=args.nwb, mcap=args.mcap, calibration=cal, assembly=args.object,
                        calibration_source=args.calibration, contacts=not args.no_contacts, recover=args.recover,
-                       nwb_metadata=nwb_metadata, progress=_progress)
+                       nwb_metadata=nwb_metadata, threads=args.threads, progress=_progress)
     _progress_done()
     n, sec = out["n"], out["seconds"]
     label = " (simulated)" if out["simulated"] else ""

@@ -10,19 +10,27 @@ operations in the same order as in ``_soft_test`` (the same bits), so their sign
 full test's. Only the other rows (pulling, beyond friction, off the patch, not finite:
 usually few) get the full test, and among them ``Φ`` only where ``min z`` lies within
 ``10⁻⁹`` of ``Φ⁻¹(α)`` (elsewhere the comparison of ``min z`` with that quantile decides).
-The p-values are left to the caller (``solve`` runs the full test for them when they are
-first read). With ``α > 1/2`` every row gets the full test.
+With ``α > 1/2`` every row gets the full test.
+
+The p-values are read later, if at all (:func:`deferred_soft_p`, ``solve``'s
+``single_contact_p``): ``p = Φ(min z)`` of the rows tested in full comes from the ``min z``
+the decision kept; only the other rows' ``z`` are computed then, from copies of those rows
+taken at solve time. Each row's ``z`` depends on its own row alone (no BLAS, the same
+operations whatever the batch), so ``p`` is :func:`soft_finger_test`'s bit for bit.
 """
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
+from ._estimate import COPIES, _Deferred
 from ._plausibility import _ndtr
-from ._soft_test import CHUNK, _chunk_blocks, _dot3, _finite_rows, _reasons, _work, _z_rows, _zmin
+from ._soft_test import _Z_ONE, CHUNK, _chunk_blocks, _dot3, _finite_rows, _reasons, _work, _z_rows, _zmin
 from ._surfaces import Plane
 
-__all__ = ["soft_finger_flags"]
+__all__ = ["soft_finger_flags", "deferred_soft_p"]
 
 #: half-width of the band around Φ⁻¹(α), relative (1 + |Φ⁻¹(α)|), where Φ itself decides
 _BAND = 1e-9
@@ -32,12 +40,14 @@ SCREEN_CHUNK = 32768
 _BIG = np.finfo(float).max
 
 
-def soft_finger_flags(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha, ok=None, m=None, f2=None):
+def soft_finger_flags(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha, ok=None, m=None, f2=None, zmin=None):
     """``single (N,)`` and ``reason (N,) int8``: those of :func:`soft_finger_test` (the same values).
 
     Arguments as :func:`~pito_core.contact._soft_test.soft_finger_test`; its ``p`` is left to
-    the caller (``solve``: on first read). ``f2 (N,)``: ``|f|²`` of the rows if the caller has it
-    (``solve``: its force threshold's), for the faces' planes' cheaper screen (``_face_plane_keep``).
+    the caller (``solve``: on first read, :func:`deferred_soft_p`). ``f2 (N,)``: ``|f|²`` of the
+    rows if the caller has it (``solve``: its force threshold's), for the faces' planes' cheaper
+    screen (``_face_plane_keep``). ``zmin (N,)``, optional, is filled: the smallest ``z`` of the
+    rows tested in full (−inf: not finite), NaN on the rows single by their margins' signs.
     """
     N = len(f)
     e = torsion_radius
@@ -68,12 +78,16 @@ def soft_finger_flags(c, n, f, tau, w_cov, blocks, mu, torsion_radius, alpha, ok
         got = list(args)
     single = np.ones(N, bool)
     reason = np.zeros(N, np.int8)
+    if zmin is not None:
+        zmin.fill(np.nan)
     if len(rest):
         cr, nr, fr, taur, covr, mur, er, fin, mr = got
         if not need_cn:
             nr = _Rows(n, rest)
-        single[rest], reason[rest] = _full_rows(rest, cr, nr, fr, taur, w_cov if covr is None else covr, blocks,
-                                                mur, er, alpha, fin, mr)
+        single[rest], reason[rest], zr = _full_rows(rest, cr, nr, fr, taur, w_cov if covr is None else covr, blocks,
+                                                    mur, er, alpha, fin, mr)
+        if zmin is not None:
+            zmin[rest] = zr
     return single, reason
 
 
@@ -202,17 +216,24 @@ def _friction_margin(W, surface, f, with_m, n, tau, mu, e):
     return fn
 
 
+def _sub_blocks(blocks, rows) -> list:
+    """``blocks`` (slices of all rows) as slices of the rows ``rows`` (sorted) taken one after the other."""
+    starts = np.searchsorted(rows, [sl.start for _, _, sl in blocks])
+    stops = np.searchsorted(rows, [sl.stop for _, _, sl in blocks])
+    return [(s, bnd, slice(int(i), int(j))) for (s, bnd, _), i, j in zip(blocks, starts, stops) if j > i]
+
+
 def _full_rows(rows, cr, nr, fr, taur, cov, blocks, mur, er, alpha, fin, mr):
-    """``single, reason`` of the rows ``rows`` (sorted) by the full test, deciding on ``min z`` against Φ⁻¹(α).
+    """``single, reason, zmin`` of the rows ``rows`` (sorted) by the full test, deciding on ``min z`` against
+    Φ⁻¹(α).
 
     The arguments are those rows' (``cr = c[rows]``, …; numbers and a shared ``cov`` as they are);
     ``blocks`` index all rows."""
     k = len(rows)
-    starts = np.searchsorted(rows, [sl.start for _, _, sl in blocks])
-    stops = np.searchsorted(rows, [sl.stop for _, _, sl in blocks])
-    sub = [(s, bnd, slice(int(i), int(j))) for (s, bnd, _), i, j in zip(blocks, starts, stops) if j > i]
+    sub = _sub_blocks(blocks, rows)
     single = np.empty(k, bool)
     reason = np.empty(k, np.int8)
+    zmins = np.empty(k)
     from scipy.special import ndtri  # at the first test: pito-app's window never pays its import
 
     za = float(ndtri(alpha))
@@ -224,11 +245,64 @@ def _full_rows(rows, cr, nr, fr, taur, cov, blocks, mur, er, alpha, fin, mr):
         ch = lambda x: x if x is None or np.ndim(x) == 0 else x[r]  # noqa: E731
         z0, z1, z2, fz = _z_rows(ch(cr), ch(nr), ch(fr), ch(taur), cov if cov.ndim == 2 else cov[r], part,
                                  ch(mur), ch(er), None, ch(mr), finite=ch(fin))
-        zmin = _zmin(z0, z1, z2, fz)
+        zmin = zmins[r] = _zmin(z0, z1, z2, fz)
         s = zmin >= za + band
         near = np.flatnonzero(~s & ~(zmin < za - band))  # (NaN: never; _z leaves none)
         if len(near):
             s[near] = _ndtr(zmin[near]) >= alpha
         single[r] = s
         reason[r] = 0 if s.all() else _reasons(s, z0, z1, z2, fz, ch(fr), ch(nr), ch(taur), ch(er), alpha)
-    return single, reason
+    return single, reason, zmins
+
+
+def _p_of(zmin: np.ndarray) -> np.ndarray:
+    """``p = Φ(min z)`` as the full test forms it (1 from ``_Z_ONE`` up; −inf, a row not finite: 0)."""
+    p = np.ones(len(zmin))
+    low = zmin < _Z_ONE
+    p[low] = _ndtr(zmin[low])
+    return p
+
+
+def deferred_soft_p(blocks, c, n, tau, ws, w_cov, mu, torsion_radius, zmin) -> _Deferred:
+    """``single_contact_p (N,)`` of rows :func:`soft_finger_flags` decided, computed on first read.
+
+    ``zmin (N,)``: what ``soft_finger_flags`` filled (kept, not copied: the caller's to give).
+    The rows tested in full take ``Φ(min z)`` from it; the others' (NaN) ``z`` are computed
+    at read time by the full test's own steps from copies of those rows taken now: ``tau``,
+    the wrench rows ``ws (N, 6)`` (forces: the solve's numbers; moments), and the points and
+    normals only for the blocks that read them (curved, or with a boundary). The copies share
+    one buffer from ``COPIES``, given back when the p-values are read or the field is gone.
+    Other arguments as :func:`soft_finger_flags`.
+    """
+    N = len(ws)
+    todo = np.flatnonzero(np.isnan(zmin))
+    k = len(todo)
+    need_cn = any(bnd is not None or not isinstance(s, Plane) for s, bnd, _ in blocks)
+    buf = COPIES.take(k * (7 + (6 if need_cn else 0)))
+    tau_c = np.take(tau, todo, out=buf[:k], mode="clip")
+    ws_c = np.take(ws, todo, axis=0, out=buf[k:7 * k].reshape(k, 6), mode="clip")
+    c_c = n_c = None
+    if need_cn:
+        c_c = np.take(c, todo, axis=0, out=buf[7 * k:10 * k].reshape(k, 3), mode="clip")
+        n_c = np.take(n, todo, axis=0, out=buf[10 * k:13 * k].reshape(k, 3), mode="clip")
+    cov = np.array(w_cov) if w_cov.ndim == 2 else w_cov[todo]
+    mu_c, e_c = (x if np.ndim(x) == 0 else x[todo] for x in (mu, torsion_radius))
+    sub = _sub_blocks(blocks, todo)
+
+    def p():
+        out = np.empty(N)
+        known = ~np.isnan(zmin)
+        out[known] = _p_of(zmin[known])
+        for a in range(0, k, CHUNK):
+            b = min(k, a + CHUNK)
+            r = slice(a, b)
+            ch = lambda x: x if x is None or np.ndim(x) == 0 else x[r]  # noqa: E731
+            z0, z1, z2, _ = _z_rows(ch(c_c), ch(n_c), ws_c[r, :3], tau_c[r], cov if cov.ndim == 2 else cov[r],
+                                    _chunk_blocks(sub, a, b), ch(mu_c), ch(e_c), None, ws_c[r, 3:], finite=None)
+            out[todo[r]] = _p_of(_zmin(z0, z1, z2, None))
+        done()  # the copies back to the pool
+        return out
+
+    deferred = _Deferred((N,), p)
+    done = weakref.finalize(deferred, COPIES.give, buf)
+    return deferred

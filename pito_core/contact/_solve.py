@@ -2,14 +2,12 @@
 
 from __future__ import annotations
 
-import weakref
-
 import numpy as np
 
 from ..defaults import IDENTIFY_FORCE_N
 from ..frames import check_vectors
 from ._crb import ContactCovariance, check_wrench_cov, covariance_from_jacobian, wrench_jacobian
-from ._estimate import COPIES, ContactEstimate, _Deferred
+from ._estimate import ContactEstimate, _Deferred
 from ._plausibility import (
     DEFAULT_FRICTION,
     DEFAULT_TORSION_RADIUS,
@@ -20,8 +18,7 @@ from ._plausibility import (
 )
 from ._pointcontact import DEFAULT_WRENCH_COV, refine_point_contact
 from ._quadric import solve_ellipsoid, solve_plane, solve_sphere
-from ._soft_screen import soft_finger_flags
-from ._soft_test import _finite_rows, soft_finger_test
+from ._soft_screen import deferred_soft_p, soft_finger_flags
 from ._surfaces import Ellipsoid, MeshSurface, Plane, Sphere, Surface, check_positive
 
 __all__ = ["solve", "contact_crb", "DEFAULT_FORCE_THRESHOLD"]
@@ -164,18 +161,16 @@ def _solve_patches(patches, blocks, force_threshold, covs, point_contact, single
         else:
             S = np.concatenate([np.broadcast_to(c, (len(b), 6, 6)) for c, b in zip(covs, blocks)])
     return _solve_checked(parts, w, _check_threshold(force_threshold), S, point_contact=point_contact,
-                          single_contact=single_contact, alpha=SINGLE_CONTACT_ALPHA,
-                          fresh=(len(blocks) > 1, S is not None and S.ndim == 3))  # (np.concatenate's)
+                          single_contact=single_contact, alpha=SINGLE_CONTACT_ALPHA)
 
 
-def _solve_checked(parts, w, thr, S, *, point_contact, single_contact, alpha, fresh=(False, False)):
+def _solve_checked(parts, w, thr, S, *, point_contact, single_contact, alpha):
     """The body of ``solve`` on checked arguments: wrenches ``w (N, 6)``, covariance ``S`` or None.
 
     ``parts``: ``(surface, boundary, mu, torsion_radius, rows)`` of consecutive blocks of ``w``,
     one per patch (``solve``: one). Each block's closed form, shape operator and boundary are
     its own; the Jacobian, the single-contact test and the covariances run over all rows at
     once (``solve_object``: one sample's faces in one pass). Returns the flat estimate ``(N, …)``.
-    ``fresh``: ``w``, ``S`` are new arrays of the caller's making (nobody else writes them).
     """
     N = len(w)
     f_all = w[:, :3]
@@ -206,13 +201,12 @@ def _solve_checked(parts, w, thr, S, *, point_contact, single_contact, alpha, fr
 
     c, n, force, tau, ok, facet, cov, test = _solve_rows(
         surfaces, f, m, ws, Sn, with_cov=S is not None, point_contact=point_contact, single_contact=single_contact,
-        mesh=mesh, mu=mu, torsion_radius=e, alpha=alpha, own=(fresh[0] or not all_strong, fresh[1] or not all_strong),
-        f2=f2 if all_strong else f2[strong])
+        mesh=mesh, mu=mu, torsion_radius=e, alpha=alpha, f2=f2 if all_strong else f2[strong])
     return _assemble(N, strong, all_strong, c, n, force, tau, ok, facet, cov, test)
 
 
 def _solve_rows(surfaces, f, m, ws, Sn, *, with_cov, point_contact, single_contact, mesh, mu, torsion_radius,
-                alpha, own=(False, False), f2=None):
+                alpha, f2=None):
     """Solve the rows that push hard enough: ``c, n, force, tau, ok, facet, cov, test``.
 
     ``surfaces``: ``(surface, boundary, rows)`` of consecutive blocks (a slice each);
@@ -237,8 +231,9 @@ def _solve_rows(surfaces, f, m, ws, Sn, *, with_cov, point_contact, single_conta
 
     test = cov = None
     if single_contact and not point_contact:  # the soft finger's test in closed form, p on first read (_soft_screen)
-        single, reason = soft_finger_flags(c, n, force, tau, Sn, blocks, mu, e, alpha, ok, m, f2=f2)
-        test = single, _deferred_p(blocks, c, n, tau, ok, ws, Sn, mu, e, alpha, own), reason
+        zmin = np.empty(len(c))
+        single, reason = soft_finger_flags(c, n, force, tau, Sn, blocks, mu, e, alpha, ok, m, f2=f2, zmin=zmin)
+        test = single, deferred_soft_p(blocks, c, n, tau, ws, Sn, mu, e, zmin), reason
     elif single_contact or with_cov:
         with np.errstate(invalid="ignore", divide="ignore"):  # NaN rows stay NaN
             shape = _shape(surfaces, blocks, c, n)
@@ -272,49 +267,6 @@ def _solve_blocks(surfaces, blocks, force, m, mesh):
         if r[4] is not None:
             facet[sl] = r[4]
     return c, n, tau, ok, facet
-
-
-def _deferred_p(blocks, c, n, tau, ok, ws, Sn, mu, e, alpha, own):
-    """``single_contact_p`` of the solved rows on first read: the full closed-form test (``soft_finger_test``)
-    on copies taken now of what it reads (``own``: ``ws``, ``Sn`` are ours already), the same numbers.
-
-    The wrench rows ``ws`` hold the forces (the solve's numbers) and the moments; the points and
-    normals are copied only for the blocks that read them (curved, or with a boundary). The copies
-    share one buffer from ``COPIES``, given back when the p-values are read or the field is gone."""
-    N = len(ws)
-    need_cn = any(bnd is not None or not isinstance(s, Plane) for s, bnd, _ in blocks)
-    finite = _finite_rows(c, n, ok)
-    buf = COPIES.take(N * ((0 if own[0] else 6) + 1 + (6 if need_cn else 0)))
-    parts = iter(np.split(buf, np.cumsum([N] + ([] if own[0] else [6 * N]) + ([3 * N, 3 * N] if need_cn else []))))
-    tau_c = next(parts)
-    np.copyto(tau_c, tau)
-    if not own[0]:
-        ws_c = next(parts).reshape(N, 6)
-        np.copyto(ws_c, ws)
-        ws = ws_c
-    if need_cn:
-        c_c, n_c = next(parts).reshape(N, 3), next(parts).reshape(N, 3)
-        np.copyto(c_c, c)
-        np.copyto(n_c, n)
-        c, n = c_c, n_c
-    else:
-        c = n = None
-    tau = tau_c
-    Sn = Sn if own[1] and Sn.ndim == 3 else np.array(Sn)
-
-    def p():
-        nn = n
-        if nn is None:  # planes' normals (the solve's for every row; the test reads them to name failures)
-            nn = np.empty((N, 3))
-            for s, _, sl in blocks:
-                nn[sl] = s.normal
-        out = soft_finger_test(c, nn, ws[:, :3], tau, Sn, blocks, mu, e, alpha, None, ws[:, 3:], finite=finite)[1]
-        done()  # the copies back to the pool
-        return out
-
-    deferred = _Deferred((N,), p)
-    done = weakref.finalize(deferred, COPIES.give, buf)
-    return deferred
 
 
 def _shape(surfaces, blocks, c, n):

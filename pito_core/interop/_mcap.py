@@ -21,10 +21,12 @@ sample time on the cube's device clock, ``ExportData.time``: strictly increasing
   and the attachment ``calibration.pitocal``: the calibration file's exact bytes (the whole
   model, correction and covariance), whose content hash is the record's ``hash``.
 
-The fixed-layout messages are CDR-encoded in bulk with numpy (the generic encoder of
-``mcap_ros2`` costs ~30 µs a message; tests/interop/test_mcap.py checks the bytes against it),
-and framed as MCAP message records, chunks (zstd) and message indexes in bulk too (the ``mcap``
-writer costs ~15 µs a message): :class:`McapWriter` writes a recording block by block; the
+The fixed-layout messages are CDR-encoded and framed as MCAP message records in bulk with numpy,
+each channel's records a numpy record type (:class:`_Layout`) filled in place in the chunk's
+buffer (the generic encoder of ``mcap_ros2`` costs ~30 µs a message,
+tests/interop/test_export_stream.py checks the bytes against it; the ``mcap`` writer ~15 µs a
+message), then chunks (zstd, :data:`ZSTD_PARAMETERS`) and message indexes in bulk too:
+:class:`McapWriter` writes a recording block by block; the
 summary (schemas, channels, statistics, chunk, attachment and metadata indexes) is ``mcap``'s
 own records.
 """
@@ -81,59 +83,122 @@ MSGDEFS = {
 }
 
 
+class _Layout:
+    """The MCAP message records of one channel's fixed-size messages, as a numpy record type.
+
+    A record is the 31-byte message head (opcode 0x05, record length, channel, sequence, log
+    and publish time) and the CDR message: ``prefix`` (its constant bytes; with ``stamped``,
+    bytes 4..12 are the header stamp's ``sec``, ``nanosec``, filled per message) and ``k``
+    values of dtype ``values``. :meth:`fill` writes every byte of records in place (a chunk's
+    buffer): no message is encoded apart and copied.
+    """
+
+    def __init__(self, channel: int, prefix: bytes, values: str, k: int, stamped: bool = False):
+        self.size = 31 + len(prefix) + np.dtype(values).itemsize * k
+        self.stamped = stamped
+        fields = [("head", "V11", 0), ("sequence", "<u4", 11), ("log_time", "<u8", 15), ("publish_time", "<u8", 23)]
+        consts = {"head": struct.pack("<BQH", 0x05, self.size - 9, channel)}
+        if stamped:  # encapsulation, stamp, then frame_id (its length, text, NUL) and the padding
+            fields += [("encap", "V4", 31), ("sec", "<i4", 35), ("nsec", "<u4", 39),
+                       ("frame", f"V{len(prefix) - 12}", 43)]
+            consts.update(encap=prefix[:4], frame=prefix[12:])
+        elif prefix:
+            fields.append(("prefix", f"V{len(prefix)}", 31))
+            consts["prefix"] = prefix
+        fields.append(("values", (values, (k,)), 31 + len(prefix)))
+        self.dtype = np.dtype({"names": [f[0] for f in fields], "formats": [f[1] for f in fields],
+                               "offsets": [f[2] for f in fields], "itemsize": self.size})
+        template = np.zeros(1, self.dtype)  # one record: the constant bytes, zeros elsewhere
+        for name, b in consts.items():
+            template[name] = np.frombuffer(b, f"V{len(b)}")[0]
+        self._template = template.view(np.uint8)
+        self._tiled = self._template  # the template repeated: records' constant bytes in one copy
+
+    @classmethod
+    def stamped(cls, channel: int, frame_id: str, k: int) -> _Layout:
+        """``{header{stamp, frame_id}, float64 × k}`` (WrenchStamped, PointStamped), CDR little endian."""
+        fid = frame_id.encode() + b"\0"
+        start = (12 + len(fid) + 7) // 8 * 8  # the float64 values aligned on 8 (from the encapsulation's end)
+        prefix = bytes([0, 1, 0, 0]) + bytes(8) + struct.pack("<I", len(fid)) + fid
+        return cls(channel, prefix + bytes(4 + start - len(prefix)), "<f8", k, stamped=True)
+
+    @classmethod
+    def int32_array(cls, channel: int, k: int) -> _Layout:
+        """``std_msgs/Int32MultiArray``, empty layout, ``k`` int32: dim[] = 0, data_offset = 0, length k."""
+        return cls(channel, bytes([0, 1, 0, 0]) + struct.pack("<3I", 0, 0, k), "<i4", k)
+
+    @classmethod
+    def float64_array(cls, channel: int, k: int) -> _Layout:
+        """``std_msgs/Float64MultiArray``, empty layout, ``k`` float64 (4 bytes to align the data on 8)."""
+        return cls(channel, bytes([0, 1, 0, 0]) + struct.pack("<4I", 0, 0, k, 0), "<f8", k)
+
+    def fill(self, rec: np.ndarray, seq0: int, stamps: np.ndarray, values) -> None:
+        """Every byte of the records ``rec`` (``(n,)`` of :attr:`dtype`): sequences from ``seq0``, log and
+        publish times (and header stamps) ``stamps`` (``(n,)`` of :data:`_STAMP`), values ``(n, k)``."""
+        raw = rec.view(np.uint8)
+        if self._tiled.size < raw.size:
+            self._tiled = np.tile(self._template, len(rec))
+        np.copyto(raw, self._tiled[:raw.size])
+        rec["sequence"] = np.arange(seq0, seq0 + len(rec), dtype=np.uint32)
+        rec["log_time"] = stamps["ns"]
+        rec["publish_time"] = stamps["ns"]
+        if self.stamped:
+            rec["sec"] = stamps["sec"]
+            rec["nsec"] = stamps["nsec"]
+        rec["values"] = values
+
+
+#: Message times: ns since the UNIX epoch, and as ``builtin_interfaces/Time`` (int32 sec, uint32 nanosec).
+_STAMP = np.dtype([("ns", "<i8"), ("sec", "<i4"), ("nsec", "<u4")])
+
+
+def _stamps(ns) -> np.ndarray:
+    """:data:`_STAMP` rows of times ``ns (n,)`` ns (computed once a block, shared by the topics)."""
+    ns = np.asarray(ns, np.int64)
+    out = np.empty(len(ns), _STAMP)
+    out["ns"] = ns
+    out["sec"] = ns // 1_000_000_000
+    out["nsec"] = ns % 1_000_000_000
+    return out
+
+
+def _cdr(layout: _Layout, stamp_ns, values) -> np.ndarray:
+    """The CDR messages alone, ``(n, size)`` uint8, of ``layout`` (channel 0, sequence 0...)."""
+    values = np.asarray(values)
+    rec = np.empty(len(values), layout.dtype)
+    layout.fill(rec, 0, _stamps(np.zeros(len(values)) if stamp_ns is None else stamp_ns), values)
+    return rec.view(np.uint8).reshape(len(values), layout.size)[:, 31:]
+
+
 def _stamped(stamp_ns: np.ndarray, frame_id: str, values: np.ndarray) -> np.ndarray:
     """CDR (little endian) of ``n`` messages ``{header{stamp, frame_id}, float64 × k}``: ``(n, size)`` uint8."""
-    values = np.ascontiguousarray(values, dtype="<f8")
-    n, k = values.shape
-    fid = frame_id.encode() + b"\0"
-    body = 12 + len(fid)
-    start = (body + 7) // 8 * 8
-    size = 4 + start + 8 * k
-    out = np.zeros((n, size), np.uint8)
-    out[:, 1] = 1  # encapsulation CDR_LE
-    sec = (stamp_ns // 1_000_000_000).astype("<i4")
-    nsec = (stamp_ns % 1_000_000_000).astype("<u4")
-    out[:, 4:8] = sec.view(np.uint8).reshape(n, 4)
-    out[:, 8:12] = nsec.view(np.uint8).reshape(n, 4)
-    out[:, 12:16] = np.frombuffer(np.uint32(len(fid)).astype("<u4").tobytes(), np.uint8)
-    out[:, 16:16 + len(fid)] = np.frombuffer(fid, np.uint8)
-    out[:, 4 + start:] = values.view(np.uint8).reshape(n, 8 * k)
-    return out
+    return _cdr(_Layout.stamped(0, frame_id, np.shape(values)[1]), stamp_ns, values)
 
 
 def _int32_array(values: np.ndarray) -> np.ndarray:
     """CDR of ``n`` ``std_msgs/Int32MultiArray`` with empty layout and ``k`` int32: ``(n, size)`` uint8."""
-    values = np.ascontiguousarray(values, dtype="<i4")
-    n, k = values.shape
-    head = np.array([0, 1, 0, 0], np.uint8).tobytes() + np.array([0, 0, k], "<u4").tobytes()  # dim[]=0, offset=0, len
-    out = np.empty((n, len(head) + 4 * k), np.uint8)
-    out[:, :len(head)] = np.frombuffer(head, np.uint8)
-    out[:, len(head):] = values.view(np.uint8).reshape(n, 4 * k)
-    return out
+    return _cdr(_Layout.int32_array(0, np.shape(values)[1]), None, values)
 
 
 def _float64_array(values: np.ndarray) -> np.ndarray:
     """CDR of ``n`` ``std_msgs/Float64MultiArray`` with empty layout and ``k`` float64: ``(n, size)`` uint8."""
-    values = np.ascontiguousarray(values, dtype="<f8")
-    n, k = values.shape
-    # dim[] = 0, data_offset = 0, data length k, 4 bytes to align the float64 data on 8
-    head = np.array([0, 1, 0, 0], np.uint8).tobytes() + np.array([0, 0, k, 0], "<u4").tobytes()
-    out = np.empty((n, len(head) + 8 * k), np.uint8)
-    out[:, :len(head)] = np.frombuffer(head, np.uint8)
-    out[:, len(head):] = values.view(np.uint8).reshape(n, 8 * k)
-    return out
+    return _cdr(_Layout.float64_array(0, np.shape(values)[1]), None, values)
 
 
 def _quat_xyzw(R: np.ndarray) -> list[float]:
     return [float(v) for v in Rotation.from_matrix(R).as_quat()]
 
 
-#: MCAP message record head: opcode 0x05, record length, channel, sequence, log and publish time (31 bytes).
-_MSG_HEAD = np.dtype([("op", "u1"), ("length", "<u8"), ("channel", "<u2"), ("sequence", "<u4"), ("log_time", "<u8"),
-                      ("publish_time", "<u8")])
 _MAGIC = bytes([137, 77, 67, 65, 80, 48, 13, 10])
 #: Uncompressed bytes of message records per chunk (as the ``mcap`` writer's default ``chunk_size``).
 CHUNK_BYTES = 1 << 20
+#: zstd's parameters for the chunks (``compression_level=None``): its fast strategy (as its negative levels)
+#: with a window of one chunk, a 2¹⁴-entry hash table, matches of at least 7 bytes and a step of 3 over
+#: unmatched bytes (the float64 values, which hardly compress). On the export's chunks (60 s, 1 MiB
+#: each; CPU time, median of 5 rounds) against level −1: 0.76× the time, 1.03× the size (level −3:
+#: 0.75×, 1.06×; −2: 0.81×, 1.03×; lz4 frames: 0.76×, 1.28×); docs/interop.md.
+ZSTD_PARAMETERS = dict(strategy=1, window_log=20, hash_log=14, chain_log=14, search_log=1, min_match=7,
+                       target_length=3)
 
 
 def write_mcap(data, path, *, raw_counts: bool = True, progress=None) -> dict:
@@ -165,17 +230,25 @@ class McapWriter:
     path : str or Path
     raw_counts : bool
         Write ``/pito/raw_counts``.
+    compression_level : int, optional
+        zstd's level for the chunks; None: :data:`ZSTD_PARAMETERS`.
+    background : bool
+        Compress and write the chunks in a second thread (zstd, CRC and file writes release the
+        GIL) while the caller fills the next one: less wall time on two cores, the same CPU time
+        and the same file. False: all in the calling thread.
 
     :meth:`append` takes the :class:`~pito_core.interop.ExportData` blocks in order; :meth:`close`
     writes the summary and returns ``{topic: message count}``.
     """
 
-    def __init__(self, head, path, *, raw_counts: bool = True, compression_level: int = -1):
+    def __init__(self, head, path, *, raw_counts: bool = True, compression_level: int | None = None,
+                 background: bool = False):
         import zstandard  # deferred: optional dependency (extra "interop", with mcap)
         from mcap.records import Header
 
         self.head, self.raw_counts = head, bool(raw_counts)
-        self._zstd = zstandard.ZstdCompressor(level=compression_level)
+        self._zstd = zstandard.ZstdCompressor(level=compression_level) if compression_level is not None else \
+            zstandard.ZstdCompressor(compression_params=zstandard.ZstdCompressionParameters(**ZSTD_PARAMETERS))
         self._fh = open(path, "wb")
         self._fh.write(_MAGIC)
         self._put(Header(profile="ros2", library=f"pito {__version__} (pito_core.interop)"))
@@ -184,6 +257,15 @@ class McapWriter:
         for name, text in MSGDEFS.items():
             self._schema(name, text)
         self._channels: dict[str, int] = {}
+        self._layouts: dict[str, _Layout] = {}
+        self._bufs = [np.empty(0, np.uint8), np.empty(0, np.uint8)]  # two in background: one filled, one written
+        self._busy = [None, None]  # the background write of each buffer
+        self._next = 0
+        self._pool = None
+        if background:
+            from concurrent.futures import ThreadPoolExecutor
+
+            self._pool = ThreadPoolExecutor(1, thread_name_prefix="pito-mcap")  # one thread: chunks in order
         self.counts: dict[str, int] = {}
         self._times = [None, None]
         self._started = False
@@ -207,7 +289,8 @@ class McapWriter:
         self._put(rec)
         self._records["schemas"].append(rec)
 
-    def _channel(self, topic: str, datatype: str) -> None:
+    def _channel(self, topic: str, datatype: str, layout) -> None:
+        """Channel ``topic``; ``layout(id)``: its messages' :class:`_Layout`."""
         from mcap.records import Channel
 
         rec = Channel(id=len(self._channels) + 1, topic=topic, message_encoding="cdr",
@@ -215,6 +298,7 @@ class McapWriter:
         self._put(rec)
         self._records["channels"].append(rec)
         self._channels[topic] = rec.id
+        self._layouts[topic] = layout(rec.id)
         self.counts[topic] = 0
 
     # ------------------------------------------------------------------ data
@@ -223,85 +307,112 @@ class McapWriter:
         head = self.head
         t0 = int(_ns(head.start_unix, head.time[:1])[0]) if np.size(head.time) else int(head.start_unix * 1e9)
         self._write_provenance(t0)
-        self._channel("/tf_static", "tf2_msgs/msg/TFMessage")
+        tf = _tf_static(head, t0)
+        self._channel("/tf_static", "tf2_msgs/msg/TFMessage", lambda c: _Layout(c, b"", "u1", tf.shape[1]))
         if self.raw_counts:
-            self._channel("/pito/raw_counts", "std_msgs/msg/Int32MultiArray")
+            self._channel("/pito/raw_counts", "std_msgs/msg/Int32MultiArray", lambda c: _Layout.int32_array(c, 36))
+        wrench = "geometry_msgs/msg/WrenchStamped"
         if np.size(head.reference_time):
-            self._channel("/pito/reference/wrench", "geometry_msgs/msg/WrenchStamped")
+            self._channel("/pito/reference/wrench", wrench, lambda c: _Layout.stamped(c, "pito_reference", 6))
         if first.face_wrenches is not None:
             for i in range(1, 7):
-                self._channel(f"/pito/face_{i}/wrench", "geometry_msgs/msg/WrenchStamped")
+                self._channel(f"/pito/face_{i}/wrench", wrench,
+                              lambda c, i=i: _Layout.stamped(c, ROS_FACE_FRAME.format(i=i), 6))
         if first.contacts is not None:
             for i in range(1, 7):
-                self._channel(f"/pito/face_{i}/contact/point", "geometry_msgs/msg/PointStamped")
-                self._channel(f"/pito/face_{i}/contact/wrench", "geometry_msgs/msg/WrenchStamped")
+                self._channel(f"/pito/face_{i}/contact/point", "geometry_msgs/msg/PointStamped",
+                              lambda c: _Layout.stamped(c, ROS_CORE_FRAME, 3))
+                self._channel(f"/pito/face_{i}/contact/wrench", wrench, lambda c: _Layout.stamped(c, ROS_CORE_FRAME, 6))
                 if getattr(first.contacts, "single_contact", None) is not None:
-                    self._channel(f"/pito/face_{i}/contact/single_contact", "std_msgs/msg/Float64MultiArray")
-        self._write_chunk([("/tf_static", np.array([t0]), _tf_static(head, t0))])
+                    self._channel(f"/pito/face_{i}/contact/single_contact", "std_msgs/msg/Float64MultiArray",
+                                  lambda c: _Layout.float64_array(c, 3))
+        self._write_chunk([("/tf_static", _stamps([t0]), tf)])
 
     def append(self, block) -> None:
         """The messages of ``block`` (an :class:`~pito_core.interop.ExportData` of consecutive samples)."""
         if not self._started:
             self._start(block)
             self._started = True
-        stamp = _ns(block.start_unix, block.time)
-        parts = []
+        stamp = _stamps(_ns(block.start_unix, block.time))
+        parts = []  # (topic, stamps, values): the values are written straight into the chunks' records
         if self.raw_counts:
-            parts.append(("/pito/raw_counts", stamp, _int32_array(block.counts)))
+            parts.append(("/pito/raw_counts", stamp, block.counts))
         if np.size(block.reference_time):  # every reference record, at its own time (the cube's clock), tared
-            rstamp = _ns(block.start_unix, block.reference_time)
-            parts.append(("/pito/reference/wrench", rstamp,
-                          _stamped(rstamp, "pito_reference", np.asarray(block.reference_wrench, float))))
+            parts.append(("/pito/reference/wrench", _stamps(_ns(block.start_unix, block.reference_time)),
+                          block.reference_wrench))
         if block.face_wrenches is not None:
+            fw = block.face_wrenches
+            ok = np.isfinite(fw).all(axis=2)  # no message where there is no value
             for i in range(1, 7):
-                fw = np.asarray(block.face_wrenches[:, i - 1], float)
-                ok = np.isfinite(fw).all(axis=1)  # no message where there is no value
-                parts.append((f"/pito/face_{i}/wrench", stamp[ok], _stamped(stamp[ok], ROS_FACE_FRAME.format(i=i), fw[ok])))
+                v = ok[:, i - 1]
+                parts.append((f"/pito/face_{i}/wrench", stamp, fw[:, i - 1]) if v.all() else
+                             (f"/pito/face_{i}/wrench", stamp[v], fw[v, i - 1]))
         if block.contacts is not None:
             parts += _contact_parts(block.contacts, stamp)
         self._write_block(parts, stamp)
 
     def _write_block(self, parts: list, stamp: np.ndarray) -> None:
-        """``parts`` ``[(topic, stamps, encoded)]`` as chunks of about :data:`CHUNK_BYTES`, cut at cube sample times."""
-        total = sum(e.size + 31 * len(e) for _, _, e in parts)
+        """``parts`` ``[(topic, stamps (_STAMP rows), values)]`` as chunks of about :data:`CHUNK_BYTES`, cut at
+        cube sample times."""
+        total = sum(len(st) * self._layouts[topic].size for topic, st, _ in parts)
         k = max(1, -(-total // CHUNK_BYTES))
         if k == 1 or stamp.size < 2:
             self._write_chunk(parts)
             return
-        cuts = stamp[np.linspace(0, stamp.size, k + 1).astype(int)[1:-1]]
-        sl = [np.concatenate([[0], np.searchsorted(st, cuts, side="left"), [st.size]]) for _, st, _ in parts]
+        cuts = stamp["ns"][np.linspace(0, stamp.size, k + 1).astype(int)[1:-1]]
+        sl = [np.concatenate([[0], np.searchsorted(st["ns"], cuts, side="left"), [st.size]]) for _, st, _ in parts]
         for c in range(k):
-            self._write_chunk([(topic, st[s[c]:s[c + 1]], enc[s[c]:s[c + 1]])
-                               for (topic, st, enc), s in zip(parts, sl)])
+            self._write_chunk([(topic, st[s[c]:s[c + 1]], v[s[c]:s[c + 1]]) for (topic, st, v), s in zip(parts, sl)])
 
     def _write_chunk(self, parts: list) -> None:
-        """One chunk (zstd) of the messages ``[(topic, stamps (n,) ns, encoded (n, size) uint8)]`` and its indexes."""
-        from mcap.records import Chunk, ChunkIndex
+        """One chunk (zstd) of the messages ``[(topic, stamps (n,) of _STAMP, values (n, k))]`` and its indexes.
 
-        parts = [(topic, st, enc) for topic, st, enc in parts if len(enc)]
+        The message records are written in place in a buffer kept from chunk to chunk (two, taken
+        in turn, with ``background``: a buffer is filled again once its chunk is written)."""
+        parts = [(topic, st, v) for topic, st, v in parts if len(st)]
         if not parts:
             return
-        data = np.empty(sum(len(enc) * (31 + enc.shape[1]) for _, _, enc in parts), np.uint8)
+        i = self._next
+        if self._pool is not None:
+            self._next = 1 - i
+            if self._busy[i] is not None:
+                self._busy[i].result()  # (a failure of the writing thread is raised here)
+                self._busy[i] = None
+        size = sum(len(st) * self._layouts[topic].size for topic, st, _ in parts)
+        if self._bufs[i].size < size:
+            self._bufs[i] = np.empty(size, np.uint8)
+        data = self._bufs[i][:size]
         index, at = [], 0
-        for topic, st, enc in parts:  # message records: 31-byte head, then the CDR message
-            n, size = len(enc), 31 + enc.shape[1]
+        for topic, st, values in parts:
+            lay = self._layouts[topic]
+            n = len(st)
             cid, seq0 = self._channels[topic], self.counts[topic]
-            rec = data[at:at + n * size].reshape(n, size)
-            head = np.empty(n, _MSG_HEAD)
-            head["op"], head["length"], head["channel"] = 0x05, size - 9, cid
-            head["sequence"] = np.arange(seq0, seq0 + n)
-            head["log_time"] = head["publish_time"] = st
-            rec[:, :31] = head.view(np.uint8).reshape(n, 31)
-            rec[:, 31:] = enc
-            index.append((cid, st, at + size * np.arange(n, dtype=np.uint64)))
-            at += n * size
+            lay.fill(data[at:at + n * lay.size].view(lay.dtype), seq0, st, values)
+            index.append((cid, st["ns"], at + lay.size * np.arange(n, dtype=np.uint64)))
+            at += n * lay.size
             self.counts[topic] = seq0 + n
-        lo = min(int(st.min()) for _, st, _ in parts)
-        hi = max(int(st.max()) for _, st, _ in parts)
+        lo = min(int(st["ns"][0]) for _, st, _ in parts)  # every topic's stamps increase
+        hi = max(int(st["ns"][-1]) for _, st, _ in parts)
         self._times = [lo if self._times[0] is None else min(self._times[0], lo), max(self._times[1] or hi, hi)]
-        chunk = Chunk(compression="zstd", data=self._zstd.compress(data), message_start_time=lo, message_end_time=hi,
-                      uncompressed_crc=zlib.crc32(data), uncompressed_size=len(data))
-        start, length = self._put(chunk)
+        if self._pool is None:
+            self._put_chunk(data, index, lo, hi)
+        else:
+            self._busy[i] = self._pool.submit(self._put_chunk, data, index, lo, hi)
+
+    def _put_chunk(self, data: np.ndarray, index: list, lo: int, hi: int) -> None:
+        """The Chunk record of the message records ``data`` (zstd), then its message indexes ``index``
+        (``[(channel, log times, offsets)]``), at the end of the file."""
+        from mcap.records import ChunkIndex
+
+        size = len(data)
+        packed = self._zstd.compress(data)
+        # the Chunk record (opcode 0x06) by hand: its compressed records written as they are, not copied
+        head = struct.pack("<QQQI", lo, hi, size, zlib.crc32(data)) + struct.pack("<I", 4) + b"zstd" + \
+            struct.pack("<Q", len(packed))
+        start = self._fh.tell()
+        self._fh.write(struct.pack("<BQ", 0x06, len(head) + len(packed)) + head)
+        self._fh.write(packed)
+        length = self._fh.tell() - start
         offsets, idx = {}, bytearray()
         base = self._fh.tell()
         for cid, st, off in index:
@@ -314,7 +425,7 @@ class McapWriter:
         self._records["chunks"].append(ChunkIndex(
             message_start_time=lo, message_end_time=hi, chunk_start_offset=start, chunk_length=length,
             message_index_offsets=offsets, message_index_length=len(idx), compression="zstd",
-            compressed_size=len(chunk.data), uncompressed_size=len(data)))
+            compressed_size=len(packed), uncompressed_size=size))
 
     def _write_provenance(self, t0: int) -> None:
         """The ``pito_provenance`` metadata record and the ``calibration.json`` (and ``.pitocal``) attachments."""
@@ -337,6 +448,19 @@ class McapWriter:
             self._records["attachments"].append(AttachmentIndex(
                 offset=at, length=length, log_time=t0, create_time=0, data_size=len(data), name=name, media_type=media))
 
+    def _wait(self) -> None:
+        """Every chunk handed to the writing thread written (its failure raised), the thread ended."""
+        if self._pool is None:
+            return
+        try:
+            for f in self._busy:
+                if f is not None:
+                    f.result()
+        finally:
+            self._busy = [None, None]
+            self._pool.shutdown(wait=True)
+            self._pool = None
+
     # ------------------------------------------------------------------ summary
     def close(self) -> dict:
         """The summary section (schemas, channels, statistics, indexes), the footer; returns ``{topic: messages}``."""
@@ -346,6 +470,7 @@ class McapWriter:
 
         if not self._started:
             raise ValueError("mcap: no block was written")
+        self._wait()
         self._put(DataEnd(data_section_crc=0))
         start = self._fh.tell()
         b = RecordBuilder()
@@ -401,12 +526,17 @@ def _contact_parts(c, stamp: np.ndarray) -> list:
     parts = []
     for i in range(1, 7):
         k = i - 1
-        v = np.asarray(c.valid[:, k], bool)
+        v = np.flatnonzero(c.valid[:, k])
         st = stamp[v]
-        parts.append((f"/pito/face_{i}/contact/point", st, _stamped(st, ROS_CORE_FRAME, c.point[v, k])))
-        wr = np.concatenate([c.force[v, k], c.torsion[v, k, None] * c.normal[v, k]], axis=1)
-        parts.append((f"/pito/face_{i}/contact/wrench", st, _stamped(st, ROS_CORE_FRAME, wr)))
+        parts.append((f"/pito/face_{i}/contact/point", st, c.point[v, k]))
+        wr = np.empty((len(v), 6))
+        wr[:, :3] = c.force[v, k]
+        np.multiply(c.torsion[v, k, None], c.normal[v, k], out=wr[:, 3:])
+        parts.append((f"/pito/face_{i}/contact/wrench", st, wr))
         if getattr(c, "single_contact", None) is not None:
-            flag = np.c_[c.single_contact[v, k], c.single_contact_p[v, k], c.single_contact_reason[v, k]]
-            parts.append((f"/pito/face_{i}/contact/single_contact", st, _float64_array(flag)))
+            flag = np.empty((len(v), 3))
+            flag[:, 0] = c.single_contact[v, k]
+            flag[:, 1] = c.single_contact_p[v, k]
+            flag[:, 2] = c.single_contact_reason[v, k]
+            parts.append((f"/pito/face_{i}/contact/single_contact", st, flag))
     return parts

@@ -96,6 +96,7 @@ class NwbWriter:
         self._file = None
         self._series: list = []
         self._at = {"cube": 0, "reference": 0}
+        self._scratch = np.empty(0, np.uint8)
 
     def append(self, block) -> None:
         if self._file is None:
@@ -105,8 +106,27 @@ class NwbWriter:
         for s in self._series:
             lo, count = (n, k) if s.rows == "cube" else (m, r)
             if count:
-                s.dataset[lo:lo + count] = s.values(block)
+                self._write(s.dataset, lo, s.values(block))
         self._at["cube"], self._at["reference"] = n + k, m + r
+
+    def _write(self, dataset, lo: int, values) -> None:
+        """``values`` into rows ``lo:`` of ``dataset``: through one scratch buffer in the dataset's dtype (a
+        block's column of a wider array, bool flags, counts held as float64 integers: one copy, no HDF5
+        type conversion), by HDF5's own write (h5py's slicing checks cost more than the copy)."""
+        import h5py
+
+        v = np.asarray(values)
+        dt = dataset.dtype
+        if v.dtype != dt or not v.flags.c_contiguous:
+            size = v.size * dt.itemsize
+            if self._scratch.size < size:
+                self._scratch = np.empty(size, np.uint8)
+            buf = self._scratch[:size].view(dt).reshape(v.shape)
+            np.copyto(buf, v, casting="unsafe")  # the counts: integers (float64) into int32, exactly
+            v = buf
+        space = dataset.id.get_space()
+        space.select_hyperslab((lo,) + (0,) * (v.ndim - 1), v.shape)
+        dataset.id.write(h5py.h5s.create_simple(v.shape), space, v)
 
     def close(self) -> None:
         if self._file is None:
@@ -189,12 +209,12 @@ def _series(head, first) -> list:
                 _Series("behavior", f"contact_face_{i}_torsion", "N*m", "torsion about the normal", "cube",
                         lambda b, k=k: b.contacts.torsion[:, k], float, None),
                 _Series("behavior", f"contact_face_{i}_valid", "1", "1 where the face carries a contact, else 0", "cube",
-                        lambda b, k=k: b.contacts.valid[:, k].astype(np.uint8), np.uint8, None)]
+                        lambda b, k=k: b.contacts.valid[:, k], np.uint8, None)]
             if getattr(c, "single_contact", None) is not None:
                 out += [
                     _Series("behavior", f"contact_face_{i}_single_contact", "1", "1 where one fingertip on the patch "
                             "can produce the face's wrench within its noise, 0 where not (a valid contact with 0 is "
-                            "flagged) or no force", "cube", lambda b, k=k: b.contacts.single_contact[:, k].astype(np.uint8), np.uint8, None),
+                            "flagged) or no force", "cube", lambda b, k=k: b.contacts.single_contact[:, k], np.uint8, None),
                     _Series("behavior", f"contact_face_{i}_single_contact_p", "1", "p-value of the single-contact test "
                             "(0..1; NaN: no force)", "cube", lambda b, k=k: b.contacts.single_contact_p[:, k], float, None),
                     _Series("behavior", f"contact_face_{i}_single_contact_reason", "1", f"why the test fails: {names}",

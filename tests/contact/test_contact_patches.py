@@ -193,6 +193,38 @@ def test_polygon_boundary():
     assert PatchBoundary.from_dict(b.to_dict()).contains(pts).tolist() == b.contains(pts).tolist()
 
 
+def _margin_rowwise(b, p):
+    """The boundary margin of rectangles and ellipses as rows of (x, y) pairs (the layout it had)."""
+    xy = b._project(p)
+    if b.shape == "rectangle":
+        d = np.abs(xy - b.center) - 0.5 * b.size
+        out2 = np.maximum(d, 0.0)
+        outside = np.sqrt((out2 * out2).sum(axis=1))
+        lateral = np.where(outside > 0, -outside, -np.maximum(d[:, 0], d[:, 1]))
+    else:
+        v = xy - b.center
+        r = np.sqrt((v * v).sum(axis=1))
+        v /= b.radii
+        rho = np.sqrt((v * v).sum(axis=1))
+        with np.errstate(invalid="ignore", divide="ignore"):
+            lateral = np.where(rho > 0, r * (1.0 / rho - 1.0), b.radii.min())
+    return lateral if b.z_min is None else np.minimum(p[:, 2] - b.z_min, lateral)
+
+
+def test_margin_by_columns_equals_rows_bit_for_bit():
+    rng = np.random.default_rng(31)
+    p = rng.normal(scale=0.02, size=(4000, 3))
+    p[:5] = [[0.001, -0.002, 0.0], [0.0, 0.0, 0.01], [np.nan, 0.0, 0.0], [0.0, np.inf, 0.0], [0.023, 0.0, 0.0]]
+    p[5:500] *= 1e-9  # near the centre and on it
+    for b in (PatchBoundary("rectangle", size=[0.046, 0.03], center=(0.001, -0.002)),
+              PatchBoundary("ellipse", radii=[0.023, 0.02], z_min=0.002),
+              PatchBoundary("ellipse", radii=[0.02, 0.018], center=(0.002, 0.0), projection="central",
+                            apex=[0.0, 0.0, -0.025])):
+        with np.errstate(invalid="ignore"):
+            want = _margin_rowwise(b, p)
+        np.testing.assert_array_equal(b.margin(p).view(np.int64), want.view(np.int64))
+
+
 def test_surface_round_trip_through_dict():
     for s in (Plane([0, 0, 1e-3], [0, 0, 2]), Sphere([0, 0, -0.02], 0.03), Ellipsoid([0, 0, 0], [0.03, 0.02, 0.01])):
         t = surface_from_dict(surface_to_dict(s))

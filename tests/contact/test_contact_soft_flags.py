@@ -227,3 +227,18 @@ def test_copies_come_back_only_when_no_longer_needed():
     for k, e in zip((3, 2, 0), ests[::-1]):
         np.testing.assert_array_equal(e.single_contact_p, ref[k])
     np.testing.assert_array_equal(again.single_contact_p, ref[1])
+
+
+@pytest.mark.parametrize("alpha", [0.05, 0.7])
+def test_p_of_rows_tested_in_full_and_of_rows_single_by_their_signs(alpha):
+    rng = np.random.default_rng(28)  # α > 1/2: every row tested in full, its p from the kept min z
+    surface = SURFACES["ellipsoid"]
+    w = _touches(surface, 600, rng)
+    S = _covs(rng, len(w))
+    est = solve(surface, w, wrench_cov=S, mu=MU, torsion_radius=E, alpha=alpha)
+    strong = np.einsum("ij,ij->i", w[:, :3], w[:, :3]) >= 0.05**2
+    blocks = [(surface, None, slice(0, strong.sum()))]
+    c, n, f, tau, ok = _solved(blocks, w[strong])
+    ref = soft_finger_test(c, n, f, tau, S[strong], blocks, MU, E, alpha, ok, w[strong, 3:])
+    np.testing.assert_array_equal(est.single_contact_p[strong], ref[1])
+    np.testing.assert_array_equal(est.single_contact[strong], ref[0])

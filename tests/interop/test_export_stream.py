@@ -146,3 +146,14 @@ def test_streamed_mcap_and_nwb_hold_the_same_as_the_whole_export(interop_files, 
             np.testing.assert_array_equal(beh[f"contact_face_{i}_valid/data"][:], whole.contacts.valid[:, i - 1])
             np.testing.assert_array_equal(beh[f"contact_face_{i}_single_contact_p/data"][:],
                                           whole.contacts.single_contact_p[:, i - 1])
+
+
+def test_mcap_written_by_a_second_thread_is_the_same_file(interop_files, tmp_path):
+    pytest.importorskip("mcap_ros2", reason="the interop extra is not installed")
+    _, _, rec, _ = interop_files
+    one = export_files(rec, mcap=tmp_path / "one.mcap", block=400)
+    two = export_files(rec, mcap=tmp_path / "two.mcap", block=400, threads=2)
+    assert one["topics"] == two["topics"]
+    assert (tmp_path / "one.mcap").read_bytes() == (tmp_path / "two.mcap").read_bytes()
+    with pytest.raises(ValueError, match="threads: expected 1 or 2"):
+        export_files(rec, mcap=tmp_path / "three.mcap", threads=3)
