@@ -301,7 +301,8 @@ def _leverage(D: np.ndarray) -> np.ndarray:
     w, U = np.linalg.eigh(D.T @ D)
     keep = w > LEVERAGE_RTOL * max(w[-1], 0.0)
     Z = D @ (U[:, keep] / np.sqrt(w[keep]))
-    return np.einsum("ij,ij->i", Z, Z)
+    Z *= Z
+    return Z.sum(axis=1)
 
 
 def correction_leverage(cal, groups, counts: np.ndarray, session: np.ndarray, n_sessions: int) -> np.ndarray:
@@ -380,7 +381,7 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
                 V_out[rows] = carries[usable][:, idx, None] * vo
     E, V, L, phi = E[:at], V[:at], L[:at], load_features(q[:at])  # (n, F, 6), (n, F, 6), (n,), (n, F, 4)
     del q
-    H = correction_leverage(cal, groups, counts[:at], session[:at], len(offsets))  # (n, F)
+    H = correction_leverage(cal, groups, counts[:at], session[:at], len(offsets)) if V.any() else np.zeros((at, F))
     del counts
     hV_out = np.einsum("nf,nfi->fi", H, V_out[:at]) / max(at, 1)
     rho = held_out_ratio(cal, V_out[:at].sum(axis=0) / max(at, 1), hV_out)
@@ -398,7 +399,7 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
             c = _nnls(phi[:, f], y)
             c[0] = max(c[0], floor[f, a])
             d = np.mean(phi[:, f] @ c) + V[:, f, a]
-            if np.all(d > 0):
+            if V[:, f, a].any() and np.all(d > 0):  # (equal weights otherwise: the same fit)
                 c = _nnls(phi[:, f] / d[:, None], y / d)
                 c[0] = max(c[0], floor[f, a])
             coef[f, a] = c
