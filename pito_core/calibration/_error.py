@@ -294,44 +294,66 @@ def held_out_ratio(cal, noise=None, kept=None) -> float:
     return max(float(np.median(r)), 1.0) if r.size else 1.0
 
 
-def _leverage(D: np.ndarray) -> np.ndarray:
-    """``(n,)`` each row's leverage ``dᵢᵀ (DᵀD)⁺ dᵢ`` in the design ``D (n, p)``."""
-    s = np.linalg.norm(D, axis=0)
-    D = D / np.where(s > 0, s, 1.0)
-    w, U = np.linalg.eigh(D.T @ D)
+def _hat(G: np.ndarray) -> np.ndarray:
+    """``M (p, r)`` with ``‖d M‖² = dᵀ G⁺ d`` for the Gram ``G = DᵀD`` of a design (columns scaled to unit
+    norm first; directions below ``LEVERAGE_RTOL`` of the largest dropped)."""
+    s = np.sqrt(np.clip(np.diag(G), 0.0, None))
+    s = np.where(s > 0, s, 1.0)
+    w, U = np.linalg.eigh(G / np.outer(s, s))
     keep = w > LEVERAGE_RTOL * max(w[-1], 0.0)
-    Z = D @ (U[:, keep] / np.sqrt(w[keep]))
+    return U[:, keep] / np.sqrt(w[keep]) / s[:, None]
+
+
+def _row_norms2(D: np.ndarray, M: np.ndarray) -> np.ndarray:
+    Z = D @ M
     Z *= Z
     return Z.sum(axis=1)
 
 
-def correction_leverage(cal, groups, counts: np.ndarray, session: np.ndarray, n_sessions: int) -> np.ndarray:
+def correction_leverage(cal, groups, blocks, offsets) -> np.ndarray:
     """``(n, F)`` the leverage the correction's features add to each sample, per output face.
 
     The design of a face's rows is the affine fit's (an offset column per session, the group's
-    counts less their centre) beside the correction's features that its rows use; its leverage
-    less that of the affine design alone, on these ``n`` samples (the error model's subsample of
-    ``counts (n, 36)``, ``session (n,)`` their session), scaled from ``n`` to the rows the
-    correction was fitted on. The ridge is left out (an upper bound). Zero for ``linear``.
+    counts) beside the correction's features that its rows use; its leverage less that of the
+    affine design alone, on the ``n`` samples of ``blocks`` (the error model's subsample: a list of
+    ``(x (m, 36), k)``, counts less session ``k``'s tare ``offsets[k]``), scaled from ``n`` to the
+    rows the correction was fitted on. The ridge is left out (an upper bound). Zero for ``linear``.
     """
     from ._nlfit import MAX_ROWS  # deferred: _nlfit imports this module's constants through _gramfit
 
-    n, F = counts.shape[0], len(cal.output_faces)
+    n, F, n_int = sum(len(x) for x, _ in blocks), len(cal.output_faces), len(offsets)
     H = np.zeros((n, F))
     if cal.correction is None or n == 0:
         return H
     n_fit = max(int(cal.meta.get("n_samples_fitted", n)), n)
     n_corr = n_fit / np.ceil(n_fit / MAX_ROWS)  # every stride-th sample (_nlfit.PolyAccumulator)
-    phi = cal.correction.features(counts - cal.offset)
-    onehot = (session[:, None] == np.arange(n_sessions)).astype(float)
-    for g in groups:
-        affine = np.concatenate([onehot, counts[:, g.inputs] - g.center], axis=1)
-        h0 = None
-        for k in np.unique(g.rows // 6):
-            used = np.flatnonzero(np.any(cal.correction.coef[6 * k : 6 * k + 6] != 0, axis=0))
-            if used.size:
-                h0 = _leverage(affine) if h0 is None else h0
-                H[:, k] = np.clip(_leverage(np.concatenate([affine, phi[:, used]], axis=1)) - h0, 0.0, 1.0) * n / n_corr
+    faces = [(g, k, np.flatnonzero(np.any(cal.correction.coef[6 * k : 6 * k + 6] != 0, axis=0)))
+             for g in groups for k in np.unique(g.rows // 6)]
+    faces = [(g, k, used) for g, k, used in faces if used.size]
+
+    def designs(x, k):  # per group its affine design, then per face the affine design and its features
+        onehot = np.zeros((len(x), n_int))
+        onehot[:, k] = 1.0
+        phi = cal.correction.features(x + (offsets[k] - cal.offset))
+        affine = {id(g): np.concatenate([onehot, x[:, g.inputs]], axis=1) for g in groups}
+        return affine, [np.concatenate([affine[id(g)], phi[:, used]], axis=1) for g, _, used in faces]
+
+    G0, G1 = {}, [0.0] * len(faces)
+    for x, k in blocks:  # the Gram matrices, then each row's leverage
+        affine, full = designs(x, k)
+        for key, A in affine.items():
+            G0[key] = G0.get(key, 0.0) + A.T @ A
+        for j, D in enumerate(full):
+            G1[j] += D.T @ D
+    M0, M1 = {key: _hat(G) for key, G in G0.items()}, [_hat(G) for G in G1]
+    at = 0
+    for x, k in blocks:
+        affine, full = designs(x, k)
+        rows = slice(at, at + len(x))
+        at = rows.stop
+        for (g, face, _), D, M in zip(faces, full, M1):
+            h = _row_norms2(D, M) - _row_norms2(affine[id(g)], M0[id(g)])
+            H[rows, face] = np.clip(h, 0.0, 1.0) * n / n_corr
     return H
 
 
@@ -363,29 +385,41 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
     n = sum(len(b.counts) for blocks in subsample for b in blocks)
     E, V = np.zeros((n, F, 6)), np.zeros((n, F, 6), dtype=np.float32)  # residuals, the reference's noise in them
     q, L, at = np.zeros((n, F)), np.zeros(n, dtype=bool), 0
-    V_out = np.zeros((n, F, 6), dtype=np.float32)  # the reference's noise variance in the targets, output frame
-    counts, session = np.zeros((n, N_GAUGES)), np.zeros(n, dtype=np.int64)
+    C, v_out = np.zeros((n, F), dtype=bool), np.zeros((len(offsets), F, 6))  # carries; the noise in the targets
+    X = []  # per block, counts less the session's tare (float32) and the session: the correction's leverage
+    keep_x = cal.correction is not None and any(rc is not None and np.any(np.diag(rc) > 0) for rc in ref_covs)
+    spans = []  # each session's rows
     for k, (blocks, mount, off, rc) in enumerate(zip(subsample, mounts, offsets, ref_covs)):
+        first = at
         v = None if rc is None else np.einsum("fij,jk,fik->fi", mount.X_face_ati, rc, mount.X_face_ati)[idx]
-        vo = None if rc is None else (np.broadcast_to(np.diag(rc), (F, 6)) if cal.output_frame == "reference" else v)
+        if rc is not None:  # in the output frame
+            v_out[k] = np.broadcast_to(np.diag(rc), (F, 6)) if cal.output_frame == "reference" else v
         for b in blocks:
             T, carries, usable, _ = block_targets(np.asarray(b.reference, float), b.loaded, mount, "face")
             rows = slice(at, at + int(usable.sum()))
             at = rows.stop
-            counts[rows], session[rows] = np.asarray(b.counts, float)[usable], k
-            W = cal.wrenches(counts[rows], offset=off)[:, idx]
+            counts = np.asarray(b.counts, float)[usable]
+            W = cal.wrenches(counts, offset=off)[:, idx]
+            if keep_x:
+                X.append(((counts - off).astype(np.float32), k))
+            C[rows] = carries[usable][:, idx]
             E[rows] = T[usable][:, idx] - W
             q[rows], L[rows] = face_q(W), b.loaded[usable].any(axis=1)
             if v is not None:
                 V[rows] = carries[usable][:, idx, None] * v
-                V_out[rows] = carries[usable][:, idx, None] * vo
+        spans.append(slice(first, at))
+    counts = None
     E, V, L, phi = E[:at], V[:at], L[:at], load_features(q[:at])  # (n, F, 6), (n, F, 6), (n,), (n, F, 4)
     del q
-    H = correction_leverage(cal, groups, counts[:at], session[:at], len(offsets)) if V.any() else np.zeros((at, F))
-    del counts
-    hV_out = np.einsum("nf,nfi->fi", H, V_out[:at]) / max(at, 1)
-    rho = held_out_ratio(cal, V_out[:at].sum(axis=0) / max(at, 1), hV_out)
-    del V_out
+    H = correction_leverage(cal, groups, X, offsets) if keep_x and V.any() else None
+    del X
+    noise, kept = np.zeros((F, 6)), np.zeros((F, 6))  # means over the samples, output frame
+    for k, rows in enumerate(spans):
+        noise += C[rows].sum(axis=0)[:, None] * v_out[k] / max(at, 1)
+        if H is not None:
+            kept += (H[rows] * C[rows]).sum(axis=0)[:, None] * v_out[k] / max(at, 1)
+    rho = held_out_ratio(cal, noise, kept)
+    del C
     if at == 0:  # no usable sample in the subsample: the coefficients' term alone
         return ErrorModel(variance_coef=np.zeros((6 * F, N_FEATURES)), residual_corr=np.broadcast_to(np.eye(6), (F, 6, 6)),
                           scale=rho)
@@ -394,17 +428,24 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
     coef, kept = np.zeros((F, 6, N_FEATURES)), np.zeros((F, 6, N_FEATURES))  # the model's error; h V
     for f in range(F):
         for a in range(6):
-            hv = H[:, f] * V[:, f, a]
-            y = E[:, f, a] ** 2 - V[:, f, a] + hv
+            v = V[:, f, a]
+            noisy = bool(v.any())
+            hv = H[:, f] * v if noisy and H is not None else None
+            y = E[:, f, a] ** 2
+            if noisy:
+                y -= v
+                if hv is not None:
+                    y += hv
             c = _nnls(phi[:, f], y)
             c[0] = max(c[0], floor[f, a])
-            d = np.mean(phi[:, f] @ c) + V[:, f, a]
-            if V[:, f, a].any() and np.all(d > 0):  # (equal weights otherwise: the same fit)
-                c = _nnls(phi[:, f] / d[:, None], y / d)
-                c[0] = max(c[0], floor[f, a])
+            if noisy:  # weights 1 / (v̄ + V) (equal weights otherwise: the same fit)
+                d = np.mean(phi[:, f] @ c) + v
+                if np.all(d > 0):
+                    c = _nnls(phi[:, f] / d[:, None], y / d)
+                    c[0] = max(c[0], floor[f, a])
+                if hv is not None and hv.any():
+                    kept[f, a] = _nnls(phi[:, f], hv)
             coef[f, a] = c
-            if hv.any():
-                kept[f, a] = _nnls(phi[:, f], hv)
     del H
     var = np.einsum("nfk,fik->nfi", phi, coef + kept)
     del phi

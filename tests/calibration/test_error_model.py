@@ -134,7 +134,8 @@ def test_the_correction_leverage_adds_one_per_feature_and_nothing_to_a_linear_fi
         fitter = Calibrator("face_to_face", model=model).fit(s)
         cal = fitter.calibration_
         counts = np.asarray(s.counts, float)
-        H = correction_leverage(cal, cal.covariance.groups, counts, np.zeros(len(counts), int), 1)
+        H = correction_leverage(cal, cal.covariance.groups, [(counts[:700] - cal.offset, 0), (counts[700:] - cal.offset, 0)],
+                                [cal.offset])
         assert H.shape == (len(counts), 6) and (H >= 0).all()
         if model == "linear":
             assert not H.any()
