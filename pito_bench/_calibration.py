@@ -441,7 +441,9 @@ def task_coverage_cubes(k, draws, seed=1) -> dict:
 
     Each method is fitted ``draws`` times (2000 samples at rest, as the wizard's 2 s tare) on single-face
     loads and scored on a later session re-tared on its own samples at rest (single-face loads):
-    the share of samples inside ``W ± 1.96 σ``, per face and axis, pooled over the draws.
+    the share of samples inside ``W ± 1.96 σ``, per face and axis, pooled over the draws; ``se`` is the
+    standard error of the pooled figure over the draws (each draw's pooled share; the test session is
+    one, so the binomial ``√(0.95 · 0.05 / n)`` over its samples understates it).
     """
     flanges = {"face_to_face": "frame_hole", "quasi_total": "frame", "total": "face", "loaded_frame": "frame_hole",
                "unloaded_frame": "face"}
@@ -456,6 +458,7 @@ def task_coverage_cubes(k, draws, seed=1) -> dict:
                                        offset_shift=50.0)
                 ld = test.loaded.any(axis=1)
                 hits = n = 0
+                per_draw = []
                 for d in range(draws):
                     train, _ = cube_session(cube, fl, c, faces, k, n_rest=2000, seed=seed + 31 * d,
                                             reference_noise=noise)
@@ -465,10 +468,13 @@ def task_coverage_cubes(k, draws, seed=1) -> dict:
                     W, cov = cal.wrenches(test.counts[ld], return_cov=True)
                     inside = np.abs(W - F[ld]) <= 1.959964 * np.sqrt(np.diagonal(cov, axis1=-2, axis2=-1))
                     hits, n = hits + inside.sum(axis=0), n + ld.sum()
+                    per_draw.append(float(inside.mean(axis=0)[cal.has_output].mean()))
                 cover = (hits / n)[cal.has_output]
                 rows.append({"cube": f"{form} {coupling:.0%}", "method": method, "reference_noise": noise,
                              "model": cal.model.name, "pooled": float(cover.mean()), "min": float(cover.min()),
                              "max": float(cover.max()), "out_of_93_97": int(((cover < 0.93) | (cover > 0.97)).sum()),
+                             "se": float(np.std(per_draw, ddof=1) / np.sqrt(draws)) if draws > 1 else float("nan"),
+                             "n_samples": int(n),
                              "n_axes": int(cover.size), "per_face_axis": np.where(cal.has_output[:, None],
                                                                                   hits / n, np.nan).tolist()})
     return {"rows": rows}
@@ -476,7 +482,7 @@ def task_coverage_cubes(k, draws, seed=1) -> dict:
 
 def coverage_cubes(quick: bool = False, threads: int = 1, progress=print) -> dict:
     """The section ``calibration.coverage_cubes`` of ``pito bench`` (in a subprocess)."""
-    k, draws = (1000, 2) if quick else (2000, 4)
+    k, draws = (1000, 2) if quick else (2000, 8)
     progress(f"calibration: interval coverage on the bench's own cubes, k = {k} per face, {draws} draws")
     r = run_worker("cal_coverage_cubes", {"k": k, "draws": draws}, threads=threads)
     return {"data": "SIMULATED: pito_bench._cubes (independent of pito_core.sim)", "k": k, "draws": draws,
@@ -486,7 +492,27 @@ def coverage_cubes(quick: bool = False, threads: int = 1, progress=print) -> dic
 def coverage_cubes_table(cc) -> tuple[str, list, list]:
     """``(title, header, rows)`` of the coverage study for the text report."""
     rows = [[r["cube"], r["method"], f"{100 * r['reference_noise']:.2f}", r["model"], f"{100 * r['pooled']:.1f}",
+             "" if np.isnan(r.get("se", np.nan)) else f"{100 * r['se']:.2f}",
              f"{100 * r['min']:.1f}", f"{100 * r['max']:.1f}", f"{r['out_of_93_97']}/{r['n_axes']}"] for r in cc["rows"]]
     title = (f"Calibration intervals, nominal 95 %, against the true face wrench ({cc['data']}; {cc['draws']} "
-             f"calibrations pooled, later session re-tared; % of samples inside, per face and axis)")
-    return title, ["cube", "method", "ref noise %FS", "model", "pooled %", "min %", "max %", "axes outside 93-97"], rows
+             f"calibrations pooled, later session re-tared; % of samples inside, per face and axis; ± its "
+             f"standard error over the draws)")
+    return title, ["cube", "method", "ref noise %FS", "model", "pooled %", "±", "min %", "max %",
+                   "axes outside 93-97"], rows
+
+
+def coverage_faces_table(cc) -> tuple[str, list, list]:
+    """``(title, header, rows)``: the coverage study per method, face and axis, pooled over its cubes
+    and reference noise levels, with the lowest and highest row (cube and noise level) beside it."""
+    axes = ("fx", "fy", "fz", "tx", "ty", "tz")
+    rows = []
+    for method in dict.fromkeys(r["method"] for r in cc["rows"]):
+        per = np.array([r["per_face_axis"] for r in cc["rows"] if r["method"] == method], dtype=float)  # (rows, 6, 6)
+        for f in range(6):
+            if np.all(np.isnan(per[:, f])):
+                continue
+            rows.append([method, str(f + 1)] + [f"{100 * np.nanmean(per[:, f, a]):.1f} ({100 * np.nanmin(per[:, f, a]):.0f}-"
+                                                f"{100 * np.nanmax(per[:, f, a]):.0f})" for a in range(6)])
+    title = (f"Calibration intervals per face and axis, nominal 95 % ({cc['data']}): % inside, the mean over the "
+             "cubes and reference noise levels (lowest-highest)")
+    return title, ["method", "face", *axes], rows

@@ -117,7 +117,7 @@ def cube_session(cube: BenchCube, flange: str, connected_face: int, faces, k: in
     F = np.stack([transform_wrench(carried[:, i], poses[i]) for i in range(6)], axis=1)
     counts = cube.offset + offset_shift + cube.counts(F) + rng.normal(scale=noise, size=(len(F), 36))
     reference = transform_wrench(total, T_core_ati)
-    if reference_noise:
+    if np.any(reference_noise):
         reference = reference + rng.normal(size=reference.shape) * reference_noise * FULL_SCALE
     s = CalibrationSession(np.round(counts).astype(np.int64), reference, loaded, T_core_ati, flange, c, core=core,
                            meta={"generator": "pito_bench._cubes (simulated)", "simulated": True})

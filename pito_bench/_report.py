@@ -7,7 +7,7 @@ import os
 
 from pito_core.report import fmt, new_figure, save_png, table
 
-from ._calibration import coverage_cubes_table
+from ._calibration import coverage_cubes_table, coverage_faces_table
 from ._model_choice import independent_table, model_choice_table
 from ._single_contact import plot_single, single_table_rows
 
@@ -268,6 +268,7 @@ def _calibration_tables(cal: dict) -> list[str]:
             parts.append(text_table(*independent_table(cal["model_choice"])))
     if cal.get("coverage_cubes"):
         parts.append(text_table(*coverage_cubes_table(cal["coverage_cubes"])))
+        parts.append(text_table(*coverage_faces_table(cal["coverage_cubes"])))
     rows = [[os.path.basename(g["path"]), f"{g['n']:,}", _f(g["seconds"]), _f(g["file_MB"])] for g in cal["generation"]]
     parts.append(text_table("Simulated session files (generation, not fit time)",
                             ["file", "samples", "generation (s)", "size (MB)"], rows))

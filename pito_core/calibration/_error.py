@@ -10,15 +10,23 @@ One estimator (docs/calibration.md, "Uncertainty"). A prediction's error has two
   variance ``c₀ + c₁ q + c₂ q² + c₃ q_other`` of the face's own load ``q = ‖ŵ_face / FULL_SCALE‖²``
   and of the other faces' (the sum of their ``q``), fitted by non-negative least squares to the
   squared residuals of the training subsample (each session tared on its samples at rest, as the
-  calibration is used) less the reference's noise at rest where the face carries; ``c₀`` is at
-  least the gauge noise through the matrix. The six axes of a face share the residuals' correlation.
+  calibration is used) less the reference's noise ``V`` that is left in them where the face
+  carries, ``V (1 − h)``; rows weighted by ``1 / (v̄ + V)`` (``v̄`` the axis's mean variance of an
+  unweighted first fit: a squared residual's spread grows with the noise in it); ``c₀`` is at least
+  the gauge noise through the matrix. The six axes of a face share the residuals' correlation;
+* the reference's noise that the correction's coefficients kept: ``h V``, fitted to the same
+  features, ``h`` the leverage the correction's features add to the sample in the fit's design
+  (:func:`correction_leverage`). A noisy reference is fitted in part (the in-sample residual
+  keeps ``V (1 − h)``) and the part fitted moves the prediction by as much (``h V``): where the
+  noise swamps the model's own error the residuals cannot show it.
 
 The sum is multiplied by ``scale²``, the factor that puts 95 % of the loaded training residuals
 within ``±1.96`` standard deviations (the reference's noise added where the face carries; the
-errors are not Gaussian). The sample's own term is also multiplied by the held-out factor²: the
-median over outputs of the chosen model's cross-validated RMSE over its in-sample RMSE (the
-fit's own folds, ``ModelChoice.cv_rmse``; 1 where none ran), except a ``face_to_face`` face's
-``c₃``: it never fitted its crosstalk, whose residuals are held out already. After
+errors are not Gaussian). The model's own error (not the ``h V`` term) is also multiplied by the
+held-out factor²: the median over outputs of the chosen model's cross-validated RMSE over its
+in-sample RMSE (the fit's own folds, ``ModelChoice.cv_rmse``; 1 where none ran), each mean square
+less the reference's noise in it, except a ``face_to_face`` face's ``c₃``: it never fitted its
+crosstalk, whose residuals are held out already. After
 :meth:`CalibrationCovariance.retared` on ``n`` samples the tare's gauge noise ``A Σ_g Aᵀ / n`` is added.
 """
 
@@ -34,7 +42,8 @@ from ..frames import N_GAUGES
 from ._targets import block_targets
 
 __all__ = ["CovarianceGroup", "CalibrationCovariance", "ErrorModel", "fit_error_model", "load_features",
-           "NoisyReferenceWarning", "reference_noise_at_rest", "FULL_SCALE", "N_FEATURES", "ERROR_MODEL_SAMPLES", "COVERAGE", "Z_COVERAGE"]
+           "NoisyReferenceWarning", "reference_noise_at_rest", "correction_leverage", "FULL_SCALE", "N_FEATURES",
+           "ERROR_MODEL_SAMPLES", "COVERAGE", "Z_COVERAGE"]
 
 #: Full-scale loads that make a wrench dimensionless, ``[fx … tz]`` in N and N·m.
 FULL_SCALE = np.asarray(FULL_SCALE_FACE)
@@ -50,6 +59,9 @@ SCALE_BOUNDS = (0.05, 50.0)
 #: A session's reference is above the tare's noise limits when its noise at rest is, less this many
 #: of its standard errors (:func:`reference_noise_at_rest`).
 NOISE_LIMIT_SE = 3.0
+#: Directions of a leverage's design (columns scaled to unit norm) with eigenvalues below this fraction
+#: of the largest are dropped (:func:`correction_leverage`).
+LEVERAGE_RTOL = 1e-10
 
 
 def load_features(q: np.ndarray) -> np.ndarray:
@@ -133,7 +145,8 @@ class ErrorModel:
     ----------
     variance_coef : ndarray, shape (6F, 4)
         Per output face and axis (face frames), non-negative coefficients of the error variance on
-        :func:`load_features` (N², N²·m²), the held-out factor included.
+        :func:`load_features` (N², N²·m²), the held-out factor and the reference's noise the
+        correction kept included.
     residual_corr : ndarray, shape (F, 6, 6)
         Correlation of the residuals between each face's six axes.
     scale : float
@@ -261,22 +274,87 @@ def _standardised(e: np.ndarray, var: np.ndarray) -> np.ndarray:
     return np.divide(e, sd, out=np.zeros_like(e), where=sd > 0)
 
 
-def held_out_ratio(cal, noise=None) -> float:
+def held_out_ratio(cal, noise=None, kept=None) -> float:
     """The median over output rows of the chosen model's cross-validated RMSE over its in-sample RMSE
     (``cal.model.cv_rmse["chosen"]`` over ``cal.meta["fit_residual_rms"]``), each mean square less
-    ``noise (F, 6)``, the reference's mean noise variance in the row's targets (output frame; rows
-    where it is not below the in-sample mean square are left out); at least 1; 1 where no
-    cross-validation ran (``model="linear"``)."""
+    the reference's noise in it: ``noise (F, 6)``, its mean variance in the row's targets (output
+    frame), ``kept (F, 6)``, the mean of ``h V`` (what the correction's coefficients kept of it:
+    held out it adds, in sample it is missing); rows where the in-sample figure is not positive are
+    left out; at least 1; 1 where no cross-validation ran (``model="linear"``)."""
     F = len(cal.output_faces)
     cv = np.asarray((cal.model.cv_rmse or {}).get("chosen") or [], dtype=float)
     fit = np.asarray(cal.meta.get("fit_residual_rms", np.full((6, 6), np.nan)), dtype=float)[np.asarray(cal.output_faces) - 1]
     if cv.size != 6 * F:
         return 1.0
     v = np.zeros((F, 6)) if noise is None else noise
-    num, den = cv.reshape(F, 6) ** 2 - v, fit**2 - v
+    hv = np.zeros((F, 6)) if kept is None else kept
+    num, den = cv.reshape(F, 6) ** 2 - v - hv, fit**2 - v + hv
     ok = np.isfinite(num) & np.isfinite(den) & (den > 0)
     r = np.sqrt(np.maximum(num[ok], 0.0) / den[ok])
     return max(float(np.median(r)), 1.0) if r.size else 1.0
+
+
+def _hat(G: np.ndarray) -> np.ndarray:
+    """``M (p, r)`` with ``‖d M‖² = dᵀ G⁺ d`` for the Gram ``G = DᵀD`` of a design (columns scaled to unit
+    norm first; directions below ``LEVERAGE_RTOL`` of the largest dropped)."""
+    s = np.sqrt(np.clip(np.diag(G), 0.0, None))
+    s = np.where(s > 0, s, 1.0)
+    w, U = np.linalg.eigh(G / np.outer(s, s))
+    keep = w > LEVERAGE_RTOL * max(w[-1], 0.0)
+    return U[:, keep] / np.sqrt(w[keep]) / s[:, None]
+
+
+def _row_norms2(D: np.ndarray, M: np.ndarray) -> np.ndarray:
+    Z = D @ M
+    Z *= Z
+    return Z.sum(axis=1)
+
+
+def correction_leverage(cal, groups, blocks, offsets) -> np.ndarray:
+    """``(n, F)`` the leverage the correction's features add to each sample, per output face.
+
+    The design of a face's rows is the affine fit's (an offset column per session, the group's
+    counts) beside the correction's features that its rows use; its leverage less that of the
+    affine design alone, on the ``n`` samples of ``blocks`` (the error model's subsample: a list of
+    ``(x (m, 36), k)``, counts less session ``k``'s tare ``offsets[k]``), scaled from ``n`` to the
+    rows the correction was fitted on. The ridge is left out (an upper bound). Zero for ``linear``.
+    """
+    from ._nlfit import MAX_ROWS  # deferred: _nlfit imports this module's constants through _gramfit
+
+    n, F, n_int = sum(len(x) for x, _ in blocks), len(cal.output_faces), len(offsets)
+    H = np.zeros((n, F))
+    if cal.correction is None or n == 0:
+        return H
+    n_fit = max(int(cal.meta.get("n_samples_fitted", n)), n)
+    n_corr = n_fit / np.ceil(n_fit / MAX_ROWS)  # every stride-th sample (_nlfit.PolyAccumulator)
+    faces = [(g, k, np.flatnonzero(np.any(cal.correction.coef[6 * k : 6 * k + 6] != 0, axis=0)))
+             for g in groups for k in np.unique(g.rows // 6)]
+    faces = [(g, k, used) for g, k, used in faces if used.size]
+
+    def designs(x, k):  # per group its affine design, then per face the affine design and its features
+        onehot = np.zeros((len(x), n_int))
+        onehot[:, k] = 1.0
+        phi = cal.correction.features(x + (offsets[k] - cal.offset))
+        affine = {id(g): np.concatenate([onehot, x[:, g.inputs]], axis=1) for g in groups}
+        return affine, [np.concatenate([affine[id(g)], phi[:, used]], axis=1) for g, _, used in faces]
+
+    G0, G1 = {}, [0.0] * len(faces)
+    for x, k in blocks:  # the Gram matrices, then each row's leverage
+        affine, full = designs(x, k)
+        for key, A in affine.items():
+            G0[key] = G0.get(key, 0.0) + A.T @ A
+        for j, D in enumerate(full):
+            G1[j] += D.T @ D
+    M0, M1 = {key: _hat(G) for key, G in G0.items()}, [_hat(G) for G in G1]
+    at = 0
+    for x, k in blocks:
+        affine, full = designs(x, k)
+        rows = slice(at, at + len(x))
+        at = rows.stop
+        for (g, face, _), D, M in zip(faces, full, M1):
+            h = _row_norms2(D, M) - _row_norms2(affine[id(g)], M0[id(g)])
+            H[rows, face] = np.clip(h, 0.0, 1.0) * n / n_corr
+    return H
 
 
 def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov) -> ErrorModel:
@@ -307,36 +385,69 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
     n = sum(len(b.counts) for blocks in subsample for b in blocks)
     E, V = np.zeros((n, F, 6)), np.zeros((n, F, 6), dtype=np.float32)  # residuals, the reference's noise in them
     q, L, at = np.zeros((n, F)), np.zeros(n, dtype=bool), 0
-    v_out = np.zeros((F, 6))  # the reference's noise variance in the targets, output frame, summed
-    for blocks, mount, off, rc in zip(subsample, mounts, offsets, ref_covs):
+    C, v_out = np.zeros((n, F), dtype=bool), np.zeros((len(offsets), F, 6))  # carries; the noise in the targets
+    X = []  # per block, counts less the session's tare (float32) and the session: the correction's leverage
+    keep_x = cal.correction is not None and any(rc is not None and np.any(np.diag(rc) > 0) for rc in ref_covs)
+    spans = []  # each session's rows
+    for k, (blocks, mount, off, rc) in enumerate(zip(subsample, mounts, offsets, ref_covs)):
+        first = at
         v = None if rc is None else np.einsum("fij,jk,fik->fi", mount.X_face_ati, rc, mount.X_face_ati)[idx]
-        vo = None if rc is None else (np.broadcast_to(np.diag(rc), (F, 6)) if cal.output_frame == "reference" else v)
+        if rc is not None:  # in the output frame
+            v_out[k] = np.broadcast_to(np.diag(rc), (F, 6)) if cal.output_frame == "reference" else v
         for b in blocks:
             T, carries, usable, _ = block_targets(np.asarray(b.reference, float), b.loaded, mount, "face")
             rows = slice(at, at + int(usable.sum()))
             at = rows.stop
-            W = cal.wrenches(np.asarray(b.counts, float)[usable], offset=off)[:, idx]
+            counts = np.asarray(b.counts, float)[usable]
+            W = cal.wrenches(counts, offset=off)[:, idx]
+            if keep_x:
+                X.append(((counts - off).astype(np.float32), k))
+            C[rows] = carries[usable][:, idx]
             E[rows] = T[usable][:, idx] - W
             q[rows], L[rows] = face_q(W), b.loaded[usable].any(axis=1)
             if v is not None:
                 V[rows] = carries[usable][:, idx, None] * v
-                v_out += carries[usable][:, idx].sum(axis=0)[:, None] * vo
+        spans.append(slice(first, at))
+    counts = None
     E, V, L, phi = E[:at], V[:at], L[:at], load_features(q[:at])  # (n, F, 6), (n, F, 6), (n,), (n, F, 4)
     del q
-    rho = held_out_ratio(cal, v_out / max(at, 1))
+    H = correction_leverage(cal, groups, X, offsets) if keep_x and V.any() else None
+    del X
+    noise, kept = np.zeros((F, 6)), np.zeros((F, 6))  # means over the samples, output frame
+    for k, rows in enumerate(spans):
+        noise += C[rows].sum(axis=0)[:, None] * v_out[k] / max(at, 1)
+        if H is not None:
+            kept += (H[rows] * C[rows]).sum(axis=0)[:, None] * v_out[k] / max(at, 1)
+    rho = held_out_ratio(cal, noise, kept)
+    del C
     if at == 0:  # no usable sample in the subsample: the coefficients' term alone
         return ErrorModel(variance_coef=np.zeros((6 * F, N_FEATURES)), residual_corr=np.broadcast_to(np.eye(6), (F, 6, 6)),
                           scale=rho)
     A = cal._apply[idx]
     floor = np.einsum("fia,ab,fib->fi", A, gauge_cov, A)  # gauge noise through the matrix (F, 6)
-    coef = np.zeros((F, 6, N_FEATURES))
+    coef, kept = np.zeros((F, 6, N_FEATURES)), np.zeros((F, 6, N_FEATURES))  # the model's error; h V
     for f in range(F):
         for a in range(6):
-            y = E[:, f, a] ** 2 - V[:, f, a]
+            v = V[:, f, a]
+            noisy = bool(v.any())
+            hv = H[:, f] * v if noisy and H is not None else None
+            y = E[:, f, a] ** 2
+            if noisy:
+                y -= v
+                if hv is not None:
+                    y += hv
             c = _nnls(phi[:, f], y)
             c[0] = max(c[0], floor[f, a])
+            if noisy:  # weights 1 / (v̄ + V) (equal weights otherwise: the same fit)
+                d = np.mean(phi[:, f] @ c) + v
+                if np.all(d > 0):
+                    c = _nnls(phi[:, f] / d[:, None], y / d)
+                    c[0] = max(c[0], floor[f, a])
+                if hv is not None and hv.any():
+                    kept[f, a] = _nnls(phi[:, f], hv)
             coef[f, a] = c
-    var = np.einsum("nfk,fik->nfi", phi, coef)
+    del H
+    var = np.einsum("nfk,fik->nfi", phi, coef + kept)
     del phi
     with np.errstate(divide="ignore", invalid="ignore"):  # an axis without error: NaN, replaced below
         corr = np.stack([np.corrcoef(_standardised(E[:, f], var[:, f]), rowvar=False) for f in range(F)])
@@ -355,6 +466,7 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
     scale = float(np.clip(np.sqrt(max(np.quantile(t, COVERAGE, overwrite_input=True), 0.0)), lo, hi))
     coef[..., :3] *= rho**2  # held out (own-row fits: not their crosstalk, which they never fitted)
     coef[~own, :, 3] *= rho**2
+    coef += kept
     return ErrorModel(variance_coef=coef.reshape(6 * F, N_FEATURES), residual_corr=corr, scale=scale)
 
 

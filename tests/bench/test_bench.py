@@ -307,3 +307,23 @@ def test_analysis_section_times_every_stage_of_a_simulated_recording():
     assert r["analyze_recording_samples_per_s"] > 0 and r["figures_share"] > 0
     text = "\n".join(_report._analysis_tables({**r, "data": "SIMULATED", "threads": 1}))
     assert "samples/s" in text and "single-contact test" in text
+
+
+def test_the_coverage_tables_give_each_face_and_axis_over_the_rows():
+    """``coverage_faces_table``: per method, face and axis, the mean over the study's rows and its range;
+    faces without output left out."""
+    from pito_bench._calibration import coverage_cubes_table, coverage_faces_table
+
+    rows = []
+    for level, share in ((0.0, 0.94), (0.0033, 0.98)):
+        per = np.full((6, 6), share)
+        per[5] = np.nan
+        rows.append({"cube": "linear 2%", "method": "quasi_total", "reference_noise": level, "model": "linear",
+                     "pooled": share, "se": 0.001, "min": share, "max": share, "out_of_93_97": 0, "n_axes": 30,
+                     "per_face_axis": per.tolist()})
+    cc = {"data": "SIMULATED", "draws": 2, "rows": rows}
+    _, header, table = coverage_faces_table(cc)
+    assert header == ["method", "face", "fx", "fy", "fz", "tx", "ty", "tz"]
+    assert [r[1] for r in table] == ["1", "2", "3", "4", "5"] and table[0][2] == "96.0 (94-98)"
+    _, header, table = coverage_cubes_table(cc)
+    assert header[5] == "±" and table[1][4:6] == ["98.0", "0.10"]
