@@ -334,16 +334,18 @@ def input_map(count_grams: np.ndarray, group_carries: np.ndarray) -> np.ndarray:
     return P
 
 
-def correction(poly: PolyAccumulator, D, edge_matrix, linear_matrix, out_faces) -> PolyCorrection:
+def correction(poly: PolyAccumulator, D, edge_matrix, linear_matrix, out_faces, corrected=None) -> PolyCorrection:
     """The calibration's correction from the fitted feature coefficients ``D (6F, 162)``: inside the
     range of the gauges the accumulator ``poly`` saw, with the linear fit's slope beyond
     (``edge_matrix (6F, 36)``: the corrected slopes less the linear fit's; ``_poly.py``).
 
-    For ``face_to_face`` it reads through :func:`input_map`, and also inside the range of the
-    training loads in the linear fit's coordinates (``linear_matrix (6F, 36)``'s output rows; axes
-    that never carried load left out) is inside. Not for the joint methods: on ``pito_core.sim``'s
-    cube (24 held loads a face) their corrections, trusted out to that box, lost 1.06–1.17× to the
-    linear fit on fresh sessions (≤ 1.04× within the gauges' box)."""
+    For ``face_to_face`` it reads through :func:`input_map`, the ``corrected (6F,)`` rows (default:
+    those with a feature) wholly, their linear part too (``map_matrix``: a squeeze's crosstalk on a
+    face's own gauges, which its single-face training never saw, is taken out), and also inside the
+    range of the training loads in the linear fit's coordinates (``linear_matrix (6F, 36)``'s output
+    rows; axes that never carried load left out) is inside. Not for the joint methods: on
+    ``pito_core.sim``'s cube (24 held loads a face) their corrections, trusted out to that box, lost
+    1.06–1.17× to the linear fit on fresh sessions (≤ 1.04× within the gauges' box)."""
     seen = poly.lower <= poly.upper
     lower, upper = np.where(seen, poly.lower, 0.0), np.where(seen, poly.upper, 0.0)
     if not poly.own:
@@ -351,9 +353,11 @@ def correction(poly: PolyAccumulator, D, edge_matrix, linear_matrix, out_faces) 
     idx = [f - 1 for f in out_faces]
     lo, hi = poly.target_lo[idx].reshape(-1), poly.target_hi[idx].reshape(-1)
     keep = hi > lo
+    rows = np.any(D != 0, axis=1) if corrected is None else np.asarray(corrected, dtype=bool)
     return PolyCorrection(poly.scale, _PAIRS, _CUBES, D, lower, upper, edge_matrix, domain=linear_matrix[keep],
                           domain_lower=lo[keep], domain_upper=hi[keep],
-                          input_map=input_map(poly.count_grams, poly.group_carries), tangent=poly.tangent)
+                          input_map=input_map(poly.count_grams, poly.group_carries), tangent=poly.tangent,
+                          map_matrix=linear_matrix * rows[:, None])
 
 
 def mixed_offsets(C, linear_matrix, row_alpha, tare_means, linear_offsets) -> list:
