@@ -105,10 +105,14 @@ class PolyCorrection:
         With ``input_map``: slopes (output units per count) applied to ``P x − x``, the part of the
         counts the map takes out (the linear fit's rows where the row is corrected, zero elsewhere:
         a corrected row then reads ``P x`` in its linear part too). None: zero.
+    map_lower, map_upper : array-like, shape (m,), optional
+        With ``map_matrix``: the range of ``P x − x`` on the rows the correction was fitted on (what the
+        map misreads of a face's own load); ``map_matrix`` reads only what lies beyond it. None: zeros.
     """
 
     def __init__(self, scale, pairs, cubes, coef, lower=None, upper=None, edge_matrix=None, domain=None,
-                 domain_lower=None, domain_upper=None, input_map=None, tangent=None, map_matrix=None):
+                 domain_lower=None, domain_upper=None, input_map=None, tangent=None, map_matrix=None,
+                 map_lower=None, map_upper=None):
         self.scale = np.asarray(scale, dtype=float).reshape(-1)
         self.pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
         self.cubes = np.asarray(cubes, dtype=np.int64).reshape(-1)
@@ -160,6 +164,13 @@ class PolyCorrection:
                     or not np.all(np.isfinite(self.map_matrix)):
                 raise ValueError(f"map_matrix: expected finite values of shape ({self.coef.shape[0]}, {m}) with an "
                                  f"input_map, got {self.map_matrix.shape}")
+        self.map_lower = self.map_upper = None
+        if map_lower is not None or map_upper is not None:
+            self.map_lower = np.asarray(map_lower, dtype=float).reshape(-1)
+            self.map_upper = np.asarray(map_upper, dtype=float).reshape(-1)
+            if self.map_matrix is None or self.map_lower.shape != (m,) or self.map_upper.shape != (m,) \
+                    or not np.all(self.map_lower <= 0) or not np.all(self.map_upper >= 0):
+                raise ValueError(f"map_lower, map_upper: expected ({m},) ranges around zero, with a map_matrix")
         self.edge_matrix = None
         if edge_matrix is not None:
             self.edge_matrix = np.asarray(edge_matrix, dtype=float)
@@ -208,11 +219,12 @@ class PolyCorrection:
         return self.all_terms(x)[:2]
 
     def map_terms(self, x: np.ndarray) -> np.ndarray | None:
-        """``(N, m)`` ``P x − x`` for offset-free counts ``x (N, m)`` (what ``map_matrix`` reads), or None
-        without a ``map_matrix``."""
+        """``(N, m)`` ``P x − x`` for offset-free counts ``x (N, m)``, less its trained range (``map_lower``,
+        ``map_upper``): what ``map_matrix`` reads; None without a ``map_matrix``."""
         if self.map_matrix is None:
             return None
-        return self.mapped(x) - np.asarray(x, dtype=float)
+        d = self.mapped(x) - np.asarray(x, dtype=float)
+        return d if self.map_lower is None else d - np.clip(d, self.map_lower, self.map_upper)
 
     def all_terms(self, x: np.ndarray):
         """``(features, beyond, tangent)``: :meth:`terms`, and for the ``tangent`` rows what they add
