@@ -43,9 +43,10 @@ def _ratio(W, Wl, truth, mask, cols):
     return float(np.sqrt(np.mean(e**2) / np.mean(el**2)))
 
 
-def task_model_choice(k, faces, seed=1) -> dict:
-    """Held-out RMSE ratios default / linear per method (see the module docstring)."""
-    cube = VirtualCube(seed=0)
+def task_model_choice(k, faces, seed=1, cube_seed=0) -> dict:
+    """Held-out RMSE ratios default / linear per method (see the module docstring); ``cube_seed``: the
+    ``VirtualCube``'s seed, ``seed`` the training session's (the later sessions': ``seed + 100``, ``+ 200``)."""
+    cube = VirtualCube(seed=cube_seed)
     rows = []
     for method, fl in FLANGE.items():
         r = {key: [] for key in ("single_F", "single_T", "squeeze_F", "squeeze_T")}
@@ -69,7 +70,8 @@ def task_model_choice(k, faces, seed=1) -> dict:
                 mask = s.loaded & auto.has_output[None]
                 r[kind + "_F"].append(_ratio(W, Wl, truth.face_wrenches, mask, slice(0, 3)))
                 r[kind + "_T"].append(_ratio(W, Wl, truth.face_wrenches, mask, slice(3, 6)))
-        row = {"method": method, "flange": fl, "faces": list(faces), "k_per_face": int(k), "groups": groups,
+        row = {"method": method, "flange": fl, "faces": list(faces), "k_per_face": int(k), "cube_seed": int(cube_seed),
+               "seed": int(seed), "groups": groups,
                "groups_corrected": used}
         for key, v in r.items():
             row[key + "_worst"], row[key + "_median"] = float(np.max(v)), float(np.median(v))

@@ -105,6 +105,7 @@ class Calibration:
         self._apply_nl = self._build_apply_nl()
         self._apply_edge = self._build_apply_edge()
         self._apply_tangent = self._build_apply_tangent()
+        self._apply_map = self._build_apply_map()
 
     def _build_adjoints(self) -> np.ndarray:
         """(6, 6, 6): each face's fitted output frame → its face frame (identity for ``face``)."""
@@ -138,6 +139,16 @@ class Calibration:
         A = np.zeros((6, 6, N_GAUGES))
         for k, f in enumerate(self.output_faces):
             A[f - 1] = self._face_from_output[f - 1] @ self.correction.edge_matrix[6 * k : 6 * k + 6]
+        return A
+
+    def _build_apply_map(self):
+        """(6, 6, 36) maps: ``P x − x`` (``PolyCorrection.map_terms``) → wrench on face i (None without)."""
+        c = self.correction
+        if c is None or c.map_matrix is None:
+            return None
+        A = np.zeros((6, 6, N_GAUGES))
+        for k, f in enumerate(self.output_faces):
+            A[f - 1] = self._face_from_output[f - 1] @ c.map_matrix[6 * k : 6 * k + 6]
         return A
 
     def _build_apply_tangent(self):
@@ -216,6 +227,8 @@ class Calibration:
             if extra is not None and self._apply_tangent is not None:  # or, on tangent rows, the polynomial's
                 A, E = self._apply_tangent
                 W += (extra[0] @ A.reshape(6 * 6, -1).T + extra[1] @ E.reshape(6 * 6, -1).T).reshape(n, 6, 6)
+            if self._apply_map is not None:  # corrected rows read P x in their linear part too
+                W += (self.correction.map_terms(x) @ self._apply_map.reshape(6 * 6, -1).T).reshape(n, 6, 6)
         W[:, ~self.has_output] = np.nan
         if not return_cov:
             return W[0] if single else W

@@ -553,7 +553,8 @@ class Calibrator:
                 fit.matrix[:] = C
                 # the zero-load counts: the features' zeros for the corrected rows, the affine rows' fitted offsets
                 fit.offsets = mixed_offsets(C, linear_fit[0], choice.row_alpha, zeros, fit.offsets)
-                corr = poly_correction(poly, D, C - linear_fit[0], linear_fit[0], out_faces)
+                corr = poly_correction(poly, D, C - linear_fit[0], linear_fit[0], out_faces,
+                                       corrected=[a is not None for a in choice.row_alpha])
                 _rescale_groups(fit.groups, fit.residual, out_faces, E2, poly)
         elif self.model != "linear":
             choice = ModelChoice(requested=self.model, reason="the papers' affine least squares: prior='own_gauge' "

@@ -97,6 +97,7 @@ class PolyAccumulator:
         self._rows, self._kept = [], 0
         self._keep = max(1, int(np.ceil(sum(session_lengths) / self.stride / MAX_EXTENSION_ROWS)))
         self.tangent = None  # (6F,) bool after fit: rows extrapolated along the polynomial's tangent
+        self.sample = None  # (x, usable, carries, loaded) of the kept rows, after fit
         if own:
             self.acc = {f: FoldedGram(n_int + 6 + 27, 6, n_folds) for f in FACES}
         else:
@@ -264,6 +265,7 @@ class PolyAccumulator:
             return out
         k, x, targets, usable, carries, loaded = (np.concatenate(a) for a in zip(*self._rows))
         self._rows = []
+        self.sample = (x, usable, carries, loaded)  # for the input map's trained range (:func:`correction`)
         u_all, targets = x / self.scale, targets.astype(float)
         n_int = self.n_int
         for acc, probs, faces in parts:
@@ -334,16 +336,18 @@ def input_map(count_grams: np.ndarray, group_carries: np.ndarray) -> np.ndarray:
     return P
 
 
-def correction(poly: PolyAccumulator, D, edge_matrix, linear_matrix, out_faces) -> PolyCorrection:
+def correction(poly: PolyAccumulator, D, edge_matrix, linear_matrix, out_faces, corrected=None) -> PolyCorrection:
     """The calibration's correction from the fitted feature coefficients ``D (6F, 162)``: inside the
     range of the gauges the accumulator ``poly`` saw, with the linear fit's slope beyond
     (``edge_matrix (6F, 36)``: the corrected slopes less the linear fit's; ``_poly.py``).
 
-    For ``face_to_face`` it reads through :func:`input_map`, and also inside the range of the
-    training loads in the linear fit's coordinates (``linear_matrix (6F, 36)``'s output rows; axes
-    that never carried load left out) is inside. Not for the joint methods: on ``pito_core.sim``'s
-    cube (24 held loads a face) their corrections, trusted out to that box, lost 1.06–1.17× to the
-    linear fit on fresh sessions (≤ 1.04× within the gauges' box)."""
+    For ``face_to_face`` it reads through :func:`input_map`, the ``corrected (6F,)`` rows (default:
+    those with a feature) wholly, their linear part too (``map_matrix``: a squeeze's crosstalk on a
+    face's own gauges, which its single-face training never saw, is taken out), and also inside the
+    range of the training loads in the linear fit's coordinates (``linear_matrix (6F, 36)``'s output
+    rows; axes that never carried load left out) is inside. Not for the joint methods: on
+    ``pito_core.sim``'s cube (24 held loads a face) their corrections, trusted out to that box, lost
+    1.06–1.17× to the linear fit on fresh sessions (≤ 1.04× within the gauges' box)."""
     seen = poly.lower <= poly.upper
     lower, upper = np.where(seen, poly.lower, 0.0), np.where(seen, poly.upper, 0.0)
     if not poly.own:
@@ -351,9 +355,32 @@ def correction(poly: PolyAccumulator, D, edge_matrix, linear_matrix, out_faces) 
     idx = [f - 1 for f in out_faces]
     lo, hi = poly.target_lo[idx].reshape(-1), poly.target_hi[idx].reshape(-1)
     keep = hi > lo
+    rows = np.any(D != 0, axis=1) if corrected is None else np.asarray(corrected, dtype=bool)
+    P = input_map(poly.count_grams, poly.group_carries)
+    map_lo, map_hi = map_range(P, poly.sample)
     return PolyCorrection(poly.scale, _PAIRS, _CUBES, D, lower, upper, edge_matrix, domain=linear_matrix[keep],
-                          domain_lower=lo[keep], domain_upper=hi[keep],
-                          input_map=input_map(poly.count_grams, poly.group_carries), tangent=poly.tangent)
+                          domain_lower=lo[keep], domain_upper=hi[keep], input_map=P, tangent=poly.tangent,
+                          map_matrix=linear_matrix * rows[:, None], map_lower=map_lo, map_upper=map_hi)
+
+
+def map_range(P: np.ndarray, sample) -> tuple[np.ndarray, np.ndarray]:
+    """``(lower, upper) (36,)``: each gauge's range of ``P x − x`` over the rows its face's correction was
+    fitted on (the face loaded alone, or none), from the kept ``sample`` (``(x, usable, carries, loaded)``;
+    None: zeros). There ``P x − x`` is what the map misreads of the face's own load (the crosstalk's
+    nonlinearity, noise): only what lies beyond it is another face's load."""
+    lower, upper = np.zeros(N_GAUGES), np.zeros(N_GAUGES)
+    if sample is None:
+        return lower, upper
+    x, usable, carries, loaded = sample
+    x = np.asarray(x, dtype=float)
+    unloaded = ~loaded.any(axis=1)
+    for f in FACES:
+        idx = np.flatnonzero(usable & (carries[:, f - 1] | unloaded))
+        if idx.size:
+            own = np.arange(6 * (f - 1), 6 * f)
+            d = x[idx] @ P[own].T - x[idx][:, own]
+            lower[own], upper[own] = np.minimum(d.min(axis=0), 0.0), np.maximum(d.max(axis=0), 0.0)
+    return lower, upper
 
 
 def mixed_offsets(C, linear_matrix, row_alpha, tare_means, linear_offsets) -> list:

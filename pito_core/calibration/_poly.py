@@ -21,7 +21,9 @@ knows were trained: a gauge's extremes need several axes at theirs at once (rare
 loads within the trained ones leave the channel box), and an axis at its extreme with the others
 small leaves the wrench box while every gauge stays in range. An ``input_map`` ``P`` first takes
 what a face's gauges read of other faces' loads out of them (``x → P x``, ``face_to_face``: its
-correction of a face was fitted with the other faces unloaded).
+correction of a face was fitted with the other faces unloaded); with a ``map_matrix`` ``L`` (the
+linear fit's rows where a row is corrected) those rows read ``P x`` whole, their linear part too:
+``L (P x − x)`` takes out what the linear fit's own-gauge slopes read of other faces' loads.
 """
 
 from __future__ import annotations
@@ -99,10 +101,18 @@ class PolyCorrection:
         Rows that continue beyond the box along the corrected model's own tangent at the edge (the
         polynomial's slope there, chosen on held-out largest loads: ``_cv.tangent_rows``) in place of
         the linear fit's slope. None: none.
+    map_matrix : array-like, shape (q, m), optional
+        With ``input_map``: slopes (output units per count) applied to ``P x − x``, the part of the
+        counts the map takes out (the linear fit's rows where the row is corrected, zero elsewhere:
+        a corrected row then reads ``P x`` in its linear part too). None: zero.
+    map_lower, map_upper : array-like, shape (m,), optional
+        With ``map_matrix``: the range of ``P x − x`` on the rows the correction was fitted on (what the
+        map misreads of a face's own load); ``map_matrix`` reads only what lies beyond it. None: zeros.
     """
 
     def __init__(self, scale, pairs, cubes, coef, lower=None, upper=None, edge_matrix=None, domain=None,
-                 domain_lower=None, domain_upper=None, input_map=None, tangent=None):
+                 domain_lower=None, domain_upper=None, input_map=None, tangent=None, map_matrix=None,
+                 map_lower=None, map_upper=None):
         self.scale = np.asarray(scale, dtype=float).reshape(-1)
         self.pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
         self.cubes = np.asarray(cubes, dtype=np.int64).reshape(-1)
@@ -147,6 +157,20 @@ class PolyCorrection:
                 raise ValueError(f"tangent: expected ({self.coef.shape[0]},) flags, got {self.tangent.shape}")
             if not self.tangent.any():
                 self.tangent = None
+        self.map_matrix = None
+        if map_matrix is not None:
+            self.map_matrix = np.asarray(map_matrix, dtype=float)
+            if self.input_map is None or self.map_matrix.shape != (self.coef.shape[0], m) \
+                    or not np.all(np.isfinite(self.map_matrix)):
+                raise ValueError(f"map_matrix: expected finite values of shape ({self.coef.shape[0]}, {m}) with an "
+                                 f"input_map, got {self.map_matrix.shape}")
+        self.map_lower = self.map_upper = None
+        if map_lower is not None or map_upper is not None:
+            self.map_lower = np.asarray(map_lower, dtype=float).reshape(-1)
+            self.map_upper = np.asarray(map_upper, dtype=float).reshape(-1)
+            if self.map_matrix is None or self.map_lower.shape != (m,) or self.map_upper.shape != (m,) \
+                    or not np.all(self.map_lower <= 0) or not np.all(self.map_upper >= 0):
+                raise ValueError(f"map_lower, map_upper: expected ({m},) ranges around zero, with a map_matrix")
         self.edge_matrix = None
         if edge_matrix is not None:
             self.edge_matrix = np.asarray(edge_matrix, dtype=float)
@@ -194,12 +218,21 @@ class PolyCorrection:
         :meth:`features` and :meth:`beyond` give, drawn back once."""
         return self.all_terms(x)[:2]
 
+    def map_terms(self, x: np.ndarray) -> np.ndarray | None:
+        """``(N, m)`` ``P x − x`` for offset-free counts ``x (N, m)``, less its trained range (``map_lower``,
+        ``map_upper``): what ``map_matrix`` reads; None without a ``map_matrix``."""
+        if self.map_matrix is None:
+            return None
+        d = self.mapped(x) - np.asarray(x, dtype=float)
+        return d if self.map_lower is None else d - np.clip(d, self.map_lower, self.map_upper)
+
     def all_terms(self, x: np.ndarray):
         """``(features, beyond, tangent)``: :meth:`terms`, and for the ``tangent`` rows what they add
         beyond the box, ``(dphi (N, P + Q), dray (N, m))`` or None: ``coef · dphi + edge_matrix · dray``
         turns the linear fit's slope into the polynomial's tangent along the ray (its squares and
         products grow as ``2/t − 1``, its cubes as ``3/t − 2`` of their value at the edge ``x_c = t P x``,
-        first order in ``1/t``), and the corrected model's own slopes."""
+        first order in ``1/t``), and the corrected model's own slopes. (``map_matrix``'s term:
+        :meth:`map_terms`.)"""
         xm, t = self._ray(x)
         xc = xm if t is None else xm * t[:, None]
         phi = poly_features_t(np.ascontiguousarray((xc / self.scale).T), self.pairs, self.cubes).T
@@ -225,7 +258,13 @@ class PolyCorrection:
         return self._features_t(x, self.pairs, self.cubes).T
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
-        """``(N, q)`` correction for offset-free counts ``x (N, m)``, output units (the edge term included)."""
+        """``(N, q)`` correction for offset-free counts ``x (N, m)``, output units (the edge and map terms included)."""
+        if self.map_matrix is not None:
+            out = self._call(x)
+            return out + self.map_terms(x) @ self.map_matrix.T
+        return self._call(x)
+
+    def _call(self, x: np.ndarray) -> np.ndarray:
         if self.tangent is not None:
             phi, d, extra = self.all_terms(x)
             out = phi @ self.coef.T

@@ -32,6 +32,8 @@ Layout (docs/file-formats.md)::
                           per count; domain_lower, domain_upper (d,): its range in training
         input_map         (36, 36) float64, optional: the counts the correction reads, P x (face_to_face)
         tangent           (6·F,) bool, optional: rows continued beyond the range along the polynomial's tangent
+        map_matrix        (6·F, 36) float64, optional: slopes of P x − x (the linear fit's corrected rows)
+        map_lower, map_upper (36,) float64, optional: the trained range of P x − x, which map_matrix leaves out
 """
 
 from __future__ import annotations
@@ -53,7 +55,7 @@ CALIBRATION_READ_VERSIONS = {6}
 _CORRECTION_FIELDS = ("scale", "pairs", "cubes", "coef")
 #: The range the correction was fitted on, and its slopes beyond.
 _CORRECTION_RANGE = ("lower", "upper", "edge_matrix", "domain", "domain_lower", "domain_upper",
-                     "input_map", "tangent")
+                     "input_map", "tangent", "map_matrix", "map_lower", "map_upper")
 _GROUP_FIELDS = ("inputs", "rows", "design_pinv", "residual_cov", "center", "weights")
 
 
