@@ -39,6 +39,7 @@ import numpy as np
 
 from ..defaults import FULL_SCALE_FACE, TARE_STILL_FORCE_STD_N, TARE_STILL_TORQUE_STD_NM
 from ..frames import N_GAUGES
+from ._poly import MAX_ROWS
 from ._targets import block_targets
 
 __all__ = ["CovarianceGroup", "CalibrationCovariance", "ErrorModel", "fit_error_model", "load_features",
@@ -319,8 +320,6 @@ def correction_leverage(cal, groups, blocks, offsets) -> np.ndarray:
     ``(x (m, 36), k)``, counts less session ``k``'s tare ``offsets[k]``), scaled from ``n`` to the
     rows the correction was fitted on. The ridge is left out (an upper bound). Zero for ``linear``.
     """
-    from ._nlfit import MAX_ROWS  # deferred: _nlfit imports this module's constants through _gramfit
-
     n, F, n_int = sum(len(x) for x, _ in blocks), len(cal.output_faces), len(offsets)
     H = np.zeros((n, F))
     if cal.correction is None or n == 0:

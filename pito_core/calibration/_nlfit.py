@@ -25,7 +25,7 @@ from ._lstsq import RANK_RTOL
 from ._cv import ALPHAS, N_FOLDS, N_SE_SESSION, FoldedGram, MAX_SEGMENT_FRACTION, Problem, SegmentCounter, choose_model, cross_validate, \
     fold_bounds, held_out_sse, solve_problem, tangent_rows
 from ._gramfit import load_groups
-from ._poly import PolyCorrection, poly_features_t, poly_terms
+from ._poly import MAX_ROWS, PolyCorrection, poly_features_t, poly_terms
 
 __all__ = ["PolyAccumulator", "FULL_SCALE_WEIGHT", "mixed_offsets"]
 
@@ -33,10 +33,6 @@ __all__ = ["PolyAccumulator", "FULL_SCALE_WEIGHT", "mixed_offsets"]
 FULL_SCALE_WEIGHT = 1.0 / np.asarray(FULL_SCALE_FACE)
 #: Rows whose features are built at once (8192 × 235 columns × 8 B ≈ 15 MB).
 CHUNK = 8192
-#: The correction is fitted (and cross-validated) from at most about this many samples, every
-#: ``stride``-th of the sessions' (neighbouring samples at 1 kHz repeat one held load): its cost
-#: stays bounded beside the affine fit, which uses every sample.
-MAX_ROWS = 1 << 15
 #: The extension beyond the trained range is chosen on at most about this many of them (``_cv.tangent_rows``).
 MAX_EXTENSION_ROWS = 1 << 13
 _PAIRS, _CUBES = poly_terms([range(6 * (f - 1), 6 * f) for f in FACES])

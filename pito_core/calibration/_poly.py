@@ -30,6 +30,11 @@ from __future__ import annotations
 
 import numpy as np
 
+#: The correction is fitted (and cross-validated) from at most about this many samples, every
+#: ``stride``-th of the sessions' (neighbouring samples at 1 kHz repeat one held load): its cost
+#: stays bounded beside the affine fit, which uses every sample.
+MAX_ROWS = 1 << 15
+
 __all__ = ["poly_terms", "poly_features", "poly_features_t", "PolyCorrection"]
 
 
