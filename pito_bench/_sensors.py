@@ -379,8 +379,8 @@ def sensor_tables(sec: dict) -> list[str]:
                          + (f" (beyond its range: {', '.join(sorted(set(b['auto_extension'])))} up to "
                             f"{b['auto_reach']:.2g}× the range, then a fade)" if b.get("auto_extension") else ""))
             if b.get("quad_alphas") is not None:
-                alphas = ", ".join("inf" if a is None or np.isinf(a) else f"{a:.0e}"  # json_safe: inf → None
-                                   for a in b["quad_alphas"])
+                alphas = ", ".join("inf" if a is None or np.isinf(a) else f"{a:.0e}" if a else "0"
+                                   for a in b["quad_alphas"])  # json_safe: inf → None
                 lines.append(f"    quad's ridge per output (α × sample count; inf = affine), by "
                              f"{b['quad_inner_folds']} inner folds of the training groups: {alphas}")
             lines += _rows_text(b["rows"])

@@ -82,8 +82,8 @@ def test_run_sensors_tables_and_skip(tmp_path, capsys):
     text = "\n".join(_sensors.sensor_tables(sec))
     assert "sim:" in text and "SIMULATED" in text and "beyond range" in text and "auto/best" in text
     b = sec["datasets"][0]["beyond"]
-    b["quad_alphas"] = [None, np.inf, 1e-4]  # as after json_safe (inf → None), and before it
-    assert "inner folds of the training groups: inf, inf, 1e-04" in "\n".join(_sensors.sensor_tables(sec))
+    b["quad_alphas"] = [None, np.inf, 1e-4, 0.0]  # as after json_safe (inf → None), and before it
+    assert "inner folds of the training groups: inf, inf, 1e-04, 0" in "\n".join(_sensors.sensor_tables(sec))
 
     from pito_core.cli import main
     assert main(["bench", "--sections", "sensors", "--datasets", str(empty)]) == 0
