@@ -280,7 +280,7 @@ def _choice(cv: dict, held: np.ndarray, weight: np.ndarray, best, chosen, reques
                           for i, name in enumerate(names))
         why = (f"cross-validated over {K} folds of {n_segments} loading groups: per output group (forces, torques), "
                f"the best correction where its mean held-out score beats the affine fit's by more than {N_SE:g} "
-               f"standard error of their difference: {q - len(used)} affine, {kinds}; held-out error {ratio:.2f}× "
+               f"standard error (over folds) of its own: {q - len(used)} affine, {kinds}; held-out error {ratio:.2f}× "
                "the affine fit's")
     else:
         pr = score["poly"] / score["linear"] if score["linear"] > 0 else float("nan")
