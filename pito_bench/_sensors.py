@@ -13,8 +13,12 @@ Four fits, each trained only on the training groups of a fold:
   groups (its own cross-validation sees nothing else);
 - ``ls``: plain affine least squares, ``numpy.linalg.lstsq`` — independent of pito's fit;
 - ``quad``: the issue's baseline, independent of pito: the affine terms plus every product of two
-  standardised channels, the products ridge-penalised with the strength chosen per output by
-  grouped cross-validation over the training groups only (inner folds);
+  standardised channels, the products (standardised again) ridge-penalised, intercept and linear
+  terms free, the strength (× the sample count, a decade grid with 0 and ∞) chosen per output by
+  grouped cross-validation over the training groups only (inner folds). On few training groups
+  the choice is fragile: the 3-axis cell's first session (15 rows, 3 groups of one loaded axis
+  each) leaves one output unloaded in each inner fold, and its beyond-range ratio to LS moves
+  from 0.77 (this grid) to 1.06 (half decades) or 1.39 (the load steps as groups);
 - ``poly`` (for contrast): ``fit_sensor(..., model="poly")``, pito's correction always on at the
   ridge its own cross-validation picks — what ``auto`` would give had it chosen the correction.
 
@@ -182,6 +186,7 @@ def fit_quad(X, Y, groups, alphas=QUAD_ALPHAS, inner: int = INNER_FOLDS):
         Fz[:, n_lin:] = (Fz[:, n_lin:] - fm) / fs
         return Fz @ B
     predict.alphas = best
+    predict.inner_folds = len(folds)
     return predict
 
 
@@ -234,7 +239,8 @@ def _run_split(ds: Dataset, methods, train, test) -> tuple[dict, dict]:
         p = fit(X, Y, g)
         preds[name] = p(ds.channels[test])
         info[name] = {"corrected_rows": getattr(p, "corrected_rows", None), "cv_ratio": getattr(p, "cv_ratio", None),
-                      "extension": getattr(p, "extension", None), "reach": getattr(p, "reach", None)}
+                      "extension": getattr(p, "extension", None), "reach": getattr(p, "reach", None),
+                      "alphas": getattr(p, "alphas", None), "inner_folds": getattr(p, "inner_folds", None)}
     if "auto" in preds and "ls" in preds:  # the same dimensionless score on this split: RMSE / target std, pooled
         s = ds.target.std(axis=0)
         s = np.where(s > 0, s, 1.0)
@@ -256,6 +262,10 @@ def _table(ds: Dataset, methods, Y, preds) -> list[dict]:
             r["quad_over_ls"] = q / ls if ls > 0 else float("nan")
         rows.append(r)
     return rows
+
+
+def _listed(a):
+    return None if a is None else [float(x) for x in a]
 
 
 def evaluate(ds: Dataset, methods=None) -> dict:
@@ -297,6 +307,8 @@ def evaluate(ds: Dataset, methods=None) -> dict:
                          "auto_corrected_rows": info.get("auto", {}).get("corrected_rows"),
                          "auto_extension": info.get("auto", {}).get("extension"),
                          "auto_reach": info.get("auto", {}).get("reach"),
+                         "quad_alphas": _listed(info.get("quad", {}).get("alphas")),
+                         "quad_inner_folds": info.get("quad", {}).get("inner_folds"),
                          "rows": _table(ds, methods, ds.target[te], p)}
     return out
 
@@ -366,5 +378,10 @@ def sensor_tables(sec: dict) -> list[str]:
                          f"({b['n_test']:,} rows); auto corrected {b['auto_corrected_rows']}/{n_out} output rows"
                          + (f" (beyond its range: {', '.join(sorted(set(b['auto_extension'])))} up to "
                             f"{b['auto_reach']:.2g}× the range, then a fade)" if b.get("auto_extension") else ""))
+            if b.get("quad_alphas") is not None:
+                alphas = ", ".join("inf" if a is None or np.isinf(a) else f"{a:.0e}" if a else "0"
+                                   for a in b["quad_alphas"])  # json_safe: inf → None
+                lines.append(f"    quad's ridge per output (α × sample count; inf = affine), by "
+                             f"{b['quad_inner_folds']} inner folds of the training groups: {alphas}")
             lines += _rows_text(b["rows"])
     return lines

@@ -24,9 +24,10 @@ MAX_FULL_QUADRATIC = 12
 DEFAULT_SEGMENTS = 40
 #: Groups up to which each is a fold of its own (leave one group out); beyond, ``n_folds`` folds.
 MAX_LEAVE_ONE_OUT = 12
-#: The corrections scored beside the affine fit, simplest first: every square and pairwise product
-#: of the scaled channels (``MAX_FULL_QUADRATIC``); the same with each channel's cube.
-FAMILIES = ("quadratic", "cubic")
+#: The corrections scored beside the affine fit, simplest first: each scaled channel's own square
+#: and cube (no products: a new loading direction meets no untrained product); every square and
+#: pairwise product (``MAX_FULL_QUADRATIC``); the same with each channel's cube.
+FAMILIES = ("separable", "quadratic", "cubic")
 #: Fewer folds than this: the affine fit (a standard error over fewer is itself too noisy, and each
 #: held-out group then leaves a large part of the loads untrained).
 MIN_FOLDS = 4
@@ -140,6 +141,15 @@ def _check(counts, wrench, groups):
         if g.shape != (c.shape[0],):
             raise ValueError(f"groups: expected shape ({c.shape[0]},), got {g.shape}")
     return c, w, g
+
+
+def _family_terms(family: str, pairs: np.ndarray, cubes: np.ndarray) -> np.ndarray:
+    """Indices into the correction's terms (``pairs`` then ``cubes``, ``poly_terms``) of ``family``:
+    ``separable`` each channel's own square and cube; ``quadratic`` every pair; ``cubic`` all."""
+    P = pairs.shape[0]
+    if family == "separable":
+        return np.concatenate([np.flatnonzero(pairs[:, 0] == pairs[:, 1]), P + np.arange(cubes.size)])
+    return np.arange(P if family == "quadratic" else P + cubes.size)
 
 
 def _best(cv: dict, weight: np.ndarray):
@@ -270,7 +280,7 @@ def _choice(cv: dict, held: np.ndarray, weight: np.ndarray, best, chosen, reques
                           for i, name in enumerate(names))
         why = (f"cross-validated over {K} folds of {n_segments} loading groups: per output group (forces, torques), "
                f"the best correction where its mean held-out score beats the affine fit's by more than {N_SE:g} "
-               f"standard error of their difference: {q - len(used)} affine, {kinds}; held-out error {ratio:.2f}× "
+               f"standard error (over folds) of its own: {q - len(used)} affine, {kinds}; held-out error {ratio:.2f}× "
                "the affine fit's")
     else:
         pr = score["poly"] / score["linear"] if score["linear"] > 0 else float("nan")
@@ -297,7 +307,8 @@ def fit_sensor(counts, wrench, groups=None, model: str = "auto", *, n_folds: int
         spans the data. Default: ``DEFAULT_SEGMENTS`` contiguous pieces.
     model : {"auto", "linear", "poly"}
         ``auto`` scores, per output group (forces, torques), the affine fit and each correction of
-        ``FAMILIES`` (a full quadratic of the channels; the same with cubes) along its ridge path by
+        ``FAMILIES`` (each channel's square and cube; a full quadratic of the channels; the same with
+        cubes) along its ridge path by
         their mean held-out score over the folds; the best is then scored as it is used, continued
         beyond each fold's training range by each of ``EXTENSIONS``, and kept (with the extension of
         the best mean) only where it beats the affine fit by more than ``_cv.N_SE`` standard errors
@@ -351,8 +362,8 @@ def fit_sensor(counts, wrench, groups=None, model: str = "auto", *, n_folds: int
         if nl:
             sd = w.std(axis=0)
             weight = 1.0 / np.where(sd > 0, sd, 1.0)
-            n_terms = {"quadratic": pairs.shape[0], "cubic": r}
-            probs = [Problem(np.arange(1 + m), 1 + m + np.arange(n_terms[f]), np.arange(q), weight) for f in FAMILIES]
+            probs = [Problem(np.arange(1 + m), 1 + m + _family_terms(f, pairs, cubes), np.arange(q), weight)
+                     for f in FAMILIES]
             cv = cross_validate(folded, probs, alphas)
             best = _best(cv, weight)
             held, reach = _held_out(c, w, center, scale, fold, folded, probs, best, cv["alphas"], pairs, cubes)
