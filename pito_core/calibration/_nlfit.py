@@ -5,10 +5,18 @@ session's tare mean) gains the features of ``_poly.py``: each face's own six gau
 scaled by their spread, as squares, products and cubes. A face's outputs use its own
 face's features; under a ``face`` flange also the squares of the connected face's gauges
 (every load passes through it), and the connected face's outputs (the reactions ``−ΣW``,
-and its own direct loads) use every face's. Not the connected face's products and cubes
-in a free face's outputs: they see the sum of every load, and a squeeze (two faces at
-once, never in the training data) drove them far outside what single-face loads fitted
-(held-out squeeze error up to 1.6× the linear fit's with them, ≤ 0.87× without). Rows
+and its own direct loads) use every face's. A joint method's free faces' outputs read every
+gauge in their linear part (to cancel crosstalk), and a saturating gauge is an odd
+function of its own strain whichever output reads it: with outputs in face frames they
+also take the other free faces' cubes (``other_cubes``; an ``unloaded_frame`` fit on a
+cube saturating 10 % at full scale kept 0.46× the linear fit's error without them, 0.09×
+with). Not ``loaded_frame``: with a reference noisy to 0.33 % of full scale its
+correction fitted more of the noise (held-out torques 0.27 → 0.31× least squares, intervals
+covering 93 → 77 % where a face carries). Not the connected face's products and cubes in a
+free face's outputs: they see the sum of every load, and a squeeze (two faces at once,
+never in the training data) drove them far outside what single-face loads fitted
+(held-out squeeze error up to 1.6× the linear fit's with them, ≤ 0.87× without; with the
+cubes alone 0.96×). Rows
 are dealt to folds by loading segment (``_cv.py``) in the same pass as the affine fit's
 QR, each fold keeping a Gram matrix; the model is chosen per face and per output group
 (forces, torques) from those, without another pass, and the rows the correction does not
@@ -71,10 +79,14 @@ class PolyAccumulator:
     reaction_faces : set of int
         Connected faces under a ``face`` flange.
     session_lengths : list of int
+    other_cubes : bool
+        A joint fit's free faces' outputs also take the cubes of the other free faces' gauges.
     """
 
-    def __init__(self, own, out_faces, n_int, scale, reaction_faces, session_lengths, n_folds=N_FOLDS):
+    def __init__(self, own, out_faces, n_int, scale, reaction_faces, session_lengths, n_folds=N_FOLDS,
+                 other_cubes=False):
         self.own, self.n_int, self.scale, self.K = own, n_int, scale, n_folds
+        self.other_cubes = bool(other_cubes)
         self.out_faces = tuple(out_faces)
         self.reaction_faces = set(reaction_faces)
         self.counter = SegmentCounter(max(1, int(np.ceil(max(session_lengths) * MAX_SEGMENT_FRACTION))))
@@ -198,11 +210,14 @@ class PolyAccumulator:
         return (self.acc[f].n_rows if self.own else self.acc.n_rows) * self.stride
 
     def _features_of(self, f) -> np.ndarray:
-        """Feature indices of output face ``f``: every face's for a connected face, else ``f``'s own
-        and the connected faces' squares."""
+        """Feature indices of output face ``f`` (joint methods): every face's for a connected face, else
+        ``f``'s own, the connected faces' squares and (``other_cubes``) the other free faces' cubes."""
         if f in self.reaction_faces:
             return np.arange(162)
-        return np.unique(np.concatenate([face_features(f)] + [connected_squares(c) for c in self.reaction_faces]))
+        extra = [connected_squares(c) for c in self.reaction_faces]
+        if self.other_cubes:
+            extra += [face_features(g)[_N_PAIRS:] for g in FACES if g != f and g not in self.reaction_faces]
+        return np.unique(np.concatenate([face_features(f)] + extra))
 
     def problems(self, out_faces, rank_a=None):
         """``[(FoldedGram, [Problem …], [face …])]`` of the fit."""
