@@ -8,15 +8,13 @@ face's features; under a ``face`` flange also the squares of the connected face'
 and its own direct loads) use every face's. A joint method's free faces' outputs read every
 gauge in their linear part (to cancel crosstalk), and a saturating gauge is an odd
 function of its own strain whichever output reads it: with outputs in face frames they
-also take the other free faces' cubes (``other_cubes``; an ``unloaded_frame`` fit on a
-cube saturating 10 % at full scale kept 0.46× the linear fit's error without them, 0.09×
-with). Not ``loaded_frame``: with a reference noisy to 0.33 % of full scale its
-correction fitted more of the noise (held-out torques 0.27 → 0.31× least squares, intervals
-covering 93 → 77 % where a face carries). Not the connected face's products and cubes in a
-free face's outputs: they see the sum of every load, and a squeeze (two faces at once,
-never in the training data) drove them far outside what single-face loads fitted
-(held-out squeeze error up to 1.6× the linear fit's with them, ≤ 0.87× without; with the
-cubes alone 0.96×). Rows
+also take the other free faces' cubes (``other_cubes``). Not their squares and products:
+a product of a gauge that reads its own load and a neighbour's crosstalk at once has cross
+terms no single-face load showed (squeezes up to 1.5× the linear fit's). Not for
+``loaded_frame``: with a noisy reference its correction fitted the noise. Not the connected
+face's products and cubes in a free face's outputs: they see the sum of every load, and a
+squeeze (two faces at once, never in the training data) drove them far outside what
+single-face loads fitted (held-out squeeze error up to 1.6× the linear fit's). Rows
 are dealt to folds by loading segment (``_cv.py``) in the same pass as the affine fit's
 QR, each fold keeping a Gram matrix; the model is chosen per face and per output group
 (forces, torques) from those, without another pass, and the rows the correction does not

@@ -298,3 +298,23 @@ def test_map_terms_need_an_input_map_and_a_range_around_zero():
     corr = PolyCorrection(one, pairs, cubes, coef, input_map=0.5 * np.eye(3), map_matrix=np.ones((2, 3)),
                           map_lower=-np.ones(3), map_upper=np.ones(3))
     np.testing.assert_allclose(corr.map_terms(np.array([[1.0, 4.0, -6.0]])), [[0.0, -1.0, 2.0]])
+
+
+def test_joint_outputs_correct_the_saturation_of_the_gauges_they_read_for_crosstalk():
+    """SIMULATED (``pito_bench._cubes``, every gauge saturating 10 % at full scale, coupling 10 %):
+    ``unloaded_frame``'s free faces read the other faces' gauges to cancel their crosstalk, so their
+    correction needs those gauges' cubes; on a later session, single-face and squeeze loads, the
+    default is ≤ 0.35× the linear fit (without the other faces' cubes 0.46–0.68×)."""
+    from pito_bench._cubes import BenchCube, cube_session
+
+    cube, faces = BenchCube("saturation", 0.10, 0.1, seed=0), [1, 2, 3, 4, 5]
+    train, _ = cube_session(cube, "face", 6, faces, 600, seed=1)
+    auto, lin = calibrate(train, "unloaded_frame"), calibrate(train, "unloaded_frame", model="linear")
+    pairs = [(faces[i], faces[(i + 1) % 5]) for i in range(5)]
+    for squeeze in (False, True):
+        s, F = cube_session(cube, "face", 6, [] if squeeze else faces, 300, pairs=pairs if squeeze else (), seed=101,
+                            offset_shift=50.0)
+        rest = s.counts[~s.loaded.any(axis=1)]
+        W, Wl = auto.tare(rest).wrenches(s.counts), lin.tare(rest).wrenches(s.counts)
+        r = _ratios(W, Wl, F, s.loaded & auto.has_output[None])
+        assert max(r) <= 0.35, (squeeze, np.round(r, 3))
