@@ -44,6 +44,8 @@ MAX_EXTENSION_ROWS = 1 << 13
 _PAIRS, _CUBES = poly_terms([range(6 * (f - 1), 6 * f) for f in FACES])
 _N_PAIRS = _PAIRS.shape[0] // 6  # 21 per face
 _PAIRS6, _CUBES6 = poly_terms([range(6)])  # one face's own, in the order of face_features
+_FEATURE_FACE = np.r_[_PAIRS[:, 0] // 6, _CUBES // 6]  # the face (0..5) of each of the 162 features
+
 #: Singular values of a Gram below this fraction of the largest are dropped in :func:`input_map`.
 INPUT_MAP_RTOL = 1e-10
 
@@ -77,14 +79,16 @@ class PolyAccumulator:
     reaction_faces : set of int
         Connected faces under a ``face`` flange.
     session_lengths : list of int
-    other_cubes : bool
-        A joint fit's free faces' outputs also take the cubes of the other free faces' gauges.
+    other_features : {None, "cubes", "all"}
+        A joint fit's free faces' outputs also take the other free faces' cubes (of the counts), or all
+        their features, each face's fitted where it carries and read from ``P x`` (:func:`correction`).
     """
 
     def __init__(self, own, out_faces, n_int, scale, reaction_faces, session_lengths, n_folds=N_FOLDS,
-                 other_cubes=False):
+                 other_features=None):
         self.own, self.n_int, self.scale, self.K = own, n_int, scale, n_folds
-        self.other_cubes = bool(other_cubes)
+        self.other_features = None if own else other_features
+        self.mapped = self.other_features == "all"  # features where a face carries, read from P x
         self.out_faces = tuple(out_faces)
         self.reaction_faces = set(reaction_faces)
         self.counter = SegmentCounter(max(1, int(np.ceil(max(session_lengths) * MAX_SEGMENT_FRACTION))))
@@ -95,7 +99,7 @@ class PolyAccumulator:
         self.target_lo, self.target_hi = np.zeros((6, 6)), np.zeros((6, 6))
         # ``own``: Gram of the counts in each load group (0 none, 1..6 the face loaded alone) and the faces
         # that carry in it (a ``face`` flange's connected face carries every load): the input map
-        self.count_grams = np.zeros((7, N_GAUGES, N_GAUGES)) if own else None
+        self.count_grams = np.zeros((7, N_GAUGES, N_GAUGES)) if own or self.mapped else None
         self.group_carries = np.zeros((7, 6), dtype=bool)
         self._ss, self._ss_rows, self._final = np.zeros(N_GAUGES), 0, False  # the final scale's sums
         self._session, self._seen = None, 0
@@ -132,7 +136,7 @@ class PolyAccumulator:
             t = targets[usable]
             self.target_lo = np.minimum(self.target_lo, t.min(axis=0))
             self.target_hi = np.maximum(self.target_hi, t.max(axis=0))
-        if self.own:
+        if self.count_grams is not None:
             group = load_groups(loaded)
             for j in np.unique(group[group < 7]):
                 xg = x[group == j]
@@ -175,6 +179,8 @@ class PolyAccumulator:
             idx = idx[order]
             t = targets[idx][:, [f - 1 for f in self.out_faces], :].reshape(idx.size, -1)
             ZT = self._design(k, x[idx], np.arange(N_GAUGES), _PAIRS, _CUBES, t)
+            if self.mapped:  # a face's features where it carries: what P x keeps of it
+                ZT[self.n_int + N_GAUGES : self.n_int + N_GAUGES + 162] *= carries[idx][:, _FEATURE_FACE].T
             self.acc.add_sorted(ZT, bounds)
 
     def _rescale(self) -> None:
@@ -213,8 +219,9 @@ class PolyAccumulator:
         if f in self.reaction_faces:
             return np.arange(162)
         extra = [connected_squares(c) for c in self.reaction_faces]
-        if self.other_cubes:
-            extra += [face_features(g)[_N_PAIRS:] for g in FACES if g != f and g not in self.reaction_faces]
+        if self.other_features:
+            start = 0 if self.mapped else _N_PAIRS
+            extra += [face_features(g)[start:] for g in FACES if g != f and g not in self.reaction_faces]
         return np.unique(np.concatenate([face_features(f)] + extra))
 
     def problems(self, out_faces, rank_a=None):
@@ -291,13 +298,17 @@ class PolyAccumulator:
                     y = targets[idx][:, [g - 1 for g in self.out_faces], :].reshape(idx.size, -1)
                 kk = k[idx]
 
-                def build(i, v, kk=kk, y=y, cols=cols, pairs=pairs, cubes=cubes):
+                cc = carries[idx]
+
+                def build(i, v, kk=kk, y=y, cols=cols, pairs=pairs, cubes=cubes, cc=cc):
                     nu = cols.size
                     ZT = np.zeros((acc.p + acc.q, i.size))
                     ZT[kk[i], np.arange(i.size)] = 1.0
                     vT = np.ascontiguousarray(v.T)
                     ZT[n_int : n_int + nu] = vT
                     poly_features_t(vT, pairs, cubes, out=ZT[n_int + nu : acc.p])
+                    if self.mapped:
+                        ZT[n_int + nu : acc.p] *= cc[i][:, _FEATURE_FACE].T
                     ZT[acc.p :] = y[i].T
                     return ZT
 
@@ -360,7 +371,10 @@ def correction(poly: PolyAccumulator, D, edge_matrix, linear_matrix, out_faces, 
     seen = poly.lower <= poly.upper
     lower, upper = np.where(seen, poly.lower, 0.0), np.where(seen, poly.upper, 0.0)
     if not poly.own:
-        return PolyCorrection(poly.scale, _PAIRS, _CUBES, D, lower, upper, edge_matrix, tangent=poly.tangent)
+        if not poly.mapped:
+            return PolyCorrection(poly.scale, _PAIRS, _CUBES, D, lower, upper, edge_matrix, tangent=poly.tangent)
+        return PolyCorrection(poly.scale, _PAIRS, _CUBES, D, lower, upper, edge_matrix, tangent=poly.tangent,
+                              input_map=input_map(poly.count_grams, poly.group_carries), edge_mapped=True)
     idx = [f - 1 for f in out_faces]
     lo, hi = poly.target_lo[idx].reshape(-1), poly.target_hi[idx].reshape(-1)
     keep = hi > lo
