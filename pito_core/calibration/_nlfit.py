@@ -6,12 +6,15 @@ scaled by their spread, as squares, products and cubes. A face's outputs use its
 face's features; under a ``face`` flange also the squares of the connected face's gauges
 (every load passes through it), and the connected face's outputs (the reactions ``−ΣW``,
 and its own direct loads) use every face's. A joint method's free faces' outputs read every
-gauge in their linear part (to cancel crosstalk), and a saturating gauge is an odd
-function of its own strain whichever output reads it: with outputs in face frames they
-also take the other free faces' cubes (``other_cubes``). Not their squares and products:
-a product of a gauge that reads its own load and a neighbour's crosstalk at once has cross
-terms no single-face load showed (squeezes up to 1.5× the linear fit's). Not for
-``loaded_frame``: with a noisy reference its correction fitted the noise. Not the connected
+gauge in their linear part (to cancel crosstalk), so the other faces' nonlinearity leaks in:
+with outputs in face frames they also take the other free faces' features
+(``other_features``). Each face's features are fitted where that face carries (zero
+elsewhere) and read from ``P x`` (:func:`input_map`), as ``face_to_face``'s: of the raw counts,
+a product of a gauge reading its own load and a neighbour's crosstalk at once has cross terms
+no single-face load showed (squeezes up to 1.5× the linear fit's). ``unloaded_frame`` (a
+connected face carrying reactions and no direct load): only their cubes, of the counts (a
+saturating gauge is odd in its own strain, crosstalk included). Not for ``loaded_frame``:
+with a noisy reference its correction fitted the noise. Not the connected
 face's products and cubes in a free face's outputs: they see the sum of every load, and a
 squeeze (two faces at once, never in the training data) drove them far outside what
 single-face loads fitted (held-out squeeze error up to 1.6× the linear fit's). Rows
@@ -215,7 +218,8 @@ class PolyAccumulator:
 
     def _features_of(self, f) -> np.ndarray:
         """Feature indices of output face ``f`` (joint methods): every face's for a connected face, else
-        ``f``'s own, the connected faces' squares and (``other_cubes``) the other free faces' cubes."""
+        ``f``'s own, the connected faces' squares and (``other_features``) the other free faces' features
+        (``"all"``) or cubes (``"cubes"``)."""
         if f in self.reaction_faces:
             return np.arange(162)
         extra = [connected_squares(c) for c in self.reaction_faces]
