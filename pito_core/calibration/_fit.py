@@ -159,6 +159,16 @@ def _tare_moments(session: CalibrationSession, block_size: int = 65536):
     return mean + shift, 0.5 * (cov + cov.T), n
 
 
+def _other_features(spec, sessions):
+    """What a joint method's free faces' outputs take of the other free faces' features (``PolyAccumulator``):
+    nothing in the reference frame (``loaded_frame``); their cubes where a connected face under a ``face``
+    flange carries the reactions and no direct load (``unloaded_frame``); else all of them."""
+    if spec.inputs != "all" or spec.output_frame != "face":
+        return None
+    reactions = any(s.flange == "face" for s in sessions)
+    return "cubes" if reactions and not spec.load_connected else "all"
+
+
 def _poly_zero(session: CalibrationSession, block_size: int, n: int = POLY_TARE_SAMPLES):
     """What the polynomial correction's pass needs before it starts, from the session's first samples:
     ``(zero (36,) counts, scale_sq (36,) counts², rows)``.
@@ -462,7 +472,8 @@ class Calibrator:
         if zeros is not None:  # a provisional scale (the first blocks' RMS about the zero; the fit's is the fitted rows')
             rms = np.sqrt(sum(z[1] for z in zeros) / max(sum(z[2] for z in zeros), 1))
             poly = PolyAccumulator(spec.inputs == "own", joint_faces, n_int, np.where(rms > 0, rms, 1.0),
-                                   {s.connected_face for s in sessions if s.flange == "face"}, [len(s) for s in sessions])
+                                   {s.connected_face for s in sessions if s.flange == "face"}, [len(s) for s in sessions],
+                                   other_features=_other_features(spec, sessions))
         total_samples = sum(len(s) for s in sessions)
         # the same provisional centres whatever the model, so model="auto" that keeps the linear
         # fit gives it bit for bit

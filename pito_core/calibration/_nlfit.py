@@ -5,10 +5,19 @@ session's tare mean) gains the features of ``_poly.py``: each face's own six gau
 scaled by their spread, as squares, products and cubes. A face's outputs use its own
 face's features; under a ``face`` flange also the squares of the connected face's gauges
 (every load passes through it), and the connected face's outputs (the reactions ``−ΣW``,
-and its own direct loads) use every face's. Not the connected face's products and cubes
-in a free face's outputs: they see the sum of every load, and a squeeze (two faces at
-once, never in the training data) drove them far outside what single-face loads fitted
-(held-out squeeze error up to 1.6× the linear fit's with them, ≤ 0.87× without). Rows
+and its own direct loads) use every face's. A joint method's free faces' outputs read every
+gauge in their linear part (to cancel crosstalk), so the other faces' nonlinearity leaks in:
+with outputs in face frames they also take the other free faces' features
+(``other_features``). Each face's features are fitted where that face carries (zero
+elsewhere) and read from ``P x`` (:func:`input_map`), as ``face_to_face``'s: of the raw counts,
+a product of a gauge reading its own load and a neighbour's crosstalk at once has cross terms
+no single-face load showed (squeezes up to 1.5× the linear fit's). ``unloaded_frame`` (a
+connected face carrying reactions and no direct load): only their cubes, of the counts (a
+saturating gauge is odd in its own strain, crosstalk included). Not for ``loaded_frame``:
+with a noisy reference its correction fitted the noise. Not the connected
+face's products and cubes in a free face's outputs: they see the sum of every load, and a
+squeeze (two faces at once, never in the training data) drove them far outside what
+single-face loads fitted (held-out squeeze error up to 1.6× the linear fit's). Rows
 are dealt to folds by loading segment (``_cv.py``) in the same pass as the affine fit's
 QR, each fold keeping a Gram matrix; the model is chosen per face and per output group
 (forces, torques) from those, without another pass, and the rows the correction does not
@@ -38,6 +47,8 @@ MAX_EXTENSION_ROWS = 1 << 13
 _PAIRS, _CUBES = poly_terms([range(6 * (f - 1), 6 * f) for f in FACES])
 _N_PAIRS = _PAIRS.shape[0] // 6  # 21 per face
 _PAIRS6, _CUBES6 = poly_terms([range(6)])  # one face's own, in the order of face_features
+_FEATURE_FACE = np.r_[_PAIRS[:, 0] // 6, _CUBES // 6]  # the face (0..5) of each of the 162 features
+
 #: Singular values of a Gram below this fraction of the largest are dropped in :func:`input_map`.
 INPUT_MAP_RTOL = 1e-10
 
@@ -71,10 +82,16 @@ class PolyAccumulator:
     reaction_faces : set of int
         Connected faces under a ``face`` flange.
     session_lengths : list of int
+    other_features : {None, "cubes", "all"}
+        A joint fit's free faces' outputs also take the other free faces' cubes (of the counts), or all
+        their features, each face's fitted where it carries and read from ``P x`` (:func:`correction`).
     """
 
-    def __init__(self, own, out_faces, n_int, scale, reaction_faces, session_lengths, n_folds=N_FOLDS):
+    def __init__(self, own, out_faces, n_int, scale, reaction_faces, session_lengths, n_folds=N_FOLDS,
+                 other_features=None):
         self.own, self.n_int, self.scale, self.K = own, n_int, scale, n_folds
+        self.other_features = None if own else other_features
+        self.mapped = self.other_features == "all"  # features where a face carries, read from P x
         self.out_faces = tuple(out_faces)
         self.reaction_faces = set(reaction_faces)
         self.counter = SegmentCounter(max(1, int(np.ceil(max(session_lengths) * MAX_SEGMENT_FRACTION))))
@@ -85,7 +102,7 @@ class PolyAccumulator:
         self.target_lo, self.target_hi = np.zeros((6, 6)), np.zeros((6, 6))
         # ``own``: Gram of the counts in each load group (0 none, 1..6 the face loaded alone) and the faces
         # that carry in it (a ``face`` flange's connected face carries every load): the input map
-        self.count_grams = np.zeros((7, N_GAUGES, N_GAUGES)) if own else None
+        self.count_grams = np.zeros((7, N_GAUGES, N_GAUGES)) if own or self.mapped else None
         self.group_carries = np.zeros((7, 6), dtype=bool)
         self._ss, self._ss_rows, self._final = np.zeros(N_GAUGES), 0, False  # the final scale's sums
         self._session, self._seen = None, 0
@@ -122,7 +139,7 @@ class PolyAccumulator:
             t = targets[usable]
             self.target_lo = np.minimum(self.target_lo, t.min(axis=0))
             self.target_hi = np.maximum(self.target_hi, t.max(axis=0))
-        if self.own:
+        if self.count_grams is not None:
             group = load_groups(loaded)
             for j in np.unique(group[group < 7]):
                 xg = x[group == j]
@@ -165,6 +182,8 @@ class PolyAccumulator:
             idx = idx[order]
             t = targets[idx][:, [f - 1 for f in self.out_faces], :].reshape(idx.size, -1)
             ZT = self._design(k, x[idx], np.arange(N_GAUGES), _PAIRS, _CUBES, t)
+            if self.mapped:  # a face's features where it carries: what P x keeps of it
+                ZT[self.n_int + N_GAUGES : self.n_int + N_GAUGES + 162] *= carries[idx][:, _FEATURE_FACE].T
             self.acc.add_sorted(ZT, bounds)
 
     def _rescale(self) -> None:
@@ -198,11 +217,16 @@ class PolyAccumulator:
         return (self.acc[f].n_rows if self.own else self.acc.n_rows) * self.stride
 
     def _features_of(self, f) -> np.ndarray:
-        """Feature indices of output face ``f``: every face's for a connected face, else ``f``'s own
-        and the connected faces' squares."""
+        """Feature indices of output face ``f`` (joint methods): every face's for a connected face, else
+        ``f``'s own, the connected faces' squares and (``other_features``) the other free faces' features
+        (``"all"``) or cubes (``"cubes"``)."""
         if f in self.reaction_faces:
             return np.arange(162)
-        return np.unique(np.concatenate([face_features(f)] + [connected_squares(c) for c in self.reaction_faces]))
+        extra = [connected_squares(c) for c in self.reaction_faces]
+        if self.other_features:
+            start = 0 if self.mapped else _N_PAIRS
+            extra += [face_features(g)[start:] for g in FACES if g != f and g not in self.reaction_faces]
+        return np.unique(np.concatenate([face_features(f)] + extra))
 
     def problems(self, out_faces, rank_a=None):
         """``[(FoldedGram, [Problem …], [face …])]`` of the fit."""
@@ -278,13 +302,17 @@ class PolyAccumulator:
                     y = targets[idx][:, [g - 1 for g in self.out_faces], :].reshape(idx.size, -1)
                 kk = k[idx]
 
-                def build(i, v, kk=kk, y=y, cols=cols, pairs=pairs, cubes=cubes):
+                cc = carries[idx]
+
+                def build(i, v, kk=kk, y=y, cols=cols, pairs=pairs, cubes=cubes, cc=cc):
                     nu = cols.size
                     ZT = np.zeros((acc.p + acc.q, i.size))
                     ZT[kk[i], np.arange(i.size)] = 1.0
                     vT = np.ascontiguousarray(v.T)
                     ZT[n_int : n_int + nu] = vT
                     poly_features_t(vT, pairs, cubes, out=ZT[n_int + nu : acc.p])
+                    if self.mapped:
+                        ZT[n_int + nu : acc.p] *= cc[i][:, _FEATURE_FACE].T
                     ZT[acc.p :] = y[i].T
                     return ZT
 
@@ -347,7 +375,10 @@ def correction(poly: PolyAccumulator, D, edge_matrix, linear_matrix, out_faces, 
     seen = poly.lower <= poly.upper
     lower, upper = np.where(seen, poly.lower, 0.0), np.where(seen, poly.upper, 0.0)
     if not poly.own:
-        return PolyCorrection(poly.scale, _PAIRS, _CUBES, D, lower, upper, edge_matrix, tangent=poly.tangent)
+        if not poly.mapped:
+            return PolyCorrection(poly.scale, _PAIRS, _CUBES, D, lower, upper, edge_matrix, tangent=poly.tangent)
+        return PolyCorrection(poly.scale, _PAIRS, _CUBES, D, lower, upper, edge_matrix, tangent=poly.tangent,
+                              input_map=input_map(poly.count_grams, poly.group_carries), edge_mapped=True)
     idx = [f - 1 for f in out_faces]
     lo, hi = poly.target_lo[idx].reshape(-1), poly.target_hi[idx].reshape(-1)
     keep = hi > lo

@@ -113,11 +113,15 @@ class PolyCorrection:
     map_lower, map_upper : array-like, shape (m,), optional
         With ``map_matrix``: the range of ``P x − x`` on the rows the correction was fitted on (what the
         map misreads of a face's own load); ``map_matrix`` reads only what lies beyond it. None: zeros.
+    edge_mapped : bool, optional
+        With ``input_map``: ``edge_matrix`` reads ``x_c − P x`` (zero inside the box) in place of
+        ``x_c − x``: the corrected model's linear part reads the counts themselves, only its features
+        ``P x`` (a joint method's correction). None or False: ``x_c − x``.
     """
 
     def __init__(self, scale, pairs, cubes, coef, lower=None, upper=None, edge_matrix=None, domain=None,
                  domain_lower=None, domain_upper=None, input_map=None, tangent=None, map_matrix=None,
-                 map_lower=None, map_upper=None):
+                 map_lower=None, map_upper=None, edge_mapped=None):
         self.scale = np.asarray(scale, dtype=float).reshape(-1)
         self.pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
         self.cubes = np.asarray(cubes, dtype=np.int64).reshape(-1)
@@ -176,6 +180,9 @@ class PolyCorrection:
             if self.map_matrix is None or self.map_lower.shape != (m,) or self.map_upper.shape != (m,) \
                     or not np.all(self.map_lower <= 0) or not np.all(self.map_upper >= 0):
                 raise ValueError(f"map_lower, map_upper: expected ({m},) ranges around zero, with a map_matrix")
+        self.edge_mapped = True if edge_mapped is not None and bool(np.asarray(edge_mapped)) else None
+        if self.edge_mapped and self.input_map is None:
+            raise ValueError("edge_mapped: expected an input_map")
         self.edge_matrix = None
         if edge_matrix is not None:
             self.edge_matrix = np.asarray(edge_matrix, dtype=float)
@@ -216,7 +223,7 @@ class PolyCorrection:
         model's slopes, beyond the linear fit's, to that point: what they add is read there too."""
         if self.lower is None or self.edge_matrix is None:
             return None
-        return self.clamped(x) - np.asarray(x, dtype=float)
+        return self.clamped(x) - (self.mapped(x) if self.edge_mapped else np.asarray(x, dtype=float))
 
     def terms(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray | None]:
         """``(features (N, P + Q), beyond (N, m) or None)`` of offset-free counts ``x (N, m)``: what
@@ -251,7 +258,7 @@ class PolyCorrection:
             dphi[:, :P] = 2.0 * r * phi[:, :P]
             dphi[:, P:] = 3.0 * r * phi[:, P:]
             extra = (dphi, xm - xc)
-        xc -= np.asarray(x, dtype=float)
+        xc -= xm if self.edge_mapped else np.asarray(x, dtype=float)
         return phi, xc, extra
 
     @property
