@@ -249,9 +249,8 @@ def solve_problem(folded: FoldedGram, prob: Problem, alphas) -> list[np.ndarray]
 #: (``fit_sensor``: folds of the caller's groups).
 N_SE = 1.0
 #: The same for the cube's ``calibrate``, whose folds are loading segments of the same sessions:
-#: they do not see what changes between sessions (drift, the frame's hysteresis). On
-#: ``pito_core.sim``'s cube corrections that won by 1-3 standard errors lost up to 1.17× to the
-#: affine fit on later sessions (docs/calibration/coverage.md).
+#: they do not see what changes between sessions (drift, the frame's hysteresis); the measurements
+#: behind the 3 are in docs/calibration/coverage.md.
 N_SE_SESSION = 3.0
 #: Held-out mean squares (outputs scaled by full scale) closer than this are a tie: an RMSE of
 #: 10⁻⁶ of full scale, below what the Gram's rounding resolves on noise-free data.
@@ -348,9 +347,7 @@ def _group_choice(e: np.ndarray, n_rows: np.ndarray, force: bool, n_se: float = 
     correction's ridge is the one of the best mean over folds; then the one-standard-error rule
     between the two candidates: the affine fit unless the correction's mean beats it by more than
     ``n_se`` standard errors (over folds) of the correction's (or by ``SCORE_ATOL``). ``force``: the
-    correction. (Walking the ridge path to the strongest ridge within the bound, in place of the
-    best ridge, kept corrections that lost 1.1× to the affine fit on later sessions of
-    ``pito_core.sim``'s cube: docs/calibration.md.)
+    correction.
     """
     ok = n_rows > 0
     score = e[:, ok] / n_rows[ok]
@@ -428,7 +425,7 @@ def choose_model(results, requested: str, n_segments: int, group: int = 3, n_se:
 #: and scored on those outside.
 EXTRAPOLATION_QUANTILE = 0.7
 #: The tangent must bring the held-out extrapolation error below this fraction of the linear slope's
-#: (a marginal win there lost 1.08× on a later session of ``pito_core.sim``'s cube).
+#: (a marginal win is not enough: docs/calibration/coverage.md).
 TANGENT_GAIN = 0.95
 #: Fewer samples than this outside the shrunk box: no choice, the linear fit's slope.
 MIN_BEYOND_ROWS = 20

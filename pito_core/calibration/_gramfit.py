@@ -209,7 +209,7 @@ class GramPass:
         """``[1 | counts − c_k | r]`` of the given rows in the reused buffer: all 43 columns (``part``
         None), or only the gauges of ``part``'s faces. Unless ``counts`` are already less ``c_k``
         (``centred``), ``c_k`` is subtracted exactly, in place (one rank-1 update: the rows are short for
-        numpy; a broadcast subtraction into the strided columns took 1.4–1.8× as long)."""
+        numpy, and a broadcast subtraction into the strided columns is slower)."""
         n = counts.shape[0]
         w = 43 if part is None else part[1].size
         Z = self._buf[: n * w].reshape(n, w)

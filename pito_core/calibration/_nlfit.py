@@ -11,13 +11,13 @@ with outputs in face frames they also take the other free faces' features
 (``other_features``). Each face's features are fitted where that face carries (zero
 elsewhere) and read from ``P x`` (:func:`input_map`), as ``face_to_face``'s: of the raw counts,
 a product of a gauge reading its own load and a neighbour's crosstalk at once has cross terms
-no single-face load showed (squeezes up to 1.5× the linear fit's). ``unloaded_frame`` (a
+no single-face load showed. ``unloaded_frame`` (a
 connected face carrying reactions and no direct load): only their cubes, of the counts (a
 saturating gauge is odd in its own strain, crosstalk included). Not for ``loaded_frame``:
 with a noisy reference its correction fitted the noise. Not the connected
 face's products and cubes in a free face's outputs: they see the sum of every load, and a
 squeeze (two faces at once, never in the training data) drove them far outside what
-single-face loads fitted (held-out squeeze error up to 1.6× the linear fit's). Rows
+single-face loads fitted. Rows
 are dealt to folds by loading segment (``_cv.py``) in the same pass as the affine fit's
 QR, each fold keeping a Gram matrix; the model is chosen per face and per output group
 (forces, torques) from those, without another pass, and the rows the correction does not
@@ -369,9 +369,8 @@ def correction(poly: PolyAccumulator, D, edge_matrix, linear_matrix, out_faces, 
     those with a feature) wholly, their linear part too (``map_matrix``: a squeeze's crosstalk on a
     face's own gauges, which its single-face training never saw, is taken out), and also inside the
     range of the training loads in the linear fit's coordinates (``linear_matrix (6F, 36)``'s output
-    rows; axes that never carried load left out) is inside. Not for the joint methods: on
-    ``pito_core.sim``'s cube (24 held loads a face) their corrections, trusted out to that box, lost
-    1.06–1.17× to the linear fit on fresh sessions (≤ 1.04× within the gauges' box)."""
+    rows; axes that never carried load left out) is inside. Not for the joint methods: trusted out to that
+    box, their corrections lost to the linear fit on fresh sessions (docs/calibration/coverage.md)."""
     seen = poly.lower <= poly.upper
     lower, upper = np.where(seen, poly.lower, 0.0), np.where(seen, poly.upper, 0.0)
     if not poly.own:
