@@ -161,12 +161,15 @@ def _tare_moments(session: CalibrationSession, block_size: int = 65536):
 
 def _other_features(spec, sessions):
     """What a joint method's free faces' outputs take of the other free faces' features (``PolyAccumulator``):
-    nothing in the reference frame (``loaded_frame``); their cubes where a connected face under a ``face``
-    flange carries the reactions and no direct load (``unloaded_frame``); else all of them."""
+    nothing in the reference frame (``loaded_frame``), nor where a connected face under a ``face`` flange
+    carries its own loads and every reaction (``total``: read from ``P x``, its reactions' features put
+    phantom loads on that face in a free grasp); their cubes where it carries the reactions and no direct
+    load (``unloaded_frame``); else all of them."""
     if spec.inputs != "all" or spec.output_frame != "face":
         return None
-    reactions = any(s.flange == "face" for s in sessions)
-    return "cubes" if reactions and not spec.load_connected else "all"
+    if not any(s.flange == "face" for s in sessions):
+        return "all"
+    return None if spec.load_connected else "cubes"
 
 
 def _poly_zero(session: CalibrationSession, block_size: int, n: int = POLY_TARE_SAMPLES):
