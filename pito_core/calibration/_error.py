@@ -28,7 +28,8 @@ in-sample RMSE (the fit's own folds, ``ModelChoice.cv_rmse``; 1 where none ran),
 less the reference's noise in it. The cross-validation gives the excess ``(ρ² − 1)`` × the error's
 mean, not where it falls: :data:`HELD_OUT_LEVERAGE_SHARE` of it is put in proportion to the
 correction's leverage ``h`` (a correction is worse held out where its features reach: a face that
-carries), the rest in proportion to the in-sample error; both fitted to the same features. After
+carries), the rest in proportion to the in-sample error (not a ``face_to_face`` face's ``c₃``: it
+never fitted its crosstalk, whose residuals are held out already); both on the same features. After
 :meth:`CalibrationCovariance.retared` on ``n`` samples the tare's gauge noise ``A Σ_g Aᵀ / n`` is added.
 """
 
@@ -66,7 +67,7 @@ NOISE_LIMIT_SE = 3.0
 #: of the largest are dropped (:func:`correction_leverage`).
 LEVERAGE_RTOL = 1e-10
 #: The share of the held-out excess put in proportion to the correction's leverage, the rest in proportion to
-#: the in-sample error (all of it there: carrying faces 84-95 %, free 97-99 %; none: free 90-94 %, hub cube).
+#: the in-sample error (measured: docs/calibration/coverage.md).
 HELD_OUT_LEVERAGE_SHARE = 0.5
 
 
@@ -391,7 +392,6 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
     q, L, at = np.zeros((n, F)), np.zeros(n, dtype=bool), 0
     C, v_out = np.zeros((n, F), dtype=bool), np.zeros((len(offsets), F, 6))  # carries; the noise in the targets
     X = []  # per block, counts less the session's tare (float32) and the session: the correction's leverage
-    keep_x = cal.correction is not None
     spans = []  # each session's rows
     for k, (blocks, mount, off, rc) in enumerate(zip(subsample, mounts, offsets, ref_covs)):
         first = at
@@ -404,7 +404,7 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
             at = rows.stop
             counts = np.asarray(b.counts, float)[usable]
             W = cal.wrenches(counts, offset=off)[:, idx]
-            if keep_x:
+            if cal.correction is not None:
                 X.append(((counts - off).astype(np.float32), k))
             C[rows] = carries[usable][:, idx]
             E[rows] = T[usable][:, idx] - W
@@ -415,7 +415,7 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
     counts = None
     E, V, L, phi = E[:at], V[:at], L[:at], load_features(q[:at])  # (n, F, 6), (n, F, 6), (n,), (n, F, 4)
     del q
-    H = correction_leverage(cal, groups, X, offsets) if keep_x else None
+    H = correction_leverage(cal, groups, X, offsets) if cal.correction is not None else None
     del X
     noise, kept = np.zeros((F, 6)), np.zeros((F, 6))  # means over the samples, output frame
     for k, rows in enumerate(spans):
@@ -450,7 +450,17 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
                 if hv is not None and hv.any():
                     kept[f, a] = _nnls(phi[:, f], hv)
             coef[f, a] = c
+    excess = coef * (rho**2 - 1)  # held out (module docstring)
+    mean = np.einsum("nfk,fik->fi", phi, excess) / max(at, 1)  # (F, 6) its mean per axis
+    excess[own, :, 3] = 0.0  # in place, not an own-row fit's crosstalk: it never fitted it (held out already)
+    if H is not None:  # a share where the correction has leverage
+        excess *= 1.0 - HELD_OUT_LEVERAGE_SHARE
+        mh = H.mean(axis=0)
+        for f in np.flatnonzero(mh > 0):  # h / mean(h) on the features, then × each axis's mean
+            excess[f] += HELD_OUT_LEVERAGE_SHARE * np.outer(mean[f], _nnls(phi[:, f], H[:, f] / mh[f]))
+    del H
     var = np.einsum("nfk,fik->nfi", phi, coef + kept)
+    del phi
     with np.errstate(divide="ignore", invalid="ignore"):  # an axis without error: NaN, replaced below
         corr = np.stack([np.corrcoef(_standardised(E[:, f], var[:, f]), rowvar=False) for f in range(F)])
     corr = np.where(np.isfinite(corr), corr, np.eye(6)) if E.shape[0] > 2 else np.broadcast_to(np.eye(6), (F, 6, 6))
@@ -466,18 +476,7 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
     t = E[L] if L.any() else E
     lo, hi = SCALE_BOUNDS
     scale = float(np.clip(np.sqrt(max(np.quantile(t, COVERAGE, overwrite_input=True), 0.0)), lo, hi))
-    # held out: the excess over the in-sample error, a share where the correction has leverage (module docstring)
-    excess = coef * (rho**2 - 1)
-    share = HELD_OUT_LEVERAGE_SHARE if H is not None else 0.0  # no correction: no leverage of its own
-    mh = np.zeros(F) if H is None else H.mean(axis=0)
-    mean = np.einsum("nfk,fik->fi", phi, excess) / max(at, 1)  # (F, 6) its mean per axis
-    excess[own, :, 3] = 0.0  # in place, not an own-row fit's crosstalk: it never fitted it (held out already)
-    excess *= 1.0 - share
-    for f in np.flatnonzero(mh > 0):
-        for a in range(6):
-            excess[f, a] += _nnls(phi[:, f], share * mean[f, a] * H[:, f] / mh[f])
-    coef += excess
-    coef += kept
+    coef += excess + kept
     return ErrorModel(variance_coef=coef.reshape(6 * F, N_FEATURES), residual_corr=corr, scale=scale)
 
 
