@@ -22,11 +22,14 @@ One estimator (docs/calibration.md, "Uncertainty"). A prediction's error has two
 
 The sum is multiplied by ``scale²``, the factor that puts 95 % of the loaded training residuals
 within ``±1.96`` standard deviations (the reference's noise added where the face carries; the
-errors are not Gaussian). The model's own error (not the ``h V`` term) is also multiplied by the
-held-out factor²: the median over outputs of the chosen model's cross-validated RMSE over its
+errors are not Gaussian). Held out, the model's own error (not the ``h V`` term) is larger: by the
+held-out factor ``ρ²``, the median over outputs of the chosen model's cross-validated RMSE over its
 in-sample RMSE (the fit's own folds, ``ModelChoice.cv_rmse``; 1 where none ran), each mean square
-less the reference's noise in it, except a ``face_to_face`` face's ``c₃``: it never fitted its
-crosstalk, whose residuals are held out already. After
+less the reference's noise in it. The cross-validation gives the excess ``(ρ² − 1)`` × the error's
+mean, not where it falls: :data:`HELD_OUT_LEVERAGE_SHARE` of it is put in proportion to the
+correction's leverage ``h`` (a correction is worse held out where its features reach: a face that
+carries), the rest in proportion to the in-sample error (not a ``face_to_face`` face's ``c₃``: it
+never fitted its crosstalk, whose residuals are held out already); both on the same features. After
 :meth:`CalibrationCovariance.retared` on ``n`` samples the tare's gauge noise ``A Σ_g Aᵀ / n`` is added.
 """
 
@@ -63,6 +66,9 @@ NOISE_LIMIT_SE = 3.0
 #: Directions of a leverage's design (columns scaled to unit norm) with eigenvalues below this fraction
 #: of the largest are dropped (:func:`correction_leverage`).
 LEVERAGE_RTOL = 1e-10
+#: The share of the held-out excess put in proportion to the correction's leverage, the rest in proportion to
+#: the in-sample error (measured: docs/calibration/coverage.md).
+HELD_OUT_LEVERAGE_SHARE = 0.5
 
 
 def load_features(q: np.ndarray) -> np.ndarray:
@@ -386,7 +392,6 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
     q, L, at = np.zeros((n, F)), np.zeros(n, dtype=bool), 0
     C, v_out = np.zeros((n, F), dtype=bool), np.zeros((len(offsets), F, 6))  # carries; the noise in the targets
     X = []  # per block, counts less the session's tare (float32) and the session: the correction's leverage
-    keep_x = cal.correction is not None and any(rc is not None and np.any(np.diag(rc) > 0) for rc in ref_covs)
     spans = []  # each session's rows
     for k, (blocks, mount, off, rc) in enumerate(zip(subsample, mounts, offsets, ref_covs)):
         first = at
@@ -399,7 +404,7 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
             at = rows.stop
             counts = np.asarray(b.counts, float)[usable]
             W = cal.wrenches(counts, offset=off)[:, idx]
-            if keep_x:
+            if cal.correction is not None:
                 X.append(((counts - off).astype(np.float32), k))
             C[rows] = carries[usable][:, idx]
             E[rows] = T[usable][:, idx] - W
@@ -410,7 +415,7 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
     counts = None
     E, V, L, phi = E[:at], V[:at], L[:at], load_features(q[:at])  # (n, F, 6), (n, F, 6), (n,), (n, F, 4)
     del q
-    H = correction_leverage(cal, groups, X, offsets) if keep_x and V.any() else None
+    H = correction_leverage(cal, groups, X, offsets) if cal.correction is not None else None
     del X
     noise, kept = np.zeros((F, 6)), np.zeros((F, 6))  # means over the samples, output frame
     for k, rows in enumerate(spans):
@@ -445,6 +450,14 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
                 if hv is not None and hv.any():
                     kept[f, a] = _nnls(phi[:, f], hv)
             coef[f, a] = c
+    excess = coef * (rho**2 - 1)  # held out (module docstring)
+    mean = np.einsum("nfk,fik->fi", phi, excess) / max(at, 1)  # (F, 6) its mean per axis
+    excess[own, :, 3] = 0.0  # in place, not an own-row fit's crosstalk: it never fitted it (held out already)
+    if H is not None:  # a share where the correction has leverage
+        excess *= 1.0 - HELD_OUT_LEVERAGE_SHARE
+        mh = H.mean(axis=0)
+        for f in np.flatnonzero(mh > 0):  # h / mean(h) on the features, then × each axis's mean
+            excess[f] += HELD_OUT_LEVERAGE_SHARE * np.outer(mean[f], _nnls(phi[:, f], H[:, f] / mh[f]))
     del H
     var = np.einsum("nfk,fik->nfi", phi, coef + kept)
     del phi
@@ -463,9 +476,7 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
     t = E[L] if L.any() else E
     lo, hi = SCALE_BOUNDS
     scale = float(np.clip(np.sqrt(max(np.quantile(t, COVERAGE, overwrite_input=True), 0.0)), lo, hi))
-    coef[..., :3] *= rho**2  # held out (own-row fits: not their crosstalk, which they never fitted)
-    coef[~own, :, 3] *= rho**2
-    coef += kept
+    coef += excess + kept
     return ErrorModel(variance_coef=coef.reshape(6 * F, N_FEATURES), residual_corr=corr, scale=scale)
 
 

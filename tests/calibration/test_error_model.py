@@ -151,7 +151,8 @@ def test_intervals_of_a_correction_fitted_to_a_noisy_reference_cover_where_the_f
     """A reference as noisy as the tare allows (0.33 % of full scale): the correction fits part of its
     noise, which the residuals cannot show; where each face carries, its intervals still cover the
     true wrench (40 % pooled where the face carries, 88 % over every loaded sample, before the error
-    model counted it; 93 % and 97 % now)."""
+    model counted it; 93 % and 97 % with it, 98 % and 97 % since the held-out excess is put where the
+    correction has leverage)."""
     from pito_bench._cubes import BenchCube, cube_session
 
     cube = BenchCube("saturation", 0.05, 0.1, seed=0)
@@ -166,4 +167,24 @@ def test_intervals_of_a_correction_fitted_to_a_noisy_reference_cover_where_the_f
     W, cov = cal.wrenches(test.counts[ld], return_cov=True)
     inside = np.abs(W - truth[ld]) <= 1.959964 * np.sqrt(np.diagonal(cov, axis1=-2, axis2=-1))
     carrying = np.stack([inside[test.loaded[ld][:, f], f].mean(axis=0) for f in range(6)])  # (6 faces, 6 axes)
-    assert 0.93 <= inside.mean() <= 0.98 and 0.88 <= carrying.mean() <= 0.98, (inside.mean(), carrying)
+    assert 0.93 <= inside.mean() <= 0.98 and 0.88 <= carrying.mean() <= 0.99, (inside.mean(), carrying)
+
+
+def test_intervals_of_a_correction_cover_where_the_face_carries_and_where_it_does_not():
+    """Noise-free reference, a cube with hub bending: the correction is worse held out than in sample,
+    most of all where its features have leverage (a face that carries). Before the held-out excess was
+    put there too, the intervals covered 92 % where a face carries (now 98 %)."""
+    from pito_bench._cubes import BenchCube, cube_session
+
+    cube = BenchCube("hub", 0.05, 0.1, seed=0)
+    train, _ = cube_session(cube, "frame_hole", 6, range(1, 7), 1000, n_rest=1000, seed=1)
+    test, truth = cube_session(cube, "frame_hole", 6, range(1, 7), 300, n_rest=300, seed=501, offset_shift=50.0)
+    cal = calibrate(train, "loaded_frame")
+    assert cal.model.name == "poly"
+    ld = test.loaded.any(axis=1)
+    cal = cal.tare(test.counts[~ld])
+    W, cov = cal.wrenches(test.counts[ld], return_cov=True)
+    inside = np.abs(W - truth[ld]) <= 1.959964 * np.sqrt(np.diagonal(cov, axis1=-2, axis2=-1))
+    carries = test.loaded[ld]
+    carrying, free = inside[carries].mean(), inside[~carries].mean()
+    assert 0.94 <= carrying <= 0.995 and free >= 0.93, (carrying, free)
