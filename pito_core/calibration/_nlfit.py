@@ -319,7 +319,7 @@ class PolyAccumulator:
                 u = u_all[idx][:, cols]
                 cube_cols = acc.p - cubes.size + np.arange(cubes.size)
                 t = tangent_rows(build, acc.p, u, self.lower[cols], self.upper[cols], pr, ra, cube_cols,
-                                 6 if group == 6 else 3)
+                                 6 if group == 6 else 3, None if self.own else np.arange(6 * (f - 1), 6 * f))
                 out[6 * row[f] : 6 * row[f] + 6] = t
         return out
 
