@@ -431,6 +431,24 @@ TANGENT_GAIN = 0.95
 MIN_BEYOND_ROWS = 20
 
 
+def tested_reach(u, lower, upper) -> float:
+    """The factor beyond the box that the extension's held-out rows (``tangent_rows``) reach: the largest
+    ``1 / t`` of those outside the box shrunk to hold ``EXTRAPOLATION_QUANTILE`` of ``u (n, m)``, drawn back
+    to it (1.0: too few of them, untested)."""
+    from ._poly import _ray_into
+
+    with np.errstate(divide="ignore", invalid="ignore"):
+        reach = np.nan_to_num(np.where(u > 0, u / upper, u / lower), nan=0.0, posinf=0.0).max(axis=1)
+    if not reach.size:
+        return 1.0
+    shrink = float(np.quantile(reach, EXTRAPOLATION_QUANTILE))
+    t = _ray_into(u, shrink * lower, shrink * upper)
+    outer = t < 1.0
+    if outer.sum() < MIN_BEYOND_ROWS or (~outer).sum() < MIN_BEYOND_ROWS:
+        return 1.0
+    return float(1.0 / max(t[outer].min(), 1e-12))
+
+
 def tangent_rows(build, p: int, u, lower, upper, prob: Problem, row_alpha, cube_cols, group: int = 3,
                  face_cols=None) -> np.ndarray:
     """``(ny,)`` bool: the output groups whose correction extrapolates better along its own tangent.
