@@ -220,6 +220,8 @@ class Calibration:
         # wide feature maps by matrix products (BLAS), where einsum is 3-4x slower.
         W = np.einsum("fij,nj->nfi", self._apply, x)
         if self._apply_nl is not None:
+            fade = self.correction.fade(x)
+            W_lin = W.copy() if fade is not None and np.any(fade < 1) else None
             phi, d, extra = self.correction.all_terms(x)
             W += (phi @ self._apply_nl.reshape(6 * 6, -1).T).reshape(n, 6, 6)
             if d is not None and self._apply_edge is not None:  # beyond the fitted range, the linear fit's slope
@@ -229,6 +231,11 @@ class Calibration:
                 W += (extra[0] @ A.reshape(6 * 6, -1).T + extra[1] @ E.reshape(6 * 6, -1).T).reshape(n, 6, 6)
             if self._apply_map is not None:  # corrected rows read P x in their linear part too
                 W += (self.correction.map_terms(x) @ self._apply_map.reshape(6 * 6, -1).T).reshape(n, 6, 6)
+            if W_lin is not None and self._apply_edge is not None:  # past the reach tested: fade to the linear fit
+                k = np.flatnonzero(fade < 1)
+                g = fade[k, None, None]
+                E = (x[k] @ self._apply_edge.reshape(6 * 6, -1).T).reshape(k.size, 6, 6)
+                W[k] = W_lin[k] + g * (W[k] - W_lin[k]) - (1.0 - g) * E
         W[:, ~self.has_output] = np.nan
         if not return_cov:
             return W[0] if single else W

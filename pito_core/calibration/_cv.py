@@ -431,7 +431,26 @@ TANGENT_GAIN = 0.95
 MIN_BEYOND_ROWS = 20
 
 
-def tangent_rows(build, p: int, u, lower, upper, prob: Problem, row_alpha, cube_cols, group: int = 3) -> np.ndarray:
+def tested_reach(u, lower, upper) -> float:
+    """The factor beyond the box that the extension's held-out rows (``tangent_rows``) reach: the largest
+    ``1 / t`` of those outside the box shrunk to hold ``EXTRAPOLATION_QUANTILE`` of ``u (n, m)``, drawn back
+    to it (1.0: too few of them, untested)."""
+    from ._poly import _ray_into
+
+    with np.errstate(divide="ignore", invalid="ignore"):
+        reach = np.nan_to_num(np.where(u > 0, u / upper, u / lower), nan=0.0, posinf=0.0).max(axis=1)
+    if not reach.size:
+        return 1.0
+    shrink = float(np.quantile(reach, EXTRAPOLATION_QUANTILE))
+    t = _ray_into(u, shrink * lower, shrink * upper)
+    outer = t < 1.0
+    if outer.sum() < MIN_BEYOND_ROWS or (~outer).sum() < MIN_BEYOND_ROWS:
+        return 1.0
+    return float(1.0 / max(t[outer].min(), 1e-12))
+
+
+def tangent_rows(build, p: int, u, lower, upper, prob: Problem, row_alpha, cube_cols, group: int = 3,
+                 face_cols=None) -> np.ndarray:
     """``(ny,)`` bool: the output groups whose correction extrapolates better along its own tangent.
 
     Beyond the box the correction is trained on it continues with the linear fit's slope, or with
@@ -442,7 +461,9 @@ def tangent_rows(build, p: int, u, lower, upper, prob: Problem, row_alpha, cube_
     error is below ``TANGENT_GAIN`` of the slope's. ``build(idx, v)`` gives the design ``ZT (p + q, len(idx))`` (``p`` regressor columns)
     of rows ``idx`` with the scaled channels ``v (len(idx), m)`` in place of theirs; ``u (n, m)`` the rows'
     scaled channels; ``lower, upper (m,)`` the box (of ``u``); ``cube_cols`` the design columns that are
-    cubes (the rest of ``prob.b`` squares and products).
+    cubes (the rest of ``prob.b`` squares and products). ``face_cols``: the columns of ``u`` of the
+    outputs' own face (a joint fit's face is driven by its own gauges): the rules are then scored on
+    the rows outside whose own gauges are beyond the shrunk box too.
     """
     from ._poly import _ray_into
 
@@ -472,7 +493,14 @@ def tangent_rows(build, p: int, u, lower, upper, prob: Problem, row_alpha, cube_
     dphi = Zc[prob.b].T * np.where(np.isin(prob.b, cube_cols)[None, :], 3.0 * r, 2.0 * r)
     tangent = Zr[prob.a].T @ X[:na] + edge + dphi @ X[na:]  # or the corrected model's tangent
     w2 = np.asarray(prob.weight, dtype=float) ** 2
-    e_slope, e_tan = ((slope - y) ** 2).sum(axis=0) * w2, ((tangent - y) ** 2).sum(axis=0) * w2
+    judged = np.ones(outer.size, dtype=bool)
+    if face_cols is not None:
+        fc = np.asarray(face_cols)
+        judged = _ray_into(u[outer][:, fc], shrink * lower[fc], shrink * upper[fc]) < 1.0
+        if judged.sum() < MIN_BEYOND_ROWS:
+            return out
+    e_slope = ((slope - y)[judged] ** 2).sum(axis=0) * w2
+    e_tan = ((tangent - y)[judged] ** 2).sum(axis=0) * w2
     for g in range(0, ra.size, group):
         cols = np.arange(g, min(g + group, ra.size))
         if use[cols].all() and e_tan[cols].sum() < TANGENT_GAIN * e_slope[cols].sum():

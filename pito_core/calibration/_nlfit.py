@@ -32,7 +32,7 @@ from ..defaults import FULL_SCALE_FACE
 from ..frames import FACES, N_GAUGES
 from ._lstsq import RANK_RTOL
 from ._cv import ALPHAS, N_FOLDS, N_SE_SESSION, FoldedGram, MAX_SEGMENT_FRACTION, Problem, SegmentCounter, choose_model, cross_validate, \
-    fold_bounds, held_out_sse, solve_problem, tangent_rows
+    fold_bounds, held_out_sse, solve_problem, tangent_rows, tested_reach
 from ._gramfit import load_groups
 from ._poly import MAX_ROWS, PolyCorrection, poly_features_t, poly_terms
 
@@ -109,6 +109,7 @@ class PolyAccumulator:
         # every ``_keep``-th fitted row (float32, ≤ MAX_EXTENSION_ROWS): the extension's choice refits on them
         self._rows, self._kept = [], 0
         self._keep = max(1, int(np.ceil(sum(session_lengths) / self.stride / MAX_EXTENSION_ROWS)))
+        self.reach = None  # after fit: how far beyond the box the extension was tested (_cv.tested_reach)
         self.tangent = None  # (6F,) bool after fit: rows extrapolated along the polynomial's tangent
         self.sample = None  # (x, usable, carries, loaded) of the kept rows, after fit
         if own:
@@ -319,8 +320,9 @@ class PolyAccumulator:
                 u = u_all[idx][:, cols]
                 cube_cols = acc.p - cubes.size + np.arange(cubes.size)
                 t = tangent_rows(build, acc.p, u, self.lower[cols], self.upper[cols], pr, ra, cube_cols,
-                                 6 if group == 6 else 3)
+                                 6 if group == 6 else 3, None if self.own else np.arange(6 * (f - 1), 6 * f))
                 out[6 * row[f] : 6 * row[f] + 6] = t
+                self.reach = max(self.reach or 1.0, tested_reach(u, self.lower[cols], self.upper[cols]))
         return out
 
 
@@ -375,8 +377,9 @@ def correction(poly: PolyAccumulator, D, edge_matrix, linear_matrix, out_faces, 
     lower, upper = np.where(seen, poly.lower, 0.0), np.where(seen, poly.upper, 0.0)
     if not poly.own:
         if not poly.mapped:
-            return PolyCorrection(poly.scale, _PAIRS, _CUBES, D, lower, upper, edge_matrix, tangent=poly.tangent)
-        return PolyCorrection(poly.scale, _PAIRS, _CUBES, D, lower, upper, edge_matrix, tangent=poly.tangent,
+            return PolyCorrection(poly.scale, _PAIRS, _CUBES, D, lower, upper, edge_matrix, tangent=poly.tangent,
+                                  reach=poly.reach)
+        return PolyCorrection(poly.scale, _PAIRS, _CUBES, D, lower, upper, edge_matrix, tangent=poly.tangent, reach=poly.reach,
                               input_map=input_map(poly.count_grams, poly.group_carries), edge_mapped=True)
     idx = [f - 1 for f in out_faces]
     lo, hi = poly.target_lo[idx].reshape(-1), poly.target_hi[idx].reshape(-1)
@@ -385,7 +388,7 @@ def correction(poly: PolyAccumulator, D, edge_matrix, linear_matrix, out_faces, 
     P = input_map(poly.count_grams, poly.group_carries)
     map_lo, map_hi = map_range(P, poly.sample)
     return PolyCorrection(poly.scale, _PAIRS, _CUBES, D, lower, upper, edge_matrix, domain=linear_matrix[keep],
-                          domain_lower=lo[keep], domain_upper=hi[keep], input_map=P, tangent=poly.tangent,
+                          domain_lower=lo[keep], domain_upper=hi[keep], input_map=P, tangent=poly.tangent, reach=poly.reach,
                           map_matrix=linear_matrix * rows[:, None], map_lower=map_lo, map_upper=map_hi)
 
 

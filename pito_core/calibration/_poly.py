@@ -113,6 +113,11 @@ class PolyCorrection:
     map_lower, map_upper : array-like, shape (m,), optional
         With ``map_matrix``: the range of ``P x − x`` on the rows the correction was fitted on (what the
         map misreads of a face's own load); ``map_matrix`` reads only what lies beyond it. None: zeros.
+    reach : float, optional
+        Factor ≥ 1 beyond the box as far as held-out loads tested its extension (``_cv.tested_reach``):
+        a sample farther out along its ray (``t · reach < 1``) takes ``t · reach`` of the correction
+        and the rest of the linear fit (the correction fades to it, ``edge_matrix`` being their slopes'
+        difference). None: no fade.
     edge_mapped : bool, optional
         With ``input_map``: ``edge_matrix`` reads ``x_c − P x`` (zero inside the box) in place of
         ``x_c − x``: the corrected model's linear part reads the counts themselves, only its features
@@ -121,7 +126,7 @@ class PolyCorrection:
 
     def __init__(self, scale, pairs, cubes, coef, lower=None, upper=None, edge_matrix=None, domain=None,
                  domain_lower=None, domain_upper=None, input_map=None, tangent=None, map_matrix=None,
-                 map_lower=None, map_upper=None, edge_mapped=None):
+                 map_lower=None, map_upper=None, edge_mapped=None, reach=None):
         self.scale = np.asarray(scale, dtype=float).reshape(-1)
         self.pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
         self.cubes = np.asarray(cubes, dtype=np.int64).reshape(-1)
@@ -183,6 +188,11 @@ class PolyCorrection:
         self.edge_mapped = True if edge_mapped is not None and bool(np.asarray(edge_mapped)) else None
         if self.edge_mapped and self.input_map is None:
             raise ValueError("edge_mapped: expected an input_map")
+        self.reach = None
+        if reach is not None:
+            self.reach = float(np.asarray(reach))
+            if not np.isfinite(self.reach) or self.reach < 1.0 or lower is None or edge_matrix is None:
+                raise ValueError("reach: expected a finite factor ≥ 1, with lower, upper and edge_matrix")
         self.edge_matrix = None
         if edge_matrix is not None:
             self.edge_matrix = np.asarray(edge_matrix, dtype=float)
@@ -269,12 +279,22 @@ class PolyCorrection:
         """``(N, P + Q)`` features of offset-free counts ``x (N, m)``."""
         return self._features_t(x, self.pairs, self.cubes).T
 
+    def fade(self, x: np.ndarray) -> np.ndarray | None:
+        """``(N,)`` the share of the correction kept for offset-free counts ``x (N, m)``: ``min(1, t · reach)``
+        (None without a ``reach``)."""
+        if self.reach is None:
+            return None
+        return np.minimum(self._ray(x)[1] * self.reach, 1.0)
+
     def __call__(self, x: np.ndarray) -> np.ndarray:
         """``(N, q)`` correction for offset-free counts ``x (N, m)``, output units (the edge and map terms included)."""
+        out = self._call(x)
         if self.map_matrix is not None:
-            out = self._call(x)
-            return out + self.map_terms(x) @ self.map_matrix.T
-        return self._call(x)
+            out = out + self.map_terms(x) @ self.map_matrix.T
+        f = self.fade(x)
+        if f is not None and np.any(f < 1):  # past the reach: toward the linear fit (slopes less edge_matrix)
+            out = f[:, None] * out - (1.0 - f)[:, None] * (np.asarray(x, dtype=float) @ self.edge_matrix.T)
+        return out
 
     def _call(self, x: np.ndarray) -> np.ndarray:
         if self.tangent is not None:

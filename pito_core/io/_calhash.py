@@ -37,7 +37,7 @@ def calibration_hash(cal) -> str:
     if corr is not None:  # the polynomial model (linear calibrations keep the hash they always had)
         for name in ("scale", "pairs", "cubes", "coef", "lower", "upper", "edge_matrix", "domain",
                      "domain_lower", "domain_upper", "input_map", "tangent", "map_matrix",
-                     "map_lower", "map_upper", "edge_mapped"):
+                     "map_lower", "map_upper", "edge_mapped", "reach"):
             if getattr(corr, name, None) is not None:  # the range: files written before it hash as they did
                 _arr(h, f"correction.{name}", getattr(corr, name))
     meta = json.loads(json_attr(cal.meta or {}))

@@ -55,7 +55,7 @@ CALIBRATION_READ_VERSIONS = {6}
 _CORRECTION_FIELDS = ("scale", "pairs", "cubes", "coef")
 #: The range the correction was fitted on, and its slopes beyond.
 _CORRECTION_RANGE = ("lower", "upper", "edge_matrix", "domain", "domain_lower", "domain_upper",
-                     "input_map", "tangent", "map_matrix", "map_lower", "map_upper", "edge_mapped")
+                     "input_map", "tangent", "map_matrix", "map_lower", "map_upper", "edge_mapped", "reach")
 _GROUP_FIELDS = ("inputs", "rows", "design_pinv", "residual_cov", "center", "weights")
 
 
