@@ -450,7 +450,7 @@ def tested_reach(u, lower, upper) -> float:
 
 
 def tangent_rows(build, p: int, u, lower, upper, prob: Problem, row_alpha, cube_cols, group: int = 3,
-                 face_cols=None) -> np.ndarray:
+                 face_cols=None, cache=None) -> np.ndarray:
     """``(ny,)`` bool: the output groups whose correction extrapolates better along its own tangent.
 
     Beyond the box the correction is trained on it continues with the linear fit's slope, or with
@@ -463,28 +463,43 @@ def tangent_rows(build, p: int, u, lower, upper, prob: Problem, row_alpha, cube_
     scaled channels; ``lower, upper (m,)`` the box (of ``u``); ``cube_cols`` the design columns that are
     cubes (the rest of ``prob.b`` squares and products). ``face_cols``: the columns of ``u`` of the
     outputs' own face (a joint fit's face is driven by its own gauges): the rules are then scored on
-    the rows outside whose own gauges are beyond the shrunk box too.
+    the rows outside whose own gauges are beyond the shrunk box too. ``cache``: a dict shared by calls
+    with the same ``build``, ``u`` and box (a joint fit's output faces): the rows and their designs
+    are worked out once.
     """
     from ._poly import _ray_into
 
     ra = np.asarray(row_alpha, dtype=float)
     out = np.zeros(ra.size, dtype=bool)
     use = np.isfinite(ra)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        reach = np.nan_to_num(np.where(u > 0, u / upper, u / lower), nan=0.0, posinf=0.0).max(axis=1)
-    shrink = float(np.quantile(reach, EXTRAPOLATION_QUANTILE)) if reach.size else 1.0
-    t = _ray_into(u, shrink * lower, shrink * upper)
-    inner, outer = np.flatnonzero(t >= 1.0), np.flatnonzero(t < 1.0)
-    if not use.any() or outer.size < MIN_BEYOND_ROWS or inner.size < MIN_BEYOND_ROWS:
+    if not use.any():
         return out
-    Z = build(inner, u[inner])
+    shared = None if cache is None else cache.get("rows")
+    if shared is None:
+        with np.errstate(divide="ignore", invalid="ignore"):
+            reach = np.nan_to_num(np.where(u > 0, u / upper, u / lower), nan=0.0, posinf=0.0).max(axis=1)
+        shrink = float(np.quantile(reach, EXTRAPOLATION_QUANTILE)) if reach.size else 1.0
+        t = _ray_into(u, shrink * lower, shrink * upper)
+        inner, outer = np.flatnonzero(t >= 1.0), np.flatnonzero(t < 1.0)
+        G = Zc = Zr = None
+        if outer.size >= MIN_BEYOND_ROWS and inner.size >= MIN_BEYOND_ROWS:
+            Z = build(inner, u[inner])
+            G = Z @ Z.T
+            G = 0.5 * (G + G.T)
+            # the rows outside: drawn back to the shrunk box; as they are
+            Zc, Zr = build(outer, u[outer] * t[outer][:, None]), build(outer, u[outer])
+        shared = (shrink, t, outer, G, Zc, Zr)
+        if cache is not None:
+            cache["rows"] = shared
+    shrink, t, outer, G, Zc, Zr = shared
+    if G is None:
+        return out
     levels = np.unique(ra[use])
-    sols = _paths(0.5 * (Z @ Z.T + (Z @ Z.T).T), p, [prob], np.r_[np.inf, levels])[0]
+    sols = _paths(G, p, [prob], np.r_[np.inf, levels])[0]
     X = np.zeros_like(sols[0])
     for a, Xa in zip(levels, sols[1:]):
         X[:, ra == a] = Xa[:, ra == a]
     tc = t[outer]
-    Zc, Zr = build(outer, u[outer] * tc[:, None]), build(outer, u[outer])  # drawn back; as they are
     na = prob.a.size
     y = Zc[p + prob.y].T
     edge = Zc[prob.b].T @ X[na:]  # the correction at the edge

@@ -356,8 +356,9 @@ def correction_leverage(cal, groups, blocks, offsets) -> np.ndarray:
         affine, full = designs(x, k)
         rows = slice(at, at + len(x))
         at = rows.stop
+        h0 = {key: _row_norms2(A, M0[key]) for key, A in affine.items()}  # each group's once, for all its faces
         for (g, face, _), D, M in zip(faces, full, M1):
-            h = _row_norms2(D, M) - _row_norms2(affine[id(g)], M0[id(g)])
+            h = _row_norms2(D, M) - h0[id(g)]
             H[rows, face] = np.clip(h, 0.0, 1.0) * n / n_corr
     return H
 

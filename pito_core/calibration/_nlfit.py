@@ -290,6 +290,7 @@ class PolyAccumulator:
         u_all, targets = x / self.scale, targets.astype(float)
         n_int = self.n_int
         for acc, probs, faces in parts:
+            shared = None if self.own else {}  # a joint fit's faces share their rows (tangent_rows)
             for pr, f in zip(probs, faces):
                 ra = row_alpha[6 * row[f] : 6 * row[f] + 6]
                 if not np.isfinite(ra).any():
@@ -320,7 +321,7 @@ class PolyAccumulator:
                 u = u_all[idx][:, cols]
                 cube_cols = acc.p - cubes.size + np.arange(cubes.size)
                 t = tangent_rows(build, acc.p, u, self.lower[cols], self.upper[cols], pr, ra, cube_cols,
-                                 6 if group == 6 else 3, None if self.own else np.arange(6 * (f - 1), 6 * f))
+                                 6 if group == 6 else 3, None if self.own else np.arange(6 * (f - 1), 6 * f), shared)
                 out[6 * row[f] : 6 * row[f] + 6] = t
                 self.reach = max(self.reach or 1.0, tested_reach(u, self.lower[cols], self.upper[cols]))
         return out
