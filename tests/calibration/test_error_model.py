@@ -147,6 +147,14 @@ def test_the_correction_leverage_adds_one_per_feature_and_nothing_to_a_linear_fi
         assert np.all(np.round(added) <= used) and np.all(np.round(added) >= np.asarray(used) - 2), (added, used)
 
 
+def _inside_95(cal, test, truth):
+    """``(inside (n, 6, 6), carries (n, 6))`` over the test's loaded samples: the true wrench within the
+    95 % interval of ``cal`` tared on the test's own samples at rest, and the faces that carry."""
+    ld = test.loaded.any(axis=1)
+    W, cov = cal.tare(test.counts[~ld]).wrenches(test.counts[ld], return_cov=True)
+    return np.abs(W - truth[ld]) <= 1.959964 * np.sqrt(np.diagonal(cov, axis1=-2, axis2=-1)), test.loaded[ld]
+
+
 def test_intervals_of_a_correction_fitted_to_a_noisy_reference_cover_where_the_face_carries():
     """A reference as noisy as the tare allows (0.33 % of full scale): the correction fits part of its
     noise, which the residuals cannot show; where each face carries, its intervals still cover the
@@ -162,11 +170,8 @@ def test_intervals_of_a_correction_fitted_to_a_noisy_reference_cover_where_the_f
         warnings.simplefilter("ignore", NoisyReferenceWarning)
         cal = calibrate(train, "loaded_frame")
     assert cal.model.name == "poly"
-    ld = test.loaded.any(axis=1)
-    cal = cal.tare(test.counts[~ld])
-    W, cov = cal.wrenches(test.counts[ld], return_cov=True)
-    inside = np.abs(W - truth[ld]) <= 1.959964 * np.sqrt(np.diagonal(cov, axis1=-2, axis2=-1))
-    carrying = np.stack([inside[test.loaded[ld][:, f], f].mean(axis=0) for f in range(6)])  # (6 faces, 6 axes)
+    inside, carries = _inside_95(cal, test, truth)
+    carrying = np.stack([inside[carries[:, f], f].mean(axis=0) for f in range(6)])  # (6 faces, 6 axes)
     assert 0.93 <= inside.mean() <= 0.98 and 0.88 <= carrying.mean() <= 0.99, (inside.mean(), carrying)
 
 
@@ -181,10 +186,6 @@ def test_intervals_of_a_correction_cover_where_the_face_carries_and_where_it_doe
     test, truth = cube_session(cube, "frame_hole", 6, range(1, 7), 300, n_rest=300, seed=501, offset_shift=50.0)
     cal = calibrate(train, "loaded_frame")
     assert cal.model.name == "poly"
-    ld = test.loaded.any(axis=1)
-    cal = cal.tare(test.counts[~ld])
-    W, cov = cal.wrenches(test.counts[ld], return_cov=True)
-    inside = np.abs(W - truth[ld]) <= 1.959964 * np.sqrt(np.diagonal(cov, axis1=-2, axis2=-1))
-    carries = test.loaded[ld]
+    inside, carries = _inside_95(cal, test, truth)
     carrying, free = inside[carries].mean(), inside[~carries].mean()
     assert 0.94 <= carrying <= 0.995 and free >= 0.93, (carrying, free)
