@@ -30,6 +30,8 @@ __all__ = ["task_model_choice", "task_independent_cubes", "model_choice_ratios",
 #: The bench's own cubes: (form, inter-face coupling, nonlinearity at full scale).
 CUBES = (("linear", 0.02, 0.0), ("linear", 0.10, 0.0), ("saturation", 0.02, 0.1), ("saturation", 0.10, 0.1),
          ("hub", 0.05, 0.1), ("both", 0.10, 0.1))
+#: Seeds the bench draws its cubes' forms with (each seed: all of ``CUBES`` anew).
+CUBE_SEEDS = (0, 1, 2, 3, 4)
 #: Later-session loads: (kind, squeeze, load scale).
 TEST_KINDS = (("single", False, 1.0), ("squeeze", True, 1.0), ("beyond", False, 1.5))
 
@@ -79,18 +81,19 @@ def task_model_choice(k, faces, seed=1, cube_seed=0) -> dict:
     return {"rows": rows}
 
 
-def task_independent_cubes(k, connected_face=6, seed=1) -> dict:
-    """Held-out RMSE ratios default / linear per cube, method and test kind (see the module docstring)."""
+def task_independent_cubes(k, connected_face=6, seed=1, cube_seed=0) -> dict:
+    """Held-out RMSE ratios default / linear per cube, method and test kind (see the module docstring);
+    ``cube_seed`` draws the cubes' forms (gains, coupling, hub), ``seed`` the training session."""
     rows = []
     for form, coupling, level in CUBES:
-        cube = BenchCube(form, coupling, level, seed=0)
+        cube = BenchCube(form, coupling, level, seed=cube_seed)
         for method, fl in FLANGE.items():
             c = connected_face
             faces = [f for f in range(1, 7) if not ((fl == "frame" or method == "unloaded_frame") and f == c)]
             train, _ = cube_session(cube, fl, c, faces, k, seed=seed)
             auto, lin = calibrate(train, method), calibrate(train, method, model="linear")
             ra = auto.model.row_alpha or []
-            row = {"cube": f"{form} {coupling:.0%}", "method": method, "k_per_face": int(k),
+            row = {"cube": f"{form} {coupling:.0%}", "cube_seed": int(cube_seed), "method": method, "k_per_face": int(k),
                    "groups": 2 * len(auto.output_faces), "groups_corrected": sum(a is not None for a in ra) // 3}
             pairs = [(faces[i], faces[(i + 1) % len(faces)]) for i in range(len(faces))]
             for kind, squeeze, scale in TEST_KINDS:
@@ -114,8 +117,11 @@ def model_choice_ratios(quick: bool = False, threads: int = 1, progress=print) -
     for k in ks:
         rows += run_worker("cal_model_choice", {"k": k, "faces": faces}, threads=threads)["rows"]
     k_ind = 1000 if quick else 2000
-    progress(f"calibration: model choice on the bench's own cubes, k = {k_ind} per face")
-    ind = run_worker("cal_independent", {"k": k_ind}, threads=threads)["rows"]
+    cube_seeds = CUBE_SEEDS[:1] if quick else CUBE_SEEDS
+    progress(f"calibration: model choice on the bench's own cubes, k = {k_ind} per face, cube seeds {list(cube_seeds)}")
+    ind = []
+    for cs in cube_seeds:
+        ind += run_worker("cal_independent", {"k": k_ind, "cube_seed": cs}, threads=threads)["rows"]
     return {"data": "SIMULATED: pito_core.sim.VirtualCube seed 0, trained on one session, scored on a later one",
             "rows": rows, "independent": {"data": "SIMULATED: pito_bench._cubes (independent of pito_core.sim)",
                                           "rows": ind}}
@@ -142,8 +148,8 @@ def independent_table(mc) -> tuple[str, list, list] | None:
     if not ind:
         return None
     keys = [f"{k}_{p}" for k, _, _ in TEST_KINDS for p in "FT"]
-    rows = [[r["cube"], r["method"], f"{r['groups_corrected']}/{r['groups']}"] + [f"{r[k]:.3f}" for k in keys]
-            for r in ind["rows"]]
+    rows = [[f"{r['cube']} #{r.get('cube_seed', 0)}", r["method"], f"{r['groups_corrected']}/{r['groups']}"]
+            + [f"{r[k]:.3f}" for k in keys] for r in ind["rows"]]
     nl = np.array([[r[k] for k in keys] for r in ind["rows"] if not r["cube"].startswith("linear")])
     li = np.array([[r[k] for k in keys] for r in ind["rows"] if r["cube"].startswith("linear")])
     if nl.size:
@@ -152,5 +158,5 @@ def independent_table(mc) -> tuple[str, list, list] | None:
     if li.size:
         rows.append(["linear cubes", "worst", ""] + [f"{v:.3f}" for v in li.max(axis=0)])
     title = (f"Calibration model on a later session ({ind['data']}): default / papers' linear fit, held-out RMSE "
-             "ratio (single-face, squeeze, single-face at 1.5× the training loads)")
+             "ratio (single-face, squeeze, single-face at 1.5× the training loads); #n = the cube seed")
     return title, ["cube", "method", "groups corrected"] + keys, rows
