@@ -285,9 +285,16 @@ class NetFT:
         self._rate = {"t0": None, "seq0": 0, "n": 0, "t_last": None, "lag": 0.0, "lag_min": None}
         self._undo = np.zeros(6)  # N, N·m added back after an undone box bias
         #: Every bias: ``{"event": "bias"|"undo_bias", "host_time" (s, monotonic), "unix_time",
-        #: "wrench" [6] N, N·m (the output just before), "status"}``.
+        #: "wrench" [6] N, N·m (the output just before), "status"}``; a bias also gets "box_output"
+        #: [6] (the box's output it zeroed, the step :meth:`undo_bias` adds back) once its step is in.
         self.bias_history: list[dict] = []
         self._last_wrench = np.zeros(6)
+        self._bias_lock = threading.Lock()
+        self._pending_bias: dict | None = None
+        self._prev_counts: np.ndarray | None = None
+
+    #: s of the box's records after a bias command is sent that are searched for its step.
+    BIAS_WINDOW_S = 0.25
 
     # ------------------------------------------------------------------ lifecycle
     def start(self) -> "NetFT":
@@ -327,28 +334,72 @@ class NetFT:
         """Ask the box to bias (zero) its output at the current load (RDT command 0x42).
 
         Recorded in :attr:`bias_history` with the time and the output just before (N, N·m);
-        :meth:`undo_bias` adds that output back. Returns the history entry.
+        :meth:`undo_bias` adds that output back. The box biases at the record it sends when the
+        command arrives, which a client lagging behind the stream has not received yet: the entry's
+        ``wrench`` is first the last record received, then, once the records up to the command's
+        arrival plus :attr:`BIAS_WINDOW_S` are in, the record just before the output's step (the
+        largest jump in counts among them); ``box_output`` is that record less the undone biases
+        (what the box had zeroed). Returns the history entry.
         """
         if self._sock is None:
             raise DeviceError("NetFT: not started")
         self._send(CMD_BIAS)
         ev = {"event": "bias", "host_time": time.monotonic(), "unix_time": time.time(),
               "wrench": [float(v) for v in self._last_wrench], "status": self._last_status}
-        self.bias_history.append(ev)
+        rate = (self.config.rdt_rate_hz if self.config is not None else None) or 1000.0
+        with self._bias_lock:
+            if self._pending_bias is not None:
+                self._settle_bias()
+            self._pending_bias = {"ev": ev, "jump": 0.0, "box": self._last_wrench - self._undo,
+                                  "until": int(self._seq.last) + int(np.ceil((self._rate["lag"] + self.BIAS_WINDOW_S) * rate))}
+            self.bias_history.append(ev)
         return ev
 
     def undo_bias(self) -> dict:
-        """Undo the last :meth:`bias` not yet undone: its wrench is added back to every later record."""
+        """Undo the last :meth:`bias` not yet undone: the box's output just before it is added back to
+        every later record (waits up to 2 s for the records that hold the bias's step)."""
         done = [e for e in self.bias_history if e["event"] == "bias" and not e.get("undone")]
         if not done:
             raise DeviceError("NetFT: no bias to undo")
         last = done[-1]
-        last["undone"] = True
-        self._undo = self._undo + np.asarray(last["wrench"])
-        ev = {"event": "undo_bias", "host_time": time.monotonic(), "unix_time": time.time(),
-              "wrench": list(last["wrench"]), "of": last["host_time"]}
-        self.bias_history.append(ev)
+        deadline = time.monotonic() + 2.0
+        while self._pending_bias is not None and self._pending_bias["ev"] is last and time.monotonic() < deadline:
+            time.sleep(0.005)
+        with self._bias_lock:
+            if self._pending_bias is not None and self._pending_bias["ev"] is last:
+                self._settle_bias()
+            last["undone"] = True
+            self._undo = self._undo + np.asarray(last["box_output"])
+            ev = {"event": "undo_bias", "host_time": time.monotonic(), "unix_time": time.time(),
+                  "wrench": list(last["wrench"]), "of": last["host_time"]}
+            self.bias_history.append(ev)
         return ev
+
+    def _settle_bias(self) -> None:
+        """Fix the pending bias's entry at the step found so far (under ``_bias_lock``)."""
+        p, self._pending_bias = self._pending_bias, None
+        p["ev"]["wrench"] = [float(v) for v in p["box"] + self._undo]
+        p["ev"]["box_output"] = [float(v) for v in p["box"]]
+
+    def _find_bias_step(self, rec: np.ndarray) -> None:
+        """Track the largest jump in counts while a bias is pending (receiver thread)."""
+        with self._bias_lock:
+            p = self._pending_bias
+            if p is None:
+                return
+            counts = rec["counts"].astype(np.float64)
+            prev = self._prev_counts if self._prev_counts is not None else counts[:1]
+            jumps = np.linalg.norm(np.diff(np.vstack([prev, counts]), axis=0), axis=1)
+            i = int(np.argmax(jumps))
+            if jumps[i] > p["jump"]:  # the box's own output just before the step
+                p["jump"], p["box"] = float(jumps[i]), (counts[i - 1] if i > 0 else prev[0]) * self._scale
+            r, rate = self._rate, (self.config.rdt_rate_hz if self.config is not None else None)
+            if rate and r["lag_min"] is not None:  # the last record's send time at the box, on the host clock
+                done = r["t0"] + r["n"] / rate + r["lag_min"] >= p["ev"]["host_time"] + self.BIAS_WINDOW_S
+            else:
+                done = int(self._seq.last) >= p["until"]
+            if done:
+                self._settle_bias()
 
     def close(self) -> None:
         """Send the stop request, stop the thread, close the socket (idempotent)."""
@@ -418,6 +469,8 @@ class NetFT:
         self._seq.update(rdt_seq)
         self._track_rate(int(self._seq.last), now, self._seq.restarts != restarts)
         wrench = rec["counts"].astype(np.float64) * self._scale + self._undo
+        self._find_bias_step(rec)
+        self._prev_counts = rec["counts"][-1:].astype(np.float64)
         self._last_wrench = wrench[-1]
         return NetFTBatch(rdt_seq, rec["ft_seq"].astype(np.uint32), status, wrench, np.full(rec.size, now), saturated)
 

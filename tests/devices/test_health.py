@@ -148,6 +148,38 @@ def test_bias_is_recorded_and_undoable():
     assert [e["event"] for e in ft.bias_history] == ["bias", "undo_bias"]
 
 
+def test_a_lagging_client_undoes_the_bias_the_box_applied_twice_over(monkeypatch):
+    """The box biases at the record it sends when the command arrives; a receiver 0.1–0.2 s behind
+    the stream has not seen that record yet. Two bias/undo cycles leave the raw output again."""
+    slow, stalls = NetFT._batch, {"n": 0, "after": -1.0}
+
+    def lagging(self, rec, now):
+        stalls["n"] += 1
+        if stalls["n"] % 400 == 0:  # a 0.15 s stall of the receiver (GIL, GC) every 400 records
+            time.sleep(0.15)
+            stalls["after"] = time.monotonic()
+        return slow(self, rec, now)
+
+    monkeypatch.setattr(NetFT, "_batch", lagging)
+    src = TestSignalSource(seed=4)
+    with SimulatedNetFT(src, 1000, seed=2) as sim:
+        with _client(sim) as ft:
+            drain(ft, lambda bs: n_rows(bs) >= 300)
+            for _ in range(2):
+                assert _wait(lambda: time.monotonic() - stalls["after"] < 0.02)  # just after a stall: ~0.15 s behind
+                ft.bias()
+                time.sleep(0.3)
+                ft.undo_bias()
+            time.sleep(0.05)
+            ft.read(timeout=0.2)
+            b = drain(ft, lambda bs: n_rows(bs) >= 200)
+    truth = np.asarray(src.reference_at((b.rdt_seq.astype(float) - 1) / 1000.0))
+    err = b.wrench - truth
+    # what is left is the counts' quantisation and the signal's change over one record (1 ms)
+    assert np.abs(np.median(err, axis=0)).max() < 0.05, np.median(err, axis=0)
+    assert all("box_output" in e for e in ft.bias_history if e["event"] == "bias")
+
+
 def test_saturated_reference_samples_never_enter_a_calibration_session():
     from pito_core.devices import Acquisition
 
