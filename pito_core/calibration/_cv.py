@@ -35,6 +35,9 @@ MAX_SEGMENT_FRACTION = 1 / 20
 #: Eigenvalues of the scaled Gram of the unpenalised columns below this fraction of the
 #: largest are dropped (singular values under 10⁻⁶·σ₁: what a Gram in double can resolve).
 GRAM_RTOL = 1e-12
+#: At most this many strata (patterns of faces carrying nothing) per ``FoldedGram``: single-face loads
+#: make one per loaded face and one at rest; rows of further patterns count as carrying.
+MAX_STRATA = 16
 
 
 class SegmentCounter:
@@ -98,28 +101,67 @@ def fold_bounds(fold: np.ndarray, n_folds: int) -> tuple[np.ndarray, np.ndarray]
 
 
 class FoldedGram:
-    """One Gram matrix of ``[A | B]`` (``p + q`` columns) per fold.
+    """One Gram matrix of ``[A | B]`` (``p + q`` columns) per fold, split by which outputs carry nothing.
+
+    The targets ``B`` come in output groups of six (a face's wrench; one group if ``q`` is not a
+    multiple of 6). A row where a group's targets are all zero is one where that face carries nothing
+    (``block_targets``): its free rows. Each fold keeps one Gram per pattern of free groups (a
+    *stratum*: at rest, face 1 loaded, …), so the held-out error of a face splits into its carrying
+    and its free rows at no extra product (``cross_validate``).
 
     Parameters
     ----------
     p, q : int
         Columns of ``A`` (regressors) and ``B`` (targets).
     n_folds : int
+
+    Attributes
+    ----------
+    gram : ndarray, shape (K, S, p + q, p + q)
+        Per fold and stratum.
+    rows : ndarray of int, shape (K, S)
+    free : ndarray of bool, shape (S, n_groups)
+        The output groups each stratum's rows leave at zero.
     """
 
     def __init__(self, p: int, q: int, n_folds: int = N_FOLDS):
         self.p, self.q, self.n_folds = p, q, n_folds
-        self.gram = np.zeros((n_folds, p + q, p + q))
-        self.rows = np.zeros(n_folds, dtype=np.int64)
+        self.n_groups = q // 6 if q % 6 == 0 and q else 1
+        self.gram = np.zeros((n_folds, 0, p + q, p + q))
+        self.rows = np.zeros((n_folds, 0), dtype=np.int64)
+        self.free = np.zeros((0, self.n_groups), dtype=bool)
+
+    def _stratum(self, pattern: np.ndarray) -> int:
+        """Index of the stratum of ``pattern (n_groups,)`` (a new one if unseen; past ``MAX_STRATA`` the
+        rows count as carrying everywhere)."""
+        hit = np.flatnonzero((self.free == pattern).all(axis=1))
+        if hit.size:
+            return int(hit[0])
+        if self.free.shape[0] >= MAX_STRATA:  # the last stratum then counts as carrying everywhere
+            hit = np.flatnonzero(~self.free.any(axis=1))
+            if not hit.size:
+                self.free[-1] = False
+            return int(hit[0]) if hit.size else self.free.shape[0] - 1
+        d = self.p + self.q
+        self.gram = np.concatenate([self.gram, np.zeros((self.n_folds, 1, d, d))], axis=1)
+        self.rows = np.concatenate([self.rows, np.zeros((self.n_folds, 1), dtype=np.int64)], axis=1)
+        self.free = np.vstack([self.free, pattern])
+        return self.free.shape[0] - 1
 
     def add_sorted(self, ZT: np.ndarray, bounds: np.ndarray) -> None:
         """Fold in ``ZT (p + q, n)``: the rows ``[A | B]`` as columns, sorted by fold (``fold_bounds``)."""
         for k in range(self.n_folds):
             a, b = int(bounds[k]), int(bounds[k + 1])
-            if b > a:
-                Z = ZT[:, a:b]
-                self.gram[k] += Z @ Z.T  # BLAS syrk: numpy spots the transposed operand
-                self.rows[k] += b - a
+            if b <= a:
+                continue
+            Z = ZT[:, a:b]
+            zero = ~ZT[self.p :, a:b].reshape(self.n_groups, -1, b - a).any(axis=1)  # (n_groups, n): free
+            kinds, code = np.unique(zero, axis=1, return_inverse=True)
+            for c in range(kinds.shape[1]):
+                s = self._stratum(kinds[:, c])
+                Zs = Z if kinds.shape[1] == 1 else Z[:, code.reshape(-1) == c]
+                self.gram[k, s] += Zs @ Zs.T  # BLAS syrk: numpy spots the transposed operand
+                self.rows[k, s] += Zs.shape[1]
 
     def add(self, A: np.ndarray, B: np.ndarray, fold: np.ndarray) -> None:
         """Fold in rows ``A (n, p)``, ``B (n, q)`` of folds ``fold (n,)``."""
@@ -133,12 +175,34 @@ class FoldedGram:
     def n_rows(self) -> int:
         return int(self.rows.sum())
 
-    def total(self, exclude: int | None = None) -> np.ndarray:
-        """``(p + q, p + q)`` Gram of the folds other than ``exclude`` (all if None)."""
-        G = self.gram.sum(axis=0)
+    def total(self, exclude: int | None = None, free_of: int | None = None) -> np.ndarray:
+        """``(p + q, p + q)`` Gram of the folds other than ``exclude`` (all if None); of the rows where
+        output group ``free_of`` carries nothing only, if given."""
+        parts = self.gram if free_of is None else self.gram[:, self.free[:, free_of]]
+        G = parts.sum(axis=(0, 1))
         if exclude is not None:
-            G -= self.gram[exclude]
+            G -= parts[exclude].sum(axis=0)
         return 0.5 * (G + G.T)
+
+    def train_share(self) -> float:
+        """The share of its load's rows a held-out row's fit was trained on, the mean over the rows
+        where some face carries: ``1 − Σ_k π_k²`` per stratum (``π_k`` the share of its rows in fold
+        ``k``; whole loading segments are held out, so a face's few long ones leave its fits far less
+        than ``(K − 1) / K``). The rows at rest (every group free) are left out: their error is the
+        gauges' noise, not the fit's."""
+        N = np.where(self.free.all(axis=1), 0, self.rows.sum(axis=0))
+        if not N.sum():
+            return 1.0
+        pi = self.rows / np.maximum(N, 1)
+        return float(np.sum(N * (1.0 - (pi**2).sum(axis=0))) / N.sum())
+
+    def fold(self, k: int, free_of: int | None = None) -> np.ndarray:
+        """Fold ``k``'s Gram (of the rows where output group ``free_of`` carries nothing, if given)."""
+        return (self.gram[k] if free_of is None else self.gram[k, self.free[:, free_of]]).sum(axis=0)
+
+    def free_rows(self, group: int) -> np.ndarray:
+        """``(K,)`` rows per fold where output group ``group`` carries nothing."""
+        return self.rows[:, self.free[:, group]].sum(axis=1)
 
 
 @dataclass(frozen=True)
@@ -224,19 +288,39 @@ def cross_validate(folded: FoldedGram, problems, alphas=ALPHAS) -> dict:
     -------
     dict
         ``alphas (A,)`` with ``inf`` first; ``sse (A, K, n_problems, ny)`` held-out sums of
-        squares per output (output units²); ``n_rows (K,)``.
+        squares per output (output units²); ``n_rows (K,)``. Where some output group carries
+        nothing in some rows (:class:`FoldedGram`) also ``free_sse`` (the same over those rows),
+        ``fit_sse``, ``fit_free_sse (A, n_problems, ny)`` (in sample: the solution of every fold,
+        over all its rows and over the free ones) and ``free_rows (K, n_problems)``;
+        ``train_share``: :meth:`FoldedGram.train_share`.
     """
     alphas = np.r_[np.inf, np.asarray(alphas, dtype=float)]
     K, p = folded.n_folds, folded.p
     ny = max(pr.y.size for pr in problems)
     sse = np.full((alphas.size, K, len(problems), ny), np.nan)
+    split = bool(folded.free.any())
+    group = [int(pr.y[0]) // 6 if folded.n_groups > 1 else 0 for pr in problems]
+    if split:
+        free_sse = np.full_like(sse, np.nan)
+        fit_sse, fit_free = np.full((2, alphas.size, len(problems), ny), np.nan)
+        G, total = folded.total(), _paths(folded.total(), p, problems, alphas)
+        for j, (pr, sols) in enumerate(zip(problems, total)):
+            fit_sse[:, j, : pr.y.size] = held_out_sse(G, p, pr, np.stack(sols))
+            fit_free[:, j, : pr.y.size] = held_out_sse(folded.total(free_of=group[j]), p, pr, np.stack(sols))
+    n_rows = folded.rows.sum(axis=1)
     for k in range(K):
-        if folded.rows[k] == 0:
+        if n_rows[k] == 0:
             continue
-        Gk = folded.gram[k]
+        Gk = folded.fold(k)
         for j, (pr, sols) in enumerate(zip(problems, _paths(folded.total(exclude=k), p, problems, alphas))):
             sse[:, k, j, : pr.y.size] = held_out_sse(Gk, p, pr, np.stack(sols))
-    return {"alphas": alphas, "sse": sse, "n_rows": folded.rows.copy()}
+            if split:
+                free_sse[:, k, j, : pr.y.size] = held_out_sse(folded.fold(k, group[j]), p, pr, np.stack(sols))
+    out = {"alphas": alphas, "sse": sse, "n_rows": n_rows, "train_share": folded.train_share()}
+    if split:
+        out.update(free_sse=free_sse, fit_sse=fit_sse, fit_free_sse=fit_free,
+                   free_rows=np.stack([folded.free_rows(g) for g in group], axis=1))
+    return out
 
 
 def solve_problem(folded: FoldedGram, prob: Problem, alphas) -> list[np.ndarray]:
@@ -292,6 +376,14 @@ class ModelChoice:
         Folds and loading segments of the cross-validation.
     reason : str
         One sentence for the operator.
+    cv_split : list or None
+        ``(6F, 2, 2)``: per output row, the chosen mix's RMSE held out and in sample (last axis) over
+        the rows where the row's face carries and where it carries nothing (middle axis; 0 where
+        there are none), for the error model (``_error.held_out_ratio``); None where no row of the
+        fit carried nothing, no cross-validation ran, or a file predates it.
+    cv_train_share : float or None
+        The share of the rows of a held-out row's loads its fold's fit was trained on, the mean over
+        the rows (:meth:`FoldedGram.train_share`); None as ``cv_split``.
     """
 
     name: str = "linear"
@@ -304,13 +396,16 @@ class ModelChoice:
     n_segments: int = 0
     reason: str = "the papers' affine least squares, as requested"
     row_alpha: list | None = None
+    cv_split: list | None = None
+    cv_train_share: float | None = None
 
     def to_dict(self) -> dict:
         """JSON-serialisable fields (for files and reports)."""
         return {"name": self.name, "requested": self.requested, "alpha": self.alpha,
                 "cv_rmse": self.cv_rmse or {}, "cv_score": self.cv_score or {}, "folds_won": int(self.folds_won),
                 "n_folds": int(self.n_folds), "n_segments": int(self.n_segments), "reason": self.reason,
-                "row_alpha": list(self.row_alpha or [])}
+                "row_alpha": list(self.row_alpha or []), "cv_split": self.cv_split,
+                "cv_train_share": self.cv_train_share}
 
     def cv_rms(self) -> dict:
         """``{candidate: (forces N, torques N·m)}``: RMS over outputs of each candidate's cross-validated RMSE."""
@@ -380,7 +475,7 @@ def choose_model(results, requested: str, n_segments: int, group: int = 3, n_se:
     """
     alphas = results[0][0]["alphas"]
     K = results[0][0]["sse"].shape[1]
-    row_alpha, rmse = [], {"linear": [], "poly": [], "chosen": []}
+    row_alpha, rmse, split = [], {"linear": [], "poly": [], "chosen": []}, []
     folds = np.zeros((3, K))  # weighted held-out SSE per fold: linear, poly, chosen
     n_out = 0
     for cv, weights in results:
@@ -397,6 +492,10 @@ def choose_model(results, requested: str, n_segments: int, group: int = 3, n_se:
                 for key, a in (("linear", 0), ("poly", pick), ("chosen", pick if use else 0)):
                     rmse[key] += np.sqrt(sse[a][:, j][:, cols].sum(axis=0) / n).tolist()
                 row_alpha += [float(alphas[pick]) if use else None] * cols.size
+                if split is not None and "free_sse" in cv:
+                    split += _split_rmse(cv, pick if use else 0, j, cols)
+                else:
+                    split = None
             n_out += w.size
     rows = sum(int(cv["n_rows"].sum()) * sum(w.size for w in ws) for cv, ws in results)
     score = {key: float(np.sqrt(folds[i].sum() / max(rows, 1))) for i, key in enumerate(("linear", "poly", "chosen"))}
@@ -417,7 +516,23 @@ def choose_model(results, requested: str, n_segments: int, group: int = 3, n_se:
         why = f"{requested} as requested (cross-validated polynomial/affine held-out error {pr:.2f}×)"
     return ModelChoice(name=name, requested=requested, alpha=max(used) if used else None,
                        row_alpha=row_alpha if used else [], cv_rmse=rmse, cv_score=score, folds_won=won, n_folds=K,
-                       n_segments=int(n_segments), reason=why)
+                       n_segments=int(n_segments), reason=why, cv_split=split,
+                       cv_train_share=None if split is None else float(
+                           sum(cv["train_share"] * cv["n_rows"].sum() for cv, _ in results)
+                           / max(sum(cv["n_rows"].sum() for cv, _ in results), 1)))
+
+
+def _split_rmse(cv: dict, a: int, j: int, cols: np.ndarray) -> list:
+    """Per output ``cols`` of problem ``j`` at ridge index ``a``: ``[[held out, in sample] where its face
+    carries, [held out, in sample] where it carries nothing]`` RMSE (0 where no such rows)."""
+    n_free = float(cv["free_rows"][:, j].sum())
+    n_carry = float(cv["n_rows"].sum()) - n_free
+    held = np.nan_to_num(cv["sse"][a][:, j][:, cols]).sum(axis=0)
+    held_free = np.nan_to_num(cv["free_sse"][a][:, j][:, cols]).sum(axis=0)
+    fit, fit_free = np.nan_to_num(cv["fit_sse"][a, j, cols]), np.nan_to_num(cv["fit_free_sse"][a, j, cols])
+    ms = np.stack([np.stack([held - held_free, fit - fit_free]) / max(n_carry, 1.0),
+                   np.stack([held_free, fit_free]) / max(n_free, 1.0)])  # (2, 2, c)
+    return np.sqrt(np.clip(ms, 0.0, None)).transpose(2, 0, 1).tolist()
 
 
 #: The extension beyond the box is chosen on the samples beyond the box shrunk to hold this fraction of

@@ -22,14 +22,17 @@ One estimator (docs/calibration.md, "Uncertainty"). A prediction's error has two
 
 The sum is multiplied by ``scale²``, the factor that puts 95 % of the loaded training residuals
 within ``±1.96`` standard deviations (the reference's noise added where the face carries; the
-errors are not Gaussian). Held out, the model's own error (not the ``h V`` term) is larger: by the
-held-out factor ``ρ²``, the median over outputs of the chosen model's cross-validated RMSE over its
-in-sample RMSE (the fit's own folds, ``ModelChoice.cv_rmse``; 1 where none ran), each mean square
-less the reference's noise in it. The cross-validation gives the excess ``(ρ² − 1)`` × the error's
-mean, not where it falls: :data:`HELD_OUT_LEVERAGE_SHARE` of it is put in proportion to the
-correction's leverage ``h`` (a correction is worse held out where its features reach: a face that
-carries), the rest in proportion to the in-sample error (not a ``face_to_face`` face's ``c₃``: it
-never fitted its crosstalk, whose residuals are held out already); both on the same features. After
+errors are not Gaussian). Held out, the model's own error (not the ``h V`` term) is larger, and
+not alike where a face carries and where it carries nothing (a joint fit's free face reads the
+other faces' features): the fit's own folds give each output row's mean squares held out and in
+sample over the two kinds of rows (``ModelChoice.cv_split``), and per kind the held-out factor
+``ρ²`` is the median over rows of their ratio, the carrying ones less the reference's noise in
+them. The folds hold out whole loading segments: their fits saw a share ``t`` of each load's rows
+(``ModelChoice.cv_train_share``), and an estimate's error goes as one over its rows, so a fit on
+all of them is worse held out by ``t (ρ² − 1)``. Each training sample's in-sample error times
+that excess of its kind (a ``face_to_face`` face: every sample as carrying, and not its ``c₃``: it
+never fitted its crosstalk, whose residuals are held out already) is fitted to the same features,
+so a new sample takes it from its predicted load alone. After
 :meth:`CalibrationCovariance.retared` on ``n`` samples the tare's gauge noise ``A Σ_g Aᵀ / n`` is added.
 """
 
@@ -66,9 +69,6 @@ NOISE_LIMIT_SE = 3.0
 #: Directions of a leverage's design (columns scaled to unit norm) with eigenvalues below this fraction
 #: of the largest are dropped (:func:`correction_leverage`).
 LEVERAGE_RTOL = 1e-10
-#: The share of the held-out excess put in proportion to the correction's leverage, the rest in proportion to
-#: the in-sample error (measured: docs/calibration/coverage.md).
-HELD_OUT_LEVERAGE_SHARE = 0.5
 
 
 def load_features(q: np.ndarray) -> np.ndarray:
@@ -281,24 +281,47 @@ def _standardised(e: np.ndarray, var: np.ndarray) -> np.ndarray:
     return np.divide(e, sd, out=np.zeros_like(e), where=sd > 0)
 
 
-def held_out_ratio(cal, noise=None, kept=None) -> float:
-    """The median over output rows of the chosen model's cross-validated RMSE over its in-sample RMSE
-    (``cal.model.cv_rmse["chosen"]`` over ``cal.meta["fit_residual_rms"]``), each mean square less
-    the reference's noise in it: ``noise (F, 6)``, its mean variance in the row's targets (output
-    frame), ``kept (F, 6)``, the mean of ``h V`` (what the correction's coefficients kept of it:
-    held out it adds, in sample it is missing); rows where the in-sample figure is not positive are
-    left out; at least 1; 1 where no cross-validation ran (``model="linear"``)."""
+def _ratio(num: np.ndarray, den: np.ndarray, kind: np.ndarray) -> np.ndarray:
+    """``(F, 6)``: per row, the median of ``√(num / den)`` over the rows of its ``kind`` (where both are finite and
+    ``den`` positive); at least 1."""
+    ok = np.isfinite(num) & np.isfinite(den) & (den > 0)
+    r = np.sqrt(np.maximum(np.where(ok, num, 0.0), 0.0) / np.where(ok, den, 1.0))
+    out = np.ones(num.shape)
+    for k in np.unique(kind):
+        on = ok & (kind == k)
+        out[kind == k] = max(float(np.median(r[on])), 1.0) if on.any() else 1.0
+    return out
+
+
+def held_out_ratio(cal, noise=None, kept=None, share=None) -> tuple[np.ndarray, np.ndarray]:
+    """``(ρ carrying, ρ free)``, each ``(F, 6)`` per output row: the median over the rows of its kind (with
+    the correction, or the affine fit's) of the chosen model's cross-validated RMSE over its in-sample RMSE,
+    over the rows where the row's face carries and where it carries nothing (``cal.model.cv_split``). The
+    carrying mean squares are less the reference's noise in them (the free rows' targets are zero, without
+    noise): ``noise (F, 6)`` its mean variance in the row's targets (output frame) where the face carries,
+    ``kept (F, 6)`` the mean of ``h V`` there (what the correction's coefficients kept of it: held out it
+    adds, in sample it is missing); then ``ρ² − 1`` times the folds' training share
+    (``cal.model.cv_train_share``: module docstring). A calibration without the split (a file that predates
+    it) has one figure for both, of the pooled RMSEs (``cv_rmse["chosen"]`` over ``meta["fit_residual_rms"]``;
+    the noise × ``share (F,)``, the share of the samples where the face carries). Rows whose in-sample figure
+    is not positive are left out; at least 1; 1 where no cross-validation ran (``model="linear"``)."""
     F = len(cal.output_faces)
+    v = np.zeros((F, 6)) if noise is None else noise
+    hv = np.zeros((F, 6)) if kept is None else kept
+    ra = list(cal.model.row_alpha or [])
+    kind = np.array([a is not None for a in ra]).reshape(F, 6) if len(ra) == 6 * F else np.zeros((F, 6), dtype=bool)
+    split = np.asarray(cal.model.cv_split or [], dtype=float)
+    if split.shape == (6 * F, 2, 2):
+        s, t = split.reshape(F, 6, 2, 2) ** 2, cal.model.cv_train_share or 1.0
+        rho = _ratio(s[..., 0, 0] - v - hv, s[..., 0, 1] - v + hv, kind), _ratio(s[..., 1, 0], s[..., 1, 1], kind)
+        return tuple(np.sqrt(1.0 + t * (r * r - 1.0)) for r in rho)
     cv = np.asarray((cal.model.cv_rmse or {}).get("chosen") or [], dtype=float)
     fit = np.asarray(cal.meta.get("fit_residual_rms", np.full((6, 6), np.nan)), dtype=float)[np.asarray(cal.output_faces) - 1]
     if cv.size != 6 * F:
-        return 1.0
-    v = np.zeros((F, 6)) if noise is None else noise
-    hv = np.zeros((F, 6)) if kept is None else kept
-    num, den = cv.reshape(F, 6) ** 2 - v - hv, fit**2 - v + hv
-    ok = np.isfinite(num) & np.isfinite(den) & (den > 0)
-    r = np.sqrt(np.maximum(num[ok], 0.0) / den[ok])
-    return max(float(np.median(r)), 1.0) if r.size else 1.0
+        return np.ones((F, 6)), np.ones((F, 6))
+    w = np.ones((F, 1)) if share is None else np.asarray(share, dtype=float).reshape(F, 1)
+    r = _ratio(cv.reshape(F, 6) ** 2 - w * (v + hv), fit**2 - w * (v - hv), kind)
+    return r, r
 
 
 def _hat(G: np.ndarray) -> np.ndarray:
@@ -418,16 +441,17 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
     del q
     H = correction_leverage(cal, groups, X, offsets) if cal.correction is not None else None
     del X
-    noise, kept = np.zeros((F, 6)), np.zeros((F, 6))  # means over the samples, output frame
+    C = C[:at]
+    n_carry = C.sum(axis=0)
+    noise, kept = np.zeros((F, 6)), np.zeros((F, 6))  # means over the samples where the face carries, output frame
     for k, rows in enumerate(spans):
-        noise += C[rows].sum(axis=0)[:, None] * v_out[k] / max(at, 1)
+        noise += C[rows].sum(axis=0)[:, None] * v_out[k] / np.maximum(n_carry, 1)[:, None]
         if H is not None:
-            kept += (H[rows] * C[rows]).sum(axis=0)[:, None] * v_out[k] / max(at, 1)
-    rho = held_out_ratio(cal, noise, kept)
-    del C
+            kept += (H[rows] * C[rows]).sum(axis=0)[:, None] * v_out[k] / np.maximum(n_carry, 1)[:, None]
+    rho = held_out_ratio(cal, noise, kept, n_carry / max(at, 1))
     if at == 0:  # no usable sample in the subsample: the coefficients' term alone
         return ErrorModel(variance_coef=np.zeros((6 * F, N_FEATURES)), residual_corr=np.broadcast_to(np.eye(6), (F, 6, 6)),
-                          scale=rho)
+                          scale=float(rho[0].max()))
     A = cal._apply[idx]
     floor = np.einsum("fia,ab,fib->fi", A, gauge_cov, A)  # gauge noise through the matrix (F, 6)
     coef, kept = np.zeros((F, 6, N_FEATURES)), np.zeros((F, 6, N_FEATURES))  # the model's error; h V
@@ -451,15 +475,19 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
                 if hv is not None and hv.any():
                     kept[f, a] = _nnls(phi[:, f], hv)
             coef[f, a] = c
-    excess = coef * (rho**2 - 1)  # held out (module docstring)
-    mean = np.einsum("nfk,fik->fi", phi, excess) / max(at, 1)  # (F, 6) its mean per axis
-    excess[own, :, 3] = 0.0  # in place, not an own-row fit's crosstalk: it never fitted it (held out already)
-    if H is not None:  # a share where the correction has leverage
-        excess *= 1.0 - HELD_OUT_LEVERAGE_SHARE
-        mh = H.mean(axis=0)
-        for f in np.flatnonzero(mh > 0):  # h / mean(h) on the features, then × each axis's mean
-            excess[f] += HELD_OUT_LEVERAGE_SHARE * np.outer(mean[f], _nnls(phi[:, f], H[:, f] / mh[f]))
-    del H
+    excess = np.zeros_like(coef)  # held out (module docstring): each sample's in-sample error × its part's ρ² − 1
+    base = coef.copy()
+    base[own, :, 3] = 0.0  # not an own-row fit's crosstalk: it never fitted it (held out already)
+    part = C | own  # an own-row fit's cross-validation has no crosstalk rows: its samples count as carrying
+    for f in range(F):
+        grow = np.where(part[:, f, None], rho[0][f] ** 2 - 1.0, rho[1][f] ** 2 - 1.0)  # (n, 6)
+        if np.all(grow == grow[0]):  # one factor: exactly on the coefficients
+            excess[f] = base[f] * grow[0][:, None]
+            continue
+        y = (phi[:, f] @ base[f].T) * grow
+        for a in range(6):
+            excess[f, a] = _nnls(phi[:, f], y[:, a])
+    del H, C
     var = np.einsum("nfk,fik->nfi", phi, coef + kept)
     del phi
     with np.errstate(divide="ignore", invalid="ignore"):  # an axis without error: NaN, replaced below

@@ -189,3 +189,46 @@ def test_intervals_of_a_correction_cover_where_the_face_carries_and_where_it_doe
     inside, carries = _inside_95(cal, test, truth)
     carrying, free = inside[carries].mean(), inside[~carries].mean()
     assert 0.94 <= carrying <= 0.995 and free >= 0.93, (carrying, free)
+
+
+def test_cross_validation_splits_each_face_s_error_where_it_carries_and_where_it_does_not():
+    """The held-out and in-sample sums of squares over the rows where an output group's targets are zero
+    (its face carries nothing) equal direct least squares on the other folds, scored on those rows."""
+    from pito_core.calibration._cv import FoldedGram, Problem, cross_validate
+
+    rng = np.random.default_rng(1)
+    n, na, nb, K = 600, 4, 5, 4
+    A = np.c_[np.ones(n), rng.normal(size=(n, na - 1)), rng.normal(size=(n, nb))]
+    Y = A @ rng.normal(size=(na + nb, 12)) + rng.normal(size=(n, 12))
+    load = rng.integers(0, 3, size=n)  # 0 at rest, 1 or 2: that output group's face carries
+    Y[load != 1, :6] = 0.0
+    Y[load != 2, 6:] = 0.0
+    fold = rng.integers(0, K, size=n)
+    g = FoldedGram(na + nb, 12, K)
+    g.add(A[:300], Y[:300], fold[:300])
+    g.add(A[300:], Y[300:], fold[300:])
+    assert g.free.shape == (3, 2) and g.n_rows == n
+    probs = [Problem(np.arange(na), np.arange(na, na + nb), np.arange(6 * j, 6 * j + 6), np.ones(6)) for j in (0, 1)]
+    cv = cross_validate(g, probs, [1e-2])
+
+    def ridge(rows, cols, alpha):
+        Aa, Ab = A[rows, :na], A[rows, na:]
+        Bb = Ab - Aa @ np.linalg.pinv(Aa) @ Ab
+        lam0 = np.mean(np.linalg.svd(Bb, compute_uv=False) ** 2)
+        Xb = np.zeros((nb, 6)) if np.isinf(alpha) else np.linalg.solve(Bb.T @ Bb + alpha * lam0 * np.eye(nb), Bb.T @ Y[rows][:, cols])
+        return np.r_[np.linalg.lstsq(Aa, Y[rows][:, cols] - Ab @ Xb, rcond=None)[0], Xb]
+
+    for j, face in ((0, 1), (1, 2)):
+        cols, free = np.arange(6 * j, 6 * j + 6), load != face
+        for i, alpha in enumerate([np.inf, 1e-2]):
+            X = ridge(np.ones(n, bool), cols, alpha)
+            E = A[free] @ X - Y[free][:, cols]
+            np.testing.assert_allclose(cv["fit_free_sse"][i, j], np.sum(E**2, axis=0), rtol=1e-7)
+            for k in range(K):
+                te = (fold == k) & free
+                E = A[te] @ ridge(fold != k, cols, alpha) - Y[te][:, cols]
+                np.testing.assert_allclose(cv["free_sse"][i, k, j], np.sum(E**2, axis=0), rtol=1e-7)
+        np.testing.assert_array_equal(cv["free_rows"][:, j], np.bincount(fold[free], minlength=K))
+    pi = np.stack([np.bincount(fold[load == s], minlength=K) / np.sum(load == s) for s in range(3)])
+    share = sum(np.sum(load == s) * (1 - np.sum(pi[s] ** 2)) for s in (1, 2)) / np.sum(load > 0)  # not at rest
+    assert cv["train_share"] == pytest.approx(share)
