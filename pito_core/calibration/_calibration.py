@@ -232,8 +232,10 @@ class Calibration:
             if self._apply_map is not None:  # corrected rows read P x in their linear part too
                 W += (self.correction.map_terms(x) @ self._apply_map.reshape(6 * 6, -1).T).reshape(n, 6, 6)
             if W_lin is not None and self._apply_edge is not None:  # past the reach tested: fade to the linear fit
-                k = np.flatnonzero(fade < 1)
-                g = fade[k, None, None]
+                k = np.flatnonzero((fade < 1).any(axis=1))
+                g = np.ones((k.size, 6, 6))  # each output row's share, on its face (a face's rows share theirs
+                for j, f in enumerate(self.output_faces):  # where the output frame is not the face's)
+                    g[:, f - 1] = fade[k, 6 * j : 6 * j + 6]
                 E = (x[k] @ self._apply_edge.reshape(6 * 6, -1).T).reshape(k.size, 6, 6)
                 W[k] = W_lin[k] + g * (W[k] - W_lin[k]) - (1.0 - g) * E
         W[:, ~self.has_output] = np.nan

@@ -113,11 +113,12 @@ class PolyCorrection:
     map_lower, map_upper : array-like, shape (m,), optional
         With ``map_matrix``: the range of ``P x − x`` on the rows the correction was fitted on (what the
         map misreads of a face's own load); ``map_matrix`` reads only what lies beyond it. None: zeros.
-    reach : float, optional
-        Factor ≥ 1 beyond the box as far as held-out loads tested its extension (``_cv.tested_reach``):
-        a sample farther out along its ray (``t · reach < 1``) takes ``t · reach`` of the correction
-        and the rest of the linear fit (the correction fades to it, ``edge_matrix`` being their slopes'
-        difference). None: no fade.
+    reach : float or array-like of shape (q,), optional
+        Factor ≥ 1 beyond the box as far as held-out loads tested its extension (``_cv.tested_reach``),
+        one for every row or one per row (1: the row fades from the box's edge on, ``_nlfit.fade_rows``):
+        a sample farther out along its ray (``t · reach < 1``) takes ``t · reach`` of the
+        correction and the rest of the linear fit (the correction fades to it, ``edge_matrix`` being their
+        slopes' difference). None: no fade.
     edge_mapped : bool, optional
         With ``input_map``: ``edge_matrix`` reads ``x_c − P x`` (zero inside the box) in place of
         ``x_c − x``: the corrected model's linear part reads the counts themselves, only its features
@@ -190,9 +191,12 @@ class PolyCorrection:
             raise ValueError("edge_mapped: expected an input_map")
         self.reach = None
         if reach is not None:
-            self.reach = float(np.asarray(reach))
-            if not np.isfinite(self.reach) or self.reach < 1.0 or lower is None or edge_matrix is None:
-                raise ValueError("reach: expected a finite factor ≥ 1, with lower, upper and edge_matrix")
+            r = np.asarray(reach, dtype=float)
+            self.reach = float(r) if r.ndim == 0 else r.reshape(-1)
+            if r.shape not in ((), (self.coef.shape[0],)) or not np.all(np.isfinite(r)) or np.any(r < 1.0) \
+                    or lower is None or edge_matrix is None:
+                raise ValueError(f"reach: expected finite factors ≥ 1 (one, or ({self.coef.shape[0]},) per row), with "
+                                 "lower, upper and edge_matrix")
         self.edge_matrix = None
         if edge_matrix is not None:
             self.edge_matrix = np.asarray(edge_matrix, dtype=float)
@@ -280,11 +284,12 @@ class PolyCorrection:
         return self._features_t(x, self.pairs, self.cubes).T
 
     def fade(self, x: np.ndarray) -> np.ndarray | None:
-        """``(N,)`` the share of the correction kept for offset-free counts ``x (N, m)``: ``min(1, t · reach)``
-        (None without a ``reach``)."""
+        """``(N, q)`` the share of each row's correction kept for offset-free counts ``x (N, m)``:
+        ``min(1, t · reach)`` (None without a ``reach``)."""
         if self.reach is None:
             return None
-        return np.minimum(self._ray(x)[1] * self.reach, 1.0)
+        reach = np.broadcast_to(np.asarray(self.reach, dtype=float), (self.coef.shape[0],))
+        return np.minimum(self._ray(x)[1][:, None] * reach, 1.0)
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         """``(N, q)`` correction for offset-free counts ``x (N, m)``, output units (the edge and map terms included)."""
@@ -293,7 +298,7 @@ class PolyCorrection:
             out = out + self.map_terms(x) @ self.map_matrix.T
         f = self.fade(x)
         if f is not None and np.any(f < 1):  # past the reach: toward the linear fit (slopes less edge_matrix)
-            out = f[:, None] * out - (1.0 - f)[:, None] * (np.asarray(x, dtype=float) @ self.edge_matrix.T)
+            out = f * out - (1.0 - f) * (np.asarray(x, dtype=float) @ self.edge_matrix.T)
         return out
 
     def _call(self, x: np.ndarray) -> np.ndarray:
