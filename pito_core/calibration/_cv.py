@@ -23,6 +23,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._poly import ray_into
+
 __all__ = ["N_FOLDS", "ALPHAS", "FoldedGram", "Problem", "segment_ids", "fold_of_segments", "cross_validate",
            "solve_problem", "fold_bounds"]
 
@@ -240,7 +242,7 @@ def _eliminate(G: np.ndarray, a: np.ndarray, rank_a=None):
     return P, G - Ga.T @ (P @ Ga)
 
 
-def _paths(G: np.ndarray, p: int, problems, alphas) -> list[list[np.ndarray]]:
+def ridge_paths(G: np.ndarray, p: int, problems, alphas) -> list[list[np.ndarray]]:
     """Solutions ``(na + nb, ny)`` of each problem for each α (``inf``: b fixed at 0) from a Gram ``G``.
 
     Problems with the same unpenalised columns share one elimination of them.
@@ -303,7 +305,7 @@ def cross_validate(folded: FoldedGram, problems, alphas=ALPHAS) -> dict:
     if split:
         free_sse = np.full_like(sse, np.nan)
         fit_sse, fit_free = np.full((2, alphas.size, len(problems), ny), np.nan)
-        G, total = folded.total(), _paths(folded.total(), p, problems, alphas)
+        G, total = folded.total(), ridge_paths(folded.total(), p, problems, alphas)
         for j, (pr, sols) in enumerate(zip(problems, total)):
             fit_sse[:, j, : pr.y.size] = held_out_sse(G, p, pr, np.stack(sols))
             fit_free[:, j, : pr.y.size] = held_out_sse(folded.total(free_of=group[j]), p, pr, np.stack(sols))
@@ -312,7 +314,7 @@ def cross_validate(folded: FoldedGram, problems, alphas=ALPHAS) -> dict:
         if n_rows[k] == 0:
             continue
         Gk = folded.fold(k)
-        for j, (pr, sols) in enumerate(zip(problems, _paths(folded.total(exclude=k), p, problems, alphas))):
+        for j, (pr, sols) in enumerate(zip(problems, ridge_paths(folded.total(exclude=k), p, problems, alphas))):
             sse[:, k, j, : pr.y.size] = held_out_sse(Gk, p, pr, np.stack(sols))
             if split:
                 free_sse[:, k, j, : pr.y.size] = held_out_sse(folded.fold(k, group[j]), p, pr, np.stack(sols))
@@ -325,7 +327,7 @@ def cross_validate(folded: FoldedGram, problems, alphas=ALPHAS) -> dict:
 
 def solve_problem(folded: FoldedGram, prob: Problem, alphas) -> list[np.ndarray]:
     """``(na + nb, ny)`` solutions of ``prob`` on every fold for each of ``alphas`` (``inf``: affine)."""
-    return _paths(folded.total(), folded.p, [prob], np.atleast_1d(np.asarray(alphas, dtype=float)))[0]
+    return ridge_paths(folded.total(), folded.p, [prob], np.atleast_1d(np.asarray(alphas, dtype=float)))[0]
 
 
 #: The one-standard-error rule (Hastie et al.): the affine fit unless the correction's mean held-out
@@ -547,54 +549,55 @@ MIN_BEYOND_ROWS = 20
 
 
 def tested_reach(u, lower, upper) -> float:
-    """The factor beyond the box that the extension's held-out rows (``tangent_rows``) reach: the largest
+    """The factor beyond the box that the extension's held-out rows (``extension_errors``) reach: the largest
     ``1 / t`` of those outside the box shrunk to hold ``EXTRAPOLATION_QUANTILE`` of ``u (n, m)``, drawn back
     to it (1.0: too few of them, untested)."""
-    from ._poly import _ray_into
-
     with np.errstate(divide="ignore", invalid="ignore"):
         reach = np.nan_to_num(np.where(u > 0, u / upper, u / lower), nan=0.0, posinf=0.0).max(axis=1)
     if not reach.size:
         return 1.0
     shrink = float(np.quantile(reach, EXTRAPOLATION_QUANTILE))
-    t = _ray_into(u, shrink * lower, shrink * upper)
+    t = ray_into(u, shrink * lower, shrink * upper)
     outer = t < 1.0
     if outer.sum() < MIN_BEYOND_ROWS or (~outer).sum() < MIN_BEYOND_ROWS:
         return 1.0
     return float(1.0 / max(t[outer].min(), 1e-12))
 
 
-def tangent_rows(build, p: int, u, lower, upper, prob: Problem, row_alpha, cube_cols, group: int = 3,
-                 face_cols=None, cache=None) -> np.ndarray:
-    """``(ny,)`` bool: the output groups whose correction extrapolates better along its own tangent.
+def extension_errors(build, p: int, u, lower, upper, prob: Problem, row_alpha, cube_cols, face_cols=None,
+                     cache=None):
+    """Held-out errors of the ways a correction continues beyond the box it is trained on.
 
-    Beyond the box the correction is trained on it continues with the linear fit's slope, or with
-    the polynomial's tangent at the edge (``_poly.PolyCorrection``). Which one is scored as it is used:
-    the problem ``prob`` refitted (its ridges ``row_alpha (ny,)``, NaN for rows without a correction)
-    on the rows inside the box shrunk to hold ``EXTRAPOLATION_QUANTILE`` of them, and both rules predict the rows outside,
-    drawn back to the shrunk box; a group takes the tangent only where its held-out weighted squared
-    error is below ``TANGENT_GAIN`` of the slope's. ``build(idx, v)`` gives the design ``ZT (p + q, len(idx))`` (``p`` regressor columns)
-    of rows ``idx`` with the scaled channels ``v (len(idx), m)`` in place of theirs; ``u (n, m)`` the rows'
-    scaled channels; ``lower, upper (m,)`` the box (of ``u``); ``cube_cols`` the design columns that are
-    cubes (the rest of ``prob.b`` squares and products). ``face_cols``: the columns of ``u`` of the
-    outputs' own face (a joint fit's face is driven by its own gauges): the rules are then scored on
-    the rows outside whose own gauges are beyond the shrunk box too. ``cache``: a dict shared by calls
-    with the same ``build``, ``u`` and box (a joint fit's output faces): the rows and their designs
-    are worked out once.
+    Beyond the box the correction continues with the linear fit's slope, or with the polynomial's
+    tangent at the edge (``_poly.PolyCorrection``), or either faded to the linear fit (the linear fit
+    plus ``t`` of what it adds, ``t`` how far the row lies out along its ray). Each is scored as it is
+    used: the problem ``prob`` refitted (its ridges ``row_alpha (ny,)``, NaN for rows without a
+    correction) on the rows inside the box shrunk to hold ``EXTRAPOLATION_QUANTILE`` of them, the rows
+    outside predicted from their point drawn back to the shrunk box. ``build(idx, v)`` gives the design
+    ``ZT (p + q, len(idx))`` (``p`` regressor columns) of rows ``idx`` with the scaled channels
+    ``v (len(idx), m)`` in place of theirs; ``u (n, m)`` the rows' scaled channels; ``lower, upper (m,)``
+    the box (of ``u``); ``cube_cols`` the design columns that are cubes (the rest of ``prob.b`` squares
+    and products). ``face_cols``: the columns of ``u`` of the outputs' own face (a joint fit's face is
+    driven by its own gauges): the rows outside are then judged where its own gauges are beyond the
+    shrunk box too. ``cache``: a dict shared by calls with the same ``build``, ``u`` and box (a joint
+    fit's output faces): the rows and their designs are worked out once.
+
+    Returns
+    -------
+    dict or None
+        ``slope``, ``tangent``, ``fade_slope``, ``fade_tangent``: ``(ny,)`` weighted squared errors
+        over the judged rows outside; None where too few rows lie inside or outside.
     """
-    from ._poly import _ray_into
-
     ra = np.asarray(row_alpha, dtype=float)
-    out = np.zeros(ra.size, dtype=bool)
     use = np.isfinite(ra)
     if not use.any():
-        return out
+        return None
     shared = None if cache is None else cache.get("rows")
     if shared is None:
         with np.errstate(divide="ignore", invalid="ignore"):
             reach = np.nan_to_num(np.where(u > 0, u / upper, u / lower), nan=0.0, posinf=0.0).max(axis=1)
         shrink = float(np.quantile(reach, EXTRAPOLATION_QUANTILE)) if reach.size else 1.0
-        t = _ray_into(u, shrink * lower, shrink * upper)
+        t = ray_into(u, shrink * lower, shrink * upper)
         inner, outer = np.flatnonzero(t >= 1.0), np.flatnonzero(t < 1.0)
         G = Zc = Zr = None
         if outer.size >= MIN_BEYOND_ROWS and inner.size >= MIN_BEYOND_ROWS:
@@ -608,31 +611,53 @@ def tangent_rows(build, p: int, u, lower, upper, prob: Problem, row_alpha, cube_
             cache["rows"] = shared
     shrink, t, outer, G, Zc, Zr = shared
     if G is None:
-        return out
+        return None
+    judged = np.ones(outer.size, dtype=bool)
+    if face_cols is not None:
+        fc = np.asarray(face_cols)
+        judged = ray_into(u[outer][:, fc], shrink * lower[fc], shrink * upper[fc]) < 1.0
+        if judged.sum() < MIN_BEYOND_ROWS:
+            return None
     levels = np.unique(ra[use])
-    sols = _paths(G, p, [prob], np.r_[np.inf, levels])[0]
+    sols = ridge_paths(G, p, [prob], np.r_[np.inf, levels])[0]
     X = np.zeros_like(sols[0])
     for a, Xa in zip(levels, sols[1:]):
         X[:, ra == a] = Xa[:, ra == a]
     tc = t[outer]
     na = prob.a.size
     y = Zc[p + prob.y].T
+    linear = Zr[prob.a].T @ sols[0][:na]  # the linear fit (refitted on the rows inside), at the rows themselves
     edge = Zc[prob.b].T @ X[na:]  # the correction at the edge
     slope = Zc[prob.a].T @ X[:na] + edge + (Zr[prob.a] - Zc[prob.a]).T @ sols[0][:na]  # then the linear fit's slope
     r = (1.0 / tc - 1.0)[:, None]
     dphi = Zc[prob.b].T * np.where(np.isin(prob.b, cube_cols)[None, :], 3.0 * r, 2.0 * r)
     tangent = Zr[prob.a].T @ X[:na] + edge + dphi @ X[na:]  # or the corrected model's tangent
     w2 = np.asarray(prob.weight, dtype=float) ** 2
-    judged = np.ones(outer.size, dtype=bool)
-    if face_cols is not None:
-        fc = np.asarray(face_cols)
-        judged = _ray_into(u[outer][:, fc], shrink * lower[fc], shrink * upper[fc]) < 1.0
-        if judged.sum() < MIN_BEYOND_ROWS:
-            return out
-    e_slope = ((slope - y)[judged] ** 2).sum(axis=0) * w2
-    e_tan = ((tangent - y)[judged] ** 2).sum(axis=0) * w2
+
+    def sse(pred):
+        return ((pred - y)[judged] ** 2).sum(axis=0) * w2
+
+    fade = tc[:, None]
+    return {"slope": sse(slope), "tangent": sse(tangent), "fade_slope": sse(linear + fade * (slope - linear)),
+            "fade_tangent": sse(linear + fade * (tangent - linear))}
+
+
+def choose_extension(errors, row_alpha, group: int = 3) -> tuple[np.ndarray, np.ndarray]:
+    """``(tangent (ny,), fade (ny,))`` bool from :func:`extension_errors`' ``errors`` (None: neither), per output
+    group of ``group`` rows, all corrected (``row_alpha`` finite). A group takes the tangent only where its
+    held-out error is below ``TANGENT_GAIN`` of the slope's; then it fades where the chosen extension faded
+    to the linear fit does better (no extension of the correction beat the linear fit beyond the loads
+    it was fitted on)."""
+    ra = np.asarray(row_alpha, dtype=float)
+    tangent, fade = np.zeros(ra.size, dtype=bool), np.zeros(ra.size, dtype=bool)
+    if errors is None:
+        return tangent, fade
+    use = np.isfinite(ra)
     for g in range(0, ra.size, group):
         cols = np.arange(g, min(g + group, ra.size))
-        if use[cols].all() and e_tan[cols].sum() < TANGENT_GAIN * e_slope[cols].sum():
-            out[cols] = True
-    return out
+        if not use[cols].all():
+            continue
+        tangent[cols] = errors["tangent"][cols].sum() < TANGENT_GAIN * errors["slope"][cols].sum()
+        kind = "tangent" if tangent[g] else "slope"
+        fade[cols] = errors["fade_" + kind][cols].sum() < errors[kind][cols].sum()
+    return tangent, fade

@@ -31,10 +31,11 @@ import numpy as np
 from ..defaults import FULL_SCALE_FACE
 from ..frames import FACES, N_GAUGES
 from ._lstsq import RANK_RTOL
-from ._cv import ALPHAS, MIN_BEYOND_ROWS, N_FOLDS, N_SE_SESSION, FoldedGram, MAX_SEGMENT_FRACTION, Problem, SegmentCounter, \
-    _paths, choose_model, cross_validate, fold_bounds, held_out_sse, solve_problem, tangent_rows, tested_reach
+from ._cv import ALPHAS, N_FOLDS, N_SE_SESSION, FoldedGram, MAX_SEGMENT_FRACTION, Problem, SegmentCounter, \
+    choose_extension, choose_model, cross_validate, extension_errors, fold_bounds, held_out_sse, solve_problem, \
+    tested_reach
 from ._gramfit import load_groups
-from ._poly import MAX_ROWS, PolyCorrection, _ray_into, poly_features_t, poly_terms
+from ._poly import MAX_ROWS, PolyCorrection, poly_features_t, poly_terms
 
 __all__ = ["PolyAccumulator", "FULL_SCALE_WEIGHT", "mixed_offsets"]
 
@@ -42,7 +43,7 @@ __all__ = ["PolyAccumulator", "FULL_SCALE_WEIGHT", "mixed_offsets"]
 FULL_SCALE_WEIGHT = 1.0 / np.asarray(FULL_SCALE_FACE)
 #: Rows whose features are built at once (8192 × 235 columns × 8 B ≈ 15 MB).
 CHUNK = 8192
-#: The extension beyond the trained range is chosen on at most about this many of them (``_cv.tangent_rows``).
+#: The extension beyond the trained range is chosen on at most about this many of them (``_cv.extension_errors``).
 MAX_EXTENSION_ROWS = 1 << 13
 _PAIRS, _CUBES = poly_terms([range(6 * (f - 1), 6 * f) for f in FACES])
 _N_PAIRS = _PAIRS.shape[0] // 6  # 21 per face
@@ -111,7 +112,7 @@ class PolyAccumulator:
         self._keep = max(1, int(np.ceil(sum(session_lengths) / self.stride / MAX_EXTENSION_ROWS)))
         self.reach = None  # after fit: how far beyond the box the extension was tested (_cv.tested_reach)
         self.tangent = None  # (6F,) bool after fit: rows extrapolated along the polynomial's tangent
-        self.fade = None  # (6F,) bool after fit: rows that fade to the linear fit from the box's edge on (fade_rows)
+        self.fade = None  # (6F,) bool after fit: rows that fade to the linear fit from the box's edge on (choose_extension)
         self.sample = None  # (x, usable, carries, loaded) of the kept rows, after fit
         if own:
             self.acc = {f: FoldedGram(n_int + 6 + 27, 6, n_folds) for f in FACES}
@@ -276,12 +277,13 @@ class PolyAccumulator:
                 feats = face_features(f) if self.own else self._features_of(f)
                 D[np.ix_(ri, feats)] = X[n_int + lin.size :, use].T
                 E2[ri] = self.stride * held_out_sse(acc.total(), acc.p, pr, X)[use]  # over every sample
-        self.tangent = self._tangent(parts, row, row_alpha, group)
+        self.tangent = self._extension(parts, row, row_alpha, group)
         return choice, (C, B, D, E2)
 
-    def _tangent(self, parts, row, row_alpha, group) -> np.ndarray:
-        """``(6F,)`` bool: the corrected output groups that extrapolate along the polynomial's tangent
-        (:func:`~._cv.tangent_rows` on the fitted rows), the rest along the linear fit's slope."""
+    def _extension(self, parts, row, row_alpha, group) -> np.ndarray:
+        """``(6F,)`` bool: the corrected output groups that extrapolate along the polynomial's tangent, the rest
+        along the linear fit's slope; sets ``fade``, the groups that fade to the linear fit from the box's edge on
+        (:func:`~._cv.extension_errors` and :func:`~._cv.choose_extension` on the fitted rows)."""
         out, fade = np.zeros(row_alpha.size, dtype=bool), np.zeros(row_alpha.size, dtype=bool)
         if not self._rows:
             return out
@@ -291,7 +293,7 @@ class PolyAccumulator:
         u_all, targets = x / self.scale, targets.astype(float)
         n_int = self.n_int
         for acc, probs, faces in parts:
-            shared = None if self.own else {}  # a joint fit's faces share their rows (tangent_rows)
+            shared = None if self.own else {}  # a joint fit's faces share their rows (extension_errors)
             for pr, f in zip(probs, faces):
                 ra = row_alpha[6 * row[f] : 6 * row[f] + 6]
                 if not np.isfinite(ra).any():
@@ -303,9 +305,7 @@ class PolyAccumulator:
                     idx = np.flatnonzero(usable)
                     cols, pairs, cubes = np.arange(N_GAUGES), _PAIRS, _CUBES
                     y = targets[idx][:, [g - 1 for g in self.out_faces], :].reshape(idx.size, -1)
-                kk = k[idx]
-
-                cc = carries[idx]
+                kk, cc = k[idx], carries[idx]
 
                 def build(i, v, kk=kk, y=y, cols=cols, pairs=pairs, cubes=cubes, cc=cc):
                     nu = cols.size
@@ -323,65 +323,13 @@ class PolyAccumulator:
                 cube_cols = acc.p - cubes.size + np.arange(cubes.size)
                 cache = {} if shared is None else shared
                 face_cols = None if self.own else np.arange(6 * (f - 1), 6 * f)
-                t = tangent_rows(build, acc.p, u, self.lower[cols], self.upper[cols], pr, ra, cube_cols,
-                                 6 if group == 6 else 3, face_cols, cache)
-                out[6 * row[f] : 6 * row[f] + 6] = t
-                fade[6 * row[f] : 6 * row[f] + 6] = fade_rows(cache.get("rows"), acc.p, pr, ra, t, cube_cols, u,
-                                                              self.lower[cols], self.upper[cols], face_cols,
-                                                              6 if group == 6 else 3)
+                errors = extension_errors(build, acc.p, u, self.lower[cols], self.upper[cols], pr, ra, cube_cols,
+                                          face_cols, cache)
+                rows = slice(6 * row[f], 6 * row[f] + 6)
+                out[rows], fade[rows] = choose_extension(errors, ra, 6 if group == 6 else 3)
                 self.reach = max(self.reach or 1.0, tested_reach(u, self.lower[cols], self.upper[cols]))
         self.fade = fade
         return out
-
-
-def fade_rows(rows, p: int, prob, row_alpha, tangent, cube_cols, u, lower, upper, face_cols=None,
-              group: int = 3) -> np.ndarray:
-    """``(ny,)`` bool: the output groups whose correction fades to the linear fit from the box's edge on.
-
-    The third extension beside :func:`~._cv.tangent_rows`' two, scored on the same held-out rows
-    (``rows``: its shared ``(shrink, t, outer, G, Zc, Zr)``; the problem ``prob`` refitted on the rows
-    inside the shrunk box, the rows outside predicted): the extension chosen there (the polynomial's
-    tangent where ``tangent (ny,)``, else the linear fit's slope), against the linear fit plus
-    ``t`` of what that extension adds to it (``t``: how far the row lies out along its
-    ray). A group fades where its held-out weighted squared error is the lower: no extension of the
-    correction then beat the linear fit beyond the loads it was fitted on. ``u``, ``lower``, ``upper``,
-    ``face_cols``, ``group``, ``cube_cols``: as for ``tangent_rows``.
-    """
-    ra = np.asarray(row_alpha, dtype=float)
-    out = np.zeros(ra.size, dtype=bool)
-    use = np.isfinite(ra)
-    if rows is None or not use.any() or rows[3] is None:
-        return out
-    shrink, t, outer, G, Zc, Zr = rows
-    levels = np.unique(ra[use])
-    sols = _paths(G, p, [prob], np.r_[np.inf, levels])[0]
-    X = np.zeros_like(sols[0])
-    for a, Xa in zip(levels, sols[1:]):
-        X[:, ra == a] = Xa[:, ra == a]
-    tc, na = t[outer], prob.a.size
-    judged = np.ones(outer.size, dtype=bool)
-    if face_cols is not None:
-        fc = np.asarray(face_cols)
-        judged = _ray_into(u[outer][:, fc], shrink * lower[fc], shrink * upper[fc]) < 1.0
-        if judged.sum() < MIN_BEYOND_ROWS:
-            return out
-    y = Zc[p + prob.y].T
-    linear = Zr[prob.a].T @ sols[0][:na]  # the linear fit (refitted on the rows inside), at the rows themselves
-    edge = Zc[prob.a].T @ X[:na] + Zc[prob.b].T @ X[na:]  # the correction at the edge
-    slope = edge + (Zr[prob.a] - Zc[prob.a]).T @ sols[0][:na]
-    r = (1.0 / tc - 1.0)[:, None]
-    dphi = Zc[prob.b].T * np.where(np.isin(prob.b, cube_cols)[None, :], 3.0 * r, 2.0 * r)
-    tan = edge + (Zr[prob.a] - Zc[prob.a]).T @ X[:na] + dphi @ X[na:]
-    ext = np.where(np.asarray(tangent, dtype=bool)[None, :], tan, slope)
-    faded = linear + tc[:, None] * (ext - linear)
-    w2 = np.asarray(prob.weight, dtype=float) ** 2
-    e_ext = ((ext - y)[judged] ** 2).sum(axis=0) * w2
-    e_fade = ((faded - y)[judged] ** 2).sum(axis=0) * w2
-    for g in range(0, ra.size, group):
-        cols = np.arange(g, min(g + group, ra.size))
-        if use[cols].all() and e_fade[cols].sum() < e_ext[cols].sum():
-            out[cols] = True
-    return out
 
 
 def input_map(count_grams: np.ndarray, group_carries: np.ndarray) -> np.ndarray:

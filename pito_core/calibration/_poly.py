@@ -35,7 +35,7 @@ import numpy as np
 #: stays bounded beside the affine fit, which uses every sample.
 MAX_ROWS = 1 << 15
 
-__all__ = ["poly_terms", "poly_features", "poly_features_t", "PolyCorrection"]
+__all__ = ["poly_terms", "poly_features", "poly_features_t", "ray_into", "PolyCorrection"]
 
 
 def poly_terms(blocks) -> tuple[np.ndarray, np.ndarray]:
@@ -69,7 +69,7 @@ def poly_features_t(uT: np.ndarray, pairs: np.ndarray, cubes: np.ndarray, out: n
     return out
 
 
-def _ray_into(z: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+def ray_into(z: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
     """``(N,)`` the largest ``t ≤ 1`` with ``t z`` inside the box ``[lo, hi]`` (which holds zero), for ``z (N, d)``."""
     with np.errstate(divide="ignore", invalid="ignore"):
         t = np.where(z > hi, hi / z, np.where(z < lo, lo / z, 1.0))
@@ -104,7 +104,7 @@ class PolyCorrection:
         ``P``: the correction reads ``P x`` in place of the offset-free counts ``x`` (None: ``x``).
     tangent : array-like of bool, shape (q,), optional
         Rows that continue beyond the box along the corrected model's own tangent at the edge (the
-        polynomial's slope there, chosen on held-out largest loads: ``_cv.tangent_rows``) in place of
+        polynomial's slope there, chosen on held-out largest loads: ``_cv.extension_errors``) in place of
         the linear fit's slope. None: none.
     map_matrix : array-like, shape (q, m), optional
         With ``input_map``: slopes (output units per count) applied to ``P x − x``, the part of the
@@ -115,7 +115,7 @@ class PolyCorrection:
         map misreads of a face's own load); ``map_matrix`` reads only what lies beyond it. None: zeros.
     reach : float or array-like of shape (q,), optional
         Factor ≥ 1 beyond the box as far as held-out loads tested its extension (``_cv.tested_reach``),
-        one for every row or one per row (1: the row fades from the box's edge on, ``_nlfit.fade_rows``):
+        one for every row or one per row (1: the row fades from the box's edge on, ``_cv.choose_extension``):
         a sample farther out along its ray (``t · reach < 1``) takes ``t · reach`` of the
         correction and the rest of the linear fit (the correction fades to it, ``edge_matrix`` being their
         slopes' difference). None: no fade.
@@ -214,9 +214,9 @@ class PolyCorrection:
         x = self.mapped(x)
         if self.lower is None:
             return x, None
-        t = _ray_into(x, self.lower * self.scale, self.upper * self.scale)
+        t = ray_into(x, self.lower * self.scale, self.upper * self.scale)
         if self.domain is not None:  # inside either box
-            t = np.maximum(t, _ray_into(x @ self.domain.T, self.domain_lower, self.domain_upper))
+            t = np.maximum(t, ray_into(x @ self.domain.T, self.domain_lower, self.domain_upper))
         return x, t
 
     def clamped(self, x: np.ndarray) -> np.ndarray:

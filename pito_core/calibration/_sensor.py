@@ -11,10 +11,10 @@ from __future__ import annotations
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from ._cv import ALPHAS, MODELS, N_FOLDS, N_SE, SCORE_ATOL, FoldedGram, ModelChoice, Problem, _paths, \
+from ._cv import ALPHAS, MODELS, N_FOLDS, N_SE, SCORE_ATOL, FoldedGram, ModelChoice, Problem, ridge_paths, \
     cross_validate, fold_bounds, fold_of_segments, solve_problem
 from ._lstsq import StreamedQR
-from ._poly import PolyCorrection, _ray_into, poly_features_t, poly_terms
+from ._poly import PolyCorrection, ray_into, poly_features_t, poly_terms
 
 __all__ = ["fit_sensor", "SensorFit"]
 
@@ -169,12 +169,12 @@ def _best(cv: dict, weight: np.ndarray):
 def _fold_model(G, p, m, q, probs, picks, alphas):
     """``(X (1 + m, q), D (q, r), X_lin (1 + m, q))`` of the per-output ``picks`` (family, ridge index;
     family ``-1``: affine) solved from the Gram ``G``: linear part, correction, and the affine fit."""
-    X_lin = _paths(G, p, [probs[0]], [np.inf])[0][0][: 1 + m]
+    X_lin = ridge_paths(G, p, [probs[0]], [np.inf])[0][0][: 1 + m]
     X, D = X_lin.copy(), np.zeros((q, p - 1 - m))
     for j, pr in enumerate(probs):
         for a in sorted({a for jj, a in picks if jj == j}):
             rows = np.array([jj == j and aa == a for jj, aa in picks])
-            Xp = _paths(G, p, [pr], [alphas[a]])[0][0]
+            Xp = ridge_paths(G, p, [pr], [alphas[a]])[0][0]
             X[:, rows] = Xp[: 1 + m, rows]
             D[np.ix_(rows, pr.b - 1 - m)] = Xp[1 + m :, rows].T
     return X, D, X_lin
@@ -204,7 +204,7 @@ def _held_out(c, w, center, scale, fold, folded, probs, picks, alphas, pairs, cu
         lo, hi = np.delete(f_lo, k, axis=0).min(axis=0), np.delete(f_hi, k, axis=0).max(axis=0)
         X, D, X_lin = _fold_model(folded.total(exclude=k), p, m, q, probs, picks, alphas)
         uk = u[te]
-        t = _ray_into(uk, lo, hi)
+        t = ray_into(uk, lo, hi)
         out = t < 1.0
         pred = uk @ X[1:] + X[0]  # the fold's model, inside the range: its polynomial
         pred[~out] += poly_features_t(np.ascontiguousarray(uk[~out].T), pairs, cubes).T @ D.T

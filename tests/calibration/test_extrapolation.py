@@ -1,5 +1,5 @@
 """Beyond the trained range: the linear fit's slope, or the polynomial's tangent where held-out largest
-loads say it extrapolates better (``_cv.tangent_rows``)."""
+loads say it extrapolates better (``_cv.extension_errors``)."""
 
 import numpy as np
 import pytest
