@@ -359,29 +359,33 @@ def correction_leverage(cal, groups, blocks, offsets) -> np.ndarray:
              for g in groups for k in np.unique(g.rows // 6)]
     faces = [(g, k, used) for g, k, used in faces if used.size]
 
-    def designs(x, k):  # per group its affine design, then per face the affine design and its features
+    # faces whose rows use the same features share one design (a joint fit's free faces often do)
+    keys = list(dict.fromkeys((id(g), tuple(used)) for g, _, used in faces))
+
+    def designs(x, k):  # per group its affine design, then per distinct feature set the affine design and those
         onehot = np.zeros((len(x), n_int))
         onehot[:, k] = 1.0
         phi = cal.correction.features(x + (offsets[k] - cal.offset))
         affine = {id(g): np.concatenate([onehot, x[:, g.inputs]], axis=1) for g in groups}
-        return affine, [np.concatenate([affine[id(g)], phi[:, used]], axis=1) for g, _, used in faces]
+        return affine, {key: np.concatenate([affine[key[0]], phi[:, list(key[1])]], axis=1) for key in keys}
 
-    G0, G1 = {}, [0.0] * len(faces)
+    G0, G1 = {}, {}
     for x, k in blocks:  # the Gram matrices, then each row's leverage
         affine, full = designs(x, k)
         for key, A in affine.items():
             G0[key] = G0.get(key, 0.0) + A.T @ A
-        for j, D in enumerate(full):
-            G1[j] += D.T @ D
-    M0, M1 = {key: _hat(G) for key, G in G0.items()}, [_hat(G) for G in G1]
+        for key, D in full.items():
+            G1[key] = G1.get(key, 0.0) + D.T @ D
+    M0, M1 = {key: _hat(G) for key, G in G0.items()}, {key: _hat(G) for key, G in G1.items()}
     at = 0
     for x, k in blocks:
         affine, full = designs(x, k)
         rows = slice(at, at + len(x))
         at = rows.stop
         h0 = {key: _row_norms2(A, M0[key]) for key, A in affine.items()}  # each group's once, for all its faces
-        for (g, face, _), D, M in zip(faces, full, M1):
-            h = _row_norms2(D, M) - h0[id(g)]
+        h1 = {key: _row_norms2(D, M1[key]) for key, D in full.items()}
+        for g, face, used in faces:
+            h = h1[(id(g), tuple(used))] - h0[id(g)]
             H[rows, face] = np.clip(h, 0.0, 1.0) * n / n_corr
     return H
 
