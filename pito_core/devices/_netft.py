@@ -351,7 +351,7 @@ class NetFT:
             if self._pending_bias is not None:
                 self._settle_bias()
             self._pending_bias = {"ev": ev, "jump": 0.0, "box": self._last_wrench - self._undo,
-                                  "until": int(self._seq.last) + int(np.ceil((self._rate["lag"] + self.BIAS_WINDOW_S) * rate))}
+                                  "left": int(np.ceil((self._rate["lag"] + self.BIAS_WINDOW_S) * rate))}
             self.bias_history.append(ev)
         return ev
 
@@ -393,11 +393,12 @@ class NetFT:
             i = int(np.argmax(jumps))
             if jumps[i] > p["jump"]:  # the box's own output just before the step
                 p["jump"], p["box"] = float(jumps[i]), (counts[i - 1] if i > 0 else prev[0]) * self._scale
+            p["left"] -= rec.size  # records received since the bias (a restart starts the sequence anew)
             r, rate = self._rate, (self.config.rdt_rate_hz if self.config is not None else None)
             if rate and r["lag_min"] is not None:  # the last record's send time at the box, on the host clock
                 done = r["t0"] + r["n"] / rate + r["lag_min"] >= p["ev"]["host_time"] + self.BIAS_WINDOW_S
             else:
-                done = int(self._seq.last) >= p["until"]
+                done = p["left"] <= 0
             if done:
                 self._settle_bias()
 

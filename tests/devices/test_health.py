@@ -204,3 +204,37 @@ def test_saturated_reference_samples_never_enter_a_calibration_session():
     excluded = s.meta["acquisition"]["excluded_saturated_samples"]
     assert 30 <= excluded <= 60  # ~40 cube samples at 1 kHz pair with the 40 flagged records (± the neighbours)
     assert int(f.saturated.sum()) == 40
+
+
+def test_a_bias_before_any_record_is_recorded_and_undone():
+    """A bias sent before the first record arrived (``start()`` then ``bias()`` at once; here the box's
+    stream is held back) reached the box: it is recorded, settled once records come, and undoable.
+    (What the box zeroed before its first record is not in the stream: the value is not asserted.)"""
+    src = TestSignalSource(seed=4)
+    with SimulatedNetFT(src, 1000, seed=2) as sim:
+        sim.inject("stall", seconds=0.5)
+        with _client(sim) as ft:
+            ev = ft.bias()
+            assert ft.bias_history == [ev] and ft.stats()["records"] == 0
+            assert _wait(lambda: "box_output" in ev, timeout=10)
+            undo = ft.undo_bias()
+    assert undo["event"] == "undo_bias" and ev["undone"]
+
+
+def test_a_bias_pending_over_a_restart_of_the_stream_is_settled_within_its_window():
+    """Without a configured rate the bias's window is counted in records. The box's sequence starts
+    again at 1 after a restart (the client re-sends start after 1 s of silence): the window must not
+    wait for the old sequence number to come round again."""
+    src = TestSignalSource(seed=4)
+    with SimulatedNetFT(src, 1000, seed=2) as sim:
+        with _client(sim, counts_per_force=1e6, counts_per_torque=1e6) as ft:
+            assert ft.config.rdt_rate_hz is None
+            drain(ft, lambda bs: n_rows(bs) >= 4000)
+            ev = ft.bias()
+            sim.inject("stall", seconds=1.3)
+            assert _wait(lambda: ft.stats()["restarts"] >= 1, timeout=10)
+            resumed = ft.stats()["records"]
+            assert _wait(lambda: ft.stats()["records"] > resumed, timeout=10)
+            t = time.monotonic()
+            assert _wait(lambda: "box_output" in ev, timeout=10)
+            assert time.monotonic() - t < 1.5
