@@ -363,7 +363,10 @@ class NetFT:
             raise DeviceError("NetFT: no bias to undo")
         last = done[-1]
         deadline = time.monotonic() + 2.0
-        while self._pending_bias is not None and self._pending_bias["ev"] is last and time.monotonic() < deadline:
+        while time.monotonic() < deadline:
+            p = self._pending_bias  # read once: the receiver thread may settle it at any time
+            if p is None or p["ev"] is not last:
+                break
             time.sleep(0.005)
         with self._bias_lock:
             if self._pending_bias is not None and self._pending_bias["ev"] is last:

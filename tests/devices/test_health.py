@@ -238,3 +238,37 @@ def test_a_bias_pending_over_a_restart_of_the_stream_is_settled_within_its_windo
             t = time.monotonic()
             assert _wait(lambda: "box_output" in ev, timeout=10)
             assert time.monotonic() - t < 1.5
+
+
+def test_undo_bias_survives_the_receiver_settling_the_bias_while_it_waits():
+    """``undo_bias`` waits for the receiver thread to settle the pending bias; the receiver may settle it
+    between any two of the waiting thread's steps (here: right after ``undo_bias`` first sees it)."""
+    import socket
+
+    class Racy(NetFT):
+        race = False
+
+        @property
+        def _pending_bias(self):
+            p = self.__dict__.get("_pb")
+            if p is not None and self.race:  # the receiver settles it just after this read
+                self.race = False
+                with self._bias_lock:
+                    self._pb = p
+                    self._settle_bias()
+            return p
+
+        @_pending_bias.setter
+        def _pending_bias(self, value):
+            self.__dict__["_pb"] = value
+
+    box = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)  # a box that never answers
+    box.bind(("127.0.0.1", 0))
+    try:
+        with Racy("127.0.0.1", box.getsockname()[1], counts_per_force=1e6, counts_per_torque=1e6) as ft:
+            ev = ft.bias()
+            ft.race = True
+            ft.undo_bias()
+    finally:
+        box.close()
+    assert ev["undone"] and "box_output" in ev
