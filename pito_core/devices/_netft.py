@@ -346,7 +346,10 @@ class NetFT:
         self._send(CMD_BIAS)
         ev = {"event": "bias", "host_time": time.monotonic(), "unix_time": time.time(),
               "wrench": [float(v) for v in self._last_wrench], "status": self._last_status}
-        rate = (self.config.rdt_rate_hz if self.config is not None else None) or 1000.0
+        r = self._rate  # without a configured rate, the rate received (from the sequence numbers), else 1 kHz
+        span = (r["t_last"] - r["t0"]) if r["t0"] is not None else 0.0
+        rate = (self.config.rdt_rate_hz if self.config is not None else None) or (
+            r["n"] / span if span >= 0.5 else 1000.0)
         with self._bias_lock:
             if self._pending_bias is not None:
                 self._settle_bias()

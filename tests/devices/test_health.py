@@ -272,3 +272,33 @@ def test_undo_bias_survives_the_receiver_settling_the_bias_while_it_waits():
     finally:
         box.close()
     assert ev["undone"] and "box_output" in ev
+
+
+def test_a_lagging_client_without_a_configured_rate_finds_the_bias_at_a_fast_rate(monkeypatch):
+    """Counts per unit given (the box's page not read: no ``comrdtrate``) and the box sending 5 kHz:
+    the bias's window must still span ``BIAS_WINDOW_S`` of the box's records, not 1 kHz's worth."""
+    slow, stalls = NetFT._batch, {"n": 0, "after": -1.0}
+
+    def lagging(self, rec, now):
+        stalls["n"] += 1
+        if stalls["n"] % 400 == 0:  # a 0.15 s stall of the receiver every 400 packets of 10 records
+            time.sleep(0.15)
+            stalls["after"] = time.monotonic()
+        return slow(self, rec, now)
+
+    monkeypatch.setattr(NetFT, "_batch", lagging)
+    src = TestSignalSource(seed=4)
+    with SimulatedNetFT(src, 5000, seed=2) as sim:
+        with _client(sim, buffered=True, counts_per_force=1e6, counts_per_torque=1e6) as ft:
+            assert ft.config.rdt_rate_hz is None
+            drain(ft, lambda bs: n_rows(bs) >= 5000)
+            for _ in range(2):
+                assert _wait(lambda: time.monotonic() - stalls["after"] < 0.02)  # ~0.15 s behind
+                ft.bias()
+                time.sleep(0.3)
+                ft.undo_bias()
+            time.sleep(0.05)
+            ft.read(timeout=0.2)
+            b = drain(ft, lambda bs: n_rows(bs) >= 1000)
+    truth = np.asarray(src.reference_at((b.rdt_seq.astype(float) - 1) / 5000.0))
+    assert np.abs(np.median(b.wrench - truth, axis=0)).max() < 0.05, np.median(b.wrench - truth, axis=0)
