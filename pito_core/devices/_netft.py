@@ -414,6 +414,9 @@ class NetFT:
         if self._thread is not None:
             self._thread.join(timeout=5.0)
             self._thread = None
+        with self._bias_lock:  # no more records: a pending bias keeps the step found so far
+            if self._pending_bias is not None:
+                self._settle_bias()
         if self._sock is not None:
             try:
                 self._send(CMD_STOP)

@@ -302,3 +302,17 @@ def test_a_lagging_client_without_a_configured_rate_finds_the_bias_at_a_fast_rat
             b = drain(ft, lambda bs: n_rows(bs) >= 1000)
     truth = np.asarray(src.reference_at((b.rdt_seq.astype(float) - 1) / 5000.0))
     assert np.abs(np.median(b.wrench - truth, axis=0)).max() < 0.05, np.median(b.wrench - truth, axis=0)
+
+
+def test_close_settles_a_pending_bias():
+    """Closed within a bias's window, the client settles the bias at the step found so far: its entry is
+    complete and undoing it after close does not wait for records that can no longer come."""
+    src = TestSignalSource(seed=4)
+    with SimulatedNetFT(src, 1000, seed=2) as sim:
+        with _client(sim) as ft:
+            drain(ft, lambda bs: n_rows(bs) >= 300)
+            ev = ft.bias()
+        assert "box_output" in ev and len(ev["box_output"]) == 6
+        t = time.monotonic()
+        ft.undo_bias()
+        assert time.monotonic() - t < 1.0
