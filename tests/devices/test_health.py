@@ -4,6 +4,7 @@ Faults: stall (both devices), unplug/replug (cube), drop, reorder, saturate, gar
 bias history and undo. No timing is asserted beyond "eventually" (drain with a safety timeout).
 """
 
+import socket
 import time
 
 import numpy as np
@@ -234,17 +235,13 @@ def test_a_bias_pending_over_a_restart_of_the_stream_is_settled_within_its_windo
             sim.inject("stall", seconds=1.3)
             assert _wait(lambda: ft.stats()["restarts"] >= 1, timeout=10)
             resumed = ft.stats()["records"]
-            assert _wait(lambda: ft.stats()["records"] > resumed, timeout=10)
-            t = time.monotonic()
-            assert _wait(lambda: "box_output" in ev, timeout=10)
-            assert time.monotonic() - t < 1.5
+            assert _wait(lambda: "box_output" in ev, timeout=20)
+            assert ft.stats()["records"] - resumed < 2000  # its window of 250 records, not the 4000 before
 
 
 def test_undo_bias_survives_the_receiver_settling_the_bias_while_it_waits():
     """``undo_bias`` waits for the receiver thread to settle the pending bias; the receiver may settle it
     between any two of the waiting thread's steps (here: right after ``undo_bias`` first sees it)."""
-    import socket
-
     class Racy(NetFT):
         race = False
 
@@ -306,13 +303,11 @@ def test_a_lagging_client_without_a_configured_rate_finds_the_bias_at_a_fast_rat
 
 def test_close_settles_a_pending_bias():
     """Closed within a bias's window, the client settles the bias at the step found so far: its entry is
-    complete and undoing it after close does not wait for records that can no longer come."""
+    complete (no record can come to complete it later) and can be undone."""
     src = TestSignalSource(seed=4)
     with SimulatedNetFT(src, 1000, seed=2) as sim:
         with _client(sim) as ft:
             drain(ft, lambda bs: n_rows(bs) >= 300)
             ev = ft.bias()
         assert "box_output" in ev and len(ev["box_output"]) == 6
-        t = time.monotonic()
-        ft.undo_bias()
-        assert time.monotonic() - t < 1.0
+        assert ft.undo_bias()["event"] == "undo_bias" and ev["undone"]
