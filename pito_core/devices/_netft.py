@@ -343,7 +343,6 @@ class NetFT:
         """
         if self._sock is None:
             raise DeviceError("NetFT: not started")
-        self._send(CMD_BIAS)
         ev = {"event": "bias", "host_time": time.monotonic(), "unix_time": time.time(),
               "wrench": [float(v) for v in self._last_wrench], "status": self._last_status}
         r = self._rate  # without a configured rate, the rate received (from the sequence numbers), else 1 kHz
@@ -356,6 +355,14 @@ class NetFT:
             self._pending_bias = {"ev": ev, "jump": 0.0, "box": self._last_wrench - self._undo,
                                   "left": int(np.ceil((self._rate["lag"] + self.BIAS_WINDOW_S) * rate))}
             self.bias_history.append(ev)
+        try:  # sent once its step is searched for: the box may answer before this thread runs again
+            self._send(CMD_BIAS)
+        except DeviceError:
+            with self._bias_lock:
+                if self._pending_bias is not None and self._pending_bias["ev"] is ev:
+                    self._pending_bias = None
+                self.bias_history.remove(ev)
+            raise
         return ev
 
     def undo_bias(self) -> dict:

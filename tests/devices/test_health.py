@@ -9,7 +9,7 @@ import time
 
 import numpy as np
 
-from pito_core.devices import NetFT, PitoSerial, read_netft_config
+from pito_core.devices import CMD_BIAS, NetFT, PitoSerial, read_netft_config
 from pito_core.devices._serial import SequenceTracker, StallMonitor
 from pito_core.sim import SimulatedNetFT, SimulatedPitoPort, TestSignalSource
 
@@ -311,3 +311,28 @@ def test_close_settles_a_pending_bias():
             ev = ft.bias()
         assert "box_output" in ev and len(ev["box_output"]) == 6
         assert ft.undo_bias()["event"] == "undo_bias" and ev["undone"]
+
+
+def test_a_bias_whose_step_arrives_before_bias_returns_is_found(monkeypatch):
+    """The box may answer before :meth:`NetFT.bias` has recorded its command (the caller's thread
+    preempted just after sending it, here for 50 ms): the records with the step must still be searched."""
+    send = NetFT._send
+
+    def preempted(self, command, count=0):
+        send(self, command, count)
+        if command == CMD_BIAS:
+            time.sleep(0.05)
+
+    monkeypatch.setattr(NetFT, "_send", preempted)
+    src = TestSignalSource(seed=4)
+    with SimulatedNetFT(src, 1000, seed=2) as sim:
+        with _client(sim) as ft:
+            drain(ft, lambda bs: n_rows(bs) >= 300)
+            ev = ft.bias()
+            time.sleep(0.3)
+            ft.undo_bias()
+            time.sleep(0.05)
+            ft.read(timeout=0.2)
+            b = drain(ft, lambda bs: n_rows(bs) >= 200)
+    truth = np.asarray(src.reference_at((b.rdt_seq.astype(float) - 1) / 1000.0))
+    assert np.abs(np.median(b.wrench - truth, axis=0)).max() < 0.05, (np.median(b.wrench - truth, axis=0), ev)
