@@ -233,11 +233,20 @@ class Calibration:
                 W += (self.correction.map_terms(x) @ self._apply_map.reshape(6 * 6, -1).T).reshape(n, 6, 6)
             if W_lin is not None and self._apply_edge is not None:  # past the reach tested: fade to the linear fit
                 k = np.flatnonzero((fade < 1).any(axis=1))
-                g = np.ones((k.size, 6, 6))  # each output row's share, on its face (a face's rows share theirs
-                for j, f in enumerate(self.output_faces):  # where the output frame is not the face's)
+                g = np.ones((k.size, 6, 6))  # each output row's share, on its face's axis (exact where the
+                for j, f in enumerate(self.output_faces):  # output frame is the face's or its rows share one)
                     g[:, f - 1] = fade[k, 6 * j : 6 * j + 6]
                 E = (x[k] @ self._apply_edge.reshape(6 * 6, -1).T).reshape(k.size, 6, 6)
-                W[k] = W_lin[k] + g * (W[k] - W_lin[k]) - (1.0 - g) * E
+                D = W[k] - W_lin[k]
+                W[k] = W_lin[k] + g * D - (1.0 - g) * E
+                for j, f in enumerate(self.output_faces):  # a face's axes mix its fitted rows: share on the rows
+                    gj = fade[k, 6 * j : 6 * j + 6]
+                    if self.output_frame == "face" or np.all(gj == gj[:, :1]):
+                        continue
+                    X = self._face_from_output[f - 1]
+                    Dj = np.linalg.solve(X, D[:, f - 1].T).T
+                    Ej = x[k] @ self.correction.edge_matrix[6 * j : 6 * j + 6].T
+                    W[k, f - 1] = W_lin[k, f - 1] + (gj * Dj - (1.0 - gj) * Ej) @ X.T
         W[:, ~self.has_output] = np.nan
         if not return_cov:
             return W[0] if single else W

@@ -343,16 +343,26 @@ class NetFT:
         """
         if self._sock is None:
             raise DeviceError("NetFT: not started")
-        self._send(CMD_BIAS)
         ev = {"event": "bias", "host_time": time.monotonic(), "unix_time": time.time(),
               "wrench": [float(v) for v in self._last_wrench], "status": self._last_status}
-        rate = (self.config.rdt_rate_hz if self.config is not None else None) or 1000.0
+        r = self._rate  # without a configured rate, the rate received (from the sequence numbers), else 1 kHz
+        span = (r["t_last"] - r["t0"]) if r["t0"] is not None else 0.0
+        rate = (self.config.rdt_rate_hz if self.config is not None else None) or (
+            r["n"] / span if span >= 0.5 else 1000.0)
         with self._bias_lock:
             if self._pending_bias is not None:
                 self._settle_bias()
             self._pending_bias = {"ev": ev, "jump": 0.0, "box": self._last_wrench - self._undo,
-                                  "until": int(self._seq.last) + int(np.ceil((self._rate["lag"] + self.BIAS_WINDOW_S) * rate))}
+                                  "left": int(np.ceil((self._rate["lag"] + self.BIAS_WINDOW_S) * rate))}
             self.bias_history.append(ev)
+        try:  # sent once its step is searched for: the box may answer before this thread runs again
+            self._send(CMD_BIAS)
+        except DeviceError:
+            with self._bias_lock:
+                if self._pending_bias is not None and self._pending_bias["ev"] is ev:
+                    self._pending_bias = None
+                self.bias_history.remove(ev)
+            raise
         return ev
 
     def undo_bias(self) -> dict:
@@ -363,7 +373,10 @@ class NetFT:
             raise DeviceError("NetFT: no bias to undo")
         last = done[-1]
         deadline = time.monotonic() + 2.0
-        while self._pending_bias is not None and self._pending_bias["ev"] is last and time.monotonic() < deadline:
+        while time.monotonic() < deadline:
+            p = self._pending_bias  # read once: the receiver thread may settle it at any time
+            if p is None or p["ev"] is not last:
+                break
             time.sleep(0.005)
         with self._bias_lock:
             if self._pending_bias is not None and self._pending_bias["ev"] is last:
@@ -393,11 +406,12 @@ class NetFT:
             i = int(np.argmax(jumps))
             if jumps[i] > p["jump"]:  # the box's own output just before the step
                 p["jump"], p["box"] = float(jumps[i]), (counts[i - 1] if i > 0 else prev[0]) * self._scale
+            p["left"] -= rec.size  # records received since the bias (a restart starts the sequence anew)
             r, rate = self._rate, (self.config.rdt_rate_hz if self.config is not None else None)
             if rate and r["lag_min"] is not None:  # the last record's send time at the box, on the host clock
                 done = r["t0"] + r["n"] / rate + r["lag_min"] >= p["ev"]["host_time"] + self.BIAS_WINDOW_S
             else:
-                done = int(self._seq.last) >= p["until"]
+                done = p["left"] <= 0
             if done:
                 self._settle_bias()
 
@@ -407,6 +421,9 @@ class NetFT:
         if self._thread is not None:
             self._thread.join(timeout=5.0)
             self._thread = None
+        with self._bias_lock:  # no more records: a pending bias keeps the step found so far
+            if self._pending_bias is not None:
+                self._settle_bias()
         if self._sock is not None:
             try:
                 self._send(CMD_STOP)

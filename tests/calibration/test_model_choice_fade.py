@@ -52,3 +52,33 @@ def test_groups_whose_extension_loses_to_the_linear_fit_beyond_the_box_fade_from
     np.testing.assert_array_equal(np.broadcast_to(back.correction.reach, (30,)), reach.reshape(-1))
     assert calibration_hash(back) == calibration_hash(auto)
     np.testing.assert_allclose(back.wrenches(s.counts[:200]), auto.wrenches(s.counts[:200]))
+
+
+def test_per_row_fade_in_the_reference_frame_is_the_correction_s_own():
+    """SIMULATED (``pito_bench._cubes``): ``loaded_frame`` fits its rows in the reference frame S_A. A face
+    whose force rows fade from the box's edge and whose torque rows keep the reach tested must read, in
+    its own frame, what the fitted rows give (``matrix x + correction(x)``) mapped to it: the fade is
+    per output row, not per axis of the face's frame."""
+    from pito_bench._cubes import BenchCube, cube_session
+    from pito_core.calibration import Calibration
+
+    cube = BenchCube("saturation", 0.02, 0.1, seed=4)
+    train, _ = cube_session(cube, "frame_hole", 6, range(1, 7), 1000, seed=1)
+    cal = calibrate(train, "loaded_frame")
+    c = cal.correction
+    assert cal.output_frame == "reference" and c is not None and c.reach is not None
+    reach = np.broadcast_to(np.asarray(c.reach, dtype=float), (c.coef.shape[0],)).copy()
+    reach.reshape(-1, 6)[:, :3] = 1.0
+    kw = {n: getattr(c, n) for n in ("lower", "upper", "edge_matrix", "domain", "domain_lower", "domain_upper",
+                                     "input_map", "tangent", "map_matrix", "map_lower", "map_upper", "edge_mapped")}
+    c2 = PolyCorrection(c.scale, c.pairs, c.cubes, c.coef, reach=reach, **kw)
+    cal2 = Calibration(cal.method, cal.matrix, cal.output_faces, cal.output_frame, cal.offset, cal.core, cal.T_core_ati,
+                       cal.meta, covariance=cal.covariance, correction=c2, model=cal.model, linear_fit=cal.linear_fit)
+    test, _ = cube_session(cube, "frame_hole", 6, range(1, 7), 100, load_scale=2.0, seed=101)
+    x = test.counts - cal.offset
+    assert (c2.fade(x) < 1).any()
+    rows = x @ cal.matrix.T + c2(x)  # (N, 36) the fitted rows, reference frame
+    W = cal2.wrenches(test.counts)
+    for k, f in enumerate(cal.output_faces):
+        np.testing.assert_allclose(W[:, f - 1], rows[:, 6 * k : 6 * k + 6] @ cal2._face_from_output[f - 1].T,
+                                   rtol=0, atol=1e-9)

@@ -4,11 +4,12 @@ Faults: stall (both devices), unplug/replug (cube), drop, reorder, saturate, gar
 bias history and undo. No timing is asserted beyond "eventually" (drain with a safety timeout).
 """
 
+import socket
 import time
 
 import numpy as np
 
-from pito_core.devices import NetFT, PitoSerial, read_netft_config
+from pito_core.devices import CMD_BIAS, NetFT, PitoSerial, read_netft_config
 from pito_core.devices._serial import SequenceTracker, StallMonitor
 from pito_core.sim import SimulatedNetFT, SimulatedPitoPort, TestSignalSource
 
@@ -204,3 +205,134 @@ def test_saturated_reference_samples_never_enter_a_calibration_session():
     excluded = s.meta["acquisition"]["excluded_saturated_samples"]
     assert 30 <= excluded <= 60  # ~40 cube samples at 1 kHz pair with the 40 flagged records (± the neighbours)
     assert int(f.saturated.sum()) == 40
+
+
+def test_a_bias_before_any_record_is_recorded_and_undone():
+    """A bias sent before the first record arrived (``start()`` then ``bias()`` at once; here the box's
+    stream is held back) reached the box: it is recorded, settled once records come, and undoable.
+    (What the box zeroed before its first record is not in the stream: the value is not asserted.)"""
+    src = TestSignalSource(seed=4)
+    with SimulatedNetFT(src, 1000, seed=2) as sim:
+        sim.inject("stall", seconds=0.5)
+        with _client(sim) as ft:
+            ev = ft.bias()
+            assert ft.bias_history == [ev] and ft.stats()["records"] == 0
+            assert _wait(lambda: "box_output" in ev, timeout=10)
+            undo = ft.undo_bias()
+    assert undo["event"] == "undo_bias" and ev["undone"]
+
+
+def test_a_bias_pending_over_a_restart_of_the_stream_is_settled_within_its_window():
+    """Without a configured rate the bias's window is counted in records. The box's sequence starts
+    again at 1 after a restart (the client re-sends start after 1 s of silence): the window must not
+    wait for the old sequence number to come round again."""
+    src = TestSignalSource(seed=4)
+    with SimulatedNetFT(src, 1000, seed=2) as sim:
+        with _client(sim, counts_per_force=1e6, counts_per_torque=1e6) as ft:
+            assert ft.config.rdt_rate_hz is None
+            drain(ft, lambda bs: n_rows(bs) >= 4000)
+            ev = ft.bias()
+            sim.inject("stall", seconds=1.3)
+            assert _wait(lambda: ft.stats()["restarts"] >= 1, timeout=10)
+            resumed = ft.stats()["records"]
+            assert _wait(lambda: "box_output" in ev, timeout=20)
+            assert ft.stats()["records"] - resumed < 2000  # its window of 250 records, not the 4000 before
+
+
+def test_undo_bias_survives_the_receiver_settling_the_bias_while_it_waits():
+    """``undo_bias`` waits for the receiver thread to settle the pending bias; the receiver may settle it
+    between any two of the waiting thread's steps (here: right after ``undo_bias`` first sees it)."""
+    class Racy(NetFT):
+        race = False
+
+        @property
+        def _pending_bias(self):
+            p = self.__dict__.get("_pb")
+            if p is not None and self.race:  # the receiver settles it just after this read
+                self.race = False
+                with self._bias_lock:
+                    self._pb = p
+                    self._settle_bias()
+            return p
+
+        @_pending_bias.setter
+        def _pending_bias(self, value):
+            self.__dict__["_pb"] = value
+
+    box = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)  # a box that never answers
+    box.bind(("127.0.0.1", 0))
+    try:
+        with Racy("127.0.0.1", box.getsockname()[1], counts_per_force=1e6, counts_per_torque=1e6) as ft:
+            ev = ft.bias()
+            ft.race = True
+            ft.undo_bias()
+    finally:
+        box.close()
+    assert ev["undone"] and "box_output" in ev
+
+
+def test_a_lagging_client_without_a_configured_rate_finds_the_bias_at_a_fast_rate(monkeypatch):
+    """Counts per unit given (the box's page not read: no ``comrdtrate``) and the box sending 5 kHz:
+    the bias's window must still span ``BIAS_WINDOW_S`` of the box's records, not 1 kHz's worth."""
+    slow, stalls = NetFT._batch, {"n": 0, "after": -1.0}
+
+    def lagging(self, rec, now):
+        stalls["n"] += 1
+        if stalls["n"] % 400 == 0:  # a 0.15 s stall of the receiver every 400 packets of 10 records
+            time.sleep(0.15)
+            stalls["after"] = time.monotonic()
+        return slow(self, rec, now)
+
+    monkeypatch.setattr(NetFT, "_batch", lagging)
+    src = TestSignalSource(seed=4)
+    with SimulatedNetFT(src, 5000, seed=2) as sim:
+        with _client(sim, buffered=True, counts_per_force=1e6, counts_per_torque=1e6) as ft:
+            assert ft.config.rdt_rate_hz is None
+            drain(ft, lambda bs: n_rows(bs) >= 5000)
+            for _ in range(2):
+                assert _wait(lambda: time.monotonic() - stalls["after"] < 0.02)  # ~0.15 s behind
+                ft.bias()
+                time.sleep(0.3)
+                ft.undo_bias()
+            time.sleep(0.05)
+            ft.read(timeout=0.2)
+            b = drain(ft, lambda bs: n_rows(bs) >= 1000)
+    truth = np.asarray(src.reference_at((b.rdt_seq.astype(float) - 1) / 5000.0))
+    assert np.abs(np.median(b.wrench - truth, axis=0)).max() < 0.05, np.median(b.wrench - truth, axis=0)
+
+
+def test_close_settles_a_pending_bias():
+    """Closed within a bias's window, the client settles the bias at the step found so far: its entry is
+    complete (no record can come to complete it later) and can be undone."""
+    src = TestSignalSource(seed=4)
+    with SimulatedNetFT(src, 1000, seed=2) as sim:
+        with _client(sim) as ft:
+            drain(ft, lambda bs: n_rows(bs) >= 300)
+            ev = ft.bias()
+        assert "box_output" in ev and len(ev["box_output"]) == 6
+        assert ft.undo_bias()["event"] == "undo_bias" and ev["undone"]
+
+
+def test_a_bias_whose_step_arrives_before_bias_returns_is_found(monkeypatch):
+    """The box may answer before :meth:`NetFT.bias` has recorded its command (the caller's thread
+    preempted just after sending it, here for 50 ms): the records with the step must still be searched."""
+    send = NetFT._send
+
+    def preempted(self, command, count=0):
+        send(self, command, count)
+        if command == CMD_BIAS:
+            time.sleep(0.05)
+
+    monkeypatch.setattr(NetFT, "_send", preempted)
+    src = TestSignalSource(seed=4)
+    with SimulatedNetFT(src, 1000, seed=2) as sim:
+        with _client(sim) as ft:
+            drain(ft, lambda bs: n_rows(bs) >= 300)
+            ev = ft.bias()
+            time.sleep(0.3)
+            ft.undo_bias()
+            time.sleep(0.05)
+            ft.read(timeout=0.2)
+            b = drain(ft, lambda bs: n_rows(bs) >= 200)
+    truth = np.asarray(src.reference_at((b.rdt_seq.astype(float) - 1) / 1000.0))
+    assert np.abs(np.median(b.wrench - truth, axis=0)).max() < 0.05, (np.median(b.wrench - truth, axis=0), ev)
