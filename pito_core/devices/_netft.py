@@ -285,8 +285,9 @@ class NetFT:
         self._rate = {"t0": None, "seq0": 0, "n": 0, "t_last": None, "lag": 0.0, "lag_min": None}
         self._undo = np.zeros(6)  # N, N·m added back after an undone box bias
         #: Every bias: ``{"event": "bias"|"undo_bias", "host_time" (s, monotonic), "unix_time",
-        #: "wrench" [6] N, N·m (the output just before), "status"}``; a bias also gets "box_output"
-        #: [6] (the box's output it zeroed, the step :meth:`undo_bias` adds back) once its step is in.
+        #: "wrench" [6] N, N·m (the output just before), "status"}``; a bias also has "box_output"
+        #: [6] (the box's output it zeroed, the step :meth:`undo_bias` adds back), both settled in place
+        #: once its step is in (no key is added later: the history can be serialised at any time).
         self.bias_history: list[dict] = []
         self._last_wrench = np.zeros(6)
         self._bias_lock = threading.Lock()
@@ -344,7 +345,8 @@ class NetFT:
         if self._sock is None:
             raise DeviceError("NetFT: not started")
         ev = {"event": "bias", "host_time": time.monotonic(), "unix_time": time.time(),
-              "wrench": [float(v) for v in self._last_wrench], "status": self._last_status}
+              "wrench": [float(v) for v in self._last_wrench], "status": self._last_status,
+              "box_output": [float(v) for v in self._last_wrench - self._undo]}  # keys fixed: settled in place
         r = self._rate  # without a configured rate, the rate received (from the sequence numbers), else 1 kHz
         span = (r["t_last"] - r["t0"]) if r["t0"] is not None else 0.0
         rate = (self.config.rdt_rate_hz if self.config is not None else None) or (
