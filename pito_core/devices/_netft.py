@@ -286,8 +286,8 @@ class NetFT:
         self._undo = np.zeros(6)  # N, N·m added back after an undone box bias
         #: Every bias: ``{"event": "bias"|"undo_bias", "host_time" (s, monotonic), "unix_time",
         #: "wrench" [6] N, N·m (the output just before), "status"}``; a bias also has "box_output"
-        #: [6] (the box's output it zeroed, the step :meth:`undo_bias` adds back), both settled in place
-        #: once its step is in (no key is added later: the history can be serialised at any time).
+        #: [6] (the box's output it zeroed, the step :meth:`undo_bias` adds back) and "settled": both values
+        #: are set in place once its step is in (no key is added later: the history can be serialised at any time).
         self.bias_history: list[dict] = []
         self._last_wrench = np.zeros(6)
         self._bias_lock = threading.Lock()
@@ -346,7 +346,7 @@ class NetFT:
             raise DeviceError("NetFT: not started")
         ev = {"event": "bias", "host_time": time.monotonic(), "unix_time": time.time(),
               "wrench": [float(v) for v in self._last_wrench], "status": self._last_status,
-              "box_output": [float(v) for v in self._last_wrench - self._undo]}  # keys fixed: settled in place
+              "box_output": [float(v) for v in self._last_wrench - self._undo], "settled": False}  # keys fixed
         r = self._rate  # without a configured rate, the rate received (from the sequence numbers), else 1 kHz
         span = (r["t_last"] - r["t0"]) if r["t0"] is not None else 0.0
         rate = (self.config.rdt_rate_hz if self.config is not None else None) or (
@@ -395,6 +395,7 @@ class NetFT:
         p, self._pending_bias = self._pending_bias, None
         p["ev"]["wrench"] = [float(v) for v in p["box"] + self._undo]
         p["ev"]["box_output"] = [float(v) for v in p["box"]]
+        p["ev"]["settled"] = True
 
     def _find_bias_step(self, rec: np.ndarray) -> None:
         """Track the largest jump in counts while a bias is pending (receiver thread)."""
