@@ -10,8 +10,9 @@ import pytest
 _DISPLAY_FIXTURES = {"qtbot", "qapp", "styled"}
 
 
-def pytest_collection_modifyitems(config, items):
-    for item in items:
-        shows = ("needs_display" in item.keywords or "gui" in item.keywords
-                 or not _DISPLAY_FIXTURES.isdisjoint(getattr(item, "fixturenames", ())))
-        item.add_marker(pytest.mark.xdist_group("display" if shows else item.nodeid.split("::")[0]))
+def pytest_itemcollected(item):
+    """Each test's group, set as it is collected: pytest-xdist reads the groups in its own
+    ``pytest_collection_modifyitems``, which runs before a conftest's."""
+    shows = ("needs_display" in item.keywords or "gui" in item.keywords
+             or not _DISPLAY_FIXTURES.isdisjoint(getattr(item, "fixturenames", ())))
+    item.add_marker(pytest.mark.xdist_group("display" if shows else item.nodeid.split("::")[0]))
