@@ -347,10 +347,8 @@ class NetFT:
         ev = {"event": "bias", "host_time": time.monotonic(), "unix_time": time.time(),
               "wrench": [float(v) for v in self._last_wrench], "status": self._last_status,
               "box_output": [float(v) for v in self._last_wrench - self._undo], "settled": False}  # keys fixed
-        r = self._rate  # without a configured rate, the rate received (from the sequence numbers), else 1 kHz
-        span = (r["t_last"] - r["t0"]) if r["t0"] is not None else 0.0
-        rate = (self.config.rdt_rate_hz if self.config is not None else None) or (
-            r["n"] / span if span >= 0.5 else 1000.0)
+        # without a configured rate, the rate received (from the sequence numbers), else 1 kHz
+        rate = (self.config.rdt_rate_hz if self.config is not None else None) or self._received_rate()[0] or 1000.0
         with self._bias_lock:
             if self._pending_bias is not None:
                 self._settle_bias()
@@ -397,19 +395,18 @@ class NetFT:
         p["ev"]["box_output"] = [float(v) for v in p["box"]]
         p["ev"]["settled"] = True
 
-    def _find_bias_step(self, rec: np.ndarray) -> None:
-        """Track the largest jump in counts while a bias is pending (receiver thread)."""
+    def _find_bias_step(self, counts: np.ndarray) -> None:
+        """Track the largest jump in a packet's ``counts (n, 6)`` while a bias is pending (receiver thread)."""
         with self._bias_lock:
             p = self._pending_bias
             if p is None:
                 return
-            counts = rec["counts"].astype(np.float64)
             prev = self._prev_counts if self._prev_counts is not None else counts[:1]
             jumps = np.linalg.norm(np.diff(np.vstack([prev, counts]), axis=0), axis=1)
             i = int(np.argmax(jumps))
             if jumps[i] > p["jump"]:  # the box's own output just before the step
                 p["jump"], p["box"] = float(jumps[i]), (counts[i - 1] if i > 0 else prev[0]) * self._scale
-            p["left"] -= rec.size  # records received since the bias (a restart starts the sequence anew)
+            p["left"] -= len(counts)  # records received since the bias (a restart starts the sequence anew)
             r, rate = self._rate, (self.config.rdt_rate_hz if self.config is not None else None)
             if rate and r["lag_min"] is not None:  # the last record's send time at the box, on the host clock
                 done = r["t0"] + r["n"] / rate + r["lag_min"] >= p["ev"]["host_time"] + self.BIAS_WINDOW_S
@@ -488,11 +485,18 @@ class NetFT:
         restarts = self._seq.restarts
         self._seq.update(rdt_seq)
         self._track_rate(int(self._seq.last), now, self._seq.restarts != restarts)
-        wrench = rec["counts"].astype(np.float64) * self._scale + self._undo
-        self._find_bias_step(rec)
-        self._prev_counts = rec["counts"][-1:].astype(np.float64)
+        counts = rec["counts"].astype(np.float64)
+        wrench = counts * self._scale + self._undo
+        self._find_bias_step(counts)
+        self._prev_counts = counts[-1:]
         self._last_wrench = wrench[-1]
         return NetFTBatch(rdt_seq, rec["ft_seq"].astype(np.uint32), status, wrench, np.full(rec.size, now), saturated)
+
+    def _received_rate(self) -> tuple[float | None, float]:
+        """``(records/s received, from the sequence numbers, or None before 0.5 s of them; that span in s)``."""
+        r = self._rate
+        span = (r["t_last"] - r["t0"]) if r["t0"] is not None else 0.0
+        return (r["n"] / span if span >= 0.5 else None), span
 
     def _track_rate(self, seq: int, now: float, restarted: bool) -> None:
         """Received rate (records/s) and host lag behind the box's clock (s), from the sequence numbers."""
@@ -535,9 +539,8 @@ class NetFT:
         r = self._rate
         cfg = self.config
         configured = cfg.rdt_rate_hz if cfg is not None else None
-        span = (r["t_last"] - r["t0"]) if r["t0"] is not None else 0.0
+        out["rate_hz"], span = self._received_rate()
         out["configured_rate_hz"] = configured
-        out["rate_hz"] = r["n"] / span if span >= 0.5 else None
         out["lag_ms"] = 1e3 * r["lag"] if configured else None
         mismatch = False
         if configured and out["rate_hz"] is not None and span >= 1.0:
