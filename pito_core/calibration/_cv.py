@@ -34,6 +34,10 @@ N_FOLDS = 5
 ALPHAS = 10.0 ** np.arange(-7.0, 0.5, 1.0)
 #: Segments are cut to at most this fraction of a session, so every fold holds many of them.
 MAX_SEGMENT_FRACTION = 1 / 20
+#: ... and each load pattern's rows in a session (faces loaded together; not the rest) into at least
+#: this many, so no fold holds all of a load's rows (a session of many short patterns, as squeezes
+#: after single loads, would otherwise leave the fits that score a load none of its rows).
+MIN_PIECES = 3
 #: Eigenvalues of the scaled Gram of the unpenalised columns below this fraction of the
 #: largest are dropped (singular values under 10⁻⁶·σ₁: what a Gram in double can resolve).
 GRAM_RTOL = 1e-12
@@ -46,8 +50,9 @@ class SegmentCounter:
     """Loading segments of a stream of samples, block by block.
 
     A segment starts where the loaded faces change; segments longer than ``max_len``
-    samples are cut into contiguous pieces of ``max_len``. Numbering continues across
-    blocks (and across sessions, when one counter reads them all).
+    samples are cut into contiguous pieces of ``max_len``, or of the pattern's cap in the
+    session (``caps``, :func:`pattern_caps`). Numbering continues across blocks (and across
+    sessions, when one counter reads them all).
     """
 
     def __init__(self, max_len: int):
@@ -56,8 +61,9 @@ class SegmentCounter:
         self._last = None
         self._run = 0  # samples of the current segment so far
 
-    def ids(self, loaded: np.ndarray, new_session: bool = False) -> np.ndarray:
-        """``(n,)`` segment of each row of ``loaded (n, k)``."""
+    def ids(self, loaded: np.ndarray, new_session: bool = False, caps: np.ndarray | None = None) -> np.ndarray:
+        """``(n,)`` segment of each row of ``loaded (n, k)``; ``caps (2**k,)`` the piece length of each
+        load pattern (bit ``j``: column ``j`` loaded) in this session, else ``max_len`` for all."""
         loaded = np.asarray(loaded).reshape(len(loaded), -1)
         n = loaded.shape[0]
         if n == 0:
@@ -69,7 +75,8 @@ class SegmentCounter:
         idx = np.arange(n)
         last_change = np.maximum.accumulate(np.where(change, idx, -1))
         pos = np.where(last_change >= 0, idx - last_change, self._run + idx)  # samples since the pattern began
-        start = pos % self.max_len == 0
+        cap = self.max_len if caps is None else np.asarray(caps)[pattern_codes(loaded)]
+        start = pos % cap == 0
         out = self.count - 1 + np.cumsum(start)
         self.count += int(start.sum())
         self._run = int(pos[-1]) + 1
@@ -77,15 +84,36 @@ class SegmentCounter:
         return out
 
 
+def pattern_codes(loaded: np.ndarray) -> np.ndarray:
+    """``(n,)`` the load pattern of each row of ``loaded (n, k)``: bit ``j`` set where column ``j`` is loaded."""
+    loaded = np.asarray(loaded).reshape(len(loaded), -1)
+    return (loaded.astype(bool) @ (1 << np.arange(loaded.shape[1]))).astype(np.int64)
+
+
+def pattern_caps(loaded, max_len: int, block: int = 1 << 20) -> np.ndarray:
+    """``(2**k,)`` piece length per load pattern of a session's ``loaded (N, k)`` (an array or a lazy
+    dataset, read in blocks): ``max_len``, or less so each pattern's rows (but the rest's) make at least
+    ``MIN_PIECES`` pieces."""
+    k = loaded.shape[1]
+    n = np.zeros(1 << k, dtype=np.int64)
+    for s in range(0, loaded.shape[0], block):
+        n += np.bincount(pattern_codes(np.asarray(loaded[s : s + block])), minlength=1 << k)
+    caps = np.clip(-(-n // MIN_PIECES), 1, max(1, int(max_len)))
+    caps[0] = max(1, int(max_len))
+    return caps
+
+
 def segment_ids(loaded: np.ndarray, max_len: int | None = None) -> np.ndarray:
     """``(N,)`` loading segment of each sample (see :class:`SegmentCounter`).
 
-    Default ``max_len``: ``MAX_SEGMENT_FRACTION`` of the samples.
+    Default ``max_len``: ``MAX_SEGMENT_FRACTION`` of the samples; each load pattern in at least
+    ``MIN_PIECES`` pieces (:func:`pattern_caps`).
     """
     n = len(loaded)
     if max_len is None:
         max_len = int(np.ceil(n * MAX_SEGMENT_FRACTION))
-    return SegmentCounter(max_len).ids(loaded)
+    loaded = np.asarray(loaded).reshape(n, -1)
+    return SegmentCounter(max_len).ids(loaded, caps=pattern_caps(loaded, max_len) if loaded.shape[1] <= 16 else None)
 
 
 def fold_of_segments(segments: np.ndarray, n_folds: int = N_FOLDS) -> np.ndarray:

@@ -476,7 +476,8 @@ class Calibrator:
             rms = np.sqrt(sum(z[1] for z in zeros) / max(sum(z[2] for z in zeros), 1))
             poly = PolyAccumulator(spec.inputs == "own", joint_faces, n_int, np.where(rms > 0, rms, 1.0),
                                    {s.connected_face for s in sessions if s.flange == "face"}, [len(s) for s in sessions],
-                                   other_features=_other_features(spec, sessions))
+                                   other_features=_other_features(spec, sessions),
+                                   session_loaded=[s.loaded for s in sessions])
         total_samples = sum(len(s) for s in sessions)
         # the same provisional centres whatever the model, so model="auto" that keeps the linear
         # fit gives it bit for bit

@@ -31,7 +31,7 @@ import numpy as np
 from ..defaults import FULL_SCALE_FACE
 from ..frames import FACES, N_GAUGES
 from ._lstsq import RANK_RTOL
-from ._cv import ALPHAS, N_FOLDS, N_SE_SESSION, FoldedGram, MAX_SEGMENT_FRACTION, Problem, SegmentCounter, \
+from ._cv import ALPHAS, N_FOLDS, N_SE_SESSION, FoldedGram, MAX_SEGMENT_FRACTION, Problem, SegmentCounter, pattern_caps, \
     choose_extension, choose_model, cross_validate, extension_errors, fold_bounds, held_out_sse, solve_problem, \
     tested_reach
 from ._gramfit import load_groups
@@ -86,16 +86,20 @@ class PolyAccumulator:
     other_features : {None, "cubes", "all"}
         A joint fit's free faces' outputs also take the other free faces' cubes (of the counts), or all
         their features, each face's fitted where it carries and read from ``P x`` (:func:`correction`).
+    session_loaded : list of array-like, shape (N_k, 6), optional
+        Each session's ``loaded`` (arrays or lazy datasets, read once in blocks): each load pattern is
+        cut into at least ``_cv.MIN_PIECES`` segments (:func:`~._cv.pattern_caps`); else by length only.
     """
 
     def __init__(self, own, out_faces, n_int, scale, reaction_faces, session_lengths, n_folds=N_FOLDS,
-                 other_features=None):
+                 other_features=None, session_loaded=None):
         self.own, self.n_int, self.scale, self.K = own, n_int, scale, n_folds
         self.other_features = None if own else other_features
         self.mapped = self.other_features == "all"  # features where a face carries, read from P x
         self.out_faces = tuple(out_faces)
         self.reaction_faces = set(reaction_faces)
         self.counter = SegmentCounter(max(1, int(np.ceil(max(session_lengths) * MAX_SEGMENT_FRACTION))))
+        self.caps = None if session_loaded is None else [pattern_caps(L, self.counter.max_len) for L in session_loaded]
         self.stride = max(1, int(np.ceil(sum(session_lengths) / MAX_ROWS)))
         # range of each scaled channel over the usable rows, and of each face's targets (output frame) over
         # the fitted ones: the correction's two boxes (_poly.py)
@@ -125,7 +129,7 @@ class PolyAccumulator:
         usable (r,))`` of the rows it keeps, as :func:`~._targets.block_targets` does: only those
         are worked out (one sample in ``stride``), the channels' range and the segments from every row.
         """
-        fold = self.counter.ids(loaded, new_session=self._session != k) % self.K
+        fold = self.counter.ids(loaded, self._session != k, None if self.caps is None else self.caps[k]) % self.K
         self._session = k
         usable = np.count_nonzero(loaded, axis=1) <= 1  # as block_targets: unloaded or one face loaded
         if usable.any():  # (c − center) / scale is monotone in c: the extremes of the counts give those of u
