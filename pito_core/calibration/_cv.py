@@ -613,8 +613,9 @@ def extension_errors(build, p: int, u, lower, upper, prob: Problem, row_alpha, c
     Returns
     -------
     dict or None
-        ``slope``, ``tangent``, ``fade_slope``, ``fade_tangent``: ``(ny,)`` weighted squared errors
-        over the judged rows outside; None where too few rows lie inside or outside.
+        ``slope``, ``tangent``, ``fade_slope``, ``fade_tangent``, and ``poly`` (the polynomial itself,
+        not drawn back): ``(ny,)`` weighted squared errors over the judged rows outside; None where too
+        few rows lie inside or outside.
     """
     ra = np.asarray(row_alpha, dtype=float)
     use = np.isfinite(ra)
@@ -666,8 +667,9 @@ def extension_errors(build, p: int, u, lower, upper, prob: Problem, row_alpha, c
         return ((pred - y)[judged] ** 2).sum(axis=0) * w2
 
     fade = tc[:, None]
+    poly = Zr[prob.a].T @ X[:na] + Zr[prob.b].T @ X[na:]  # or the polynomial itself, at the rows as they are
     return {"slope": sse(slope), "tangent": sse(tangent), "fade_slope": sse(linear + fade * (slope - linear)),
-            "fade_tangent": sse(linear + fade * (tangent - linear))}
+            "fade_tangent": sse(linear + fade * (tangent - linear)), "poly": sse(poly)}
 
 
 def choose_extension(errors, row_alpha, group: int = 3) -> tuple[np.ndarray, np.ndarray]:
@@ -689,3 +691,23 @@ def choose_extension(errors, row_alpha, group: int = 3) -> tuple[np.ndarray, np.
         kind = "tangent" if tangent[g] else "slope"
         fade[cols] = errors["fade_" + kind][cols].sum() < errors[kind][cols].sum()
     return tangent, fade
+
+
+def chosen_error(errors, row_alpha, tangent, fade) -> tuple[float, float]:
+    """``(chosen, poly)``: the held-out extrapolation error (``extension_errors``) summed over the corrected
+    rows (``row_alpha`` finite) of the extensions :func:`choose_extension` chose (``tangent``, ``fade``), and
+    of the polynomial itself there; ``(0, 0)`` without errors."""
+    if errors is None:
+        return 0.0, 0.0
+    use = np.isfinite(np.asarray(row_alpha, dtype=float))
+    kind = np.where(tangent, "tangent", "slope")
+    kind = np.where(fade, np.char.add("fade_", kind), kind)
+    chosen = sum(float(errors[k][i]) for i, k in enumerate(kind) if use[i])
+    return chosen, float(errors["poly"][use].sum())
+
+
+def trust_polynomial(chosen: float, poly: float) -> bool:
+    """Whether a part's correction is trusted as it is out to its tested reach (its box enlarged to it) in
+    place of the chosen extensions beyond the box: only where, held out, it brings their error below
+    ``TANGENT_GAIN`` of theirs (summed over a face's rows, or a joint fit's; :func:`chosen_error`)."""
+    return chosen > 0 and poly < TANGENT_GAIN * chosen

@@ -611,7 +611,10 @@ class Calibrator:
             "simulated": any(bool(s.meta.get("simulated", False)) for s in sessions),
             # which face axes and whether the net load the training loads measured (_coverage.py)
             "coverage": measured_directions(st.gram, out_faces, spec.output_frame, s0.core).to_meta(),
-        }
+        } | ({} if corr is None or st.poly is None or st.poly.box_scale is None else {
+            # per gauge, the correction's box over the trained range: > 1 where the polynomial, held out, beat
+            # its extensions and is trusted out to the reach tested (_cv.trust_polynomial)
+            "correction_box_scale": [float(v) for v in st.poly.box_scale]})
 
     @staticmethod
     def _group(res, inputs, rows, center, weights) -> CovarianceGroup:

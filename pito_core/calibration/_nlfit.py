@@ -32,8 +32,8 @@ from ..defaults import FULL_SCALE_FACE
 from ..frames import FACES, N_GAUGES
 from ._lstsq import RANK_RTOL
 from ._cv import ALPHAS, N_FOLDS, N_SE_SESSION, FoldedGram, MAX_SEGMENT_FRACTION, Problem, SegmentCounter, pattern_caps, \
-    choose_extension, choose_model, cross_validate, extension_errors, fold_bounds, held_out_sse, solve_problem, \
-    tested_reach
+    choose_extension, choose_model, chosen_error, cross_validate, extension_errors, fold_bounds, held_out_sse, solve_problem, \
+    tested_reach, trust_polynomial
 from ._gramfit import load_groups
 from ._poly import MAX_ROWS, PolyCorrection, poly_features_t, poly_terms
 
@@ -117,6 +117,8 @@ class PolyAccumulator:
         self.reach = None  # after fit: how far beyond the box the extension was tested (_cv.tested_reach)
         self.tangent = None  # (6F,) bool after fit: rows extrapolated along the polynomial's tangent
         self.fade = None  # (6F,) bool after fit: rows that fade to the linear fit from the box's edge on (choose_extension)
+        self.box_scale = None  # (36,) after fit: the box's factor per gauge (the reach, where the polynomial is trusted)
+        self.trusted = None  # (6F,) bool after fit: rows whose polynomial is trusted out to the reach (trust_polynomial)
         self.sample = None  # (x, usable, carries, loaded) of the kept rows, after fit
         if own:
             self.acc = {f: FoldedGram(n_int + 6 + 27, 6, n_folds) for f in FACES}
@@ -296,8 +298,10 @@ class PolyAccumulator:
         self.sample = (x, usable, carries, loaded)  # for the input map's trained range (:func:`correction`)
         u_all, targets = x / self.scale, targets.astype(float)
         n_int = self.n_int
+        self.box_scale, self.trusted = np.ones(N_GAUGES), np.zeros(row_alpha.size, dtype=bool)
         for acc, probs, faces in parts:
             shared = None if self.own else {}  # a joint fit's faces share their rows (extension_errors)
+            errs, part_rows = [0.0, 0.0], []
             for pr, f in zip(probs, faces):
                 ra = row_alpha[6 * row[f] : 6 * row[f] + 6]
                 if not np.isfinite(ra).any():
@@ -331,7 +335,18 @@ class PolyAccumulator:
                                           face_cols, cache)
                 rows = slice(6 * row[f], 6 * row[f] + 6)
                 out[rows], fade[rows] = choose_extension(errors, ra, 6 if group == 6 else 3)
-                self.reach = max(self.reach or 1.0, tested_reach(u, self.lower[cols], self.upper[cols]))
+                reach = tested_reach(u, self.lower[cols], self.upper[cols])
+                self.reach = max(self.reach or 1.0, reach)
+                c, pl = chosen_error(errors, ra, out[rows], fade[rows])
+                if self.own:  # a face's correction reads its own gauges: its box alone
+                    if reach > 1.0 and trust_polynomial(c, pl):
+                        self.box_scale[cols], self.trusted[rows] = reach, True
+                else:
+                    errs[0], errs[1], part_rows = errs[0] + c, errs[1] + pl, part_rows + [rows]
+            if not self.own and self.reach is not None and self.reach > 1.0 and trust_polynomial(*errs):
+                self.box_scale[:] = self.reach  # a joint fit's faces read every gauge: one box
+                for rows in part_rows:
+                    self.trusted[rows] = True
         self.fade = fade
         return out
 
@@ -384,7 +399,8 @@ def correction(poly: PolyAccumulator, D, edge_matrix, linear_matrix, out_faces, 
     rows; axes that never carried load left out) is inside. Not for the joint methods: trusted out to that
     box, their corrections lost to the linear fit on fresh sessions (docs/calibration/coverage.md)."""
     seen = poly.lower <= poly.upper
-    lower, upper = np.where(seen, poly.lower, 0.0), np.where(seen, poly.upper, 0.0)
+    box = 1.0 if poly.box_scale is None else poly.box_scale  # the box enlarged to the reach where it is trusted
+    lower, upper = np.where(seen, poly.lower * box, 0.0), np.where(seen, poly.upper * box, 0.0)
     if not poly.own:
         if not poly.mapped:
             return PolyCorrection(poly.scale, _PAIRS, _CUBES, D, lower, upper, edge_matrix, tangent=poly.tangent,
@@ -403,10 +419,13 @@ def correction(poly: PolyAccumulator, D, edge_matrix, linear_matrix, out_faces, 
 
 
 def _row_reach(poly: PolyAccumulator):
-    """The correction's ``reach``: the one tested, or ``(6F,)`` with 1 on the rows that fade from the box's edge on."""
-    if poly.reach is None or poly.fade is None or not poly.fade.any():
+    """The correction's ``reach``: the one tested, or ``(6F,)`` with 1 on the rows that fade from the box's edge on
+    (their extension lost to the linear fit, or their box is enlarged to the reach: ``trusted``)."""
+    flags = [a for a in (poly.fade, poly.trusted) if a is not None]  # trusted: the box enlarged to the reach
+    one = np.logical_or.reduce(flags) if flags else None
+    if poly.reach is None or one is None or not one.any():
         return poly.reach
-    return np.where(poly.fade, 1.0, poly.reach)
+    return np.where(one, 1.0, poly.reach)
 
 
 def map_range(P: np.ndarray, sample) -> tuple[np.ndarray, np.ndarray]:

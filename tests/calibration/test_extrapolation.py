@@ -108,3 +108,24 @@ def test_choice_is_the_best_ridge_against_the_affine_fit_by_standard_errors():
     assert _group_choice(close, n, False, 1.0) == 1
     assert _group_choice(close, n, False, 3.0) == 0
     assert _group_choice(close, n, True, 3.0) == 1
+
+
+def test_extension_choice_fade_and_trust_from_held_out_errors():
+    """``choose_extension`` per output group of three: the tangent only below ``TANGENT_GAIN`` of the slope's
+    error, then the fade where it does better; ``trust_polynomial`` the polynomial itself only where it
+    beats the chosen extensions (summed over the corrected rows) by the same margin."""
+    from pito_core.calibration._cv import TANGENT_GAIN, choose_extension, chosen_error, trust_polynomial
+
+    e = {"slope": np.array([1.0, 1.0, 1.0, 4.0, 4.0, 4.0]), "tangent": np.array([0.96, 0.96, 0.96, 1.0, 1.0, 1.0]),
+         "fade_slope": np.array([0.5, 0.5, 0.5, 9.0, 9.0, 9.0]), "fade_tangent": np.array([2.0, 2.0, 2.0, 0.5, 0.5, 0.5]),
+         "poly": np.array([0.3, 0.3, 0.3, 0.1, 0.1, 0.1])}
+    ra = np.array([1e-3] * 6)
+    tangent, fade = choose_extension(e, ra)  # group 1: tangent 0.96 ≥ 0.95 · 1: slope, then its fade (0.5 < 1)
+    np.testing.assert_array_equal(tangent, [False] * 3 + [True] * 3)  # group 2: tangent 1 < 0.95 · 4
+    np.testing.assert_array_equal(fade, [True] * 3 + [True] * 3)  # group 2: its fade 0.5 < 1
+    chosen, poly = chosen_error(e, ra, tangent, fade)
+    assert chosen == pytest.approx(3 * 0.5 + 3 * 0.5) and poly == pytest.approx(1.2)
+    assert trust_polynomial(chosen, poly) and not trust_polynomial(chosen, TANGENT_GAIN * chosen)
+    ra[3:] = np.nan  # rows without a correction count for neither
+    assert chosen_error(e, ra, tangent, fade) == pytest.approx((1.5, 0.9))
+    assert chosen_error(None, ra, tangent, fade) == (0.0, 0.0) and not trust_polynomial(0.0, 0.0)
