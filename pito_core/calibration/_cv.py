@@ -700,9 +700,8 @@ def chosen_error(errors, row_alpha, tangent, fade) -> tuple[float, float]:
     if errors is None:
         return 0.0, 0.0
     use = np.isfinite(np.asarray(row_alpha, dtype=float))
-    kind = np.where(tangent, "tangent", "slope")
-    kind = np.where(fade, np.char.add("fade_", kind), kind)
-    chosen = sum(float(errors[k][i]) for i, k in enumerate(kind) if use[i])
+    chosen = sum(float(errors[("fade_" if fd else "") + ("tangent" if tg else "slope")][i])
+                 for i, (tg, fd) in enumerate(zip(tangent, fade)) if use[i])
     return chosen, float(errors["poly"][use].sum())
 
 
