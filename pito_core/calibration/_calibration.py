@@ -10,6 +10,7 @@ from ._coverage import Coverage
 from ._cv import ModelChoice
 from ._poly import PolyCorrection
 from ._error import CalibrationCovariance, CovarianceGroup
+from ._methods import get_method
 
 __all__ = ["Calibration", "load_calibration"]
 
@@ -201,7 +202,8 @@ class Calibration:
         cov : ndarray, shape (N, 6, 6, 6) (or (6, 6, 6)), with ``return_cov``
             ``cov[:, i-1]``: covariance of face i's wrench in its frame, N², N²·m, N²·m²
             — the calibration's own error (residuals and design of the fit) plus the gauge
-            noise of the sample (and of the tare after :meth:`tare`); NaN for faces
+            noise of the sample (and of the tare after :meth:`tare`), growing beyond the
+            loads the correction was trained on (``_error.py``); NaN for faces
             without output. Raises ``ValueError`` if the calibration has no covariance
             (files of format version 1).
         """
@@ -219,10 +221,12 @@ class Calibration:
         # tests/analysis/test_tables_golden.py pins the tables to the last digit); the correction's
         # wide feature maps by matrix products (BLAS), where einsum is 3-4x slower.
         W = np.einsum("fij,nj->nfi", self._apply, x)
+        faded = ray = None
         if self._apply_nl is not None:
-            fade = self.correction.fade(x)
+            ray = self.correction.ray(x)  # read by the correction's terms, its fade and the error bars beyond
+            fade = self.correction.fade(x, ray)
             W_lin = W.copy() if fade is not None and np.any(fade < 1) else None
-            phi, d, extra = self.correction.all_terms(x)
+            phi, d, extra = self.correction.all_terms(x, ray)
             W += (phi @ self._apply_nl.reshape(6 * 6, -1).T).reshape(n, 6, 6)
             if d is not None and self._apply_edge is not None:  # beyond the fitted range, the linear fit's slope
                 W += (d @ self._apply_edge.reshape(6 * 6, -1).T).reshape(n, 6, 6)
@@ -233,6 +237,7 @@ class Calibration:
                 W += (self.correction.map_terms(x) @ self._apply_map.reshape(6 * 6, -1).T).reshape(n, 6, 6)
             if W_lin is not None and self._apply_edge is not None:  # past the reach tested: fade to the linear fit
                 k = np.flatnonzero((fade < 1).any(axis=1))
+                W_full = W[k].copy()
                 g = np.ones((k.size, 6, 6))  # each output row's share, on its face's axis (exact where the
                 for j, f in enumerate(self.output_faces):  # output frame is the face's or its rows share one)
                     g[:, f - 1] = fade[k, 6 * j : 6 * j + 6]
@@ -247,14 +252,25 @@ class Calibration:
                     Dj = np.linalg.solve(X, D[:, f - 1].T).T
                     Ej = x[k] @ self.correction.edge_matrix[6 * j : 6 * j + 6].T
                     W[k, f - 1] = W_lin[k, f - 1] + (gj * Dj - (1.0 - gj) * Ej) @ X.T
+                faded = (k, W_full - W[k])  # what the fade took off the correction: its error bar there
         W[:, ~self.has_output] = np.nan
         if not return_cov:
             return W[0] if single else W
         if self.covariance is None:
             raise ValueError("return_cov: this calibration has no covariance (written by an older pito, "
                              "format version 1); fit it again to get one")
+        beyond = None
+        if self.correction is not None and np.any(self.covariance.beyond_cov):
+            own = get_method(self.method).inputs == "own"
+            cols = [np.arange(6 * (f - 1), 6 * f) for f in self.output_faces] if own else [np.arange(N_GAUGES)]
+            b = self.correction.beyond_sq(x, cols, ray)
+            beyond = np.broadcast_to(b, (n, len(self.output_faces)))
         cov = self.covariance.face_covariances(c2, off, W, self._apply, self._face_from_output, self.output_faces,
-                                               explicit_offset=offset is not None)
+                                               explicit_offset=offset is not None, beyond=beyond)
+        if faded is not None:
+            k, r = faded
+            r = r[:, np.asarray(self.output_faces) - 1]
+            cov[k[:, None], np.asarray(self.output_faces) - 1] += r[..., :, None] * r[..., None, :]
         return (W[0], cov[0]) if single else (W, cov)
 
     def linear_alternative(self) -> "Calibration":
@@ -347,7 +363,7 @@ def load_calibration(path) -> Calibration:
         if cov is not None:
             cov = CalibrationCovariance(groups=[CovarianceGroup(**g) for g in cov["groups"]], gauge_cov=cov["gauge_cov"],
                                         variance_coef=cov["variance_coef"], residual_corr=cov["residual_corr"],
-                                        scale=cov["scale"], n_tare=cov["n_tare"])
+                                        scale=cov["scale"], n_tare=cov["n_tare"], beyond_cov=cov.get("beyond_cov"))
     except ValueError as exc:
         raise FileFormatError(f"{path}: covariance: {exc}") from None
     try:

@@ -566,8 +566,8 @@ def _split_rmse(cv: dict, a: int, j: int, cols: np.ndarray) -> list:
 
 
 #: The extension beyond the box is chosen on the samples beyond the box shrunk to hold this fraction of
-#: them (by their farthest channel relative to its edge): the correction is refitted on those inside
-#: and scored on those outside.
+#: the loads (by their farthest channel relative to its edge; the rest excepted): the correction is
+#: refitted on those inside and scored on those outside.
 EXTRAPOLATION_QUANTILE = 0.7
 #: The tangent must bring the held-out extrapolation error below this fraction of the linear slope's
 #: (a marginal win is not enough: docs/calibration/coverage.md).
@@ -576,16 +576,24 @@ TANGENT_GAIN = 0.95
 MIN_BEYOND_ROWS = 20
 
 
-def tested_reach(u, lower, upper) -> float:
-    """The factor beyond the box that the extension's held-out rows (``extension_errors``) reach: the largest
-    ``1 / t`` of those outside the box shrunk to hold ``EXTRAPOLATION_QUANTILE`` of ``u (n, m)``, drawn back
-    to it (1.0: too few of them, untested)."""
+def shrunk_box(u, lower, upper, loads=None) -> tuple[float, np.ndarray]:
+    """``(shrink, t (n,))``: the factor that shrinks the box ``lower, upper (m,)`` to hold
+    ``EXTRAPOLATION_QUANTILE`` of the loaded rows of ``u (n, m)`` (``loads (n,)`` bool, default every row;
+    by each row's farthest channel relative to its edge), and each row's ray factor into the shrunk box."""
     with np.errstate(divide="ignore", invalid="ignore"):
         reach = np.nan_to_num(np.where(u > 0, u / upper, u / lower), nan=0.0, posinf=0.0).max(axis=1)
-    if not reach.size:
+    on = reach if loads is None else reach[np.asarray(loads, dtype=bool)]
+    shrink = float(np.quantile(on, EXTRAPOLATION_QUANTILE)) if on.size else 1.0
+    return shrink, ray_into(u, shrink * lower, shrink * upper)
+
+
+def tested_reach(u, lower, upper, loads=None) -> float:
+    """The factor beyond the box that the extension's held-out rows (``extension_errors``) reach: the largest
+    ``1 / t`` of those outside the shrunk box (:func:`shrunk_box`), drawn back to it (1.0: too few of them,
+    untested)."""
+    if not len(u):
         return 1.0
-    shrink = float(np.quantile(reach, EXTRAPOLATION_QUANTILE))
-    t = ray_into(u, shrink * lower, shrink * upper)
+    _, t = shrunk_box(u, lower, upper, loads)
     outer = t < 1.0
     if outer.sum() < MIN_BEYOND_ROWS or (~outer).sum() < MIN_BEYOND_ROWS:
         return 1.0
@@ -593,7 +601,7 @@ def tested_reach(u, lower, upper) -> float:
 
 
 def extension_errors(build, p: int, u, lower, upper, prob: Problem, row_alpha, cube_cols, face_cols=None,
-                     cache=None):
+                     cache=None, loads=None):
     """Held-out errors of the ways a correction continues beyond the box it is trained on.
 
     Beyond the box the correction continues with the linear fit's slope, or with the polynomial's
@@ -601,7 +609,8 @@ def extension_errors(build, p: int, u, lower, upper, prob: Problem, row_alpha, c
     plus ``t`` of what it adds, ``t`` how far the row lies out along its ray). Each is scored as it is
     used: the problem ``prob`` refitted (its ridges ``row_alpha (ny,)``, NaN for rows without a
     correction) on the rows inside the box shrunk to hold ``EXTRAPOLATION_QUANTILE`` of them, the rows
-    outside predicted from their point drawn back to the shrunk box. ``build(idx, v)`` gives the design
+    outside predicted from their point drawn back to the shrunk box (:func:`shrunk_box` on ``loads``, the
+    rows that carry load). ``build(idx, v)`` gives the design
     ``ZT (p + q, len(idx))`` (``p`` regressor columns) of rows ``idx`` with the scaled channels
     ``v (len(idx), m)`` in place of theirs; ``u (n, m)`` the rows' scaled channels; ``lower, upper (m,)``
     the box (of ``u``); ``cube_cols`` the design columns that are cubes (the rest of ``prob.b`` squares
@@ -614,8 +623,10 @@ def extension_errors(build, p: int, u, lower, upper, prob: Problem, row_alpha, c
     -------
     dict or None
         ``slope``, ``tangent``, ``fade_slope``, ``fade_tangent``, and ``poly`` (the polynomial itself,
-        not drawn back): ``(ny,)`` weighted squared errors over the judged rows outside; None where too
-        few rows lie inside or outside.
+        not drawn back): ``(ny,)`` weighted squared errors over the judged rows outside; ``residuals``:
+        each one's errors ``(n_out, ny)`` (output units) on every row outside, and ``beyond (n_out,)``
+        their ``‖u − t u‖²`` (for the error model's ``beyond_cov``); None where too few rows lie inside
+        or outside.
     """
     ra = np.asarray(row_alpha, dtype=float)
     use = np.isfinite(ra)
@@ -623,10 +634,7 @@ def extension_errors(build, p: int, u, lower, upper, prob: Problem, row_alpha, c
         return None
     shared = None if cache is None else cache.get("rows")
     if shared is None:
-        with np.errstate(divide="ignore", invalid="ignore"):
-            reach = np.nan_to_num(np.where(u > 0, u / upper, u / lower), nan=0.0, posinf=0.0).max(axis=1)
-        shrink = float(np.quantile(reach, EXTRAPOLATION_QUANTILE)) if reach.size else 1.0
-        t = ray_into(u, shrink * lower, shrink * upper)
+        shrink, t = shrunk_box(u, lower, upper, loads)
         inner, outer = np.flatnonzero(t >= 1.0), np.flatnonzero(t < 1.0)
         G = Zc = Zr = None
         if outer.size >= MIN_BEYOND_ROWS and inner.size >= MIN_BEYOND_ROWS:
@@ -663,13 +671,14 @@ def extension_errors(build, p: int, u, lower, upper, prob: Problem, row_alpha, c
     tangent = Zr[prob.a].T @ X[:na] + edge + dphi @ X[na:]  # or the corrected model's tangent
     w2 = np.asarray(prob.weight, dtype=float) ** 2
 
-    def sse(pred):
-        return ((pred - y)[judged] ** 2).sum(axis=0) * w2
-
     fade = tc[:, None]
     poly = Zr[prob.a].T @ X[:na] + Zr[prob.b].T @ X[na:]  # or the polynomial itself, at the rows as they are
-    return {"slope": sse(slope), "tangent": sse(tangent), "fade_slope": sse(linear + fade * (slope - linear)),
-            "fade_tangent": sse(linear + fade * (tangent - linear)), "poly": sse(poly)}
+    preds = {"slope": slope, "tangent": tangent, "fade_slope": linear + fade * (slope - linear),
+             "fade_tangent": linear + fade * (tangent - linear), "poly": poly}
+    out = {k: ((v - y)[judged] ** 2).sum(axis=0) * w2 for k, v in preds.items()}
+    out["residuals"] = {k: v - y for k, v in preds.items()}  # every row outside, for the error model
+    out["beyond"] = (u[outer] ** 2).sum(axis=1) * (1.0 - tc) ** 2
+    return out
 
 
 def choose_extension(errors, row_alpha, group: int = 3) -> tuple[np.ndarray, np.ndarray]:

@@ -34,6 +34,15 @@ that excess of its kind (a ``face_to_face`` face: every sample as carrying, and 
 never fitted its crosstalk, whose residuals are held out already) is fitted to the same features,
 so a new sample takes it from its predicted load alone. After
 :meth:`CalibrationCovariance.retared` on ``n`` samples the tare's gauge noise ``A Σ_g Aᵀ / n`` is added.
+
+Beyond the box the correction was trained in, none of that was measured: the correction continues
+along its extension, then fades to the linear fit (``_poly.PolyCorrection``). Two terms, after the
+scale: the extension's own held-out error, ``b K`` with ``b = ‖(P x − t P x) / scale‖²`` how far the
+sample's counts lie beyond the box (``t`` its ray's factor into it) and ``K (F, 6, 6)``
+(``beyond_cov``) the second moment of the chosen extension's errors on the training loads held out
+beyond a shrunk box (``_cv.extension_errors``) per unit of their ``b``; and where the fade takes part
+of the correction off, ``r rᵀ`` of that part ``r`` (:meth:`Calibration.wrenches`): the truth may
+follow either.
 """
 
 from __future__ import annotations
@@ -182,6 +191,9 @@ class CalibrationCovariance:
         :attr:`ErrorModel.scale`.
     n_tare : int or None
         None: the calibration's offset is the fitted one. n: it was re-tared on n samples.
+    beyond_cov : ndarray, shape (F, 6, 6), optional
+        Each output face's wrench error covariance (its frame) per unit of ``b``, how far a sample's
+        counts lie beyond the correction's box (module docstring); zeros without a correction.
     """
 
     groups: list = field(default_factory=list)
@@ -190,6 +202,7 @@ class CalibrationCovariance:
     residual_corr: np.ndarray | None = None
     scale: float = 1.0
     n_tare: int | None = None
+    beyond_cov: np.ndarray | None = None
 
     def __post_init__(self):
         self.gauge_cov = np.asarray(self.gauge_cov, dtype=float)
@@ -208,6 +221,11 @@ class CalibrationCovariance:
                              f"got shape {c.shape}")
         if self.residual_corr.shape != (q // 6, 6, 6) or not np.all(np.isfinite(self.residual_corr)):
             raise ValueError(f"residual_corr: expected finite values of shape ({q // 6}, 6, 6)")
+        if self.beyond_cov is None:
+            self.beyond_cov = np.zeros((q // 6, 6, 6))
+        self.beyond_cov = np.asarray(self.beyond_cov, dtype=float)
+        if self.beyond_cov.shape != (q // 6, 6, 6) or not np.all(np.isfinite(self.beyond_cov)):
+            raise ValueError(f"beyond_cov: expected finite values of shape ({q // 6}, 6, 6), got {self.beyond_cov.shape}")
         self.scale = float(self.scale)
         if not (np.isfinite(self.scale) and self.scale > 0):
             raise ValueError(f"scale: expected a positive number, got {self.scale!r}")
@@ -219,10 +237,11 @@ class CalibrationCovariance:
     def retared(self, n: int) -> "CalibrationCovariance":
         """The same, for an offset taken as the mean of ``n`` unloaded samples."""
         return CalibrationCovariance(groups=self.groups, gauge_cov=self.gauge_cov, variance_coef=self.variance_coef,
-                                     residual_corr=self.residual_corr, scale=self.scale, n_tare=int(n))
+                                     residual_corr=self.residual_corr, scale=self.scale, n_tare=int(n),
+                                     beyond_cov=self.beyond_cov)
 
     def face_covariances(self, counts, offset, face_wrenches, apply, face_from_output, output_faces,
-                         explicit_offset: bool):
+                         explicit_offset: bool, beyond=None):
         """``(N, 6, 6, 6)`` covariance of each face's wrench in its frame (NaN where no output).
 
         Parameters
@@ -240,6 +259,8 @@ class CalibrationCovariance:
             Faces (1..6) of the matrix's row blocks, in row order.
         explicit_offset : bool
             The caller gave the offset: its uncertainty is not known (slopes only, no tare term).
+        beyond : ndarray, shape (N, F), optional
+            Each sample's ``b`` per output face (``PolyCorrection.beyond_sq``), for ``beyond_cov``.
         """
         N, F = counts.shape[0], len(output_faces)
         idx = np.asarray(output_faces) - 1
@@ -257,6 +278,10 @@ class CalibrationCovariance:
         sd = np.sqrt(var)
         out[:, idx] += sd[..., :, None] * self.residual_corr * sd[..., None, :]
         out[:, idx] *= self.scale**2
+        if beyond is not None:  # past the trained box: the extension's held-out error per unit of distance²
+            on = np.flatnonzero(np.any(beyond > 0, axis=1))
+            if on.size:
+                out[on[:, None], idx] += beyond[on][..., None, None] * self.beyond_cov
         if self.n_tare is not None and not explicit_offset:  # the tare's own noise
             A = apply[idx]
             out[:, idx] += np.einsum("fia,ab,fjb->fij", A, self.gauge_cov, A) / self.n_tare

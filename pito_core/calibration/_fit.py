@@ -454,8 +454,12 @@ class Calibrator:
                           s0.T_core_ati, meta, correction=corr_fit, model=choice,
                           linear_fit=linear_fit)
         em = fit_error_model(cal, fit.groups, subsample, mounts, tare_means, ref_covs, gauge_cov)
+        beyond = None
+        if corr_fit is not None and st.poly.beyond_moment is not None:  # to each face's frame
+            X = cal._face_from_output[np.asarray(out_faces) - 1]
+            beyond = X @ st.poly.beyond_moment @ X.transpose(0, 2, 1)
         cal.covariance = CalibrationCovariance(groups=fit.groups, gauge_cov=gauge_cov, variance_coef=em.variance_coef,
-                                               residual_corr=em.residual_corr, scale=em.scale)
+                                               residual_corr=em.residual_corr, scale=em.scale, beyond_cov=beyond)
         self.calibration_ = cal
         return self
 

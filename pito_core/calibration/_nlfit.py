@@ -120,6 +120,7 @@ class PolyAccumulator:
         self.box_scale = None  # (36,) after fit: the box's factor per gauge (the reach, where the polynomial is trusted)
         self.trusted = None  # (6F,) bool after fit: rows whose polynomial is trusted out to the reach (trust_polynomial)
         self.sample = None  # (x, usable, carries, loaded) of the kept rows, after fit
+        self.beyond_moment = None  # (F, 6, 6) after fit: the chosen extension's held-out error moment per unit of b
         if own:
             self.acc = {f: FoldedGram(n_int + 6 + 27, 6, n_folds) for f in FACES}
         else:
@@ -299,6 +300,7 @@ class PolyAccumulator:
         u_all, targets = x / self.scale, targets.astype(float)
         n_int = self.n_int
         self.box_scale, self.trusted = np.ones(N_GAUGES), np.zeros(row_alpha.size, dtype=bool)
+        beyond = []
         for acc, probs, faces in parts:
             shared = None if self.own else {}  # a joint fit's faces share their rows (extension_errors)
             errs, part_rows = [0.0, 0.0], []
@@ -331,11 +333,14 @@ class PolyAccumulator:
                 cube_cols = acc.p - cubes.size + np.arange(cubes.size)
                 cache = {} if shared is None else shared
                 face_cols = None if self.own else np.arange(6 * (f - 1), 6 * f)
+                loads = carries[idx, f - 1] if self.own else loaded[idx].any(axis=1)  # the box is shrunk on loads
                 errors = extension_errors(build, acc.p, u, self.lower[cols], self.upper[cols], pr, ra, cube_cols,
-                                          face_cols, cache)
+                                          face_cols, cache, loads)
                 rows = slice(6 * row[f], 6 * row[f] + 6)
                 out[rows], fade[rows] = choose_extension(errors, ra, 6 if group == 6 else 3)
-                reach = tested_reach(u, self.lower[cols], self.upper[cols])
+                if errors is not None:
+                    beyond.append((row[f], rows, errors, np.isfinite(ra)))
+                reach = tested_reach(u, self.lower[cols], self.upper[cols], loads)
                 self.reach = max(self.reach or 1.0, reach)
                 c, pl = chosen_error(errors, ra, out[rows], fade[rows])
                 if self.own:  # a face's correction reads its own gauges: its box alone
@@ -348,6 +353,14 @@ class PolyAccumulator:
                 for rows in part_rows:
                     self.trusted[rows] = True
         self.fade = fade
+        self.beyond_moment = np.zeros((row_alpha.size // 6, 6, 6))
+        for j, rows, errors, use in beyond:  # the chosen extension's errors per unit of b (_error.py), output frame
+            kinds = ["poly" if tr else ("fade_" if fd else "") + ("tangent" if tg else "slope")
+                     for tg, fd, tr in zip(out[rows], fade[rows], self.trusted[rows])]
+            e = np.stack([errors["residuals"][k][:, i] for i, k in enumerate(kinds)], axis=1) * use
+            b = float(errors["beyond"].sum())
+            if b > 0:
+                self.beyond_moment[j] = e.T @ e / b
         return out
 
 

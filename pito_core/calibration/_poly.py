@@ -209,6 +209,11 @@ class PolyCorrection:
         x = np.asarray(x, dtype=float)
         return x if self.input_map is None else x @ self.input_map.T
 
+    def ray(self, x: np.ndarray):
+        """``(P x (N, m), t (N,) or None)`` for offset-free counts ``x (N, m)``: what :meth:`all_terms`,
+        :meth:`fade` and :meth:`beyond_sq` read (``ray=``), worked out once by a caller of all three."""
+        return self._ray(x)
+
     def _ray(self, x: np.ndarray):
         """``(P x (N, m), t (N,) or None)``: the mapped counts and the largest ``t ≤ 1`` that puts them in the box."""
         x = self.mapped(x)
@@ -218,6 +223,16 @@ class PolyCorrection:
         if self.domain is not None:  # inside either box
             t = np.maximum(t, ray_into(x @ self.domain.T, self.domain_lower, self.domain_upper))
         return x, t
+
+    def beyond_sq(self, x: np.ndarray, cols, ray=None) -> np.ndarray:
+        """``(N, len(cols))``: how far offset-free counts ``x (N, m)`` lie beyond the box the correction reads
+        in, ``‖(P x − t P x) / scale‖²`` over each set of channels in ``cols`` (``t`` the ray's factor into
+        the box, :meth:`clamped`; ``ray``: :meth:`ray` of ``x``, if known); zero inside, or without a box."""
+        xm, t = self._ray(x) if ray is None else ray
+        if t is None:
+            return np.zeros((xm.shape[0], len(cols)))
+        d = (xm * (1.0 - t)[:, None] / self.scale) ** 2
+        return np.stack([d[:, c].sum(axis=1) for c in cols], axis=1)
 
     def clamped(self, x: np.ndarray) -> np.ndarray:
         """``(N, m)`` offset-free counts ``x (N, m)``, mapped (:meth:`mapped`) and drawn back along their
@@ -252,14 +267,14 @@ class PolyCorrection:
         d = self.mapped(x) - np.asarray(x, dtype=float)
         return d if self.map_lower is None else d - np.clip(d, self.map_lower, self.map_upper)
 
-    def all_terms(self, x: np.ndarray):
+    def all_terms(self, x: np.ndarray, ray=None):
         """``(features, beyond, tangent)``: :meth:`terms`, and for the ``tangent`` rows what they add
         beyond the box, ``(dphi (N, P + Q), dray (N, m))`` or None: ``coef · dphi + edge_matrix · dray``
         turns the linear fit's slope into the polynomial's tangent along the ray (its squares and
         products grow as ``2/t − 1``, its cubes as ``3/t − 2`` of their value at the edge ``x_c = t P x``,
         first order in ``1/t``), and the corrected model's own slopes. (``map_matrix``'s term:
         :meth:`map_terms`.)"""
-        xm, t = self._ray(x)
+        xm, t = self._ray(x) if ray is None else ray
         xc = xm if t is None else xm * t[:, None]
         phi = poly_features_t(np.ascontiguousarray((xc / self.scale).T), self.pairs, self.cubes).T
         if self.lower is None or self.edge_matrix is None:
@@ -283,13 +298,13 @@ class PolyCorrection:
         """``(N, P + Q)`` features of offset-free counts ``x (N, m)``."""
         return self._features_t(x, self.pairs, self.cubes).T
 
-    def fade(self, x: np.ndarray) -> np.ndarray | None:
+    def fade(self, x: np.ndarray, ray=None) -> np.ndarray | None:
         """``(N, q)`` the share of each row's correction kept for offset-free counts ``x (N, m)``:
         ``min(1, t · reach)`` (None without a ``reach``)."""
         if self.reach is None:
             return None
         reach = np.broadcast_to(np.asarray(self.reach, dtype=float), (self.coef.shape[0],))
-        return np.minimum(self._ray(x)[1][:, None] * reach, 1.0)
+        return np.minimum((self._ray(x) if ray is None else ray)[1][:, None] * reach, 1.0)
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         """``(N, q)`` correction for offset-free counts ``x (N, m)``, output units (the edge and map terms included)."""

@@ -19,6 +19,8 @@ Layout (docs/file-formats.md)::
         g{k}_weights      (n_int,) float64
         variance_coef     (6F, 4) float64: each face axis's error variance on [1, q, q², q_other] (face frames)
         residual_corr     (F, 6, 6) float64: residual correlation between a face's six axes
+        beyond_cov        (F, 6, 6) float64, optional: a face wrench's error covariance (face frames) per unit of
+                          ‖(counts beyond the correction's trained box) / scale‖², from held-out extrapolation
     /correction   group (model "poly" only): the polynomial correction
         scale             (36,) float64 counts per unit of u = (counts − offset) / scale
         pairs             (P, 2) int64 gauge pairs of the products u_i u_j
@@ -93,6 +95,7 @@ def write_calibration(path, cal) -> None:
                 g[f"g{k}_residual_cov"].attrs["dof"] = int(grp.dof)
             checked_dataset(g, "variance_coef", data=cov.variance_coef)
             checked_dataset(g, "residual_corr", data=cov.residual_corr)
+            checked_dataset(g, "beyond_cov", data=cov.beyond_cov)
         seal(f)  # SHA-256 manifest of every dataset and attribute (last: covers everything above)
     os.replace(tmp, path)
 
@@ -104,7 +107,8 @@ def read_calibration_fields(path) -> dict:
     ``matrix`` (M, 36), ``output_faces``, ``output_frame``, ``offset`` (36,) counts,
     ``core_edge`` m, ``T_core_ati`` (4, 4), ``meta``), ``model`` (dict or None), ``correction``
     (dict of ``scale``, ``pairs``, ``cubes``, ``coef``, or None) and ``covariance``: ``None`` or a dict
-    (``groups``: list of dicts, ``gauge_cov``, ``n_tare``, ``scale``, ``variance_coef``, ``residual_corr``).
+    (``groups``: list of dicts, ``gauge_cov``, ``n_tare``, ``scale``, ``variance_coef``, ``residual_corr``,
+    ``beyond_cov`` or None).
     The objects are built by ``pito_core.calibration.load_calibration`` (io never imports calibration).
     """
     with open_checked(path, CALIBRATION_FORMAT, CALIBRATION_READ_VERSIONS) as f:
@@ -151,4 +155,5 @@ def _read_covariance(f, path) -> dict:
         "scale": scale,
         "variance_coef": np.asarray(require(g, "variance_coef", path)[()]),
         "residual_corr": np.asarray(require(g, "residual_corr", path)[()]),
+        "beyond_cov": np.asarray(g["beyond_cov"][()]) if "beyond_cov" in g else None,
     }
