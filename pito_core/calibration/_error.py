@@ -15,10 +15,10 @@ One estimator (docs/calibration.md, "Uncertainty"). A prediction's error has two
   unweighted first fit: a squared residual's spread grows with the noise in it); ``c₀`` is at least
   the gauge noise through the matrix. The six axes of a face share the residuals' correlation;
 * the reference's noise that the correction's coefficients kept: ``h V``, fitted to the same
-  features, ``h`` the leverage the correction's features add to the sample in the fit's design
-  (:func:`correction_leverage`). A noisy reference is fitted in part (the in-sample residual
-  keeps ``V (1 − h)``) and the part fitted moves the prediction by as much (``h V``): where the
-  noise swamps the model's own error the residuals cannot show it.
+  features, ``h`` the leverage the correction's features add to the sample in the fit's design,
+  with each output row's ridge (:func:`correction_leverage`). A noisy reference is fitted in part
+  (the in-sample residual keeps ``V (1 − h)``) and the part fitted moves the prediction by as much
+  (``h V``): where the noise swamps the model's own error the residuals cannot show it.
 
 The sum is multiplied by ``scale²``, the factor that puts 95 % of the loaded training residuals
 within ``±1.96`` standard deviations (the reference's noise added where the face carries; the
@@ -75,8 +75,8 @@ SCALE_BOUNDS = (0.05, 50.0)
 #: A session's reference is above the tare's noise limits when its noise at rest is, less this many
 #: of its standard errors (:func:`reference_noise_at_rest`).
 NOISE_LIMIT_SE = 3.0
-#: Directions of a leverage's design (columns scaled to unit norm) with eigenvalues below this fraction
-#: of the largest are dropped (:func:`correction_leverage`).
+#: Directions of the correction's features (the affine part projected out) with eigenvalues below this
+#: fraction of the largest are dropped (:func:`correction_leverage`).
 LEVERAGE_RTOL = 1e-10
 
 
@@ -349,70 +349,81 @@ def held_out_ratio(cal, noise=None, kept=None, share=None) -> tuple[np.ndarray, 
     return r, r
 
 
-def _hat(G: np.ndarray) -> np.ndarray:
-    """``M (p, r)`` with ``‖d M‖² = dᵀ G⁺ d`` for the Gram ``G = DᵀD`` of a design (columns scaled to unit
-    norm first; directions below ``LEVERAGE_RTOL`` of the largest dropped)."""
-    s = np.sqrt(np.clip(np.diag(G), 0.0, None))
-    s = np.where(s > 0, s, 1.0)
-    w, U = np.linalg.eigh(G / np.outer(s, s))
-    keep = w > LEVERAGE_RTOL * max(w[-1], 0.0)
-    return U[:, keep] / np.sqrt(w[keep]) / s[:, None]
-
-
-def _row_norms2(D: np.ndarray, M: np.ndarray) -> np.ndarray:
-    Z = D @ M
-    Z *= Z
-    return Z.sum(axis=1)
-
-
-def correction_leverage(cal, groups, blocks, offsets) -> np.ndarray:
-    """``(n, F)`` the leverage the correction's features add to each sample, per output face.
+def correction_leverage(cal, groups, blocks, offsets, row_alpha=None) -> np.ndarray:
+    """``(n, F, 6)`` the leverage the correction's features add to each sample, per output row.
 
     The design of a face's rows is the affine fit's (an offset column per session, the group's
-    counts) beside the correction's features that its rows use; its leverage less that of the
-    affine design alone, on the ``n`` samples of ``blocks`` (the error model's subsample: a list of
-    ``(x (m, 36), k)``, counts less session ``k``'s tare ``offsets[k]``), scaled from ``n`` to the
-    rows the correction was fitted on. The ridge is left out (an upper bound). Zero for ``linear``.
+    counts) beside the correction's features that its rows use. With the affine part projected out
+    (``_cv.ridge_paths``: the Schur complement ``S = U diag(s²) Uᵀ`` of the features' Gram) a row
+    fitted with the ridge ``α`` (its ``row_alpha``, relative to the mean of ``s²``) moves with the
+    reference's noise at a sample with projected features ``r`` by ``Σ_k s²_k / (s²_k + α s̄²)² (u_kᵀ
+    r)²`` times that noise (``α = 0``: the hat matrix's diagonal, whose sum is the number of features);
+    on the ``n`` samples of ``blocks`` (the error model's subsample: a list of ``(x (m, 36), k)``, counts
+    less session ``k``'s tare ``offsets[k]``), scaled from ``n`` to the rows the correction was fitted
+    on. ``row_alpha`` ``(6F,)``: default the model's; rows without a correction 0. Zero for ``linear``.
     """
+    from ._cv import _eliminate  # deferred: the error model needs it for fits only
+
     n, F, n_int = sum(len(x) for x, _ in blocks), len(cal.output_faces), len(offsets)
-    H = np.zeros((n, F))
+    H = np.zeros((n, F, 6))
     if cal.correction is None or n == 0:
         return H
+    ra = cal.model.row_alpha if row_alpha is None else row_alpha
+    ra = np.array([np.nan if a is None else float(a) for a in ra]) if ra is not None and len(ra) == 6 * F \
+        else np.zeros(6 * F)
     n_fit = max(int(cal.meta.get("n_samples_fitted", n)), n)
     n_corr = n_fit / np.ceil(n_fit / MAX_ROWS)  # every stride-th sample (_nlfit.PolyAccumulator)
     faces = [(g, k, np.flatnonzero(np.any(cal.correction.coef[6 * k : 6 * k + 6] != 0, axis=0)))
              for g in groups for k in np.unique(g.rows // 6)]
     faces = [(g, k, used) for g, k, used in faces if used.size]
-
     # faces whose rows use the same features share one design (a joint fit's free faces often do)
     keys = list(dict.fromkeys((id(g), tuple(used)) for g, _, used in faces))
 
-    def designs(x, k):  # per group its affine design, then per distinct feature set the affine design and those
+    def designs(x, k):  # per distinct feature set: the affine design and those features
         onehot = np.zeros((len(x), n_int))
         onehot[:, k] = 1.0
         phi = cal.correction.features(x + (offsets[k] - cal.offset))
         affine = {id(g): np.concatenate([onehot, x[:, g.inputs]], axis=1) for g in groups}
         return affine, {key: np.concatenate([affine[key[0]], phi[:, list(key[1])]], axis=1) for key in keys}
 
-    G0, G1 = {}, {}
-    for x, k in blocks:  # the Gram matrices, then each row's leverage
-        affine, full = designs(x, k)
-        for key, A in affine.items():
-            G0[key] = G0.get(key, 0.0) + A.T @ A
-        for key, D in full.items():
-            G1[key] = G1.get(key, 0.0) + D.T @ D
-    M0, M1 = {key: _hat(G) for key, G in G0.items()}, {key: _hat(G) for key, G in G1.items()}
+    G = {}
+    for x, k in blocks:
+        for key, D in designs(x, k)[1].items():
+            G[key] = G.get(key, 0.0) + D.T @ D
+    proj, maps = {}, {}  # per key: the features' regression on the affine part; per (key, α) the map to ‖·‖²
+    for g, face, used in faces:
+        key = (id(g), tuple(used))
+        na = n_int + g.inputs.size
+        if key not in proj:
+            P, S = _eliminate(G[key], np.arange(na))
+            s2, U = np.linalg.eigh(S[na:, na:])
+            keep = s2 > LEVERAGE_RTOL * max(s2[-1], 0.0)
+            proj[key] = (P @ G[key][:na, na:], s2[keep], U[:, keep], float(np.mean(np.clip(s2, 0.0, None))) or 1.0)
+        _, s2, U, lam = proj[key]
+        for a in np.unique(ra[6 * face : 6 * face + 6][np.isfinite(ra[6 * face : 6 * face + 6])]):
+            maps.setdefault((key, a), U * (np.sqrt(s2) / (s2 + a * lam)))
     at = 0
     for x, k in blocks:
-        affine, full = designs(x, k)
+        full = designs(x, k)[1]
         rows = slice(at, at + len(x))
         at = rows.stop
-        h0 = {key: _row_norms2(A, M0[key]) for key, A in affine.items()}  # each group's once, for all its faces
-        h1 = {key: _row_norms2(D, M1[key]) for key, D in full.items()}
+        r = {}
         for g, face, used in faces:
-            h = h1[(id(g), tuple(used))] - h0[id(g)]
-            H[rows, face] = np.clip(h, 0.0, 1.0) * n / n_corr
+            key = (id(g), tuple(used))
+            if key not in r:
+                na = n_int + g.inputs.size
+                r[key] = full[key][:, na:] - full[key][:, :na] @ proj[key][0]
+            ra_f = ra[6 * face : 6 * face + 6]
+            for a in np.unique(ra_f[np.isfinite(ra_f)]):
+                h = _row_norms2(r[key], maps[(key, a)])
+                H[rows, face][:, ra_f == a] = (np.clip(h, 0.0, 1.0) * n / n_corr)[:, None]
     return H
+
+
+def _row_norms2(D: np.ndarray, M: np.ndarray) -> np.ndarray:
+    Z = D @ M
+    Z *= Z
+    return Z.sum(axis=1)
 
 
 def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov) -> ErrorModel:
@@ -476,7 +487,7 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
     for k, rows in enumerate(spans):
         noise += C[rows].sum(axis=0)[:, None] * v_out[k] / np.maximum(n_carry, 1)[:, None]
         if H is not None:
-            kept += (H[rows] * C[rows]).sum(axis=0)[:, None] * v_out[k] / np.maximum(n_carry, 1)[:, None]
+            kept += (H[rows] * C[rows][..., None]).sum(axis=0) * v_out[k] / np.maximum(n_carry, 1)[:, None]
     rho = held_out_ratio(cal, noise, kept, n_carry / max(at, 1))
     if at == 0:  # no usable sample in the subsample: the coefficients' term alone
         return ErrorModel(variance_coef=np.zeros((6 * F, N_FEATURES)), residual_corr=np.broadcast_to(np.eye(6), (F, 6, 6)),
@@ -488,7 +499,7 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
         for a in range(6):
             v = V[:, f, a]
             noisy = bool(v.any())
-            hv = H[:, f] * v if noisy and H is not None else None
+            hv = H[:, f, a] * v if noisy and H is not None else None
             y = E[:, f, a] ** 2
             if noisy:
                 y -= v

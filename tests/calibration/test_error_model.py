@@ -122,9 +122,10 @@ def test_a_reference_noisier_than_the_tare_limits_is_named_in_the_calibration_an
 
 
 def test_the_correction_leverage_adds_one_per_feature_and_nothing_to_a_linear_fit():
-    """``correction_leverage`` on the training rows themselves: per face, the leverages the correction's
-    features add sum to the number of independent features they add (the trace of a hat matrix is its
-    rank; a feature or two of a face may be collinear with the others)."""
+    """``correction_leverage`` on the training rows themselves: without a ridge, per face, the leverages
+    the correction's features add sum to the number of independent features they add (the trace of a
+    hat matrix is its rank; a feature or two of a face may be collinear with the others); with the
+    fit's ridges, less on every sample, and nothing on the rows the correction left affine."""
     from pito_bench._cubes import BenchCube, cube_session
     from pito_core.calibration._error import correction_leverage
     from pito_core.calibration._fit import Calibrator
@@ -134,17 +135,25 @@ def test_the_correction_leverage_adds_one_per_feature_and_nothing_to_a_linear_fi
         fitter = Calibrator("face_to_face", model=model).fit(s)
         cal = fitter.calibration_
         counts = np.asarray(s.counts, float)
-        H = correction_leverage(cal, cal.covariance.groups, [(counts[:700] - cal.offset, 0), (counts[700:] - cal.offset, 0)],
-                                [cal.offset])
-        assert H.shape == (len(counts), 6) and (H >= 0).all()
+        blocks = [(counts[:700] - cal.offset, 0), (counts[700:] - cal.offset, 0)]
+        H = correction_leverage(cal, cal.covariance.groups, blocks, [cal.offset])
+        assert H.shape == (len(counts), 6, 6) and (H >= 0).all()
         if model == "linear":
             assert not H.any()
             continue
         assert cal.model.name == "poly"
+        H0 = correction_leverage(cal, cal.covariance.groups, blocks, [cal.offset], row_alpha=np.zeros(36))
         used = [np.any(cal.correction.coef[6 * k : 6 * k + 6] != 0, axis=0).sum() for k in range(6)]
-        added = H.sum(axis=0)
+        added = H0.sum(axis=0)  # (6, 6): every row of a face alike without the ridge
+        np.testing.assert_allclose(added, added[:, :1] * np.ones(6), rtol=1e-12)
         np.testing.assert_allclose(added, np.round(added), atol=1e-5)
-        assert np.all(np.round(added) <= used) and np.all(np.round(added) >= np.asarray(used) - 2), (added, used)
+        assert np.all(np.round(added[:, 0]) <= used) and np.all(np.round(added[:, 0]) >= np.asarray(used) - 2)
+        assert np.all(H <= H0 + 1e-12)
+        affine = np.array([a is None for a in cal.model.row_alpha]).reshape(6, 6)
+        assert not H[:, affine].any()
+        ridged = ~affine & (np.array([a or 0.0 for a in cal.model.row_alpha]).reshape(6, 6) >= 1e-4)
+        if ridged.any():
+            assert np.all(H.sum(axis=0)[ridged] < added[ridged] - 0.5)
 
 
 def _inside_95(cal, test, truth):
