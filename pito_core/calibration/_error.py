@@ -289,15 +289,27 @@ class CalibrationCovariance:
 
 
 def _nnls(Phi: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """Non-negative ``c`` minimising ``‖Φ c − y‖²``, columns scaled to unit norm (``Φ (n, k)``)."""
-    s = np.linalg.norm(Phi, axis=0)
-    on = s > 0
-    c = np.zeros(Phi.shape[1])
-    if on.any():
-        import scipy.optimize  # deferred: 0.3 CPU s to import, for fits only (loading a calibration needs none)
+    """Non-negative ``c`` minimising ``‖Φ c − y‖²``, columns scaled to unit norm (``Φ (n, k)``); ``y (n,)``
+    or ``(n, m)`` (then ``c (k, m)``, one fit per column). Solved on the ``k × k`` Cholesky factor of the
+    Gram, ``‖Lᵀ c − L⁻¹ Φᵀ y‖²`` (the same minimiser: the rest of ``y`` is orthogonal to ``Φ``), on ``Φ``
+    itself where the Gram is not positive definite."""
+    import scipy.linalg
+    import scipy.optimize  # deferred: 0.3 CPU s to import, for fits only (loading a calibration needs none)
 
-        c[on] = scipy.optimize.nnls(Phi[:, on] / s[on], y)[0] / s[on]
-    return c
+    Y = y[:, None] if y.ndim == 1 else y
+    s = np.sqrt(np.einsum("ij,ij->j", Phi, Phi))
+    on = s > 0
+    c = np.zeros((Phi.shape[1], Y.shape[1]))
+    if on.any():
+        A = Phi[:, on] / s[on]
+        try:
+            L = np.linalg.cholesky(A.T @ A)
+            R, Z = L.T, scipy.linalg.solve_triangular(L, A.T @ Y, lower=True)
+        except np.linalg.LinAlgError:
+            R, Z = A, Y
+        for j in range(Y.shape[1]):
+            c[on, j] = scipy.optimize.nnls(R, Z[:, j])[0] / s[on]
+    return c[:, 0] if y.ndim == 1 else c
 
 
 def _standardised(e: np.ndarray, var: np.ndarray) -> np.ndarray:
@@ -495,26 +507,18 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
     A = cal._apply[idx]
     floor = np.einsum("fia,ab,fib->fi", A, gauge_cov, A)  # gauge noise through the matrix (F, 6)
     coef, kept = np.zeros((F, 6, N_FEATURES)), np.zeros((F, 6, N_FEATURES))  # the model's error; h V
-    for f in range(F):
-        for a in range(6):
-            v = V[:, f, a]
-            noisy = bool(v.any())
-            hv = H[:, f, a] * v if noisy and H is not None else None
-            y = E[:, f, a] ** 2
-            if noisy:
-                y -= v
-                if hv is not None:
-                    y += hv
-            c = _nnls(phi[:, f], y)
-            c[0] = max(c[0], floor[f, a])
-            if noisy:  # weights 1 / (v̄ + V) (equal weights otherwise: the same fit)
-                d = np.mean(phi[:, f] @ c) + v
-                if np.all(d > 0):
-                    c = _nnls(phi[:, f] / d[:, None], y / d)
-                    c[0] = max(c[0], floor[f, a])
-                if hv is not None and hv.any():
-                    kept[f, a] = _nnls(phi[:, f], hv)
-            coef[f, a] = c
+    for f in range(F):  # the six axes of a face share their features: one Gram for the unweighted fits
+        HV = V[:, f] * H[:, f] if H is not None else np.zeros_like(V[:, f])
+        Y = E[:, f] ** 2 - V[:, f] + HV
+        coef[f] = _nnls(phi[:, f], Y).T
+        coef[f, :, 0] = np.maximum(coef[f, :, 0], floor[f])
+        if HV.any():
+            kept[f] = _nnls(phi[:, f], HV).T
+        for a in np.flatnonzero(V[:, f].any(axis=0)):  # weights 1 / (v̄ + V) (equal weights otherwise: the same fit)
+            d = np.mean(phi[:, f] @ coef[f, a]) + V[:, f, a]
+            if np.all(d > 0):
+                coef[f, a] = _nnls(phi[:, f] / d[:, None], Y[:, a] / d)
+                coef[f, a, 0] = max(coef[f, a, 0], floor[f, a])
     excess = np.zeros_like(coef)  # held out (module docstring): each sample's in-sample error × its part's ρ² − 1
     base = coef.copy()
     base[own, :, 3] = 0.0  # not an own-row fit's crosstalk: it never fitted it (held out already)
@@ -524,9 +528,7 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
         if np.all(grow == grow[0]):  # one factor: exactly on the coefficients
             excess[f] = base[f] * grow[0][:, None]
             continue
-        y = (phi[:, f] @ base[f].T) * grow
-        for a in range(6):
-            excess[f, a] = _nnls(phi[:, f], y[:, a])
+        excess[f] = _nnls(phi[:, f], (phi[:, f] @ base[f].T) * grow).T
     del H, C
     var = np.einsum("nfk,fik->nfi", phi, coef + kept)
     del phi
