@@ -532,9 +532,17 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
     del H, C
     var = np.einsum("nfk,fik->nfi", phi, coef + kept)
     del phi
-    with np.errstate(divide="ignore", invalid="ignore"):  # an axis without error: NaN, replaced below
-        corr = np.stack([np.corrcoef(_standardised(E[:, f], var[:, f]), rowvar=False) for f in range(F)])
-    corr = np.where(np.isfinite(corr), corr, np.eye(6)) if E.shape[0] > 2 else np.broadcast_to(np.eye(6), (F, 6, 6))
+    if E.shape[0] > 2:  # each face's correlation of its six standardised residuals
+        Z = np.ascontiguousarray(_standardised(E, var).transpose(1, 0, 2))  # (F, n, 6)
+        Z -= Z.mean(axis=1, keepdims=True)
+        cov = Z.transpose(0, 2, 1) @ Z
+        del Z
+        d = np.sqrt(np.einsum("fii->fi", cov))
+        with np.errstate(divide="ignore", invalid="ignore"):  # an axis without error: NaN, replaced below
+            corr = cov / (d[:, :, None] * d[:, None, :])
+        corr = np.where(np.isfinite(corr), np.clip(corr, -1.0, 1.0), np.eye(6))
+    else:
+        corr = np.broadcast_to(np.eye(6), (F, 6, 6)).copy()
     # the scale: the 95 % quantile over the loaded residuals of each one's s², E² = Z² (s² var + V)
     E **= 2
     E /= Z_COVERAGE**2
