@@ -398,9 +398,11 @@ def correction_leverage(cal, groups, blocks, offsets, row_alpha=None) -> np.ndar
         affine = {id(g): np.concatenate([onehot, x[:, g.inputs]], axis=1) for g in groups}
         return affine, {key: np.concatenate([affine[key[0]], phi[:, list(key[1])]], axis=1) for key in keys}
 
-    G = {}
+    G, kept_designs = {}, []  # the designs are kept for the second pass (≤ ERROR_MODEL_SAMPLES rows)
     for x, k in blocks:
-        for key, D in designs(x, k)[1].items():
+        full = designs(x, k)[1]
+        kept_designs.append(full)
+        for key, D in full.items():
             G[key] = G.get(key, 0.0) + D.T @ D
     proj, maps = {}, {}  # per key: the features' regression on the affine part; per (key, α) the map to ‖·‖²
     for g, face, used in faces:
@@ -415,11 +417,10 @@ def correction_leverage(cal, groups, blocks, offsets, row_alpha=None) -> np.ndar
         for a in np.unique(ra[6 * face : 6 * face + 6][np.isfinite(ra[6 * face : 6 * face + 6])]):
             maps.setdefault((key, a), U * (np.sqrt(s2) / (s2 + a * lam)))
     at = 0
-    for x, k in blocks:
-        full = designs(x, k)[1]
+    for (x, k), full in zip(blocks, kept_designs):
         rows = slice(at, at + len(x))
         at = rows.stop
-        r = {}
+        r, hs = {}, {}  # per key its projected features; per (key, α) the leverage (faces often share both)
         for g, face, used in faces:
             key = (id(g), tuple(used))
             if key not in r:
@@ -427,8 +428,9 @@ def correction_leverage(cal, groups, blocks, offsets, row_alpha=None) -> np.ndar
                 r[key] = full[key][:, na:] - full[key][:, :na] @ proj[key][0]
             ra_f = ra[6 * face : 6 * face + 6]
             for a in np.unique(ra_f[np.isfinite(ra_f)]):
-                h = _row_norms2(r[key], maps[(key, a)])
-                H[rows, face][:, ra_f == a] = (np.clip(h, 0.0, 1.0) * n / n_corr)[:, None]
+                if (key, a) not in hs:
+                    hs[(key, a)] = np.clip(_row_norms2(r[key], maps[(key, a)]), 0.0, 1.0) * n / n_corr
+                H[rows, face][:, ra_f == a] = hs[(key, a)][:, None]
     return H
 
 

@@ -340,7 +340,9 @@ class PolyAccumulator:
                 out[rows], fade[rows] = choose_extension(errors, ra, 6 if group == 6 else 3)
                 if errors is not None:
                     beyond.append((row[f], rows, errors, np.isfinite(ra)))
-                reach = tested_reach(u, self.lower[cols], self.upper[cols], loads)
+                if "reach" not in cache:  # a joint fit's faces share it (the same rows and box)
+                    cache["reach"] = tested_reach(u, self.lower[cols], self.upper[cols], loads)
+                reach = cache["reach"]
                 self.reach = max(self.reach or 1.0, reach)
                 c, pl = chosen_error(errors, ra, out[rows], fade[rows])
                 if self.own:  # a face's correction reads its own gauges: its box alone
