@@ -275,7 +275,7 @@ def ridge_paths(G: np.ndarray, p: int, problems, alphas) -> list[list[np.ndarray
 
     Problems with the same unpenalised columns share one elimination of them.
     """
-    out, cache = [], {}
+    out, cache, eig = [], {}, {}
     for pr in problems:
         key = (pr.a.tobytes(), pr.rank_a)
         if key not in cache:
@@ -284,8 +284,11 @@ def ridge_paths(G: np.ndarray, p: int, problems, alphas) -> list[list[np.ndarray
         y = p + pr.y
         nb = pr.b.size
         if nb:
-            s2, U = np.linalg.eigh(S[np.ix_(pr.b, pr.b)])
-            s2 = np.clip(s2, 0.0, None)
+            bkey = (key, pr.b.tobytes())  # a joint fit's faces often share their features: one eigh
+            if bkey not in eig:
+                s2, U = np.linalg.eigh(S[np.ix_(pr.b, pr.b)])
+                eig[bkey] = (np.clip(s2, 0.0, None), U)
+            s2, U = eig[bkey]
             UtY = U.T @ S[np.ix_(pr.b, y)]
             lam0 = float(np.mean(s2)) if s2[-1] > 0 else 1.0
         Gay, Gab = G[np.ix_(pr.a, y)], G[np.ix_(pr.a, pr.b)]
