@@ -678,8 +678,9 @@ def extension_errors(build, p: int, u, lower, upper, prob: Problem, row_alpha, c
     poly = Zr[prob.a].T @ X[:na] + Zr[prob.b].T @ X[na:]  # or the polynomial itself, at the rows as they are
     preds = {"slope": slope, "tangent": tangent, "fade_slope": linear + fade * (slope - linear),
              "fade_tangent": linear + fade * (tangent - linear), "poly": poly}
-    out = {k: ((v - y)[judged] ** 2).sum(axis=0) * w2 for k, v in preds.items()}
-    out["residuals"] = {k: v - y for k, v in preds.items()}  # every row outside, for the error model
+    res = {k: v - y for k, v in preds.items()}  # every row outside (the error model's), the judged scored
+    out = {k: (r[judged] ** 2).sum(axis=0) * w2 for k, r in res.items()}
+    out["residuals"] = res
     out["beyond"] = (u[outer] ** 2).sum(axis=1) * (1.0 - tc) ** 2
     return out
 
@@ -705,6 +706,11 @@ def choose_extension(errors, row_alpha, group: int = 3) -> tuple[np.ndarray, np.
     return tangent, fade
 
 
+def extension_kind(tangent: bool, fade: bool, trusted: bool = False) -> str:
+    """The key of :func:`extension_errors` for a row's extension (``poly`` where the polynomial is trusted)."""
+    return "poly" if trusted else ("fade_" if fade else "") + ("tangent" if tangent else "slope")
+
+
 def chosen_error(errors, row_alpha, tangent, fade) -> tuple[float, float]:
     """``(chosen, poly)``: the held-out extrapolation error (``extension_errors``) summed over the corrected
     rows (``row_alpha`` finite) of the extensions :func:`choose_extension` chose (``tangent``, ``fade``), and
@@ -712,7 +718,7 @@ def chosen_error(errors, row_alpha, tangent, fade) -> tuple[float, float]:
     if errors is None:
         return 0.0, 0.0
     use = np.isfinite(np.asarray(row_alpha, dtype=float))
-    chosen = sum(float(errors[("fade_" if fd else "") + ("tangent" if tg else "slope")][i])
+    chosen = sum(float(errors[extension_kind(tg, fd)][i])
                  for i, (tg, fd) in enumerate(zip(tangent, fade)) if use[i])
     return chosen, float(errors["poly"][use].sum())
 

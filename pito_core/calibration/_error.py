@@ -396,11 +396,11 @@ def correction_leverage(cal, groups, blocks, offsets, row_alpha=None) -> np.ndar
         onehot[:, k] = 1.0
         phi = cal.correction.features(x + (offsets[k] - cal.offset))
         affine = {id(g): np.concatenate([onehot, x[:, g.inputs]], axis=1) for g in groups}
-        return affine, {key: np.concatenate([affine[key[0]], phi[:, list(key[1])]], axis=1) for key in keys}
+        return {key: np.concatenate([affine[key[0]], phi[:, list(key[1])]], axis=1) for key in keys}
 
     G, kept_designs = {}, []  # the designs are kept for the second pass (≤ ERROR_MODEL_SAMPLES rows)
     for x, k in blocks:
-        full = designs(x, k)[1]
+        full = designs(x, k)
         kept_designs.append(full)
         for key, D in full.items():
             G[key] = G.get(key, 0.0) + D.T @ D

@@ -32,8 +32,8 @@ from ..defaults import FULL_SCALE_FACE
 from ..frames import FACES, N_GAUGES
 from ._lstsq import RANK_RTOL
 from ._cv import ALPHAS, N_FOLDS, N_SE_SESSION, FoldedGram, MAX_SEGMENT_FRACTION, Problem, SegmentCounter, pattern_caps, \
-    choose_extension, choose_model, chosen_error, cross_validate, extension_errors, fold_bounds, held_out_sse, solve_problem, \
-    tested_reach, trust_polynomial
+    choose_extension, choose_model, chosen_error, cross_validate, extension_errors, extension_kind, fold_bounds, \
+    held_out_sse, solve_problem, tested_reach, trust_polynomial
 from ._gramfit import load_groups
 from ._poly import MAX_ROWS, PolyCorrection, poly_features_t, poly_terms
 
@@ -357,8 +357,7 @@ class PolyAccumulator:
         self.fade = fade
         self.beyond_moment = np.zeros((row_alpha.size // 6, 6, 6))
         for j, rows, errors, use in beyond:  # the chosen extension's errors per unit of b (_error.py), output frame
-            kinds = ["poly" if tr else ("fade_" if fd else "") + ("tangent" if tg else "slope")
-                     for tg, fd, tr in zip(out[rows], fade[rows], self.trusted[rows])]
+            kinds = [extension_kind(*k) for k in zip(out[rows], fade[rows], self.trusted[rows])]
             e = np.stack([errors["residuals"][k][:, i] for i, k in enumerate(kinds)], axis=1) * use
             b = float(errors["beyond"].sum())
             if b > 0:

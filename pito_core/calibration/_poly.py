@@ -210,12 +210,9 @@ class PolyCorrection:
         return x if self.input_map is None else x @ self.input_map.T
 
     def ray(self, x: np.ndarray):
-        """``(P x (N, m), t (N,) or None)`` for offset-free counts ``x (N, m)``: what :meth:`all_terms`,
-        :meth:`fade` and :meth:`beyond_sq` read (``ray=``), worked out once by a caller of all three."""
-        return self._ray(x)
-
-    def _ray(self, x: np.ndarray):
-        """``(P x (N, m), t (N,) or None)``: the mapped counts and the largest ``t ≤ 1`` that puts them in the box."""
+        """``(P x (N, m), t (N,) or None)``: the mapped counts and the largest ``t ≤ 1`` that puts them in the box;
+        what :meth:`all_terms`, :meth:`fade` and :meth:`beyond_sq` read (``ray=``: worked out once by a caller
+        of all three)."""
         x = self.mapped(x)
         if self.lower is None:
             return x, None
@@ -228,7 +225,7 @@ class PolyCorrection:
         """``(N, len(cols))``: how far offset-free counts ``x (N, m)`` lie beyond the box the correction reads
         in, ``‖(P x − t P x) / scale‖²`` over each set of channels in ``cols`` (``t`` the ray's factor into
         the box, :meth:`clamped`; ``ray``: :meth:`ray` of ``x``, if known); zero inside, or without a box."""
-        xm, t = self._ray(x) if ray is None else ray
+        xm, t = self.ray(x) if ray is None else ray
         if t is None:
             return np.zeros((xm.shape[0], len(cols)))
         d = (xm * (1.0 - t)[:, None] / self.scale) ** 2
@@ -237,7 +234,7 @@ class PolyCorrection:
     def clamped(self, x: np.ndarray) -> np.ndarray:
         """``(N, m)`` offset-free counts ``x (N, m)``, mapped (:meth:`mapped`) and drawn back along their
         ray from zero into the fitted box (unchanged inside it, or without a box)."""
-        x, t = self._ray(x)
+        x, t = self.ray(x)
         return x if t is None else x * t[:, None]
 
     def _features_t(self, x: np.ndarray, pairs: np.ndarray, cubes: np.ndarray) -> np.ndarray:
@@ -274,7 +271,7 @@ class PolyCorrection:
         products grow as ``2/t − 1``, its cubes as ``3/t − 2`` of their value at the edge ``x_c = t P x``,
         first order in ``1/t``), and the corrected model's own slopes. (``map_matrix``'s term:
         :meth:`map_terms`.)"""
-        xm, t = self._ray(x) if ray is None else ray
+        xm, t = self.ray(x) if ray is None else ray
         xc = xm if t is None else xm * t[:, None]
         phi = poly_features_t(np.ascontiguousarray((xc / self.scale).T), self.pairs, self.cubes).T
         if self.lower is None or self.edge_matrix is None:
@@ -304,7 +301,7 @@ class PolyCorrection:
         if self.reach is None:
             return None
         reach = np.broadcast_to(np.asarray(self.reach, dtype=float), (self.coef.shape[0],))
-        return np.minimum((self._ray(x) if ray is None else ray)[1][:, None] * reach, 1.0)
+        return np.minimum((self.ray(x) if ray is None else ray)[1][:, None] * reach, 1.0)
 
     def __call__(self, x: np.ndarray) -> np.ndarray:
         """``(N, q)`` correction for offset-free counts ``x (N, m)``, output units (the edge and map terms included)."""

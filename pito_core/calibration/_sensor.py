@@ -97,7 +97,7 @@ class SensorFit:
         W = self._predict(x)
         if self.correction_ is None:
             return W
-        _, t = self.correction_._ray(x)
+        _, t = self.correction_.ray(x)
         s = 1.0 / np.maximum(t, 1e-300)  # how far beyond the trained range, along the ray (1: inside)
         R = np.array([1.0 if e == "fade" else max(self.reach_, 1.0) for e in self.extension_])
         far = s[:, None] > R  # (N, q): beyond the reach the held-out groups tested: fade to the affine fit

@@ -42,7 +42,7 @@ def _split_cover(cal, test, F):
     W, cov = t.wrenches(test.counts[ld], return_cov=True)
     z = np.abs(W - F[ld]) / np.sqrt(np.diagonal(cov, axis1=-2, axis2=-1))
     z = z[:, cal.has_output]
-    _, ray = cal.correction._ray(test.counts[ld] - t.offset)
+    _, ray = cal.correction.ray(test.counts[ld] - t.offset)
     out = ray < 1.0
     return out.mean(), (z[~out] <= 1.959964).mean(), (z[out] <= 1.959964).mean()
 
