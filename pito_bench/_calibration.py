@@ -446,6 +446,11 @@ def task_coverage_cubes(k, draws, seed=1) -> dict:
     samples are not independent, so the binomial ``√(0.95 · 0.05 / n)`` over them understates it). One
     later session shared by every draw made a face axis's figure that session's: `face_to_face` face 3
     ``tz`` 90.2 / 93.8 / 95.9 % on three of them (docs/calibration/coverage.md).
+
+    The pooled share mixes the faces that carry the load with those that carry nothing (five in six
+    samples of a face): ``carrying`` and ``free`` are the shares over each kind, ``rms_z_carrying`` and
+    ``rms_z_free`` the RMS of the error over its predicted standard deviation (1: intervals as wide as the
+    errors; much below 1: too wide).
     """
     flanges = {"face_to_face": "frame_hole", "quasi_total": "frame", "total": "face", "loaded_frame": "frame_hole",
                "unloaded_frame": "face"}
@@ -458,6 +463,7 @@ def task_coverage_cubes(k, draws, seed=1) -> dict:
                 faces = [f for f in range(1, 7) if not ((fl == "frame" or method == "unloaded_frame") and f == c)]
                 hits = n = 0
                 per_draw = []
+                split = np.zeros((2, 3))  # carrying, free: samples inside, samples, sum of z²
                 for d in range(draws):  # each draw its own training and later session
                     train, _ = cube_session(cube, fl, c, faces, k, n_rest=2000, seed=seed + 31 * d,
                                             reference_noise=noise)
@@ -468,8 +474,14 @@ def task_coverage_cubes(k, draws, seed=1) -> dict:
                         warnings.simplefilter("ignore")
                         cal = calibrate(train, method).tare(test.counts[~ld])
                     W, cov = cal.wrenches(test.counts[ld], return_cov=True)
-                    inside = np.abs(W - F[ld]) <= 1.959964 * np.sqrt(np.diagonal(cov, axis1=-2, axis2=-1))
+                    sd = np.sqrt(np.diagonal(cov, axis1=-2, axis2=-1))
+                    inside = np.abs(W - F[ld]) <= 1.959964 * sd
+                    z2 = np.divide((W - F[ld]) ** 2, sd**2, out=np.full(sd.shape, np.inf), where=sd > 0)
                     hits, n = hits + inside.sum(axis=0), n + ld.sum()
+                    carries = np.broadcast_to(test.loaded[ld][:, :, None], inside.shape)
+                    for j, kind in enumerate((carries, ~carries)):
+                        on = kind & cal.has_output[None, :, None]
+                        split[j] += inside[on].sum(), on.sum(), z2[on].sum()
                     per_draw.append(float(inside.mean(axis=0)[cal.has_output].mean()))
                 cover = (hits / n)[cal.has_output]
                 rows.append({"cube": f"{form} {coupling:.0%}", "method": method, "reference_noise": noise,
@@ -478,7 +490,9 @@ def task_coverage_cubes(k, draws, seed=1) -> dict:
                              "se": float(np.std(per_draw, ddof=1) / np.sqrt(draws)) if draws > 1 else float("nan"),
                              "n_samples": int(n),
                              "n_axes": int(cover.size), "per_face_axis": np.where(cal.has_output[:, None],
-                                                                                  hits / n, np.nan).tolist()})
+                                                                                  hits / n, np.nan).tolist(),
+                             **{f"{key}{kind}": float(v) for kind, (a, m, z) in zip(("carrying", "free"), split)
+                                for key, v in (("", a / m if m else np.nan), ("rms_z_", np.sqrt(z / m) if m else np.nan))}})
     return {"rows": rows}
 
 
@@ -495,12 +509,15 @@ def coverage_cubes_table(cc) -> tuple[str, list, list]:
     """``(title, header, rows)`` of the coverage study for the text report."""
     rows = [[r["cube"], r["method"], f"{100 * r['reference_noise']:.2f}", r["model"], f"{100 * r['pooled']:.1f}",
              "" if np.isnan(r.get("se", np.nan)) else f"{100 * r['se']:.2f}",
-             f"{100 * r['min']:.1f}", f"{100 * r['max']:.1f}", f"{r['out_of_93_97']}/{r['n_axes']}"] for r in cc["rows"]]
+             f"{100 * r['min']:.1f}", f"{100 * r['max']:.1f}", f"{r['out_of_93_97']}/{r['n_axes']}",
+             *(f"{100 * r.get(k, np.nan):.1f}" for k in ("carrying", "free")),
+             *(f"{r.get(k, np.nan):.2f}" for k in ("rms_z_carrying", "rms_z_free"))] for r in cc["rows"]]
     title = (f"Calibration intervals, nominal 95 %, against the true face wrench ({cc['data']}; {cc['draws']} "
              f"calibrations pooled, later session re-tared; % of samples inside, per face and axis; ± its "
-             f"standard error over the draws)")
+             f"standard error over the draws; carrying / free: over the faces that carry the load / carry "
+             f"nothing; RMS z: RMS of error / predicted standard deviation, 1 when as wide as the errors)")
     return title, ["cube", "method", "ref noise %FS", "model", "pooled %", "±", "min %", "max %",
-                   "axes outside 93-97"], rows
+                   "axes outside 93-97", "carrying %", "free %", "RMS z carrying", "RMS z free"], rows
 
 
 def coverage_faces_table(cc) -> tuple[str, list, list]:

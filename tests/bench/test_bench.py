@@ -321,9 +321,12 @@ def test_the_coverage_tables_give_each_face_and_axis_over_the_rows():
         rows.append({"cube": "linear 2%", "method": "quasi_total", "reference_noise": level, "model": "linear",
                      "pooled": share, "se": 0.001, "min": share, "max": share, "out_of_93_97": 0, "n_axes": 30,
                      "per_face_axis": per.tolist()})
+    rows[0].update(carrying=0.99, free=0.93, rms_z_carrying=0.25, rms_z_free=1.1)  # rows[1]: a file from before
     cc = {"data": "SIMULATED", "draws": 2, "rows": rows}
     _, header, table = coverage_faces_table(cc)
     assert header == ["method", "face", "fx", "fy", "fz", "tx", "ty", "tz"]
     assert [r[1] for r in table] == ["1", "2", "3", "4", "5"] and table[0][2] == "96.0 (94-98)"
     _, header, table = coverage_cubes_table(cc)
     assert header[5] == "±" and table[1][4:6] == ["98.0", "0.10"]
+    assert header[-4:] == ["carrying %", "free %", "RMS z carrying", "RMS z free"]
+    assert table[0][-4:] == ["99.0", "93.0", "0.25", "1.10"] and table[1][-4:] == ["nan"] * 4
