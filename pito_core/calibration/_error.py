@@ -4,14 +4,20 @@ One estimator (docs/calibration.md, "Uncertainty"). A prediction's error has two
 
 * the coefficients' error: the fit is least squares on the design ``x̃ = [a; s − m]`` (an
   offset column per session, ``a`` its weights, then the counts ``s`` less a centre ``m``);
-  with ``P = (XᵀX)⁺`` and the residual covariance ``Σ_r`` of the outputs, a sample has
-  ``(x̃ᵀ P x̃) Σ_r``, mapped to each face's frame;
+  with ``P = (XᵀX)⁺``, a sandwich (the residuals are not alike where a face carries, with the
+  reference's noise in its targets, and where it carries nothing): per output face,
+  ``h_c Σ_c + (h − h_c) Σ_free`` with ``h = x̃ᵀ P x̃``, ``h_c = x̃ᵀ P G_c P x̃``, ``G_c`` the Gram of
+  the design's rows where the face carries and ``Σ_c``, ``Σ_free`` its residuals' covariance there
+  and elsewhere, all from the training subsample (``CovarianceGroup.carry_pinv``, ``carry_cov``;
+  ``h Σ_r`` for files without them), mapped to each face's frame;
 * the error a sample brings itself (gauge noise, what the model misses): per face and axis, a
   variance ``c₀ + c₁ q + c₂ q² + c₃ q_other`` of the face's own load ``q = ‖ŵ_face / FULL_SCALE‖²``
   and of the other faces' (the sum of their ``q``), fitted by non-negative least squares to the
   squared residuals of the training subsample (each session tared on its samples at rest, as the
   calibration is used) less the reference's noise ``V`` that is left in them where the face
-  carries, ``V (1 − h)``; rows weighted by ``1 / (v̄ + V)`` (``v̄`` the axis's mean variance of an
+  carries, ``V (1 − h)``, and less the coefficients' error the other rows' noise put in them (the
+  term above at that row, ``CV``; a free face's residuals are mostly that), its own row's share
+  restored: ``E² (1 + 2h) − CV``; rows weighted by ``1 / (v̄ + V)`` (``v̄`` the axis's mean variance of an
   unweighted first fit: a squared residual's spread grows with the noise in it); ``c₀`` is at least
   the gauge noise through the matrix. The six axes of a face share the residuals' correlation;
 * the reference's noise that the correction's coefficients kept: ``h V``, fitted to the same
@@ -20,9 +26,10 @@ One estimator (docs/calibration.md, "Uncertainty"). A prediction's error has two
   (the in-sample residual keeps ``V (1 − h)``) and the part fitted moves the prediction by as much
   (``h V``): where the noise swamps the model's own error the residuals cannot show it.
 
-The sum is multiplied by ``scale²``, the factor that puts 95 % of the loaded training residuals
-within ``±1.96`` standard deviations (the reference's noise added where the face carries; the
-errors are not Gaussian). Held out, the model's own error (not the ``h V`` term) is larger, and
+The second and third terms are multiplied by ``scale²``, the factor that puts 95 % of the loaded
+training residuals within ``±1.96`` standard deviations of them and the first (the reference's noise
+added where the face carries; the errors are not Gaussian); the first is not (a file without the
+sandwich scales its ``h Σ_r`` too, as when it was written). Held out, the model's own error (not the ``h V`` term) is larger, and
 not alike where a face carries and where it carries nothing (a joint fit's free face reads the
 other faces' features): the fit's own folds give each output row's mean squares held out and in
 sample over the two kinds of rows (``ModelChoice.cv_split``), and per kind the held-out factor
@@ -112,6 +119,13 @@ class CovarianceGroup:
         Weights of the offset columns that reproduce ``Calibration.offset``.
     dof : int
         Residual degrees of freedom ``n − rank``.
+    carry_pinv : ndarray, shape (q / 6, n_int + m, n_int + m), optional
+        Per output face of the problem, ``P G_c P`` with ``G_c`` the Gram of the design's rows where
+        that face carries: with ``carry_cov``, the coefficients' covariance as a sandwich (module
+        docstring); None: ``x̃ᵀ P x̃ Σ_r``.
+    carry_cov : ndarray, shape (q / 6, 2, 6, 6), optional
+        Per output face, the covariance of its residuals (output frame) over the rows where it carries
+        and where it carries nothing.
     """
 
     inputs: np.ndarray
@@ -121,6 +135,8 @@ class CovarianceGroup:
     center: np.ndarray
     weights: np.ndarray
     dof: int = 0
+    carry_pinv: np.ndarray | None = None
+    carry_cov: np.ndarray | None = None
 
     def __post_init__(self):
         self.inputs = np.asarray(self.inputs, dtype=np.int64).reshape(-1)
@@ -139,18 +155,43 @@ class CovarianceGroup:
                 raise ValueError(f"{name}: expected finite values")
         if q % 6:
             raise ValueError(f"rows: expected whole faces (a multiple of 6), got {q}")
+        if (self.carry_pinv is None) != (self.carry_cov is None):
+            raise ValueError("carry_pinv, carry_cov: expected both or neither")
+        if self.carry_pinv is not None:
+            d = n_int + m
+            for name, shape in (("carry_pinv", (q // 6, d, d)), ("carry_cov", (q // 6, 2, 6, 6))):
+                a = np.asarray(getattr(self, name), dtype=float)
+                if a.shape != shape or not np.all(np.isfinite(a)):
+                    raise ValueError(f"{name}: expected finite values of shape {shape}, got {a.shape}")
+                setattr(self, name, a)
 
-    def leverage(self, counts: np.ndarray, offset: np.ndarray | None) -> np.ndarray:
-        """``x̃ᵀ P x̃`` per sample ``(N,)``: the fitted offset if ``offset`` is None, else slopes only."""
+    def _design(self, counts: np.ndarray, offset: np.ndarray | None) -> tuple[np.ndarray, slice]:
+        """``(x̃ (N, d'), block)``: the design rows of ``counts`` and the block of ``P`` they meet: the fitted
+        offset if ``offset`` is None (``[weights | counts − center]``), else slopes only."""
         n_int = self.weights.size
         if offset is None:
             x = counts[:, self.inputs] - self.center
-            xt = np.concatenate([np.broadcast_to(self.weights, (x.shape[0], n_int)), x], axis=1)
-            P = self.design_pinv
-        else:
-            xt = counts[:, self.inputs] - offset[self.inputs]
-            P = self.design_pinv[n_int:, n_int:]
-        return np.einsum("ni,ij,nj->n", xt, P, xt)
+            return np.concatenate([np.broadcast_to(self.weights, (x.shape[0], n_int)), x], axis=1), slice(None)
+        return counts[:, self.inputs] - offset[self.inputs], slice(n_int, None)
+
+    def leverages(self, counts: np.ndarray, offset: np.ndarray | None) -> tuple[np.ndarray, np.ndarray]:
+        """``(h (N,), h_c (N, q / 6))``: ``x̃ᵀ P x̃`` and, per output face, ``x̃ᵀ P G_c P x̃`` (zeros without
+        ``carry_pinv``); the coefficients' covariance of a face is ``h_c Σ_c + (h − h_c) Σ_free``
+        (:meth:`residual_blocks`)."""
+        xt, b = self._design(counts, offset)
+        h = np.einsum("nj,nj->n", xt @ self.design_pinv[b, b], xt)
+        nf = self.rows.size // 6
+        if self.carry_pinv is None:
+            return h, np.zeros((len(h), nf))
+        A = self.carry_pinv[:, b, b]  # (k, d, d): one product for every face, as (N, d) @ (d, k·d)
+        return h, np.einsum("nkj,nj->nk", (xt @ A.transpose(1, 0, 2).reshape(A.shape[1], -1)).reshape(len(xt), nf, -1), xt)
+
+    def residual_blocks(self) -> np.ndarray:
+        """``(q / 6, 2, 6, 6)``: per output face ``[Σ_c, Σ_free]`` (``carry_cov``), or ``Σ_r``'s block twice."""
+        if self.carry_cov is not None:
+            return self.carry_cov
+        nf = self.rows.size // 6
+        return np.stack([[self.residual_cov[6 * k : 6 * k + 6, 6 * k : 6 * k + 6]] * 2 for k in range(nf)])
 
 
 @dataclass(kw_only=True)
@@ -167,11 +208,14 @@ class ErrorModel:
         Correlation of the residuals between each face's six axes.
     scale : float
         Factor on the standard deviations that makes the loaded training residuals' coverage nominal.
+    groups : list of CovarianceGroup
+        The fit's problems with the coefficients' sandwich (``carry_pinv``, ``carry_cov``).
     """
 
     variance_coef: np.ndarray
     residual_corr: np.ndarray
     scale: float
+    groups: list = field(default_factory=list)
 
 
 @dataclass(kw_only=True)
@@ -267,17 +311,25 @@ class CalibrationCovariance:
         out = np.full((N, 6, 6, 6), np.nan)
         out[:, idx] = 0.0
         fitted = self.n_tare is None and not explicit_offset
-        for g in self.groups:  # the coefficients' error
-            h = g.leverage(counts, None if fitted else offset)
-            for k in range(g.rows.size // 6):
-                f = output_faces[int(g.rows[6 * k]) // 6] - 1
-                X = face_from_output[f]
-                out[:, f] += h[:, None, None] * (X @ g.residual_cov[6 * k : 6 * k + 6, 6 * k : 6 * k + 6] @ X.T)
+        def coefficients(sandwich):  # the coefficients' error (the sandwich is not scaled: files before it were)
+            for g in self.groups:
+                if (g.carry_pinv is not None) != sandwich:
+                    continue
+                h, hc = g.leverages(counts, None if fitted else offset)
+                blocks = g.residual_blocks()
+                for k in range(g.rows.size // 6):
+                    f = output_faces[int(g.rows[6 * k]) // 6] - 1
+                    X = face_from_output[f]
+                    out[:, f] += hc[:, k, None, None] * (X @ blocks[k, 0] @ X.T)
+                    out[:, f] += (h - hc[:, k])[:, None, None] * (X @ blocks[k, 1] @ X.T)
+
+        coefficients(False)
         phi = load_features(face_q(face_wrenches[:, idx]))  # the sample's own error
         var = np.einsum("nfk,fik->nfi", phi, self.variance_coef.reshape(F, 6, N_FEATURES))
         sd = np.sqrt(var)
         out[:, idx] += sd[..., :, None] * self.residual_corr * sd[..., None, :]
         out[:, idx] *= self.scale**2
+        coefficients(True)
         if beyond is not None:  # past the trained box: the extension's held-out error per unit of distance²
             on = np.flatnonzero(np.any(beyond > 0, axis=1))
             if on.size:
@@ -286,6 +338,60 @@ class CalibrationCovariance:
             A = apply[idx]
             out[:, idx] += np.einsum("fia,ab,fjb->fij", A, self.gauge_cov, A) / self.n_tare
         return out
+
+
+def _with_sandwich(g: CovarianceGroup, cal, xo, sess, offsets, loaded, carries, E):
+    """``(g, h, CV)``: ``g`` with ``carry_pinv`` and ``carry_cov`` from the training subsample, and on each of
+    its rows the leverage ``h (n,)`` and the coefficients' variance ``CV (n, q / 6, 6)`` (face frames).
+
+    From the counts less each session's tare ``xo (n, 36)`` (float32), each row's session ``sess (n,)``, the
+    tares ``offsets``, ``loaded (n, 6)``, ``carries (n, F)`` and the residuals ``E (n, F, 6)`` (face frames).
+    The problem's rows: a face fitted on its own (six inputs) has those where no other face is loaded; the
+    subsample's Grams are scaled to the fit's rows."""
+    n_int, out = g.weights.size, np.asarray(cal.output_faces)
+    ks = np.unique(g.rows // 6)  # the problem's output faces (indices into cal.output_faces)
+    xt = np.empty((len(xo), n_int + g.inputs.size))  # the design row of every subsample row
+    xt[:, :n_int] = np.arange(n_int) == sess[:, None]  # the session's offset column
+    shift = np.asarray(offsets, dtype=float)[:, g.inputs] - g.center  # each session's tare less the centre
+    np.add(xo[:, g.inputs], shift[sess], out=xt[:, n_int:])
+    rows = slice(None)
+    if g.inputs.size == 6:  # a face on its own: its own loads and rests
+        others = np.ones(6, dtype=bool)
+        others[out[ks[0]] - 1] = False
+        rows = ~loaded[:, others].any(axis=1)
+    x, c, e = xt[rows], carries[rows][:, ks], E[rows][:, ks]
+    if len(x) > x.shape[1]:
+        scale = (g.dof + x.shape[1]) / len(x)  # the fit's rows per subsample row
+        X_out = np.linalg.inv(cal._face_from_output[out[ks] - 1])  # face frame -> output frame
+        # the Gram of each pattern of carrying faces once (a row has one), then summed per face
+        codes, inverse = np.unique(c @ (1 << np.arange(ks.size)), return_inverse=True)
+        order = np.argsort(inverse, kind="stable")
+        grams = [x[i].T @ x[i] for i in np.split(order, np.cumsum(np.bincount(inverse))[:-1])]
+        pinv, cov = np.zeros((ks.size,) + g.design_pinv.shape), np.zeros((ks.size, 2, 6, 6))
+        for j in range(ks.size):
+            on = c[:, j]
+            G = sum((grams[u] for u in range(codes.size) if codes[u] >> j & 1), np.zeros(g.design_pinv.shape))
+            pinv[j] = g.design_pinv @ (scale * G) @ g.design_pinv
+            r = e[:, j] @ X_out[j].T
+            for i, part in enumerate((on, ~on)):
+                block = g.residual_cov[6 * j : 6 * j + 6, 6 * j : 6 * j + 6]
+                cov[j, i] = r[part].T @ r[part] / part.sum() if part.sum() > x.shape[1] else block
+        g = CovarianceGroup(g.inputs, g.rows, g.design_pinv, g.residual_cov, g.center, g.weights, g.dof,
+                            carry_pinv=pinv, carry_cov=cov)
+    # every row's h and h_c (double precision: in single, h − h_c lost its digits on a session's offset column)
+    h = np.einsum("nj,nj->n", xt @ g.design_pinv, xt)
+    blocks = g.residual_blocks()
+    if g.carry_pinv is None:
+        hc = np.zeros((len(h), ks.size))
+    else:
+        A = g.carry_pinv
+        hc = np.einsum("nkj,nj->nk", (xt @ A.transpose(1, 0, 2).reshape(A.shape[1], -1)).reshape(len(h), ks.size, -1), xt)
+    CV = np.empty((len(h), ks.size, 6))
+    for j in range(ks.size):
+        Xf = cal._face_from_output[out[ks[j]] - 1]
+        dc, df = (np.einsum("ia,ab,ib->i", Xf, blocks[j, i], Xf) for i in (0, 1))
+        CV[:, j] = hc[:, j, None] * dc + (h - hc[:, j])[:, None] * df
+    return g, h, CV
 
 
 def _nnls(Phi: np.ndarray, y: np.ndarray) -> np.ndarray:
@@ -469,7 +575,8 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
     E, V = np.zeros((n, F, 6)), np.zeros((n, F, 6), dtype=np.float32)  # residuals, the reference's noise in them
     q, L, at = np.zeros((n, F)), np.zeros(n, dtype=bool), 0
     C, v_out = np.zeros((n, F), dtype=bool), np.zeros((len(offsets), F, 6))  # carries; the noise in the targets
-    X = []  # per block, counts less the session's tare (float32) and the session: the correction's leverage
+    X = []  # per block, counts less the session's tare (float32) and the session: the leverage, the sandwich
+    loaded = []  # per block, the faces loaded
     spans = []  # each session's rows
     for k, (blocks, mount, off, rc) in enumerate(zip(subsample, mounts, offsets, ref_covs)):
         first = at
@@ -482,8 +589,8 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
             at = rows.stop
             counts = np.asarray(b.counts, float)[usable]
             W = cal.wrenches(counts, offset=off)[:, idx]
-            if cal.correction is not None:
-                X.append(((counts - off).astype(np.float32), k))
+            X.append(((counts - off).astype(np.float32), k))
+            loaded.append(b.loaded[usable])
             C[rows] = carries[usable][:, idx]
             E[rows] = T[usable][:, idx] - W
             q[rows], L[rows] = face_q(W), b.loaded[usable].any(axis=1)
@@ -494,7 +601,17 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
     E, V, L, phi = E[:at], V[:at], L[:at], load_features(q[:at])  # (n, F, 6), (n, F, 6), (n,), (n, F, 4)
     del q
     H = correction_leverage(cal, groups, X, offsets) if cal.correction is not None else None
-    del X
+    CV, lev = np.zeros(E.shape), np.zeros(E.shape[:2])  # each row's coefficients' variance (face frames), leverage
+    groups = list(groups)
+    if X:  # the counts less the session's tare, and the session, of every subsample row
+        xo, sess = np.concatenate([x for x, _ in X]), np.concatenate([np.full(len(x), k) for x, k in X])
+        loaded = np.concatenate(loaded)
+        for i, g in enumerate(groups):
+            groups[i], h, cv = _with_sandwich(g, cal, xo, sess, offsets, loaded, C[:at], E)
+            faces = np.unique(g.rows // 6)
+            CV[:, faces], lev[:, faces] = cv, h[:, None]
+        xo = None
+    del X, loaded
     C = C[:at]
     n_carry = C.sum(axis=0)
     noise, kept = np.zeros((F, 6)), np.zeros((F, 6))  # means over the samples where the face carries, output frame
@@ -505,13 +622,15 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
     rho = held_out_ratio(cal, noise, kept, n_carry / max(at, 1))
     if at == 0:  # no usable sample in the subsample: the coefficients' term alone
         return ErrorModel(variance_coef=np.zeros((6 * F, N_FEATURES)), residual_corr=np.broadcast_to(np.eye(6), (F, 6, 6)),
-                          scale=float(rho[0].max()))
+                          scale=float(rho[0].max()), groups=groups)
     A = cal._apply[idx]
     floor = np.einsum("fia,ab,fib->fi", A, gauge_cov, A)  # gauge noise through the matrix (F, 6)
     coef, kept = np.zeros((F, 6, N_FEATURES)), np.zeros((F, 6, N_FEATURES))  # the model's error; h V
     for f in range(F):  # the six axes of a face share their features: one Gram for the unweighted fits
         HV = V[:, f] * H[:, f] if H is not None else np.zeros_like(V[:, f])
-        Y = E[:, f] ** 2 - V[:, f] + HV
+        # in sample a residual holds the coefficients' error the other rows' noise put there (CV) and lacks
+        # its own row's share (2h): E² ≈ σ² (1 − 2h) + CV
+        Y = E[:, f] ** 2 * (1.0 + 2.0 * lev[:, f, None]) - CV[:, f] - V[:, f] + HV
         coef[f] = _nnls(phi[:, f], Y).T
         coef[f, :, 0] = np.maximum(coef[f, :, 0], floor[f])
         if HV.any():
@@ -545,11 +664,11 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
         corr = np.where(np.isfinite(corr), np.clip(corr, -1.0, 1.0), np.eye(6))
     else:
         corr = np.broadcast_to(np.eye(6), (F, 6, 6)).copy()
-    # the scale: the 95 % quantile over the loaded residuals of each one's s², E² = Z² (s² var + V)
+    # the scale: the 95 % quantile over the loaded residuals of each one's s², E² = Z² (s² var + CV + V)
     E **= 2
     E /= Z_COVERAGE**2
-    E -= V
-    del V
+    E -= V + CV
+    del V, CV
     zero = var <= 0
     np.divide(E, var, out=E, where=~zero)
     E[zero] = np.where(E[zero] > 0, np.inf, 0.0)
@@ -558,7 +677,7 @@ def fit_error_model(cal, groups, subsample, mounts, offsets, ref_covs, gauge_cov
     lo, hi = SCALE_BOUNDS
     scale = float(np.clip(np.sqrt(max(np.quantile(t, COVERAGE, overwrite_input=True), 0.0)), lo, hi))
     coef += excess + kept
-    return ErrorModel(variance_coef=coef.reshape(6 * F, N_FEATURES), residual_corr=corr, scale=scale)
+    return ErrorModel(variance_coef=coef.reshape(6 * F, N_FEATURES), residual_corr=corr, scale=scale, groups=groups)
 
 
 class NoisyReferenceWarning(UserWarning):

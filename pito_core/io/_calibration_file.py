@@ -17,6 +17,10 @@ Layout (docs/file-formats.md)::
         g{k}_residual_cov (q, q) float64 residual covariance (N², N²·m, N²·m²), attrs: dof
         g{k}_center       (m,) float64 counts
         g{k}_weights      (n_int,) float64
+        g{k}_carry_pinv   (q/6, n_int+m, n_int+m) float64, optional: per output face P G_c P, G_c the Gram of the
+                          design rows where the face carries (per counts²)
+        g{k}_carry_cov    (q/6, 2, 6, 6) float64, optional (with carry_pinv): per output face the residual
+                          covariance where it carries / carries nothing (output frame; N², N²·m, N²·m²)
         variance_coef     (6F, 4) float64: each face axis's error variance on [1, q, q², q_other] (face frames)
         residual_corr     (F, 6, 6) float64: residual correlation between a face's six axes
         beyond_cov        (F, 6, 6) float64, optional: a face wrench's error covariance (face frames) per unit of
@@ -59,6 +63,8 @@ _CORRECTION_FIELDS = ("scale", "pairs", "cubes", "coef")
 _CORRECTION_RANGE = ("lower", "upper", "edge_matrix", "domain", "domain_lower", "domain_upper",
                      "input_map", "tangent", "map_matrix", "map_lower", "map_upper", "edge_mapped", "reach")
 _GROUP_FIELDS = ("inputs", "rows", "design_pinv", "residual_cov", "center", "weights")
+#: Optional (files before 2026-12-07 have none): the coefficients' covariance as a sandwich.
+_GROUP_SANDWICH = ("carry_pinv", "carry_cov")
 
 
 def write_calibration(path, cal) -> None:
@@ -93,6 +99,9 @@ def write_calibration(path, cal) -> None:
                 for name in _GROUP_FIELDS:
                     checked_dataset(g, f"g{k}_{name}", data=getattr(grp, name))
                 g[f"g{k}_residual_cov"].attrs["dof"] = int(grp.dof)
+                for name in _GROUP_SANDWICH:
+                    if getattr(grp, name, None) is not None:
+                        checked_dataset(g, f"g{k}_{name}", data=getattr(grp, name))
             checked_dataset(g, "variance_coef", data=cov.variance_coef)
             checked_dataset(g, "residual_corr", data=cov.residual_corr)
             checked_dataset(g, "beyond_cov", data=cov.beyond_cov)
@@ -147,6 +156,7 @@ def _read_covariance(f, path) -> dict:
     groups = []
     for k in range(n_groups):
         fields = {name: np.asarray(require(g, f"g{k}_{name}", path)[()]) for name in _GROUP_FIELDS}
+        fields.update({name: np.asarray(g[f"g{k}_{name}"][()]) for name in _GROUP_SANDWICH if f"g{k}_{name}" in g})
         groups.append({**fields, "dof": int(g[f"g{k}_residual_cov"].attrs.get("dof", 0))})
     return {
         "groups": groups,
