@@ -17,8 +17,9 @@ One estimator (docs/calibration.md, "Uncertainty"). A prediction's error has two
   calibration is used) less the reference's noise ``V`` that is left in them where the face
   carries, ``V (1 − h)``, and less the coefficients' error the other rows' noise put in them (the
   term above at that row, ``CV``; a free face's residuals are mostly that), its own row's share
-  restored: ``E² (1 + 2h) − CV``; rows weighted by ``1 / (v̄ + V)`` (``v̄`` the axis's mean variance of an
-  unweighted first fit: a squared residual's spread grows with the noise in it); ``c₀`` is at least
+  restored: ``E² (1 + 2h) − CV``; rows weighted by ``1 / (v̄ + V)`` (``v̄`` the axis's mean
+  variance of an unweighted first fit: a squared residual's spread grows with the noise in it);
+  ``c₀`` is at least
   the gauge noise through the matrix. The six axes of a face share the residuals' correlation;
 * the reference's noise that the correction's coefficients kept: ``h V``, fitted to the same
   features, ``h`` the leverage the correction's features add to the sample in the fit's design,
@@ -29,10 +30,10 @@ One estimator (docs/calibration.md, "Uncertainty"). A prediction's error has two
 The second and third terms are multiplied by ``scale²``, the factor that puts 95 % of the loaded
 training residuals within ``±1.96`` standard deviations of them and the first (the reference's noise
 added where the face carries; the errors are not Gaussian); the first is not (a file without the
-sandwich scales its ``h Σ_r`` too, as when it was written). Held out, the model's own error (not the ``h V`` term) is larger, and
-not alike where a face carries and where it carries nothing (a joint fit's free face reads the
-other faces' features): the fit's own folds give each output row's mean squares held out and in
-sample over the two kinds of rows (``ModelChoice.cv_split``), and per kind the held-out factor
+sandwich scales its ``h Σ_r`` too, as when it was written). Held out, the model's own error (not
+the ``h V`` term) is larger, and not alike where a face carries and where it carries nothing (a
+joint fit's free face reads the other faces' features): the fit's own folds give each output row's
+mean squares held out and in sample over the two kinds of rows (``ModelChoice.cv_split``), and per kind the held-out factor
 ``ρ²`` is the median over rows of their ratio, the carrying ones less the reference's noise in
 them. The folds hold out whole loading segments: their fits saw a share ``t`` of each load's rows
 (``ModelChoice.cv_train_share``), and an estimate's error goes as one over its rows, so a fit on
@@ -183,8 +184,7 @@ class CovarianceGroup:
         nf = self.rows.size // 6
         if self.carry_pinv is None:
             return h, np.zeros((len(h), nf))
-        A = self.carry_pinv[:, b, b]  # (k, d, d): one product for every face, as (N, d) @ (d, k·d)
-        return h, np.einsum("nkj,nj->nk", (xt @ A.transpose(1, 0, 2).reshape(A.shape[1], -1)).reshape(len(xt), nf, -1), xt)
+        return h, _quadratic_forms(xt, self.carry_pinv[:, b, b])
 
     def residual_blocks(self) -> np.ndarray:
         """``(q / 6, 2, 6, 6)``: per output face ``[Σ_c, Σ_free]`` (``carry_cov``), or ``Σ_r``'s block twice."""
@@ -311,6 +311,7 @@ class CalibrationCovariance:
         out = np.full((N, 6, 6, 6), np.nan)
         out[:, idx] = 0.0
         fitted = self.n_tare is None and not explicit_offset
+
         def coefficients(sandwich):  # the coefficients' error (the sandwich is not scaled: files before it were)
             for g in self.groups:
                 if (g.carry_pinv is not None) != sandwich:
@@ -338,6 +339,12 @@ class CalibrationCovariance:
             A = apply[idx]
             out[:, idx] += np.einsum("fia,ab,fjb->fij", A, self.gauge_cov, A) / self.n_tare
         return out
+
+
+def _quadratic_forms(x: np.ndarray, A: np.ndarray) -> np.ndarray:
+    """``(N, k)``: every ``x_nᵀ A_k x_n`` of ``x (N, d)`` and ``A (k, d, d)``, one product ``(N, d) @ (d, k·d)``."""
+    k, d = A.shape[0], A.shape[1]
+    return np.einsum("nkj,nj->nk", (x @ A.transpose(1, 0, 2).reshape(d, k * d)).reshape(len(x), k, d), x)
 
 
 def _with_sandwich(g: CovarianceGroup, cal, xo, sess, offsets, loaded, carries, E):
@@ -384,8 +391,7 @@ def _with_sandwich(g: CovarianceGroup, cal, xo, sess, offsets, loaded, carries, 
     if g.carry_pinv is None:
         hc = np.zeros((len(h), ks.size))
     else:
-        A = g.carry_pinv
-        hc = np.einsum("nkj,nj->nk", (xt @ A.transpose(1, 0, 2).reshape(A.shape[1], -1)).reshape(len(h), ks.size, -1), xt)
+        hc = _quadratic_forms(xt, g.carry_pinv)
     CV = np.empty((len(h), ks.size, 6))
     for j in range(ks.size):
         Xf = cal._face_from_output[out[ks[j]] - 1]

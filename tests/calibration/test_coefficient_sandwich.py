@@ -70,4 +70,5 @@ def test_the_sandwich_is_saved_and_a_file_without_it_falls_back(tmp_path):
     np.testing.assert_array_equal(h, h2)
     assert np.all(hc2 >= -1e-12 * h2[:, None]) and np.all(hc2 <= h2[:, None] * (1 + 1e-9))
     with pytest.raises(ValueError, match="carry_pinv, carry_cov"):
-        CovarianceGroup(g.inputs, g.rows, g.design_pinv, g.residual_cov, g.center, g.weights, g.dof, carry_pinv=g.carry_pinv)
+        CovarianceGroup(g.inputs, g.rows, g.design_pinv, g.residual_cov, g.center, g.weights, g.dof,
+                        carry_pinv=g.carry_pinv)
