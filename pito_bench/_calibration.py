@@ -478,7 +478,8 @@ def task_coverage_cubes(k, draws, seed=1) -> dict:
                     inside = np.abs(W - F[ld]) <= 1.959964 * sd
                     z2 = np.divide((W - F[ld]) ** 2, sd**2, out=np.full(sd.shape, np.inf), where=sd > 0)
                     hits, n = hits + inside.sum(axis=0), n + ld.sum()
-                    carries = np.broadcast_to(test.loaded[ld][:, :, None], inside.shape)
+                    # a face carries where its true wrench is not zero (a face flange's connected face: every load)
+                    carries = np.broadcast_to(np.any(F[ld] != 0, axis=2)[:, :, None], inside.shape)
                     for j, kind in enumerate((carries, ~carries)):
                         on = kind & cal.has_output[None, :, None]
                         split[j] += inside[on].sum(), on.sum(), z2[on].sum()

@@ -3,8 +3,8 @@
 A joint fit's targets carry the reference's noise only where their face carries (elsewhere they
 are zero), so one residual covariance ``Σ_r`` over all rows is about a sixth of the noise that
 moved the coefficients a loaded face reads with. With the reference at the tare's noise limit
-(0.33 % of full scale) the 95 % intervals of the loaded faces covered 74-80 % of a later session's
-samples on linear cubes (RMS of error / predicted σ 1.7-2.0), the free faces 99 %: pooled, 95 %.
+(0.33 % of full scale) the 95 % intervals of the loaded faces covered 74-86 % of a later session's
+samples on linear cubes (RMS of error / predicted σ 1.45-2.0), the free faces 99.7-100 %: pooled, 95 %.
 """
 
 import dataclasses
