@@ -458,7 +458,7 @@ class Calibrator:
         if corr_fit is not None and st.poly.beyond_moment is not None:  # to each face's frame
             X = cal._face_from_output[np.asarray(out_faces) - 1]
             beyond = X @ st.poly.beyond_moment @ X.transpose(0, 2, 1)
-        cal.covariance = CalibrationCovariance(groups=em.groups or fit.groups, gauge_cov=gauge_cov,
+        cal.covariance = CalibrationCovariance(groups=em.groups, gauge_cov=gauge_cov,
                                                variance_coef=em.variance_coef, residual_corr=em.residual_corr,
                                                scale=em.scale, beyond_cov=beyond)
         self.calibration_ = cal
