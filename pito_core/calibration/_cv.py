@@ -186,7 +186,11 @@ class FoldedGram:
                 continue
             Z = ZT[:, a:b]
             zero = ~ZT[self.p :, a:b].reshape(self.n_groups, -1, b - a).any(axis=1)  # (n_groups, n): free
-            kinds, code = np.unique(zero, axis=1, return_inverse=True)
+            # each column's pattern as one integer, the first group the highest bit: the order of
+            # np.unique(zero, axis=1), at a tenth of its time
+            bits = 1 << np.arange(self.n_groups - 1, -1, -1, dtype=np.int64)
+            codes, code = np.unique(bits @ zero, return_inverse=True)
+            kinds = (codes[None, :] & bits[:, None]) > 0
             for c in range(kinds.shape[1]):
                 s = self._stratum(kinds[:, c])
                 Zs = Z if kinds.shape[1] == 1 else Z[:, code.reshape(-1) == c]
