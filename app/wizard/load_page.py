@@ -10,6 +10,7 @@ from PySide6.QtWidgets import (
 )
 
 from pito_core.contact import ContactEstimate
+from pito_core.devices import on_face
 from pito_core.frames import FACES, transform_wrench
 
 from ..scene import ACTIVE_COLOR, CONNECTED_COLOR, CubeScene
@@ -258,12 +259,18 @@ class LoadPage(WizardPage):
         live = Wf[-min(20, Wf.shape[0]):].mean(axis=0)
         self.coverage_model.set_current(live / FULL_SCALE)
         self._show_live_force(face, live)
-        event = fc.feed(b.time[good], b.counts[good], b.reference[good], Wf)
+        here = None  # the reference sees the load, the cube's gauges see which face carries it
+        tare = m.stage_tare_counts
+        if tare.shape[0]:
+            skip = m.connected_face if m.flange == "face" and face != m.connected_face else None
+            here = on_face(b.counts[good], tare.mean(axis=0), face, skip)
+        event = fc.feed(b.time[good], b.counts[good], b.reference[good], Wf, here)
         texts = {
             "waiting": "…",
             "moving": "moving — hold the load still",
             "no load": "no load — press on the face",
             "not new": "already kept — try another direction",
+            "wrong face": f"the load is on another face — load face {face}",
             "kept": f"✔ kept capture {len(fc.captures)}",
             "growing": f"✔ holding — capture {len(fc.captures)} growing",
         }

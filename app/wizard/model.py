@@ -244,6 +244,11 @@ class WizardModel(QObject):
         return next(st for st in self.stages if st.kind == stage.of) if stage.kind == "validation" else stage
 
     @property
+    def stage_tare_counts(self) -> np.ndarray:
+        """``(n, 36)`` the counts at rest the current stage is tared with (a validation pass: its mount's)."""
+        return self._tare_stage(self.current).tare_counts
+
+    @property
     def has_tare(self) -> bool:
         st = self._tare_stage(self.current)
         return st.tare_counts.shape[0] > 0 and st.tare_still

@@ -13,7 +13,7 @@ if TYPE_CHECKING:  # re-exported, each loaded on first use (pito_core/_lazy.py)
     from ._tare import TareCheck, TareRefused, TareSupport, check_tare, resting_load, tare_event
     from ._clock import PAIRING_RULE, StreamClock, TickUnwrapper, pair_reference
     from ._atical import DIST_UNITS, AtiCalibration, load_ati_calibration
-    from ._capture import Capture, CaptureRules, FaceCaptures, is_still, scaled
+    from ._capture import Capture, CaptureRules, FaceCaptures, is_still, on_face, scaled
     from ._frame import (
         FRAME_DTYPE,
         FRAME_SIZE,
@@ -56,6 +56,7 @@ __all__ = [
     "CaptureRules",
     "FaceCaptures",
     "is_still",
+    "on_face",
     "scaled",
     "TareCheck",
     "TareRefused",

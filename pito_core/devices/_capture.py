@@ -2,7 +2,9 @@
 
 The loading step watches the stream of samples of one face. A window of samples is
 kept (a *capture*) only when the load on the face is still (small spread over the
-window) and new (far, in full-scale units, from every capture kept so far). Coverage
+window), new (far, in full-scale units, from every capture kept so far) and, where the
+caller says which samples those are, on that face (its gauges deflect the most,
+:func:`on_face`: after a change of face the operator may still press the last one). Coverage
 is the largest fraction of full scale reached on each axis and sign; the condition
 number is that of the kept loads scaled by full scale.
 """
@@ -17,10 +19,10 @@ from ..defaults import FULL_SCALE_FACE
 
 FULL_SCALE = np.array(FULL_SCALE_FACE)  # [fx, fy, fz, tx, ty, tz] full scale, N and N·m
 
-__all__ = ["CaptureRules", "Capture", "FaceCaptures", "is_still", "scaled"]
+__all__ = ["CaptureRules", "Capture", "FaceCaptures", "is_still", "on_face", "scaled"]
 
 #: What :meth:`FaceCaptures.feed` reports.
-EVENTS = ("waiting", "moving", "no load", "not new", "kept", "growing")
+EVENTS = ("waiting", "moving", "no load", "not new", "wrong face", "kept", "growing")
 
 
 @dataclass
@@ -81,6 +83,16 @@ def is_still(wrench_face, rules: CaptureRules) -> bool:
     return bool(np.all(thirds.max(axis=0) - thirds.min(axis=0) < rules.still))
 
 
+def on_face(counts, tare, face: int, skip: int | None = None) -> np.ndarray:
+    """``(n,)`` whether face ``face``'s six gauges (counts ``6 (face − 1)`` on) deflect from ``tare (36,)`` at
+    least as far as every other face's, for ``counts (n, 36)``: the load is on that face. The six
+    faces' gauges are alike, so their deflections compare in counts; ``skip``: a face left out (the
+    connected face of a face flange, which carries every load's reaction)."""
+    d = np.linalg.norm((np.asarray(counts, dtype=float) - np.asarray(tare, dtype=float)).reshape(-1, 6, 6), axis=2)
+    others = np.delete(d, sorted({face - 1} | ({skip - 1} if skip else set())), axis=1)
+    return d[:, face - 1] >= others.max(axis=1, initial=0.0)
+
+
 @dataclass
 class Capture:
     """One kept window: raw arrays and its load on the face."""
@@ -124,18 +136,20 @@ class FaceCaptures:
                                      np.array(wrench_face, float)))
         return True
 
-    def feed(self, time, counts, reference, wrench_face) -> str:
-        """Consume new samples; open a capture when the last ``window`` s are still and new, grow it
-        while the load stays still where it is. Returns one of :data:`EVENTS`."""
+    def feed(self, time, counts, reference, wrench_face, on_face=None) -> str:
+        """Consume new samples; open a capture when the last ``window`` s are still, new and (``on_face
+        (n,)`` bool, :func:`on_face`; None: not checked) on this face, grow it while the load stays still
+        where it is and on this face. Returns one of :data:`EVENTS`."""
         time = np.asarray(time, dtype=float)
         if time.size == 0:
             return "waiting"
-        chunk = (time, np.asarray(counts, float), np.asarray(reference, float), np.asarray(wrench_face, float))
+        here = np.ones(time.size, dtype=bool) if on_face is None else np.asarray(on_face, dtype=bool).reshape(-1)
+        chunk = (time, np.asarray(counts, float), np.asarray(reference, float), np.asarray(wrench_face, float), here)
         if self._open and self.captures:
             cap = self.captures[-1]
             dev = np.abs(scaled(chunk[3]).mean(axis=0) - cap.mean_scaled)
             recent = np.concatenate([cap.wrench_face[-2 * chunk[3].shape[0]:], chunk[3]])
-            if np.all(dev < self.rules.still) and is_still(recent, self.rules):
+            if np.all(dev < self.rules.still) and is_still(recent, self.rules) and here.all():
                 cap.counts = np.concatenate([cap.counts, chunk[1]])
                 cap.reference = np.concatenate([cap.reference, chunk[2]])
                 cap.time = np.concatenate([cap.time, chunk[0]])
@@ -146,17 +160,19 @@ class FaceCaptures:
         t_last = time[-1]
         while len(self._buffer) > 1 and self._buffer[1][0][0] <= t_last - self.rules.window:
             self._buffer.pop(0)
-        t, c, r, w = (np.concatenate([b[i] for b in self._buffer]) for i in range(4))
+        t, c, r, w, h = (np.concatenate([b[i] for b in self._buffer]) for i in range(5))
         keep = t > t_last - self.rules.window
         if t[-1] - t[0] < 0.8 * self.rules.window:
             return "waiting"
-        t, c, r, w = t[keep], c[keep], r[keep], w[keep]
+        t, c, r, w, h = t[keep], c[keep], r[keep], w[keep], h[keep]
         if not is_still(w, self.rules):
             return "moving"
         if np.linalg.norm(scaled(w).mean(axis=0)) < self.rules.min_load:
             return "no load"
         if not self.is_new(w):
             return "not new"
+        if not h.all():
+            return "wrong face"
         self.captures.append(Capture(c, r, t, w))
         self._open = True
         self._buffer = []
