@@ -180,11 +180,14 @@ class CovarianceGroup:
         """``(h (N,), h_c (N, q / 6))``: ``x̃ᵀ P x̃`` and, per output face, ``x̃ᵀ P G_c P x̃`` (zeros without
         ``carry_pinv``); the coefficients' covariance of a face is ``h_c Σ_c + (h − h_c) Σ_free``
         (:meth:`residual_blocks`)."""
-        xt, b = self._design(counts, offset)
+        return self._forms(*self._design(counts, offset))
+
+    def _forms(self, xt: np.ndarray, b: slice = slice(None)) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`leverages` of design rows ``xt`` meeting block ``b`` of ``P`` (double precision: in single,
+        ``h − h_c`` lost its digits on a session's offset column)."""
         h = np.einsum("nj,nj->n", xt @ self.design_pinv[b, b], xt)
-        nf = self.rows.size // 6
         if self.carry_pinv is None:
-            return h, np.zeros((len(h), nf))
+            return h, np.zeros((len(h), self.rows.size // 6))
         return h, _quadratic_forms(xt, self.carry_pinv[:, b, b])
 
     def residual_blocks(self) -> np.ndarray:
@@ -387,15 +390,9 @@ def _with_sandwich(g: CovarianceGroup, cal, xo, sess, offsets, loaded, carries, 
                     g.residual_cov[6 * j : 6 * j + 6, 6 * j : 6 * j + 6]
         g = CovarianceGroup(g.inputs, g.rows, g.design_pinv, g.residual_cov, g.center, g.weights, g.dof,
                             carry_pinv=pinv, carry_cov=cov)
-    # every row's h and h_c (double precision: in single, h − h_c lost its digits on a session's offset column)
-    h = np.einsum("nj,nj->n", xt @ g.design_pinv, xt)
-    blocks = g.residual_blocks()
-    if g.carry_pinv is None:
-        hc = np.zeros((len(h), ks.size))
-    else:
-        hc = _quadratic_forms(xt, g.carry_pinv)
+    h, hc = g._forms(xt)  # every row's h and h_c
     Xf = cal._face_from_output[out[ks] - 1]
-    d = np.einsum("jia,jkab,jib->kji", Xf, blocks, Xf)  # (2, q / 6, 6): Σ_c, Σ_free's diagonals, face frames
+    d = np.einsum("jia,jkab,jib->kji", Xf, g.residual_blocks(), Xf)  # (2, q / 6, 6): Σ_c, Σ_free's diagonals
     # h_c Σ_c + (h − h_c) Σ_free
     CV = hc[:, :, None] * (d[0] - d[1]) + h[:, None, None] * d[1]
     return g, h, CV
