@@ -370,8 +370,8 @@ def solve_problem(folded: FoldedGram, prob: Problem, alphas) -> list[np.ndarray]
 #: (``fit_sensor``: folds of the caller's groups).
 N_SE = 1.0
 #: The same for the cube's ``calibrate``, whose folds are loading segments of the same sessions:
-#: they do not see what changes between sessions (drift, the frame's hysteresis); the measurements
-#: behind the 3 are in docs/calibration/coverage.md.
+#: they share the session's state of the frame joints' hysteresis, which a later session draws anew;
+#: the measurements behind the 3 are in docs/calibration/coverage.md.
 N_SE_SESSION = 3.0
 #: Held-out mean squares (outputs scaled by full scale) closer than this are a tie: an RMSE of
 #: 10⁻⁶ of full scale, below what the Gram's rounding resolves on noise-free data.
