@@ -370,7 +370,7 @@ def solve_problem(folded: FoldedGram, prob: Problem, alphas) -> list[np.ndarray]
 #: (``fit_sensor``: folds of the caller's groups).
 N_SE = 1.0
 #: The same for the cube's ``calibrate``, whose folds are loading segments of the same sessions:
-#: they share the session's state of the frame joints' hysteresis, which a later session draws anew;
+#: they do not show what a later session changes (on the simulated cube, its frame's hysteresis);
 #: the measurements behind the 3 are in docs/calibration/coverage.md.
 N_SE_SESSION = 3.0
 #: Held-out mean squares (outputs scaled by full scale) closer than this are a tie: an RMSE of

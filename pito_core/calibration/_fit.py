@@ -482,7 +482,8 @@ class Calibrator:
             poly = PolyAccumulator(spec.inputs == "own", joint_faces, n_int, np.where(rms > 0, rms, 1.0),
                                    {s.connected_face for s in sessions if s.flange == "face"}, [len(s) for s in sessions],
                                    other_features=_other_features(spec, sessions),
-                                   session_loaded=[s.loaded for s in sessions])
+                                   session_loaded=[s.loaded for s in sessions],
+                                   reaction_features="own" if spec.load_connected else "all")
         total_samples = sum(len(s) for s in sessions)
         # the same provisional centres whatever the model, so model="auto" that keeps the linear
         # fit gives it bit for bit

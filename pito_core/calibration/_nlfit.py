@@ -4,8 +4,10 @@ The design of a method's least-squares problem (offset columns, counts less each
 session's tare mean) gains the features of ``_poly.py``: each face's own six gauges,
 scaled by their spread, as squares, products and cubes. A face's outputs use its own
 face's features; under a ``face`` flange also the squares of the connected face's gauges
-(every load passes through it), and the connected face's outputs (the reactions ``−ΣW``,
-and its own direct loads) use every face's. A joint method's free faces' outputs read every
+(every load passes through it), and the connected face's outputs (the reactions ``−ΣW``)
+use every face's, or only its own where it also takes direct loads (``total``: with every
+face's, fitted on single-face loads, its reaction to a squeeze, two faces loaded at once, was
+up to 5× the linear fit's error). A joint method's free faces' outputs read every
 gauge in their linear part (to cancel crosstalk), so the other faces' nonlinearity leaks in:
 with outputs in face frames they also take the other free faces' features
 (``other_features``). Each face's features are fitted where that face carries (zero
@@ -86,14 +88,19 @@ class PolyAccumulator:
     other_features : {None, "cubes", "all"}
         A joint fit's free faces' outputs also take the other free faces' cubes (of the counts), or all
         their features, each face's fitted where it carries and read from ``P x`` (:func:`correction`).
+    reaction_features : {"all", "own"}
+        A connected face's outputs take every face's features, or its own only.
     session_loaded : list of array-like, shape (N_k, 6), optional
         Each session's ``loaded`` (arrays or lazy datasets, read once in blocks): each load pattern is
         cut into at least ``_cv.MIN_PIECES`` segments (:func:`~._cv.pattern_caps`); else by length only.
     """
 
     def __init__(self, own, out_faces, n_int, scale, reaction_faces, session_lengths, n_folds=N_FOLDS,
-                 other_features=None, session_loaded=None):
+                 other_features=None, session_loaded=None, reaction_features="all"):
+        if reaction_features not in ("all", "own"):
+            raise ValueError(f"reaction_features: expected 'all' or 'own', got {reaction_features!r}")
         self.own, self.n_int, self.scale, self.K = own, n_int, scale, n_folds
+        self.reaction_features = reaction_features
         self.other_features = None if own else other_features
         self.mapped = self.other_features == "all"  # features where a face carries, read from P x
         self.out_faces = tuple(out_faces)
@@ -227,11 +234,12 @@ class PolyAccumulator:
         return (self.acc[f].n_rows if self.own else self.acc.n_rows) * self.stride
 
     def _features_of(self, f) -> np.ndarray:
-        """Feature indices of output face ``f`` (joint methods): every face's for a connected face, else
+        """Feature indices of output face ``f`` (joint methods): every face's for a connected face (its own
+        only, ``reaction_features="own"``), else
         ``f``'s own, the connected faces' squares and (``other_features``) the other free faces' features
         (``"all"``) or cubes (``"cubes"``)."""
         if f in self.reaction_faces:
-            return np.arange(162)
+            return face_features(f) if self.reaction_features == "own" else np.arange(162)
         extra = [connected_squares(c) for c in self.reaction_faces]
         if self.other_features:
             start = 0 if self.mapped else _N_PAIRS
