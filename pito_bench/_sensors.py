@@ -66,7 +66,10 @@ SENSORS_HELP = """\
                held out by loading group (leave-one-group-out, or grouped 10-fold);
                beside them fit_sensor(model="poly") for contrast;
                ratios auto/LS and auto/min(LS, quad); and "beyond range": trained on
-               the lower load levels, tested on the higher ones.
+               the lower load levels, tested on the higher ones. Before them, SIMULATED
+               sensors of four response forms (pito_bench/_sim_sensors.py; seeds 0–99,
+               0–7 with --quick, --sim-sensors N): how many force and torque cells auto loses to LS by
+               more than 2 %, the worst, the median.
 """
 
 
@@ -313,20 +316,27 @@ def evaluate(ds: Dataset, methods=None) -> dict:
     return out
 
 
-def run_sensors(directory=None, progress=None, max_rows: int = MAX_ROWS) -> dict:
-    """Every data set in the folder; ``{"dir", "datasets": [...]}`` or ``{"dir", "status": "skipped: ..."}``."""
+def run_sensors(directory=None, progress=None, max_rows: int = MAX_ROWS, sim_seeds=()) -> dict:
+    """Every data set in the folder: ``{"dir", "datasets": [...]}`` or ``{"dir", "status": "skipped: ..."}``; with
+    ``sim_seeds``, also ``"simulated"``: the SIMULATED sensors of those seeds (``_sim_sensors.run_simulated``)."""
     progress = progress or (lambda s: None)
     directory, paths = find_datasets(directory)
+    out = {"dir": directory}
     if not paths:
-        return {"dir": directory, "status": f"skipped: no data sets found in {directory}; give --datasets DIR or set "
-                                            f"{ENV} (the .npz format: pito_bench/_sensors.py)"}
-    results = []
-    for path in paths:
-        ds = load_dataset(path, max_rows)
-        progress(f"sensors: {ds.name} ({ds.channels.shape[0]:,} rows × {ds.channels.shape[1]} channels, "
-                 f"{np.unique(ds.group).size} groups)")
-        results.append(evaluate(ds))
-    return {"dir": directory, "datasets": results}
+        out["status"] = (f"skipped: no data sets found in {directory}; give --datasets DIR or set {ENV} (the .npz "
+                         "format: pito_bench/_sensors.py)")
+    else:
+        results = []
+        for path in paths:
+            ds = load_dataset(path, max_rows)
+            progress(f"sensors: {ds.name} ({ds.channels.shape[0]:,} rows × {ds.channels.shape[1]} channels, "
+                     f"{np.unique(ds.group).size} groups)")
+            results.append(evaluate(ds))
+        out["datasets"] = results
+    if len(sim_seeds):
+        from ._sim_sensors import run_simulated  # it builds on this module's Dataset and evaluate
+        out["simulated"] = run_simulated(sim_seeds, progress)
+    return out
 
 
 def _fmt(x) -> str:
@@ -351,12 +361,15 @@ def _rows_text(rows) -> list[str]:
 
 def sensor_tables(sec: dict) -> list[str]:
     """The sensors section as text lines."""
-    lines = ["SENSORS — real sensors measured by others (public data sets); held-out RMSE, auto = fit_sensor "
-             "default, LS = numpy lstsq, quad = ridge quadratic baseline, best = min(LS, quad), "
-             "poly = fit_sensor(model='poly')"]
+    lines = ["SENSORS — fit_sensor on sensors of other kinds: SIMULATED response forms, then real sensors measured by "
+             "others (public data sets); held-out RMSE, auto = fit_sensor default, LS = numpy lstsq, quad = ridge "
+             "quadratic baseline, best = min(LS, quad), poly = fit_sensor(model='poly')"]
     if "status" in sec:
-        return lines + [f"  {sec['status']}"]
-    for d in sec["datasets"]:
+        lines.append(f"  {sec['status']}")
+    if "simulated" in sec:
+        from ._sim_sensors import simulated_tables
+        lines += simulated_tables(sec["simulated"])
+    for d in sec.get("datasets", ()):
         n_out = d["n_outputs"]
         corr = [c for c in d["auto_corrected_rows"] if c is not None]
         rows = "all rows" if d["stride"] == 1 else f"every {d['stride']}th row"

@@ -77,6 +77,8 @@ def register(sub) -> None:
                    help=f"comma-separated sections to run (default: all of {','.join(SECTIONS)}, export, sensors; also: soak = a 10-minute recording soak, 1 min with --quick; export = pito export's rates and a 1-hour export; sensors = real public sensor data sets)")
     p.add_argument("--datasets", metavar="DIR",
                    help=f"folder of the sensors section's .npz data sets (default: ${DATASETS_ENV}, else ./datasets)")
+    p.add_argument("--sim-sensors", type=int, metavar="N",
+                   help="SIMULATED sensors' seeds in the sensors section, 0 … N−1 (default 100; --quick 8; 0: none)")
     p.add_argument("--sizes", metavar="K,K,...",
                    help="calibration sizes k in samples (default 1000,…,10000000; quick: up to 100000)")
     p.add_argument("--threads", type=int, default=1, help="BLAS/OpenMP threads per measurement (default 1)")
@@ -96,6 +98,9 @@ def run(args) -> int:
             raise ValueError(f"--sizes: expected sample counts of at least 200, got {args.sizes!r}")
     if args.threads < 1:
         raise ValueError(f"--threads: expected at least 1, got {args.threads}")
+    n_sim = (8 if args.quick else 100) if args.sim_sensors is None else args.sim_sensors
+    if n_sim < 0:
+        raise ValueError(f"--sim-sensors: expected a number of seeds ≥ 0, got {args.sim_sensors}")
     progress = (lambda s: print(s, file=sys.stderr, flush=True))
     export = "export" in sections  # its own module (pito_bench._export), beside run_bench's sections
     sensors = "sensors" in sections  # likewise (pito_bench._sensors): real data sets, no timing
@@ -104,7 +109,8 @@ def run(args) -> int:
     if export:
         result["export"] = run_export(quick=args.quick, threads=args.threads, progress=progress)
     if sensors:
-        result["sensors"] = json_safe(run_sensors(args.datasets, progress=progress))
+        result["sensors"] = json_safe(run_sensors(args.datasets, progress=progress,
+                                                  sim_seeds=range(n_sim)))
     text = format_report(result) + ("\n" + "\n".join(export_tables(result["export"])) + "\n" if export else "") \
         + ("\n" + "\n".join(sensor_tables(result["sensors"])) + "\n" if sensors else "")
     if args.out:

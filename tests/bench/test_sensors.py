@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from pito_bench import _sensors
-from sim_sensors import FORMS, simulated_sensor
+from pito_bench._sim_sensors import FORMS, run_simulated, simulated_sensor, simulated_tables
 
 
 def _simulated_npz(path, n_groups: int = 8, per: int = 60, seed: int = 3):
@@ -86,8 +86,28 @@ def test_run_sensors_tables_and_skip(tmp_path, capsys):
     assert "inner folds of the training groups: inf, inf, 1e-04, 0" in "\n".join(_sensors.sensor_tables(sec))
 
     from pito_core.cli import main
-    assert main(["bench", "--sections", "sensors", "--datasets", str(empty)]) == 0
-    assert "no data sets found" in capsys.readouterr().out
+    assert main(["bench", "--sections", "sensors", "--datasets", str(empty), "--sim-sensors", "0"]) == 0
+    out = capsys.readouterr().out
+    assert "no data sets found" in out and "SIMULATED sensors" not in out
+    assert main(["bench", "--sections", "sensors", "--datasets", str(empty), "--sim-sensors", "-1"]) != 0
+    assert "--sim-sensors: expected a number of seeds ≥ 0, got -1" in capsys.readouterr().err
+
+
+def test_simulated_sensors_summary_counts_every_cell(capsys):
+    """The sensors section's SIMULATED part: one seed, four forms, two splits, force and torque (16 cells), each
+    counted once in the summary, labelled simulated; a cell made to fail shows as failing."""
+    sec = run_simulated([0])
+    assert len(sec["cells"]) == 16 and {c["form"] for c in sec["cells"]} == set(FORMS)
+    text = "\n".join(simulated_tables(sec))
+    assert "SIMULATED" in text and "seeds 0–0" in text
+    n_bad = sum(c["ratio"] > 1.02 for c in sec["cells"])
+    assert f"all: {n_bad} of 16 cells above 1.02" in text
+    sec["cells"][0]["ratio"] = 1.5
+    text = "\n".join(simulated_tables(sec))
+    assert f"all: {sum(c['ratio'] > 1.02 for c in sec['cells'])} of 16 cells" in text and "1.50" in text
+    from pito_core.cli import main
+    assert main(["bench", "--sections", "sensors", "--datasets", "/nonexistent", "--sim-sensors", "1"]) == 0
+    assert "SIMULATED sensors (pito_bench/_sim_sensors.py), seeds 0–0" in capsys.readouterr().out
 
 
 def _kinds(rows):
@@ -106,7 +126,7 @@ def test_the_default_never_loses_to_least_squares_on_the_labelled_simulated_set(
 
 @pytest.mark.parametrize("form", FORMS)
 def test_the_default_never_loses_to_least_squares_on_simulated_sensors(form):
-    """SIMULATED sensors of four response forms (``sim_sensors.py``), held out by group (12 groups, two
+    """SIMULATED sensors of four response forms (``pito_bench/_sim_sensors.py``), held out by group (12 groups, two
     loading directions each) and beyond range (loads twice the trained): auto ≤ 1.02× least squares,
     force and torque; the nonlinear ones gain within the range. Measured by hand (``pito bench`` does
     not run them), with the separable family: seeds 0–5, 0 of 96 cells above 1.02, median 0.91 (before
