@@ -316,9 +316,8 @@ def evaluate(ds: Dataset, methods=None) -> dict:
     return out
 
 
-def run_sensors(directory=None, progress=None, max_rows: int = MAX_ROWS, sim_seeds=()) -> dict:
-    """Every data set in the folder: ``{"dir", "datasets": [...]}`` or ``{"dir", "status": "skipped: ..."}``; with
-    ``sim_seeds``, also ``"simulated"``: the SIMULATED sensors of those seeds (``_sim_sensors.run_simulated``)."""
+def run_sensors(directory=None, progress=None, max_rows: int = MAX_ROWS) -> dict:
+    """Every data set in the folder: ``{"dir", "datasets": [...]}`` or ``{"dir", "status": "skipped: ..."}``."""
     progress = progress or (lambda s: None)
     directory, paths = find_datasets(directory)
     out = {"dir": directory}
@@ -333,9 +332,6 @@ def run_sensors(directory=None, progress=None, max_rows: int = MAX_ROWS, sim_see
                      f"{np.unique(ds.group).size} groups)")
             results.append(evaluate(ds))
         out["datasets"] = results
-    if len(sim_seeds):
-        from ._sim_sensors import run_simulated  # it builds on this module's Dataset and evaluate
-        out["simulated"] = run_simulated(sim_seeds, progress)
     return out
 
 
@@ -359,16 +355,15 @@ def _rows_text(rows) -> list[str]:
     return lines
 
 
-def sensor_tables(sec: dict) -> list[str]:
-    """The sensors section as text lines."""
+def sensor_tables(sec: dict, simulated=()) -> list[str]:
+    """The sensors section as text lines; ``simulated``: the SIMULATED sensors' lines
+    (``_sim_sensors.simulated_tables``), put first."""
     lines = ["SENSORS — fit_sensor on sensors of other kinds: SIMULATED response forms, then real sensors measured by "
              "others (public data sets); held-out RMSE, auto = fit_sensor default, LS = numpy lstsq, quad = ridge "
              "quadratic baseline, best = min(LS, quad), poly = fit_sensor(model='poly')"]
+    lines += list(simulated)
     if "status" in sec:
         lines.append(f"  {sec['status']}")
-    if "simulated" in sec:
-        from ._sim_sensors import simulated_tables
-        lines += simulated_tables(sec["simulated"])
     for d in sec.get("datasets", ()):
         n_out = d["n_outputs"]
         corr = [c for c in d["auto_corrected_rows"] if c is not None]

@@ -13,6 +13,7 @@ from ._export import EXPORT_HELP, export_tables, run_export
 from ._report import format_report, write_plots
 from ._run import json_safe
 from ._sensors import ENV as DATASETS_ENV, SENSORS_HELP, run_sensors, sensor_tables
+from ._sim_sensors import run_simulated, simulated_tables
 
 HELP = """\
 Measure what pito exists for and print tables with units.
@@ -109,10 +110,13 @@ def run(args) -> int:
     if export:
         result["export"] = run_export(quick=args.quick, threads=args.threads, progress=progress)
     if sensors:
-        result["sensors"] = json_safe(run_sensors(args.datasets, progress=progress,
-                                                  sim_seeds=range(n_sim)))
+        sec = run_sensors(args.datasets, progress=progress)
+        if n_sim:
+            sec["simulated"] = run_simulated(range(n_sim), progress)
+        result["sensors"] = json_safe(sec)
     text = format_report(result) + ("\n" + "\n".join(export_tables(result["export"])) + "\n" if export else "") \
-        + ("\n" + "\n".join(sensor_tables(result["sensors"])) + "\n" if sensors else "")
+        + ("\n" + "\n".join(sensor_tables(result["sensors"], simulated_tables(result["sensors"]["simulated"])
+                                          if "simulated" in result["sensors"] else ())) + "\n" if sensors else "")
     if args.out:
         os.makedirs(args.out, exist_ok=True)
         with open(os.path.join(args.out, "bench.json"), "w") as f:
