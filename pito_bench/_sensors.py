@@ -68,8 +68,8 @@ SENSORS_HELP = """\
                ratios auto/LS and auto/min(LS, quad); and "beyond range": trained on
                the lower load levels, tested on the higher ones. Before them, SIMULATED
                sensors of four response forms (pito_bench/_sim_sensors.py; seeds 0–99,
-               0–7 with --quick, --sim-sensors N): how many force and torque cells auto loses to LS by
-               more than 2 %, the worst, the median.
+               0–7 with --quick, 0 … N−1 with --sim-sensors N): how many force and
+               torque cells auto loses to LS by more than 2 %, the worst, the median.
 """
 
 

@@ -75,7 +75,7 @@ def register(sub) -> None:
     p.add_argument("--out", metavar="DIR",
                    help="also write bench.json, bench.txt (tables) and speed-vs-error plots (PNG) into DIR")
     p.add_argument("--sections", default=",".join(SECTIONS + ("export", "sensors")), metavar="LIST",
-                   help=f"comma-separated sections to run (default: all of {','.join(SECTIONS)}, export, sensors; also: soak = a 10-minute recording soak, 1 min with --quick; export = pito export's rates and a 1-hour export; sensors = real public sensor data sets)")
+                   help=f"comma-separated sections to run (default: all of {','.join(SECTIONS)}, export, sensors; also: soak = a 10-minute recording soak, 1 min with --quick; export = pito export's rates and a 1-hour export; sensors = fit_sensor on simulated sensors and real public data sets)")
     p.add_argument("--datasets", metavar="DIR",
                    help=f"folder of the sensors section's .npz data sets (default: ${DATASETS_ENV}, else ./datasets)")
     p.add_argument("--sim-sensors", type=int, metavar="N",
