@@ -16,7 +16,7 @@ import numpy as np
 
 from ._sensors import Dataset, evaluate, fit_auto, fit_ls
 
-__all__ = ["FS", "FORMS", "STRENGTH", "simulated_sensor", "run_simulated", "simulated_tables", "LIMIT"]
+__all__ = ["FS", "FORMS", "STRENGTH", "simulated_sensor", "run_simulated", "simulated_tables", "LIMIT", "SEEDS", "QUICK_SEEDS"]
 
 FS = np.array([20.0, 20.0, 40.0, 0.5, 0.5, 0.3])  # full scale, N and N·m
 FORMS = ("linear", "saturation", "quadratic", "cubic")
@@ -64,6 +64,8 @@ def simulated_sensor(form: str, seed: int = 0, m: int = 8, n_groups: int = 12, d
 
 #: A cell fails above this ratio to least squares (the issue's target).
 LIMIT = 1.02
+#: Seeds ``pito bench --sections sensors`` runs (0 … N − 1), and with ``--quick``.
+SEEDS, QUICK_SEEDS = 100, 8
 _SPLITS = (("within", "held out by group"), ("beyond", "loads twice the trained"))
 
 

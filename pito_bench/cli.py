@@ -13,7 +13,7 @@ from ._export import EXPORT_HELP, export_tables, run_export
 from ._report import format_report, write_plots
 from ._run import json_safe
 from ._sensors import ENV as DATASETS_ENV, SENSORS_HELP, run_sensors, sensor_tables
-from ._sim_sensors import run_simulated, simulated_tables
+from ._sim_sensors import QUICK_SEEDS as SIM_QUICK_SEEDS, SEEDS as SIM_SEEDS, run_simulated, simulated_tables
 
 HELP = """\
 Measure what pito exists for and print tables with units.
@@ -79,7 +79,8 @@ def register(sub) -> None:
     p.add_argument("--datasets", metavar="DIR",
                    help=f"folder of the sensors section's .npz data sets (default: ${DATASETS_ENV}, else ./datasets)")
     p.add_argument("--sim-sensors", type=int, metavar="N",
-                   help="SIMULATED sensors' seeds in the sensors section, 0 … N−1 (default 100; --quick 8; 0: none)")
+                   help=f"SIMULATED sensors' seeds in the sensors section, 0 … N−1 (default {SIM_SEEDS}; --quick "
+                        f"{SIM_QUICK_SEEDS}; 0: none)")
     p.add_argument("--sizes", metavar="K,K,...",
                    help="calibration sizes k in samples (default 1000,…,10000000; quick: up to 100000)")
     p.add_argument("--threads", type=int, default=1, help="BLAS/OpenMP threads per measurement (default 1)")
@@ -99,7 +100,7 @@ def run(args) -> int:
             raise ValueError(f"--sizes: expected sample counts of at least 200, got {args.sizes!r}")
     if args.threads < 1:
         raise ValueError(f"--threads: expected at least 1, got {args.threads}")
-    n_sim = (8 if args.quick else 100) if args.sim_sensors is None else args.sim_sensors
+    n_sim = (SIM_QUICK_SEEDS if args.quick else SIM_SEEDS) if args.sim_sensors is None else args.sim_sensors
     if n_sim < 0:
         raise ValueError(f"--sim-sensors: expected a number of seeds ≥ 0, got {args.sim_sensors}")
     progress = (lambda s: print(s, file=sys.stderr, flush=True))
