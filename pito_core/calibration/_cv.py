@@ -544,8 +544,8 @@ def choose_model(results, requested: str, n_segments: int, group: int = 3, n_se:
     if requested == "auto":
         why = (f"cross-validated over {K} folds of {n_segments} loading segments: the polynomial correction is used for "
                f"{n_used} of {n_groups} output groups (a face's forces or torques): where its best mean held-out "
-               f"score beats the affine fit's by more than {n_se:g} standard error; held-out error {ratio:.2f}× the "
-               "affine fit's")
+               f"score beats the affine fit's by more than {n_se:g} standard error{'' if n_se == 1 else 's'}; held-out "
+               f"error {ratio:.2f}× the affine fit's")
         if not used:
             why += "; kept the papers' affine fit"
     else:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 
@@ -22,6 +23,12 @@ calibration's validation figures (RMSE per face and axis, N and N·m; face
 identification) are computed on it and stored in the file. Use --holdout 0 to fit on
 everything and evaluate later on separate sessions with `pito evaluate`.
 
+A validation pass (--validation, the wizard's last step: every face loaded again after the
+calibration session, not fitted) is the check that the held-out samples of the same session
+cannot give: a later load path. Its figures are printed and stored; with --model auto a
+polynomial correction that does worse than the papers' linear fit there, on any face's forces
+or torques, gives way to the linear fit (and the model's reason says where it lost).
+
 Methods (flange, faces loaded → result):
   face_to_face    any flange, each face            → six 6×6, each face from its own gauges
   quasi_total     frame (type 1), 5 free faces     → 30×36, free faces from all gauges
@@ -32,8 +39,9 @@ Methods (flange, faces loaded → result):
 
 Models (--model):
   auto    (default) the papers' linear fit, or the same with a polynomial correction of each
-          face's gauges (squares, products, cubes; ridge-regularised), whichever predicts
-          held-out loading segments better in 5-fold cross-validation (docs/calibration.md)
+          face's gauges (squares, products, cubes; ridge-regularised) for each face's forces or
+          torques where its mean held-out error over folds of loading segments beats the
+          linear fit's by a margin of standard errors (docs/calibration.md)
   linear  the papers' linear fit C = W S⁺, exactly
   poly    the polynomial correction, whatever the cross-validation says
 """
@@ -58,13 +66,23 @@ def register(sub) -> None:
     p.add_argument("--model", choices=("auto", "linear", "poly"), default="auto",
                    help="auto (default): the polynomial correction only where cross-validation over loading "
                         "segments shows it predicts better; linear: the papers' C = W S⁺; poly: always the correction")
+    p.add_argument("--validation", action="append", default=[], metavar="SESSION",
+                   help="a session of fresh loads not fitted (repeat for several, e.g. one per mount): the "
+                        "calibration's figures on it are printed and stored, and with --model auto a correction "
+                        "that loses to the linear fit there gives way to it")
     p.add_argument("--flange", choices=("frame", "frame_hole", "face"), help="mount of CSV sessions")
     p.add_argument("--connected-face", type=int, choices=range(1, 7), metavar="1..6", help="connected face of CSV sessions")
     p.set_defaults(func=run)
 
 
 def run(args) -> int:
+    fitted = {os.path.realpath(p) for p in args.sessions}
+    again = [p for p in args.validation if os.path.realpath(p) in fitted]
+    if again:
+        raise ValueError(f"--validation: {', '.join(again)} is also a session to fit; a validation pass must be "
+                         "loads the fit has not seen")
     sessions = load_sessions(args.sessions, args.flange, args.connected_face)
+    validation = load_sessions(args.validation, args.flange, args.connected_face)
     t0 = time.perf_counter()
 
     def progress(fraction, text):
@@ -73,7 +91,8 @@ def run(args) -> int:
 
     fit = fit_and_evaluate(sessions, args.method, holdout=args.holdout, seed=args.seed, model=args.model,
                            rank_deficient="allow" if args.allow_rank_deficient else "raise",
-                           prior=None if args.prior == "none" else args.prior, progress=progress)
+                           prior=None if args.prior == "none" else args.prior, validation=validation,
+                           progress=progress)
     if sys.stderr.isatty():
         print(file=sys.stderr)
     cal, dt = fit.calibration, time.perf_counter() - t0
@@ -85,7 +104,13 @@ def run(args) -> int:
         cal.meta["validation"]["holdout"] = args.holdout
         print(f"validation on the held-out {100 * args.holdout:.0f} % ({fit.n_heldout} samples):")
         print_evaluation(fit.heldout, cal)
-    else:
+    if fit.validation is not None:
+        cal.meta["validation_pass"] = {**fit.validation.to_dict(),
+                                       "sessions": [os.path.basename(p) for p in args.validation]}
+        print(f"validation pass ({', '.join(os.path.basename(p) for p in args.validation)}; "
+              f"{sum(len(s) for s in validation)} samples, not fitted):")
+        print_evaluation(fit.validation, cal if fit.heldout is None else None)
+    if fit.heldout is None and fit.validation is None:
         print(f"net force/torque of a free grasp: {cal.meta['net_load']}")
     cal.save(args.output)
     print(f"wrote {args.output} [{short_hash(calibration_hash(cal))}]")

@@ -70,3 +70,37 @@ def test_given_the_training_sessions_the_linear_fit_keeps_its_own_error_model():
     own = calibrate(train, method, model="linear")
     np.testing.assert_allclose(cal.matrix, forced.linear_alternative().matrix, rtol=1e-9, atol=1e-12)
     np.testing.assert_array_equal(cal.covariance.variance_coef, own.covariance.variance_coef)
+
+
+def test_pito_calibrate_validation_pass_gives_way_and_is_stored(tmp_path, capsys):
+    """``pito calibrate --validation``: from session files, a correction the fresh session does not confirm (here
+    the gauges' bend of the fitted session is gone in the fresh one) gives way to the linear fit; the pass's
+    figures are printed and stored in the file, named by its session."""
+    from pito_core.calibration import Calibration
+    from pito_core.cli import main
+
+    method = "unloaded_frame"
+    K = true_sensitivity(31, coupling=0.05)
+    kw = dict(CASES[method], connected_face=6, noise=2.0, counts_dtype=float)
+    make_session(K, k=800, seed=32, response=_saturating(31, K, 0.08), **kw).save(tmp_path / "fit.h5")
+    make_session(K, k=150, seed=33, **kw).save(tmp_path / "fresh.h5")
+    out = tmp_path / "c.pitocal"
+    assert main(["calibrate", str(tmp_path / "fit.h5"), "--validation", str(tmp_path / "fresh.h5"), "-m", method,
+                 "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "lost on the validation pass" in text and "validation pass (fresh.h5;" in text
+    cal = Calibration.load(out)
+    assert cal.model.name == "linear" and cal.correction is None
+    stored = cal.meta["validation_pass"]
+    assert stored["sessions"] == ["fresh.h5"] and stored["n_single"] > 0
+    assert cal.meta["validation"]["holdout"] == 0.2  # the held-out split's figures stay beside it
+
+
+def test_pito_calibrate_refuses_a_validation_pass_it_fits(tmp_path, capsys):
+    from pito_core.cli import main
+
+    path = tmp_path / "s.h5"
+    path.write_bytes(b"")  # refused before it is read
+    assert main(["calibrate", str(path), "--validation", str(path), "-m", "total", "-o", str(tmp_path / "c")]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--validation" in err[0] and "s.h5" in err[0]
