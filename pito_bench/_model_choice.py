@@ -16,14 +16,17 @@ and how many output groups (a face's forces or torques) took the correction.
 
 The ratios read the loaded faces (the papers' figure). Beside them, ``every_worst``: the worst
 ratio over every output of the loaded samples, the faces that carry nothing (crosstalk) and a
-``face`` flange's connected face (the reaction) included.
+``face`` flange's connected face (the reaction) included. For ``pito_core.sim``'s cube also
+``validated_worst``: the same worst after a validation pass (a fresh session of the same loads
+:data:`VALIDATION_T0` after the training's, as the wizard and ``pito calibrate --validation``
+record it; ``confirm_model``), and ``reverted``: the fits it set back to the linear fit.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from pito_core.calibration import calibrate
+from pito_core.calibration import calibrate, confirm_model
 from pito_core.sim import VirtualCube, simulate_calibration, simulate_squeeze
 
 from ._cubes import BenchCube, cube_session
@@ -38,6 +41,8 @@ CUBES = (("linear", 0.02, 0.0), ("linear", 0.10, 0.0), ("saturation", 0.02, 0.1)
 CUBE_SEEDS = (0, 1, 2, 3, 4)
 #: Later-session loads: (kind, squeeze, load scale).
 TEST_KINDS = (("single", False, 1.0), ("squeeze", True, 1.0), ("beyond", False, 1.5))
+#: When the validation pass is recorded, s after the training session's start (the later sessions: 3600 s).
+VALIDATION_T0 = 600.0
 
 #: Flange each method is fitted with (``unloaded_frame``: its free faces only).
 FLANGE = {"face_to_face": "frame_hole", "quasi_total": "frame", "total": "face", "loaded_frame": "frame_hole",
@@ -61,8 +66,8 @@ def task_model_choice(k, faces, seed=1, cube_seed=0) -> dict:
     cube = VirtualCube(seed=cube_seed)
     rows = []
     for method, fl in FLANGE.items():
-        r = {key: [] for key in ("single_F", "single_T", "squeeze_F", "squeeze_T", "every")}
-        groups, used = 0, 0
+        r = {key: [] for key in ("single_F", "single_T", "squeeze_F", "squeeze_T", "every", "validated")}
+        groups, used, reverted = 0, 0, 0
         for face in faces:
             loaded = tuple(f for f in range(1, 7) if f != face) if method == "unloaded_frame" else None
             train = simulate_calibration(fl, face, k=k, seed=seed, model=cube, faces=loaded)
@@ -70,6 +75,10 @@ def task_model_choice(k, faces, seed=1, cube_seed=0) -> dict:
             ra = auto.model.row_alpha or []
             groups += len(auto.output_faces) * 2
             used += sum(a is not None for a in ra) // 3
+            val = simulate_calibration(fl, face, k=max(k // 2, 300), seed=seed + 50, model=cube, faces=loaded,
+                                       t0=VALIDATION_T0)
+            checked, _ = confirm_model(auto, val, sessions=[train], fit_options={"model": "auto"})
+            reverted += checked is not auto
             free = loaded or [f for f in range(1, 7) if not (fl == "frame" and f == face)]
             pairs = [(free[i], free[(i + 1) % len(free)]) for i in range(len(free))]
             later = {"single": simulate_calibration(fl, face, k=max(k // 2, 300), seed=seed + 100, model=cube,
@@ -83,9 +92,12 @@ def task_model_choice(k, faces, seed=1, cube_seed=0) -> dict:
                 r[kind + "_F"].append(_ratio(W, Wl, truth.face_wrenches, mask, slice(0, 3)))
                 r[kind + "_T"].append(_ratio(W, Wl, truth.face_wrenches, mask, slice(3, 6)))
                 r["every"].append(_every_output(W, Wl, truth.face_wrenches, s.loaded, auto.has_output))
+                Wc = W if checked is auto else checked.tare(rest).wrenches(s.counts)
+                r["validated"].append(max(_ratio(Wc, Wl, truth.face_wrenches, mask, c)
+                                          for c in (slice(0, 3), slice(3, 6))))
         row = {"method": method, "flange": fl, "faces": list(faces), "k_per_face": int(k), "cube_seed": int(cube_seed),
                "seed": int(seed), "groups": groups,
-               "groups_corrected": used}
+               "groups_corrected": used, "reverted": reverted, "fits": len(faces)}
         for key, v in r.items():
             row[key + "_worst"], row[key + "_median"] = float(np.max(v)), float(np.median(v))
         rows.append(row)
@@ -146,12 +158,16 @@ def model_choice_table(mc) -> tuple[str, list, list]:
 
     rows = [[r["method"], f"{r['k_per_face']:,}", f"{r['groups_corrected']}/{r['groups']}",
              f(r["single_F_worst"]), f(r["single_T_worst"]), f(r["squeeze_F_worst"]), f(r["squeeze_T_worst"]),
-             f(r["single_F_median"]), f(r["single_T_median"]), f(r["every_worst"])] for r in mc["rows"]]
+             f(r["single_F_median"]), f(r["single_T_median"]), f(r["every_worst"]),
+             f(r["validated_worst"]) if "validated_worst" in r else "", f"{r['reverted']}/{r['fits']}" if "reverted" in r
+             else ""] for r in mc["rows"]]
     title = (f"Calibration model on a later session ({mc['data']}): default / papers' linear fit, held-out RMSE "
              "ratio on the loaded faces; every output: also the faces that carry nothing and the connected face's "
-             "reaction; groups = a face's forces or torques that took the correction")
+             "reaction; groups = a face's forces or torques that took the correction; validated: the worst loaded-face "
+             "ratio after a validation pass of fresh loads (confirm_model), and the fits it set back to linear")
     header = ["method", "k per face", "groups corrected", "single F worst", "single T worst", "squeeze F worst",
-              "squeeze T worst", "single F median", "single T median", "every output worst"]
+              "squeeze T worst", "single F median", "single T median", "every output worst", "validated worst",
+              "set back"]
     return title, header, rows
 
 

@@ -330,3 +330,18 @@ def test_the_coverage_tables_give_each_face_and_axis_over_the_rows():
     assert header[5] == "±" and table[1][4:6] == ["98.0", "0.10"]
     assert header[-4:] == ["carrying %", "free %", "RMS z carrying", "RMS z free"]
     assert table[0][-4:] == ["99.0", "93.0", "0.25", "1.10"] and table[1][-4:] == ["nan"] * 4
+
+
+def test_model_choice_table_shows_the_validation_pass():
+    """The later-session table gives, per method, the worst after a validation pass and the fits it set back."""
+    from pito_bench._model_choice import model_choice_table
+
+    keys = ("single_F", "single_T", "squeeze_F", "squeeze_T")
+    row = {"method": "total", "k_per_face": 600, "groups_corrected": 3, "groups": 24, "every_worst": 1.0,
+           "validated_worst": 0.987, "reverted": 1, "fits": 4,
+           **{f"{k}_worst": 1.03 for k in keys}, **{f"{k}_median": 0.5 for k in keys}}
+    title, header, rows = model_choice_table({"data": "SIMULATED", "rows": [row]})
+    assert "validation pass" in title and header[-2:] == ["validated worst", "set back"]
+    assert rows[0][-2:] == ["0.987", "1/4"]
+    older = {k: v for k, v in row.items() if k not in ("validated_worst", "reverted", "fits")}  # a bench.json before it
+    assert model_choice_table({"data": "SIMULATED", "rows": [older]})[2][0][-2:] == ["", ""]
