@@ -35,7 +35,8 @@ class FitResult:
         On each session's held-out samples, in the order of ``sessions`` (empty with ``holdout=0``;
         with one session, ``[heldout]``).
     validation : Evaluation or None
-        On the validation passes (fresh loads, not fitted), pooled, if any was given.
+        On the validation passes (fresh loads, not fitted), pooled, if any was given; also in the
+        calibration's ``meta["validation_pass"]`` (its ``to_dict()`` and ``n_sessions``).
     figures : ValidationFigures or None
         The validation passes' RMSE per loaded face with intervals (each face from the pass that
         loads it directly).
@@ -129,6 +130,7 @@ def fit_and_evaluate(sessions, method: str, *, holdout: float = HOLDOUT, block: 
         else:
             figures = validation_figures(cal, validation, seed=seed)
         checked = evaluate(cal, validation)
+        cal.meta["validation_pass"] = {**checked.to_dict(), "n_sessions": len(validation)}
     heldout, by_session = None, []
     if test:
         progress(0.8, f"evaluating on {sum(len(s) for s in test)} held-out samples")

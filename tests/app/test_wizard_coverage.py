@@ -41,6 +41,8 @@ def run_method(method, k=600):
     fit = fit_and_evaluate(model.training_sessions(), method, validation=model.validation_sessions(),
                            rank_deficient="fallback")  # as the results page fits (app.wizard.results_page.fit_job)
     completing = fit.heldout_by_session[1] if len(fit.heldout_by_session) > 1 else None
+    stored = fit.calibration.meta["validation_pass"]  # the saved file carries the pass's figures
+    assert stored["n_sessions"] == len(model.validation_sessions()) and stored["n_single"] == fit.validation.n_single
     return model, fit.calibration, fit.headline, fit.heldout, fit.figures, completing
 
 

@@ -92,7 +92,7 @@ def test_pito_calibrate_validation_pass_gives_way_and_is_stored(tmp_path, capsys
     cal = Calibration.load(out)
     assert cal.model.name == "linear" and cal.correction is None
     stored = cal.meta["validation_pass"]
-    assert stored["sessions"] == ["fresh.h5"] and stored["n_single"] > 0
+    assert stored["sessions"] == ["fresh.h5"] and stored["n_sessions"] == 1 and stored["n_single"] > 0
     assert cal.meta["validation"]["holdout"] == 0.2  # the held-out split's figures stay beside it
 
 
