@@ -23,11 +23,11 @@ calibration's validation figures (RMSE per face and axis, N and N·m; face
 identification) are computed on it and stored in the file. Use --holdout 0 to fit on
 everything and evaluate later on separate sessions with `pito evaluate`.
 
-A validation pass (--validation, the wizard's last step: every face loaded again after the
-calibration session, not fitted) is the check that the held-out samples of the same session
-cannot give: a later load path. Its figures are printed and stored; with --model auto a
-polynomial correction that does worse than the papers' linear fit there, on any face's forces
-or torques, gives way to the linear fit (and the model's reason says where it lost).
+A validation pass (--validation; the wizard records one after each mount's face-by-face
+loads: every face loaded again, not fitted) is the check that the held-out samples of the
+same session cannot give: a later load path. Its figures are printed and stored; with
+--model auto a polynomial correction that does worse than the papers' linear fit there, on
+any face's forces or torques, gives way to the linear fit (its reason says where it lost).
 
 Methods (flange, faces loaded → result):
   face_to_face    any flange, each face            → six 6×6, each face from its own gauges
