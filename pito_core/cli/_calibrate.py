@@ -105,8 +105,9 @@ def run(args) -> int:
         print(f"validation on the held-out {100 * args.holdout:.0f} % ({fit.n_heldout} samples):")
         print_evaluation(fit.heldout, cal)
     if fit.validation is not None:
-        cal.meta["validation_pass"]["sessions"] = [os.path.basename(p) for p in args.validation]
-        print(f"validation pass ({', '.join(os.path.basename(p) for p in args.validation)}; "
+        names = [os.path.basename(p) for p in args.validation]
+        cal.meta["validation_pass"]["sessions"] = names
+        print(f"validation pass ({', '.join(names)}; "
               f"{sum(len(s) for s in validation)} samples, not fitted):")
         print_evaluation(fit.validation, cal if fit.heldout is None else None)
     if fit.heldout is None and fit.validation is None:
